@@ -1,0 +1,5 @@
+"""`python -m navkit` runs the CLI."""
+
+from navkit.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,39 @@
+"""The `navkit` command line.
+
+Each subcommand lives in its own module, imported only when that subcommand runs, so
+`navkit proto decode` does not pay for fmpy or matplotlib. A module provides
+`add_arguments(parser)` and `run(args) -> int` (the exit status).
+"""
+
+import argparse
+import importlib
+import sys
+
+__all__ = ["main", "SUBCOMMANDS"]
+
+# name -> (module, one-line help)
+SUBCOMMANDS = {
+    "gen": ("navkit.gen", "generate C headers/sources and docs from the protocol spec"),
+    "proto": ("navkit.proto_cli", "encode, decode and sniff protocol frames"),
+    "bench-proto": ("navkit.proto_bench", "benchmark the Python codec (frames/s)"),
+}
+
+
+def main(argv=None) -> int:
+    """Parse `argv` (default: sys.argv[1:]) and run the chosen subcommand."""
+    argv = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(prog="navkit", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (_, help_text) in SUBCOMMANDS.items():
+        sub.add_parser(name, help=help_text, add_help=False)
+    if not argv or argv[0] in ("-h", "--help"):
+        parser.print_help()
+        return 0 if argv else 2
+    name = argv[0]
+    if name not in SUBCOMMANDS:
+        parser.error(f"unknown command {name!r} (choose from {', '.join(SUBCOMMANDS)})")
+    module = importlib.import_module(SUBCOMMANDS[name][0])
+    sub_parser = argparse.ArgumentParser(prog=f"navkit {name}", description=SUBCOMMANDS[name][1])
+    module.add_arguments(sub_parser)
+    args = sub_parser.parse_args(argv[1:])
+    return int(module.run(args) or 0)
