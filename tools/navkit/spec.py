@@ -1,0 +1,363 @@
+"""Parse and validate the protocol spec (`protocol/navkit.toml`) into a model.
+
+This is the first stage of the generator (parse + validate -> model -> emitters) and
+the source of the Python codec. Only the standard library is used, so CMake can run
+the generator with any Python >= 3.11.
+
+Errors name the place: `SpecError("protocol/navkit.toml:123: micro_cmd.accel: reason")`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = [
+    "SpecError", "Field", "Message", "Enum", "Spec", "load", "TYPES",
+]
+
+# type name -> (size in bytes, signed, minimum, maximum)
+TYPES = {
+    "uint16": (2, False, 0, 0xFFFF),
+    "int16": (2, True, -0x8000, 0x7FFF),
+    "uint32": (4, False, 0, 0xFFFFFFFF),
+    "int32": (4, True, -0x80000000, 0x7FFFFFFF),
+}
+
+_TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip"}
+_MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field"}
+_FIELD_KEYS = {"name", "word", "type", "count", "units", "scale", "min", "max",
+               "default", "enum", "flags", "doc"}
+_ENUM_KEYS = {"doc", "values"}
+_FRAMING_KEYS = {"doc", "start_word", "length_word", "crc", "crc_doc", "max_frame_words"}
+_LINK_KEYS = {"doc", "word_bits", "framing"}
+_DIRECTIONS = {"host_to_micro", "micro_to_host", "planner_to_host", "host_to_planner"}
+_NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+_CRCS = {"CRC-16/MCRF4XX"}
+
+
+class SpecError(ValueError):
+    """A spec that cannot be used; the message starts with file:line."""
+
+
+@dataclass(frozen=True)
+class Field:
+    """One field of a message. `word` counts link words; values are raw (units apply
+    to raw * scale)."""
+
+    name: str
+    word: int
+    type: str
+    count: int
+    units: str
+    scale: float
+    min: int
+    max: int
+    default: int | None
+    enum: str | None
+    flags: str | None
+    doc: str
+    line: int
+    byte_offset: int  # from the start of the frame (serial) or message (rcomm)
+
+    @property
+    def size(self) -> int:
+        """Bytes of one element."""
+        return TYPES[self.type][0]
+
+    @property
+    def signed(self) -> bool:
+        return TYPES[self.type][1]
+
+
+@dataclass(frozen=True)
+class Message:
+    """One message. For serial messages `words` counts the whole frame (start word,
+    header, payload and CRC word); for rcomm messages the payload words."""
+
+    name: str
+    link: str
+    direction: str
+    id: int | None
+    doc: str
+    fields: tuple[Field, ...]
+    word_bits: int
+    words: int
+    line: int
+
+    @property
+    def framed(self) -> bool:
+        return self.link == "serial"
+
+    @property
+    def size(self) -> int:
+        """Bytes of the whole frame (serial) or message (rcomm)."""
+        return self.words * self.word_bits // 8
+
+    def field(self, name: str) -> Field:
+        for f in self.fields:
+            if f.name == name:
+                return f
+        raise KeyError(name)
+
+
+@dataclass(frozen=True)
+class Enum:
+    """Named coded values (`kind` 'enum') or bit positions (`kind` 'flags')."""
+
+    name: str
+    kind: str
+    doc: str
+    values: dict[str, int]
+    line: int
+
+
+@dataclass
+class Spec:
+    """The validated model of the whole spec."""
+
+    path: Path
+    name: str
+    version: int
+    doc: str
+    framing: dict
+    links: dict
+    enums: dict[str, Enum]
+    messages: dict[str, Message]
+    seed_slips: list[dict]
+    hash: int = 0           # uint32: first 4 bytes of the canonical model's sha256
+    hash_hex: str = ""      # the full sha256, hex
+    canonical: str = field(default="", repr=False)
+
+    @property
+    def max_frame_bytes(self) -> int:
+        """Bytes of the largest serial frame defined."""
+        return max(m.size for m in self.messages.values() if m.framed)
+
+    def serial_messages(self):
+        return [m for m in self.messages.values() if m.framed]
+
+    def rcomm_messages(self):
+        return [m for m in self.messages.values() if not m.framed]
+
+
+class _Lines:
+    """Finds the source line of spec items (tomllib keeps no positions)."""
+
+    def __init__(self, text: str):
+        self.lines = text.splitlines()
+
+    def find(self, pattern: str, start: int = 0, stop: int | None = None) -> int:
+        """1-based line of the first match of regex `pattern` in lines [start, stop)."""
+        rx = re.compile(pattern)
+        stop = len(self.lines) if stop is None else stop
+        for i in range(start, stop):
+            if rx.search(self.lines[i]):
+                return i + 1
+        return 0
+
+    def message_span(self, name: str) -> tuple[int, int]:
+        """0-based [start, stop) line span of the [[message]] block named `name`."""
+        starts = [i for i, ln in enumerate(self.lines) if ln.strip() == "[[message]]"]
+        for k, s in enumerate(starts):
+            stop = starts[k + 1] if k + 1 < len(starts) else len(self.lines)
+            nxt = [i for i in range(s + 1, stop) if self.lines[i].startswith("[")]
+            stop = nxt[0] if nxt else stop
+            if self.find(rf'^\s*name\s*=\s*"{re.escape(name)}"', s, stop):
+                return s, stop
+        return 0, len(self.lines)
+
+
+def load(path: str | Path) -> Spec:
+    """Parse, validate and model the spec at `path`; raise SpecError naming file:line."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise SpecError(f"{path}: cannot read: {e.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        m = re.search(r"line (\d+)", str(e))
+        raise SpecError(f"{path}:{m.group(1) if m else 0}: TOML syntax: {e}") from None
+    return _Builder(path, text, data).build()
+
+
+class _Builder:
+    def __init__(self, path: Path, text: str, data: dict):
+        self.path, self.data, self.lines = path, data, _Lines(text)
+
+    def fail(self, line: int, what: str, reason: str):
+        raise SpecError(f"{self.path}:{line}: {what}: {reason}")
+
+    def unknown(self, table: dict, allowed: set, what: str, span=(0, None)):
+        for key in table:
+            if key not in allowed:
+                line = self.lines.find(rf"(^|[\s{{,]){re.escape(key)}\s*=", *span) or \
+                    self.lines.find(rf"^\[+{re.escape(key)}\b", *span)
+                self.fail(line, what, f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
+
+    def build(self) -> Spec:
+        d = self.data
+        self.unknown(d, _TOP_KEYS, "spec")
+        head = d.get("spec", {})
+        self.unknown(head, {"name", "version", "doc"}, "[spec]")
+        framing = d.get("framing", {}).get("serial")
+        if framing is None:
+            self.fail(1, "[framing.serial]", "missing")
+        self.unknown(framing, _FRAMING_KEYS, "[framing.serial]")
+        if framing.get("crc") not in _CRCS:
+            self.fail(self.lines.find(r"^crc\s*="), "framing.serial.crc",
+                      f"unsupported {framing.get('crc')!r} (supported: {', '.join(sorted(_CRCS))})")
+        links = d.get("links", {})
+        for lname, link in links.items():
+            self.unknown(link, _LINK_KEYS, f"[links.{lname}]")
+            if link.get("word_bits") not in (16, 32):
+                self.fail(self.lines.find(rf"^\[links\.{lname}\]"), f"links.{lname}.word_bits",
+                          "must be 16 or 32")
+        enums = {}
+        for kind, table in (("enum", d.get("enums", {})), ("flags", d.get("flags", {}))):
+            for ename, e in table.items():
+                line = self.lines.find(rf"^\[{'enums' if kind == 'enum' else 'flags'}\.{ename}\]")
+                self.unknown(e, _ENUM_KEYS, f"{kind} {ename}")
+                if ename in enums:
+                    self.fail(line, ename, "defined twice (enums and flags share one namespace)")
+                values = e.get("values", {})
+                for vname, v in values.items():
+                    if not _NAME_RE.match(vname) or not isinstance(v, int):
+                        self.fail(line, f"{ename}.{vname}", "values must be snake_case = integer")
+                    if kind == "flags" and not 0 <= v < 32:
+                        self.fail(line, f"{ename}.{vname}", "flag bit must be 0..31")
+                if len(set(values.values())) != len(values):
+                    self.fail(line, ename, "two names share a value")
+                enums[ename] = Enum(ename, kind, e.get("doc", ""), dict(values), line)
+        messages = {}
+        for raw in d.get("message", []):
+            m = self.message(raw, links, framing, enums)
+            if m.name in messages:
+                self.fail(m.line, m.name, "message defined twice")
+            messages[m.name] = m
+        ids = [m.id for m in messages.values() if m.framed]
+        if len(set(ids)) != len(ids):
+            self.fail(1, "message ids", "two serial messages share an id")
+        msg_type = enums.get("msg_type")
+        for m in messages.values():
+            if m.framed and (msg_type is None or msg_type.values.get(m.name) != m.id):
+                self.fail(m.line, m.name, f"enum msg_type must map {m.name} = {m.id}")
+        spec = Spec(self.path, head.get("name", "navkit"), int(head.get("version", 1)),
+                    head.get("doc", ""), dict(framing), dict(links), enums, messages,
+                    list(d.get("seed_slip", [])))
+        _seal(spec)
+        return spec
+
+    def message(self, raw: dict, links: dict, framing: dict, enums: dict) -> Message:
+        name = raw.get("name", "?")
+        span = self.lines.message_span(name)
+        line = span[0] + 1
+        self.unknown({k: v for k, v in raw.items()}, _MESSAGE_KEYS, f"message {name}", span)
+        if not _NAME_RE.match(name):
+            self.fail(line, name, "message name must be snake_case")
+        link = raw.get("link")
+        if link not in links:
+            self.fail(line, f"{name}.link", f"unknown link {link!r}")
+        if raw.get("direction") not in _DIRECTIONS:
+            self.fail(line, f"{name}.direction", f"must be one of {sorted(_DIRECTIONS)}")
+        word_bits = links[link]["word_bits"]
+        framed = links[link].get("framing") == "serial"
+        if framed and not isinstance(raw.get("id"), int):
+            self.fail(line, f"{name}.id", "serial messages need an integer id")
+        used = {}  # word -> owner
+        if framed:
+            used[0] = "start word"
+            used[framing["length_word"]] = "length word"
+        fields = []
+        for f in raw.get("field", []):
+            fields.append(self.field(name, f, span, word_bits, used, enums))
+        if framed:
+            for must, word in (("time_tag", 1), ("msg_type", 2)):
+                if not any(f.name == must and f.word == word for f in fields):
+                    self.fail(line, name, f"serial messages need {must} at word {word}")
+        last = max(used) if used else -1
+        words = last + 1 + (1 if framed else 0)  # + CRC word
+        if framed and words > framing["max_frame_words"]:
+            self.fail(line, name, f"{words} words exceed max_frame_words {framing['max_frame_words']}")
+        if not framed:
+            holes = sorted(set(range(words)) - set(used))
+            if holes:
+                self.fail(line, name, f"rcomm words {holes} are not defined (rcomm messages are dense)")
+        return Message(name, link, raw["direction"], raw.get("id"), raw.get("doc", ""),
+                       tuple(fields), word_bits, words, line)
+
+    def field(self, mname, f, span, word_bits, used, enums) -> Field:
+        fname = f.get("name", "?")
+        line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', *span) or span[0] + 1
+        what = f"{mname}.{fname}"
+        self.unknown(f, _FIELD_KEYS, what, (line - 1, line))
+        if not _NAME_RE.match(fname):
+            self.fail(line, what, "field name must be snake_case")
+        ftype = f.get("type")
+        if ftype not in TYPES:
+            self.fail(line, what, f"type must be one of {', '.join(TYPES)}")
+        size, _, tmin, tmax = TYPES[ftype]
+        if word_bits == 32 and size != 4:
+            self.fail(line, what, "rcomm fields are 32-bit (int32 or uint32)")
+        word, count = f.get("word"), f.get("count", 1)
+        if not isinstance(word, int) or word < 0:
+            self.fail(line, what, "word must be a non-negative integer")
+        if not isinstance(count, int) or count < 1:
+            self.fail(line, what, "count must be a positive integer")
+        span_words = size * 8 // word_bits * count
+        for w in range(word, word + span_words):
+            if w in used:
+                self.fail(line, what, f"word {w} overlaps {used[w]}")
+            used[w] = fname
+        fmin, fmax = f.get("min", tmin), f.get("max", tmax)
+        for key, v in (("min", fmin), ("max", fmax)):
+            if not isinstance(v, int) or not tmin <= v <= tmax:
+                self.fail(line, what, f"{key} {v!r} is outside {ftype} ({tmin}..{tmax})")
+        if fmin > fmax:
+            self.fail(line, what, f"min {fmin} > max {fmax}")
+        default = f.get("default")
+        if default is not None and (not isinstance(default, int) or not fmin <= default <= fmax):
+            self.fail(line, what, f"default {default!r} is outside {fmin}..{fmax}")
+        scale = f.get("scale", 1)
+        if not isinstance(scale, (int, float)) or scale <= 0:
+            self.fail(line, what, "scale must be a positive number")
+        for key in ("enum", "flags"):
+            ref = f.get(key)
+            if ref is not None:
+                e = enums.get(ref)
+                if e is None or e.kind != ("enum" if key == "enum" else "flags"):
+                    self.fail(line, what, f"unknown {key} {ref!r}")
+                if key == "enum" and any(not tmin <= v <= tmax for v in e.values.values()):
+                    self.fail(line, what, f"enum {ref} has values outside {ftype}")
+        if not f.get("doc"):
+            self.fail(line, what, "every field needs doc text")
+        return Field(fname, word, ftype, count, f.get("units", ""), float(scale), fmin, fmax,
+                     default, f.get("enum"), f.get("flags"), f["doc"], line,
+                     word * word_bits // 8)
+
+
+def _seal(spec: Spec) -> None:
+    """Compute the spec hash over everything that reaches the wire (not doc text), so
+    that two ends built from wire-compatible specs agree and any layout change differs."""
+    model = {
+        "name": spec.name, "version": spec.version,
+        "framing": {k: v for k, v in spec.framing.items() if not k.endswith("doc")},
+        "links": {k: {kk: vv for kk, vv in v.items() if kk != "doc"} for k, v in spec.links.items()},
+        "enums": {e.name: [e.kind, e.values] for e in spec.enums.values()},
+        "messages": [
+            [m.name, m.link, m.direction, m.id, m.words,
+             [[f.name, f.word, f.type, f.count, f.units, f.scale, f.min, f.max, f.default,
+               f.enum, f.flags] for f in m.fields]]
+            for m in spec.messages.values()
+        ],
+    }
+    spec.canonical = json.dumps(model, sort_keys=True, separators=(",", ":"))
+    digest = hashlib.sha256(spec.canonical.encode()).hexdigest()
+    spec.hash_hex = digest
+    spec.hash = int(digest[:8], 16)
