@@ -1,0 +1,349 @@
+"""The Python codec of the navkit protocol, built from `protocol/navkit.toml` at import.
+
+Same semantics as the generated C code (checked byte for byte by the golden vectors in
+`tests/vectors/`): little-endian words, frames of start word / time tag / type / length
+/ payload / CRC-16/MCRF4XX, and a streaming parser that resyncs on the next start word,
+never accepts a bad frame and counts each rejected candidate once.
+
+Values are raw integers as on the wire (units apply to raw x scale, see
+docs/protocol.md); `count` fields are lists.
+
+    >>> frame = encode_frame("micro_cmd", {"fwd_cmd": 1, "speed": 200}, time_tag=7)
+    >>> decode_frame(frame)[1]["speed"]
+    200
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass, field
+
+from navkit.gen import RCOMM_MAGIC, RCOMM_VERSION, rcomm_layout
+from navkit.paths import spec_path
+from navkit.spec import TYPES, Message, load
+
+__all__ = [
+    "SPEC", "SPEC_HASH", "ProtocolError", "crc16", "defaults", "check", "encode_frame",
+    "decode_frame", "pack_words", "unpack_words", "to_bytes", "from_bytes", "Parser",
+    "Frame", "Reject", "DIR_TO_MICRO", "DIR_TO_HOST", "RCOMM_MAGIC", "RCOMM_VERSION",
+    "RCOMM_OFFSETS", "RCOMM_SIZE", "ERR_CRC", "ERR_TYPE", "ERR_LENGTH",
+]
+
+SPEC = load(spec_path())
+SPEC_HASH: int = SPEC.hash
+RCOMM_OFFSETS, RCOMM_SIZE = rcomm_layout(SPEC)
+
+DIR_TO_MICRO = "host_to_micro"
+DIR_TO_HOST = "micro_to_host"
+ERR_CRC, ERR_TYPE, ERR_LENGTH = "bad CRC", "unknown message type", "bad length"
+
+_START = SPEC.framing["start_word"]
+_LEN_WORD = SPEC.framing["length_word"]
+_HEADER = 2 * (_LEN_WORD + 1)
+_CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
+_BY_ID = {m.id: m for m in SPEC.serial_messages()}
+
+
+class ProtocolError(ValueError):
+    """A value, name or frame that the spec does not allow; the text says which."""
+
+
+def _crc_table() -> list[int]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
+        table.append(crc)
+    return table
+
+
+_CRC_TABLE = _crc_table()
+
+
+def crc16(data: bytes, crc: int = 0xFFFF) -> int:
+    """CRC-16/MCRF4XX (poly 0x1021 reflected, init 0xFFFF, no final xor) of `data`."""
+    table = _CRC_TABLE
+    for b in data:
+        crc = (crc >> 8) ^ table[(crc ^ b) & 0xFF]
+    return crc
+
+
+@dataclass
+class _Layout:
+    """How one message maps to bytes: a struct over the frame minus its CRC word."""
+
+    message: Message
+    struct: struct.Struct
+    slots: list[tuple[str, int | None]]  # (field or framing name, element index)
+
+
+def _layout(m: Message) -> _Layout:
+    items = []  # (byte offset, code, name, index)
+    if m.framed:
+        items += [(0, "H", "#start", None), (2 * _LEN_WORD, "H", "#length", None)]
+    for f in m.fields:
+        for i in range(f.count):
+            items.append((f.byte_offset + i * f.size, _CODES[f.type], f.name, i if f.count > 1 else None))
+    items.sort()
+    fmt, at, slots = "<", 0, []
+    for off, code, name, idx in items:
+        if off > at:
+            fmt += f"{off - at}x"
+        fmt += code
+        at = off + struct.calcsize("<" + code)
+        slots.append((name, idx))
+    end = m.size - (2 if m.framed else 0)
+    if end > at:
+        fmt += f"{end - at}x"
+    return _Layout(m, struct.Struct(fmt), slots)
+
+
+_LAYOUTS = {m.name: _layout(m) for m in SPEC.messages.values()}
+
+
+def _message(name: str) -> _Layout:
+    try:
+        return _LAYOUTS[name]
+    except KeyError:
+        raise ProtocolError(f"unknown message {name!r} (known: {', '.join(_LAYOUTS)})") from None
+
+
+def defaults(name: str) -> dict:
+    """Field values of `name` with the spec defaults (0 where none), msg_type set and
+    spec_hash = SPEC_HASH where the message has one."""
+    m = _message(name).message
+    out = {}
+    for f in m.fields:
+        v = f.default if f.default is not None else 0
+        out[f.name] = [v] * f.count if f.count > 1 else v
+    if m.framed:
+        out["msg_type"] = m.id
+    if "spec_hash" in out:
+        out["spec_hash"] = SPEC_HASH
+    return out
+
+
+def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
+    m = lay.message
+    known = {f.name: f for f in m.fields}
+    for k in fields:
+        if k not in known:
+            raise ProtocolError(f"{m.name}: unknown field {k!r}")
+    full = {}
+    for f in m.fields:
+        v = fields.get(f.name, [0] * f.count if f.count > 1 else 0)
+        elems = v if f.count > 1 else [v]
+        if f.count > 1 and (not isinstance(v, (list, tuple)) or len(v) != f.count):
+            raise ProtocolError(f"{m.name}.{f.name}: needs a list of {f.count} values")
+        _, _, tmin, tmax = TYPES[f.type]
+        lo, hi = (f.min, f.max) if strict else (tmin, tmax)
+        for e in elems:
+            if not isinstance(e, int) or isinstance(e, bool):
+                raise ProtocolError(f"{m.name}.{f.name}: {e!r} is not an integer")
+            if not lo <= e <= hi:
+                raise ProtocolError(f"{m.name}.{f.name}: {e} is outside {lo}..{hi}")
+        full[f.name] = v
+    return full
+
+
+def check(name: str, fields: dict) -> None:
+    """Raise ProtocolError naming the field if any value of `fields` is outside its
+    spec range (or unknown, or not an integer)."""
+    _values(_message(name), fields, strict=True)
+
+
+def _pack(lay: _Layout, full: dict, extra: dict) -> bytes:
+    vals = []
+    for name, idx in lay.slots:
+        v = extra[name] if name[0] == "#" else full[name]
+        vals.append(v if idx is None else v[idx])
+    return lay.struct.pack(*vals)
+
+
+def encode_frame(name: str, fields: dict | None = None, *, time_tag: int | None = None,
+                 strict: bool = True) -> bytes:
+    """The whole serial frame of message `name`: unset fields 0, msg_type forced,
+    `time_tag` (if given) overriding fields['time_tag']. With strict=False, values
+    only need to fit their type (to build out-of-range test frames)."""
+    lay = _message(name)
+    m = lay.message
+    if not m.framed:
+        raise ProtocolError(f"{name} is an rcomm message: use pack_words/to_bytes")
+    fields = dict(fields or {})
+    if time_tag is not None:
+        fields["time_tag"] = time_tag
+    fields["msg_type"] = m.id
+    full = _values(lay, fields, strict)
+    body = _pack(lay, full, {"#start": _START, "#length": m.words})
+    return body + struct.pack("<H", crc16(body))
+
+
+def _frame_reason(frame: bytes, direction: str | None) -> tuple[str | None, Message | None]:
+    if len(frame) < _HEADER or struct.unpack_from("<H", frame)[0] != _START:
+        return "no start word", None
+    msg_type, words = struct.unpack_from("<HH", frame, 4)
+    m = _BY_ID.get(msg_type)
+    if m is None or (direction is not None and m.direction != direction):
+        return ERR_TYPE, None
+    if words != m.words or len(frame) != m.size:
+        return ERR_LENGTH, m
+    if struct.unpack_from("<H", frame, m.size - 2)[0] != crc16(frame[:-2]):
+        return ERR_CRC, m
+    return None, m
+
+
+def _unpack(lay: _Layout, data: bytes) -> dict:
+    out = {}
+    for f in lay.message.fields:
+        if f.count > 1:
+            out[f.name] = [0] * f.count
+    for (name, idx), v in zip(lay.slots, lay.struct.unpack_from(data)):
+        if name[0] == "#":
+            continue
+        if idx is None:
+            out[name] = v
+        else:
+            out[name][idx] = v
+    return out
+
+
+def decode_frame(frame: bytes, direction: str | None = None) -> tuple[str, dict]:
+    """(message name, fields) of one whole frame; ProtocolError with the reason if the
+    start word, type (for `direction`, if given), length or CRC is wrong."""
+    reason, m = _frame_reason(bytes(frame), direction)
+    if reason:
+        raise ProtocolError(reason)
+    return m.name, _unpack(_LAYOUTS[m.name], frame)
+
+
+def pack_words(name: str, fields: dict | None = None) -> list[int]:
+    """The int32 words of rcomm message `name` (unset fields 0)."""
+    data = to_bytes(name, fields)
+    return list(struct.unpack(f"<{len(data) // 4}i", data))
+
+
+def unpack_words(name: str, words) -> dict:
+    """Fields of rcomm message `name` from its int32 words."""
+    return from_bytes(name, struct.pack(f"<{len(words)}i", *words))
+
+
+def to_bytes(name: str, fields: dict | None = None, *, strict: bool = False) -> bytes:
+    """Little-endian bytes of rcomm message `name` (the words of its shared-memory slot).
+    Values must fit their type; with strict=True also their spec range."""
+    lay = _message(name)
+    if lay.message.framed:
+        raise ProtocolError(f"{name} is a serial message: use encode_frame")
+    return _pack(lay, _values(lay, dict(fields or {}), strict), {})
+
+
+def from_bytes(name: str, data: bytes) -> dict:
+    """Fields of rcomm message `name` from its little-endian bytes."""
+    lay = _message(name)
+    if len(data) != lay.message.size:
+        raise ProtocolError(f"{name}: needs {lay.message.size} bytes, got {len(data)}")
+    return _unpack(lay, data)
+
+
+@dataclass
+class Frame:
+    """A good frame found by the Parser at stream byte `offset`."""
+
+    name: str
+    fields: dict
+    offset: int
+    raw: bytes
+
+
+@dataclass
+class Reject:
+    """A stretch of `length` rejected bytes at stream byte `offset`; `reason` is why its
+    first candidate failed ("garbage" when no start word was there)."""
+
+    offset: int
+    length: int
+    reason: str
+
+
+@dataclass
+class Parser:
+    """Streaming frame parser: feed() bytes in any chunking, get Frame and Reject events.
+
+    `direction` (DIR_TO_MICRO, DIR_TO_HOST or None for both) selects the types accepted;
+    frames of other types count as unknown type. Memory is bounded by the largest frame.
+    `stats` counts as the C parser does: good, bad_crc, unknown_type, bad_length,
+    dropped_bytes."""
+
+    direction: str | None = None
+    stats: dict = field(default_factory=lambda: dict.fromkeys(
+        ("good", "bad_crc", "unknown_type", "bad_length", "dropped_bytes"), 0))
+    _buf: bytearray = field(default_factory=bytearray)
+    _offset: int = 0            # stream offset of _buf[0]
+    _reject: Reject | None = None
+
+    def _drop(self, n: int, reason: str, events: list) -> None:
+        if self._reject and self._reject.offset + self._reject.length == self._offset:
+            self._reject.length += n
+        else:
+            self._flush_reject(events)
+            self._reject = Reject(self._offset, n, reason)
+        self.stats["dropped_bytes"] += n
+        del self._buf[:n]
+        self._offset += n
+
+    def _flush_reject(self, events: list) -> None:
+        if self._reject:
+            events.append(self._reject)
+            self._reject = None
+
+    def feed(self, data: bytes) -> list:
+        """Add bytes; return the events they complete, in stream order."""
+        self._buf += data
+        events: list = []
+        buf, lo, hi = self._buf, _START & 0xFF, _START >> 8
+        while True:
+            i = buf.find(lo)
+            if i < 0:
+                if buf:
+                    self._drop(len(buf), "garbage", events)
+                break
+            if i:
+                self._drop(i, "garbage", events)
+            if len(buf) < 2:
+                break
+            if buf[1] != hi:
+                self._drop(1, "garbage", events)
+                continue
+            if len(buf) < _HEADER:
+                break
+            msg_type, words = struct.unpack_from("<HH", buf, 4)
+            m = _BY_ID.get(msg_type)
+            if m is None or (self.direction is not None and m.direction != self.direction):
+                self.stats["unknown_type"] += 1
+                self._drop(1, ERR_TYPE, events)
+                continue
+            if words != m.words:
+                self.stats["bad_length"] += 1
+                self._drop(1, ERR_LENGTH, events)
+                continue
+            if len(buf) < m.size:
+                break
+            raw = bytes(buf[:m.size])
+            if struct.unpack_from("<H", raw, m.size - 2)[0] != crc16(raw[:-2]):
+                self.stats["bad_crc"] += 1
+                self._drop(1, ERR_CRC, events)
+                continue
+            self._flush_reject(events)
+            self.stats["good"] += 1
+            events.append(Frame(m.name, _unpack(_LAYOUTS[m.name], raw), self._offset, raw))
+            del buf[:m.size]
+            self._offset += m.size
+        return events
+
+    def flush(self) -> list:
+        """End of stream: the bytes still waiting become a Reject ('truncated frame')."""
+        events: list = []
+        if self._buf:
+            self._drop(len(self._buf), "truncated frame", events)
+        self._flush_reject(events)
+        return events
