@@ -15,7 +15,8 @@ __all__ = ["main", "SUBCOMMANDS"]
 SUBCOMMANDS = {
     "gen": ("navkit.gen", "generate C headers/sources and docs from the protocol spec"),
     "proto": ("navkit.proto_cli", "encode, decode and sniff protocol frames"),
-    "bench-proto": ("navkit.proto_bench", "benchmark the Python codec (frames/s)"),
+    "bench-proto": ("navkit.proto_bench", "benchmark the C and Python codecs (frames/s)"),
+    "fuzz-proto": ("navkit.proto_fuzz", "differential fuzz of the Python and C frame parsers"),
 }
 
 

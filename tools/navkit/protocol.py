@@ -15,6 +15,7 @@ docs/protocol.md); `count` fields are lists.
 
 from __future__ import annotations
 
+import binascii
 import struct
 from dataclasses import dataclass, field
 
@@ -48,25 +49,18 @@ class ProtocolError(ValueError):
     """A value, name or frame that the spec does not allow; the text says which."""
 
 
-def _crc_table() -> list[int]:
-    table = []
-    for byte in range(256):
-        crc = byte
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
-        table.append(crc)
-    return table
+def _reverse_bits(x: int, width: int) -> int:
+    return int(f"{x:0{width}b}"[::-1], 2)
 
 
-_CRC_TABLE = _crc_table()
+# CRC-16/MCRF4XX is the reflected form of CRC-16 with poly 0x1021: it equals the
+# non-reflected CRC (binascii.crc_hqx, in C) over bit-reversed bytes, bit-reversed.
+_REVERSE_BYTES = bytes(_reverse_bits(b, 8) for b in range(256))
 
 
 def crc16(data: bytes, crc: int = 0xFFFF) -> int:
     """CRC-16/MCRF4XX (poly 0x1021 reflected, init 0xFFFF, no final xor) of `data`."""
-    table = _CRC_TABLE
-    for b in data:
-        crc = (crc >> 8) ^ table[(crc ^ b) & 0xFF]
-    return crc
+    return _reverse_bits(binascii.crc_hqx(bytes(data).translate(_REVERSE_BYTES), _reverse_bits(crc, 16)), 16)
 
 
 @dataclass
@@ -76,6 +70,9 @@ class _Layout:
     message: Message
     struct: struct.Struct
     slots: list[tuple[str, int | None]]  # (field or framing name, element index)
+    zero: dict = field(default_factory=dict)    # every field 0 (tuples for arrays)
+    limits: dict = field(default_factory=dict)  # name -> (count, min, max, type min, type max)
+    zero_bad: tuple = ()                        # fields whose 0 is outside min..max
 
 
 def _layout(m: Message) -> _Layout:
@@ -96,7 +93,10 @@ def _layout(m: Message) -> _Layout:
     end = m.size - (2 if m.framed else 0)
     if end > at:
         fmt += f"{end - at}x"
-    return _Layout(m, struct.Struct(fmt), slots)
+    zero = {f.name: (0,) * f.count if f.count > 1 else 0 for f in m.fields}
+    limits = {f.name: (f.count, f.min, f.max, TYPES[f.type][2], TYPES[f.type][3]) for f in m.fields}
+    zero_bad = tuple(f.name for f in m.fields if not f.min <= 0 <= f.max)
+    return _Layout(m, struct.Struct(fmt), slots, zero, limits, zero_bad)
 
 
 _LAYOUTS = {m.name: _layout(m) for m in SPEC.messages.values()}
@@ -125,25 +125,33 @@ def defaults(name: str) -> dict:
 
 
 def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
+    """All field values of the message: `fields` checked (type range, and with strict
+    the spec range), the rest 0."""
     m = lay.message
-    known = {f.name: f for f in m.fields}
-    for k in fields:
-        if k not in known:
+    full = dict(lay.zero)
+    for k, v in fields.items():
+        lim = lay.limits.get(k)
+        if lim is None:
             raise ProtocolError(f"{m.name}: unknown field {k!r}")
-    full = {}
-    for f in m.fields:
-        v = fields.get(f.name, [0] * f.count if f.count > 1 else 0)
-        elems = v if f.count > 1 else [v]
-        if f.count > 1 and (not isinstance(v, (list, tuple)) or len(v) != f.count):
-            raise ProtocolError(f"{m.name}.{f.name}: needs a list of {f.count} values")
-        _, _, tmin, tmax = TYPES[f.type]
-        lo, hi = (f.min, f.max) if strict else (tmin, tmax)
+        count, fmin, fmax, tmin, tmax = lim
+        lo, hi = (fmin, fmax) if strict else (tmin, tmax)
+        if count > 1:
+            if not isinstance(v, (list, tuple)) or len(v) != count:
+                raise ProtocolError(f"{m.name}.{k}: needs a list of {count} values")
+            elems = v
+        else:
+            elems = (v,)
         for e in elems:
-            if not isinstance(e, int) or isinstance(e, bool):
-                raise ProtocolError(f"{m.name}.{f.name}: {e!r} is not an integer")
+            if e.__class__ is not int:
+                raise ProtocolError(f"{m.name}.{k}: {e!r} is not an integer")
             if not lo <= e <= hi:
-                raise ProtocolError(f"{m.name}.{f.name}: {e} is outside {lo}..{hi}")
-        full[f.name] = v
+                raise ProtocolError(f"{m.name}.{k}: {e} is outside {lo}..{hi}")
+        full[k] = v
+    if strict:
+        for k in lay.zero_bad:
+            if k not in fields:
+                lim = lay.limits[k]
+                raise ProtocolError(f"{m.name}.{k}: 0 (unset) is outside {lim[1]}..{lim[2]}")
     return full
 
 
