@@ -4,7 +4,7 @@ BUILD ?= build
 PY    := .venv/bin/python
 CMAKE_PRESET ?= default
 
-.PHONY: setup build test test-c test-py sim bench fuzz-long clean
+.PHONY: setup build test test-c test-py fuzz-build fuzz-short fuzz-long bench clean
 
 setup:
 	@scripts/setup.sh
@@ -19,9 +19,27 @@ test-c: build
 test-py: build
 	@$(PY) -m pytest
 
-test: build
+test: build fuzz-short
 	@ctest --preset $(CMAKE_PRESET)
 	@$(PY) -m pytest
+
+# libFuzzer on the C frame parser (clang, ASan+UBSan, its own build folder).
+FUZZER := $(BUILD)/fuzz/tests/c/protocol/fuzz_proto_parser
+fuzz-build: setup
+	@cmake --preset fuzz >/dev/null
+	@cmake --build --preset fuzz --target fuzz_proto_parser
+
+fuzz-short: fuzz-build
+	@mkdir -p $(BUILD)/fuzz/corpus
+	@$(FUZZER) -seed=1 -runs=200000 $(BUILD)/fuzz/corpus 2>&1 | tail -1
+
+# Opt-in long runs: 10 minutes of libFuzzer, then 10 minutes of differential fuzz.
+fuzz-long: fuzz-build build
+	$(FUZZER) -max_total_time=600 $(BUILD)/fuzz/corpus
+	$(PY) -m navkit fuzz-proto --seconds 600
+
+bench: build
+	$(PY) -m navkit bench-proto
 
 clean:
 	rm -rf $(BUILD)
