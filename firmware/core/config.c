@@ -1,0 +1,110 @@
+/* config: the three config messages. See config.h. */
+#include "config.h"
+
+#define CONFIG_PI 3.14159265f
+
+static uint8_t config_sign_ok(int16_t s)
+{
+    return (uint8_t)(s == 1 || s == -1);
+}
+
+void config_reset(config_t *c)
+{
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    navkit_micro_cfg_io_defaults(&io);
+    (void)config_geometry(c, &g);
+    (void)config_motion(c, &m);
+    (void)config_io(c, &io);
+    c->received = 0u;
+}
+
+uint8_t config_complete(const config_t *c)
+{
+    const uint16_t all = NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK | NAVKIT_MICRO_STATUS_CFG_MOTION_OK |
+                         NAVKIT_MICRO_STATUS_CFG_IO_OK;
+    return (uint8_t)((c->received & all) == all);
+}
+
+config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *m)
+{
+    if (m->spec_hash != NAVKIT_SPEC_HASH) {
+        return CONFIG_ERR_HASH;
+    }
+    if (navkit_micro_cfg_geometry_check(m, 0) != NAVKIT_OK || !config_sign_ok(m->enc_left_sign) ||
+        !config_sign_ok(m->enc_right_sign) || !config_sign_ok(m->motor_left_sign) ||
+        !config_sign_ok(m->motor_right_sign) || !config_sign_ok(m->gyro_sign)) {
+        return CONFIG_ERR_RANGE;
+    }
+    c->mm_per_count = CONFIG_PI * 0.01f * (float)m->wheel_diameter / (float)m->counts_per_rev;
+    c->track_mm = 0.1f * (float)m->track_width;
+    c->gyro_dps_per_lsb = (float)m->gyro_sign / (0.01f * (float)m->gyro_lsb_per_dps);
+    c->compass_gain = 0.001f * (float)m->compass_weight;
+    c->control_rate = m->control_rate;
+    c->dt = 1.0f / (float)m->control_rate;
+    c->tick_us = (1000000ul + m->control_rate / 2u) / m->control_rate;
+    c->enc_left_sign = (int8_t)m->enc_left_sign;
+    c->enc_right_sign = (int8_t)m->enc_right_sign;
+    c->motor_left_sign = (int8_t)m->motor_left_sign;
+    c->motor_right_sign = (int8_t)m->motor_right_sign;
+    c->received |= NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK;
+    return CONFIG_OK;
+}
+
+config_result_t config_motion(config_t *c, const navkit_micro_cfg_motion_t *m)
+{
+    if (m->spec_hash != NAVKIT_SPEC_HASH) {
+        return CONFIG_ERR_HASH;
+    }
+    if (navkit_micro_cfg_motion_check(m, 0) != NAVKIT_OK) {
+        return CONFIG_ERR_RANGE;
+    }
+    c->default_accel = (float)m->default_accel;
+    c->default_speed = (float)m->default_speed;
+    c->default_turn_accel = 0.1f * (float)m->default_turn_accel;
+    c->default_turn_rate = 0.1f * (float)m->default_turn_rate;
+    c->max_speed = (float)m->max_speed;
+    c->max_turn_rate = 0.1f * (float)m->max_turn_rate;
+    c->wheel.kff = 1e-5f * (float)m->wheel_kff;
+    c->wheel.kp = 1e-5f * (float)m->wheel_kp;
+    c->wheel.ki = 1e-4f * (float)m->wheel_ki;
+    c->wheel.kd = 1e-6f * (float)m->wheel_kd;
+    c->wheel.i_limit = 1e-3f * (float)m->wheel_i_limit;
+    c->wheel.pwm_limit = 1e-3f * (float)m->pwm_limit;
+    c->heading_kp = 0.01f * (float)m->heading_kp;
+    c->watchdog_timeout_ms = m->watchdog_timeout;
+    c->watchdog_decel = (float)m->watchdog_decel;
+    c->stop_tolerance = (float)m->stop_tolerance;
+    c->received |= NAVKIT_MICRO_STATUS_CFG_MOTION_OK;
+    return CONFIG_OK;
+}
+
+config_result_t config_io(config_t *c, const navkit_micro_cfg_io_t *m)
+{
+    uint8_t i;
+    if (m->spec_hash != NAVKIT_SPEC_HASH) {
+        return CONFIG_ERR_HASH;
+    }
+    if (navkit_micro_cfg_io_check(m, 0) != NAVKIT_OK) {
+        return CONFIG_ERR_RANGE;
+    }
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        if (m->servo_min[i] > m->servo_max[i]) {
+            return CONFIG_ERR_RANGE;
+        }
+    }
+    c->dio_direction = m->dio_direction;
+    c->dio_safe_state = m->dio_safe_state;
+    c->sensor_enable = m->sensor_enable;
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        c->servo[i].center_us = m->servo_center[i];
+        c->servo[i].us_per_deg_e2 = m->servo_us_per_deg[i];
+        c->servo[i].min10 = m->servo_min[i];
+        c->servo[i].max10 = m->servo_max[i];
+    }
+    c->received |= NAVKIT_MICRO_STATUS_CFG_IO_OK;
+    return CONFIG_OK;
+}

@@ -1,0 +1,69 @@
+/* config: the three config messages, checked and turned into working units (prefix config_).
+ *
+ * At reset the spec defaults are loaded (so every value is sane) but no config counts
+ * as received: the micro stays unconfigured until all three arrive. A message whose
+ * spec_hash differs from NAVKIT_SPEC_HASH, or with a field out of range, is refused
+ * whole and changes nothing.
+ */
+#ifndef NAVKIT_CONFIG_H
+#define NAVKIT_CONFIG_H
+
+#include <stdint.h>
+
+#include "navkit/navkit_proto.h"
+#include "servo.h"
+#include "wheel.h"
+
+/* Result of config_*(). */
+typedef enum {
+    CONFIG_OK = 0,        /* applied */
+    CONFIG_ERR_HASH = 1,  /* spec_hash differs from the firmware's: refused */
+    CONFIG_ERR_RANGE = 2  /* a field out of range (or a sign of 0): refused */
+} config_result_t;
+
+typedef struct {
+    /* geometry */
+    float mm_per_count;       /* mm per encoder count */
+    float track_mm;           /* mm: wheel contact distance */
+    float gyro_dps_per_lsb;   /* deg/s per LSB, gyro_sign folded in (clockwise positive) */
+    float compass_gain;       /* 1/s: compass fusion gain, 0 = gyro only */
+    float dt;                 /* s: control tick */
+    uint32_t tick_us;         /* us: control tick, rounded */
+    uint16_t control_rate;    /* Hz */
+    int8_t enc_left_sign;     /* +1/-1 */
+    int8_t enc_right_sign;    /* +1/-1 */
+    int8_t motor_left_sign;   /* +1/-1 */
+    int8_t motor_right_sign;  /* +1/-1 */
+    /* motion */
+    float default_accel;      /* mm/s^2 */
+    float default_speed;      /* mm/s */
+    float default_turn_accel; /* deg/s^2 */
+    float default_turn_rate;  /* deg/s */
+    float max_speed;          /* mm/s */
+    float max_turn_rate;      /* deg/s */
+    float heading_kp;         /* (deg/s)/deg */
+    float watchdog_decel;     /* mm/s^2 */
+    float stop_tolerance;     /* mm */
+    wheel_gains_t wheel;      /* wheel-speed loop gains */
+    uint16_t watchdog_timeout_ms; /* ms */
+    /* io */
+    uint16_t dio_direction;   /* bitmask, 1 = output */
+    uint16_t dio_safe_state;  /* bitmask */
+    uint16_t sensor_enable;   /* NAVKIT_SENSOR_ENABLE_* bits */
+    servo_cal_t servo[SERVO_COUNT];
+    /* which messages arrived: NAVKIT_MICRO_STATUS_CFG_*_OK bits */
+    uint16_t received;
+} config_t;
+
+/* Spec defaults, nothing received. */
+void config_reset(config_t *c);
+/* 1 when all three config messages have been applied since reset. */
+uint8_t config_complete(const config_t *c);
+/* Apply micro_cfg_geometry. */
+config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *m);
+/* Apply micro_cfg_motion. */
+config_result_t config_motion(config_t *c, const navkit_micro_cfg_motion_t *m);
+/* Apply micro_cfg_io. */
+config_result_t config_io(config_t *c, const navkit_micro_cfg_io_t *m);
+
+#endif /* NAVKIT_CONFIG_H */

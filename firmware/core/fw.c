@@ -1,0 +1,218 @@
+/* fw: the firmware state and the control tick. See fw.h. */
+#include "fw.h"
+
+#include <math.h>
+
+#define FW_TRACK_WINDOW_MM 25.0f   /* mm: how far a reference may lead the wheels */
+#define FW_TRACK_VWINDOW_MM_S 50.0f /* mm/s: its speed lead when pulled back */
+#define FW_DONE_VTOL_MM_S 10.0f    /* mm/s: "stopped" for done */
+#define FW_STILL_S 0.25f           /* s: encoders quiet this long = standing still */
+#define FW_RAD_TO_DEG 57.29577951f
+#define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
+
+void fw_init(fw_t *fw, hal_t *hal)
+{
+    uint8_t i;
+    fw->hal = hal;
+    config_reset(&fw->cfg);
+    link_reset(&fw->link);
+    odom_reset(&fw->odom);
+    heading_reset(&fw->hdg);
+    motion_reset(&fw->fwd, 0, 0);
+    turn_reset(&fw->turn, 0, 0);
+    wheel_reset(&fw->wheel_l);
+    wheel_reset(&fw->wheel_r);
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        servo_reset(&fw->servo[i]);
+    }
+    dio_reset(&fw->dio);
+    watchdog_reset(&fw->wd);
+    fw->sp_l = 0.0f;
+    fw->sp_r = 0.0f;
+    for (i = 0u; i < 8u; i++) {
+        fw->adc[i] = 0u;
+    }
+    for (i = 0u; i < 4u; i++) {
+        fw->sonar[i] = 0u;
+    }
+    fw->compass = 0u;
+    fw->gyro_raw = 0;
+    fw->watchdog_stops = 0u;
+    fw->ms = 0u;
+    fw->us_frac = 0u;
+    fw->driven = 0u;
+    fw->wd_stop = 0u;
+    fw->limited = 0u;
+}
+
+uint32_t fw_tick_period_us(const fw_t *fw)
+{
+    return fw->cfg.tick_us;
+}
+
+void fw_link_poll(fw_t *fw)
+{
+    link_poll(fw);
+}
+
+float fw_fwd_distance(const fw_t *fw)
+{
+    return odom_distance(&fw->odom, fw->fwd.ref_l, fw->fwd.ref_r, fw->cfg.mm_per_count);
+}
+
+float fw_turn_angle(const fw_t *fw)
+{
+    return odom_turn(&fw->odom, fw->turn.ax.ref_l, fw->turn.ax.ref_r, fw->cfg.mm_per_count, fw->cfg.track_mm);
+}
+
+uint16_t fw_status(const fw_t *fw)
+{
+    uint16_t s = fw->cfg.received;
+    if (config_complete(&fw->cfg)) {
+        s |= NAVKIT_MICRO_STATUS_CONFIGURED;
+    }
+    if (fw->wd_stop) {
+        s |= NAVKIT_MICRO_STATUS_WATCHDOG_STOP;
+    }
+    if (fw->fwd.started && fw->fwd.done) {
+        s |= NAVKIT_MICRO_STATUS_FWD_DONE;
+    }
+    if ((fw->turn.ax.started && fw->turn.ax.done && !fw->turn.hdg) || fw->turn.hdg_reached) {
+        s |= NAVKIT_MICRO_STATUS_TURN_DONE;
+    }
+    if (fw->fwd.latched) {
+        s |= NAVKIT_MICRO_STATUS_FWD_STOP_LATCHED;
+    }
+    if (fw->turn.ax.latched) {
+        s |= NAVKIT_MICRO_STATUS_TURN_STOP_LATCHED;
+    }
+    if (fw->hdg.calibrating) {
+        s |= NAVKIT_MICRO_STATUS_GYRO_CALIBRATING;
+    }
+    if (fw->turn.hdg) {
+        s |= NAVKIT_MICRO_STATUS_HDG_ACTIVE;
+    }
+    if (fw->turn.hdg_reached) {
+        s |= NAVKIT_MICRO_STATUS_HDG_HOLD;
+    }
+    if (fw->limited) {
+        s |= NAVKIT_MICRO_STATUS_SPEED_LIMITED;
+    }
+    return s;
+}
+
+void fw_watchdog_stop(fw_t *fw)
+{
+    uint8_t i;
+    /* the same wheel deceleration for the turn: mm/s^2 at the wheel -> deg/s^2 */
+    float turn_decel = fw->cfg.watchdog_decel / (0.5f * fw->cfg.track_mm) * FW_RAD_TO_DEG;
+    motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt);
+    turn_stop(&fw->turn, turn_decel, fw->cfg.dt);
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        servo_hold(&fw->servo[i]);
+    }
+    dio_safe(&fw->dio);
+    fw->wd_stop = 1u;
+    fw->watchdog_stops++;
+}
+
+/* Inputs, once each, at the start of the tick; disabled sensors read as 0. */
+static void fw_sample(fw_t *fw, int32_t *enc_l, int32_t *enc_r)
+{
+    uint8_t i;
+    uint16_t en = fw->cfg.sensor_enable;
+    uint16_t compass;
+    *enc_l = hal_enc_left(fw->hal);
+    *enc_r = hal_enc_right(fw->hal);
+    fw->gyro_raw = hal_gyro_raw(fw->hal);
+    compass = hal_compass(fw->hal);
+    fw->compass = (en & NAVKIT_SENSOR_ENABLE_COMPASS) ? compass : 0u;
+    for (i = 0u; i < 8u; i++) {
+        uint16_t v = hal_adc(fw->hal, i);
+        /* ch0-3 IR (enable bits 0-3), ch4 battery, ch5-7 spare (always sampled) */
+        uint8_t on = (i < 4u) ? (uint8_t)((en >> i) & 1u)
+                              : (i == 4u) ? (uint8_t)((en & NAVKIT_SENSOR_ENABLE_BATTERY) != 0u) : 1u;
+        fw->adc[i] = on ? v : 0u;
+    }
+    for (i = 0u; i < 4u; i++) {
+        uint16_t v = hal_sonar_echo(fw->hal, i);
+        fw->sonar[i] = ((en >> (4u + i)) & 1u) ? v : 0u;
+    }
+    fw->dio.in = (uint16_t)(hal_dio_in(fw->hal) & DIO_MASK);
+}
+
+static int16_t fw_duty_e4(float duty, int8_t sign)
+{
+    float d = duty * (float)sign * FW_DUTY_SCALE;
+    return (int16_t)((d >= 0.0f) ? d + 0.5f : d - 0.5f);
+}
+
+void fw_tick(fw_t *fw)
+{
+    const config_t *c = &fw->cfg;
+    float dt = c->dt;
+    float deg_per_mm = FW_RAD_TO_DEG / (0.5f * c->track_mm); /* wheel mm -> turn deg */
+    float v_fwd, w_turn, half;
+    int32_t raw_l, raw_r;
+    uint8_t still, i;
+    int16_t duty_l = 0, duty_r = 0;
+
+    fw_sample(fw, &raw_l, &raw_r);
+
+    /* estimation */
+    odom_update(&fw->odom, raw_l, raw_r, c->enc_left_sign, c->enc_right_sign, c->mm_per_count, heading_deg(&fw->hdg),
+                dt);
+    still = (uint8_t)(!fw->driven && fw->odom.still_s > 0.0f &&
+                      (fw->hdg.calibrating || fw->odom.still_s >= FW_STILL_S));
+    heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
+    if ((c->sensor_enable & NAVKIT_SENSOR_ENABLE_COMPASS) && c->compass_gain > 0.0f && !fw->hdg.calibrating) {
+        heading_fuse(&fw->hdg, fw->compass, c->compass_gain, dt);
+    }
+
+    /* link silence */
+    if (config_complete(c) && watchdog_tick(&fw->wd, c->tick_us, c->watchdog_timeout_ms)) {
+        fw_watchdog_stop(fw);
+    }
+
+    /* motion: forward + turn -> wheel setpoints -> wheel loops */
+    v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), FW_TRACK_WINDOW_MM,
+                        FW_TRACK_VWINDOW_MM_S, c->stop_tolerance, FW_DONE_VTOL_MM_S, dt);
+    w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * 0.5f * deg_per_mm,
+                       heading_deg(&fw->hdg), c->heading_kp, FW_TRACK_WINDOW_MM * deg_per_mm,
+                       FW_TRACK_VWINDOW_MM_S * deg_per_mm, c->stop_tolerance * deg_per_mm,
+                       FW_DONE_VTOL_MM_S * deg_per_mm, dt);
+    fw->driven = (uint8_t)(motion_active(&fw->fwd) || turn_active(&fw->turn));
+    if (fw->driven) {
+        half = w_turn / deg_per_mm; /* mm/s at each wheel */
+        fw->sp_l = v_fwd + half;
+        fw->sp_r = v_fwd - half;
+        duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, dt), c->motor_left_sign);
+        duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, dt), c->motor_right_sign);
+    } else {
+        fw->sp_l = 0.0f;
+        fw->sp_r = 0.0f;
+        wheel_reset(&fw->wheel_l);
+        wheel_reset(&fw->wheel_r);
+    }
+    fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated ||
+                            fw->wheel_r.saturated);
+
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        servo_step(&fw->servo[i], &c->servo[i], c->control_rate);
+    }
+
+    /* uptime */
+    fw->us_frac = (uint16_t)(fw->us_frac + (uint16_t)(c->tick_us % 1000u));
+    fw->ms += c->tick_us / 1000u;
+    if (fw->us_frac >= 1000u) {
+        fw->us_frac = (uint16_t)(fw->us_frac - 1000u);
+        fw->ms++;
+    }
+
+    /* outputs, once each, at the end of the tick */
+    hal_motor(fw->hal, duty_l, duty_r);
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i], &c->servo[i]));
+    }
+    hal_dio_write(fw->hal, fw->dio.dir, fw->dio.out);
+}

@@ -1,0 +1,73 @@
+/* fw: the firmware as one state struct (prefix fw_).
+ *
+ * Everything the firmware remembers is in fw_t: no file-level mutable state, so several
+ * instances can live in one process (the FMU does exactly that). A target:
+ *   fw_init(&fw, &hal);                       power-on / reset
+ *   every fw_tick_period_us(&fw):  fw_link_poll(&fw); fw_tick(&fw);
+ * The tick rate comes from micro_cfg_geometry.control_rate (1 kHz by default) and may
+ * change when that config arrives, so read fw_tick_period_us() before every tick.
+ */
+#ifndef NAVKIT_FW_H
+#define NAVKIT_FW_H
+
+#include <stdint.h>
+
+#include "config.h"
+#include "dio.h"
+#include "hal.h"
+#include "heading.h"
+#include "link.h"
+#include "motion.h"
+#include "odom.h"
+#include "servo.h"
+#include "turn.h"
+#include "watchdog.h"
+#include "wheel.h"
+
+#define FW_VERSION 0x0100u /* major*256 + minor, reported in micro_data.fw_version */
+
+typedef struct fw {
+    hal_t *hal;          /* the target's wires */
+    config_t cfg;        /* working configuration */
+    link_t link;         /* micro link */
+    odom_t odom;         /* encoders and X/Y */
+    heading_t hdg;       /* gyro heading */
+    motion_t fwd;        /* forward axis, mm */
+    turn_t turn;         /* turn axis, deg */
+    wheel_t wheel_l;     /* left wheel-speed loop */
+    wheel_t wheel_r;     /* right wheel-speed loop */
+    servo_t servo[SERVO_COUNT];
+    dio_t dio;
+    watchdog_t wd;
+    float sp_l;          /* mm/s: left wheel speed setpoint of the last tick */
+    float sp_r;          /* mm/s: right wheel speed setpoint */
+    uint16_t adc[8];     /* counts: ADC sample of the last tick (0 if disabled) */
+    uint16_t sonar[4];   /* us: sonar echoes of the last tick (0 if disabled) */
+    uint16_t compass;    /* deg*10: compass of the last tick (0 if disabled) */
+    int16_t gyro_raw;    /* LSB: gyro of the last tick */
+    uint16_t watchdog_stops; /* watchdog stops since reset */
+    uint32_t ms;         /* ms: uptime */
+    uint16_t us_frac;    /* us: uptime below one ms */
+    uint8_t driven;      /* 1 if the wheel loops drove the motors on the last tick */
+    uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
+    uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
+} fw_t;
+
+/* Power-on reset: unconfigured, spec defaults loaded, all outputs off/safe. */
+void fw_init(fw_t *fw, hal_t *hal);
+/* Control tick period, us (from the configured control rate). */
+uint32_t fw_tick_period_us(const fw_t *fw);
+/* One control tick: inputs, estimation, motion, wheel loops, servos, outputs. */
+void fw_tick(fw_t *fw);
+/* Handle the link: call between ticks. */
+void fw_link_poll(fw_t *fw);
+/* micro_data.status bits (NAVKIT_MICRO_STATUS_*). */
+uint16_t fw_status(const fw_t *fw);
+/* Watchdog stop now: decelerate to rest, servos hold, DIO outputs safe, latch. */
+void fw_watchdog_stop(fw_t *fw);
+/* Measured distance (mm) from the forward reference. */
+float fw_fwd_distance(const fw_t *fw);
+/* Measured turn angle (deg, clockwise) from the turn reference. */
+float fw_turn_angle(const fw_t *fw);
+
+#endif /* NAVKIT_FW_H */

@@ -1,0 +1,66 @@
+/* hal.h: the one seam between the portable firmware core and a target.
+ *
+ * A target (the AVR board, the firmware FMU, a unit-test fake) defines `struct hal`
+ * and every function below; the core never touches a register or a global. The
+ * functions are explicit "wires", one per signal, in the style of simavr's IRQs.
+ *
+ * Ordering contract (the core keeps it; a target may rely on it):
+ *   1. The target calls fw_link_poll() between control ticks (never inside one). Only
+ *      fw_link_poll() calls hal_uart_*; it drains the UART RX until hal_uart_read()
+ *      returns 0, and writes a whole micro_data frame only when hal_uart_tx_free()
+ *      says it fits (otherwise that frame is skipped, never half-sent).
+ *   2. The target calls fw_tick() once per control period (fw_tick_period_us()).
+ *      fw_tick() calls every input wire (hal_enc_*, hal_gyro_raw, hal_compass,
+ *      hal_adc, hal_sonar_echo, hal_dio_in) at its start, exactly once each, and
+ *      every output wire (hal_motor, hal_servo_pulse, hal_dio_write) at its end,
+ *      exactly once each. Inputs are therefore one consistent sample per tick and
+ *      outputs change only at tick boundaries.
+ *   3. Every function returns at once (no waiting) and is called with the `hal`
+ *      pointer given to fw_init().
+ */
+#ifndef NAVKIT_HAL_H
+#define NAVKIT_HAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct hal hal_t; /* defined by the target */
+
+/* ---- input wires: sampled at the start of each tick ---- */
+
+/* Left wheel encoder, quadrature x4 counts since power-up, raw sign (the core applies
+ * enc_left_sign); wraps modulo 2^32. */
+int32_t hal_enc_left(hal_t *hal);
+/* Right wheel encoder, counts, raw sign; wraps modulo 2^32. */
+int32_t hal_enc_right(hal_t *hal);
+/* Yaw-rate gyro, LSB (sensitivity gyro_lsb_per_dps), counter-clockwise positive. */
+int16_t hal_gyro_raw(hal_t *hal);
+/* Compass bearing, deg*10, 0..3599, clockwise from north. */
+uint16_t hal_compass(hal_t *hal);
+/* ADC channel ch (0..7), counts 0..1023 (10 bit, 5.0 V reference). */
+uint16_t hal_adc(hal_t *hal, uint8_t ch);
+/* SRF04 sonar i (0..3): last echo pulse width, us; 0 = no echo. */
+uint16_t hal_sonar_echo(hal_t *hal, uint8_t i);
+/* DIO pin levels, bit n = pin n (12 bits), as read from the port. */
+uint16_t hal_dio_in(hal_t *hal);
+
+/* ---- output wires: written at the end of each tick ---- */
+
+/* Motor PWM duty, units of 1e-4 (-10000..10000), + drives the wheel forward after the
+ * motor sign from config has been applied by the core. */
+void hal_motor(hal_t *hal, int16_t left_duty_e4, int16_t right_duty_e4);
+/* RC servo i (0..7) pulse width, us; 0 = not driven. */
+void hal_servo_pulse(hal_t *hal, uint8_t i, uint16_t pulse_us);
+/* DIO: dir bit = 1 makes the pin an output; out = levels of the output pins (12 bits). */
+void hal_dio_write(hal_t *hal, uint16_t dir, uint16_t out);
+
+/* ---- UART (the micro link): only from fw_link_poll() ---- */
+
+/* Copy up to cap received bytes into buf; returns how many (0 = RX empty). */
+size_t hal_uart_read(hal_t *hal, uint8_t *buf, size_t cap);
+/* Bytes the TX FIFO can take now. */
+size_t hal_uart_tx_free(hal_t *hal);
+/* Queue len bytes for sending; the core never passes more than hal_uart_tx_free(). */
+void hal_uart_write(hal_t *hal, const uint8_t *buf, size_t len);
+
+#endif /* NAVKIT_HAL_H */

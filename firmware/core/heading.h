@@ -1,0 +1,41 @@
+/* heading: gyro heading with bias estimation and optional compass fusion (prefix heading_).
+ *
+ * Heading is clockwise positive, 0 <= heading < 360 deg, kept as a 32-bit fixed-point
+ * angle (deg * 2^16) plus a float residual so long runs do not lose resolution.
+ * Bias: averaged over the first second after reset while the robot stands still
+ * (status gyro_calibrating), then tracked by a slow low-pass whenever the robot stands
+ * still; while it stands still the heading does not integrate gyro noise.
+ */
+#ifndef NAVKIT_HEADING_H
+#define NAVKIT_HEADING_H
+
+#include <stdint.h>
+
+typedef struct {
+    int32_t q;        /* deg * 2^16: heading, 0 .. 360*2^16-1 */
+    float q_frac;     /* deg * 2^16: residual, -0.5..0.5 */
+    float bias;       /* LSB: gyro zero-rate offset estimate */
+    float rate;       /* deg/s: bias-corrected yaw rate, clockwise positive */
+    int32_t cal_sum;  /* LSB: sum of start-up calibration samples */
+    uint16_t cal_n;   /* samples in cal_sum */
+    uint8_t calibrating; /* 1 during the start-up bias calibration */
+} heading_t;
+
+/* Heading 0, bias 0, start-up calibration pending. */
+void heading_reset(heading_t *h);
+/* One tick: raw (LSB, counter-clockwise positive as read), dps_per_lsb (deg/s per LSB,
+ * sign included so that the result is clockwise positive), still (1 = the robot stands
+ * still), cal_samples (samples for the start-up calibration, i.e. ticks in 1 s), dt (s). */
+void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still, uint16_t cal_samples, float dt);
+/* Pull the heading toward compass10 (deg*10, clockwise from north) at gain (1/s), dt (s). */
+void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt);
+/* Set the heading to deg (any value; wrapped into 0..360). */
+void heading_set(heading_t *h, float deg);
+/* Heading, deg, 0 <= h < 360. */
+float heading_deg(const heading_t *h);
+/* Heading, deg*10, 0..3599 (rounded). */
+uint16_t heading_deg10(const heading_t *h);
+/* deg wrapped into -180 <= result < 180 (shortest way). */
+float heading_wrap180(float deg);
+
+#endif /* NAVKIT_HEADING_H */

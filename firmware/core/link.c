@@ -1,0 +1,353 @@
+/* link: the micro link. See link.h. */
+#include "link.h"
+
+#include "fw.h"
+
+#define LINK_RX_CHUNK 16u /* bytes read from the UART per call */
+
+void link_reset(link_t *l)
+{
+    navkit_parser_init(&l->parser, NAVKIT_DIR_TO_MICRO);
+    l->last_tag = 0u;
+    l->ack_tag = 0u;
+    l->tx_tag = 0u;
+    l->schema_mismatch = 0u;
+    l->cmd_rejected = 0u;
+    l->last_reject = 0u;
+    l->mc_datalog = NAVKIT_MC_DATALOG_NONE;
+    l->have_tag = 0u;
+}
+
+static void link_reject(link_t *l, uint16_t code)
+{
+    l->cmd_rejected++;
+    l->last_reject = code;
+}
+
+/* |v| as a float, no int16 overflow at -32768. */
+static float link_abs(int16_t v)
+{
+    return (v < 0) ? -(float)v : (float)v;
+}
+
+/* Limit from a command word: |word|, or dflt when 0, clamped to max (all in one unit). */
+static float link_limit(float word_abs, float dflt, float max)
+{
+    float v = (word_abs > 0.0f) ? word_abs : dflt;
+    return (v > max) ? max : v;
+}
+
+static void link_fwd(fw_t *fw, const navkit_micro_cmd_t *c)
+{
+    const config_t *cfg = &fw->cfg;
+    float accel = link_limit(link_abs(c->accel), cfg->default_accel, 1e9f);
+    float speed = link_limit(link_abs(c->speed), cfg->default_speed, cfg->max_speed);
+    switch (c->fwd_cmd) {
+    case NAVKIT_FWD_CMD_START:
+        motion_start(&fw->fwd, fw->odom.enc_l, fw->odom.enc_r, fw_fwd_distance(fw), (float)c->distance, speed, accel);
+        fw->wd_stop = 0u;
+        break;
+    case NAVKIT_FWD_CMD_MODIFY:
+        if (motion_modify(&fw->fwd, (float)c->distance, speed, accel) == MOTION_NOT_STARTED) {
+            link_reject(&fw->link, c->fwd_cmd);
+        }
+        break;
+    case NAVKIT_FWD_CMD_STOP:
+        motion_stop(&fw->fwd, accel, cfg->dt);
+        break;
+    default: /* NAVKIT_FWD_CMD_NONE */
+        break;
+    }
+}
+
+static void link_turn(fw_t *fw, const navkit_micro_cmd_t *c)
+{
+    const config_t *cfg = &fw->cfg;
+    float accel = link_limit(0.1f * link_abs(c->turn_accel), cfg->default_turn_accel, 1e9f);
+    float rate = link_limit(0.1f * link_abs(c->turn_rate), cfg->default_turn_rate, cfg->max_turn_rate);
+    float target = 0.1f * (float)c->turn_distance;
+    switch (c->turn_cmd) {
+    case NAVKIT_TURN_CMD_TURN:
+        turn_start(&fw->turn, fw->odom.enc_l, fw->odom.enc_r, fw_turn_angle(fw), target, rate, accel);
+        fw->wd_stop = 0u;
+        break;
+    case NAVKIT_TURN_CMD_MODIFY:
+        if (turn_modify(&fw->turn, target, rate, accel) == MOTION_NOT_STARTED) {
+            link_reject(&fw->link, c->turn_cmd);
+        }
+        break;
+    case NAVKIT_TURN_CMD_STOP:
+        turn_stop(&fw->turn, accel, cfg->dt);
+        break;
+    case NAVKIT_TURN_CMD_HDG_SEL:
+        turn_hdg_select(&fw->turn, fw->odom.enc_l, fw->odom.enc_r, fw_turn_angle(fw), target, heading_deg(&fw->hdg),
+                        rate, accel);
+        fw->wd_stop = 0u;
+        break;
+    default: /* NAVKIT_TURN_CMD_NONE */
+        break;
+    }
+}
+
+static uint8_t link_fwd_code_ok(uint16_t code)
+{
+    return (uint8_t)(code == NAVKIT_FWD_CMD_NONE || code == NAVKIT_FWD_CMD_START || code == NAVKIT_FWD_CMD_MODIFY ||
+                     code == NAVKIT_FWD_CMD_STOP);
+}
+
+static uint8_t link_turn_code_ok(uint16_t code)
+{
+    return (uint8_t)(code == NAVKIT_TURN_CMD_NONE || code == NAVKIT_TURN_CMD_TURN ||
+                     code == NAVKIT_TURN_CMD_MODIFY || code == NAVKIT_TURN_CMD_STOP ||
+                     code == NAVKIT_TURN_CMD_HDG_SEL);
+}
+
+static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
+{
+    link_t *l = &fw->link;
+    uint8_t i;
+    /* the eight servos' (param0, param1, param2) */
+    const int16_t rc[SERVO_COUNT][3] = {
+        {c->rc0_param0, c->rc0_param1, c->rc0_param2}, {c->rc1_param0, c->rc1_param1, c->rc1_param2},
+        {c->rc2_param0, c->rc2_param1, c->rc2_param2}, {c->rc3_param0, c->rc3_param1, c->rc3_param2},
+        {c->rc4_param0, c->rc4_param1, c->rc4_param2}, {c->rc5_param0, c->rc5_param1, c->rc5_param2},
+        {c->rc6_param0, c->rc6_param1, c->rc6_param2}, {c->rc7_param0, c->rc7_param1, c->rc7_param2},
+    };
+
+    if (l->have_tag && c->time_tag == l->last_tag) {
+        return; /* a repeat: already handled */
+    }
+    l->have_tag = 1u;
+    l->last_tag = c->time_tag;
+
+    if (!link_fwd_code_ok(c->fwd_cmd)) {
+        link_reject(l, c->fwd_cmd);
+        return;
+    }
+    if (!link_turn_code_ok(c->turn_cmd)) {
+        link_reject(l, c->turn_cmd);
+        return;
+    }
+    if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK) {
+        link_reject(l, (uint16_t)(LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD));
+        return;
+    }
+    if (!config_complete(&fw->cfg)) {
+        link_reject(l, (c->fwd_cmd != NAVKIT_FWD_CMD_NONE) ? c->fwd_cmd : c->turn_cmd);
+        return;
+    }
+
+    l->ack_tag = c->time_tag;
+    if (c->dg_control & NAVKIT_DG_CONTROL_SET_HEADING) {
+        heading_set(&fw->hdg, 0.1f * (float)c->dg_set);
+    }
+    if (c->dg_control & NAVKIT_DG_CONTROL_SET_XY) {
+        odom_set_xy(&fw->odom, c->x_set, c->y_set);
+    }
+    link_fwd(fw, c);
+    link_turn(fw, c);
+    dio_command(&fw->dio, c->dio_command);
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        (void)servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[i][0], rc[i][1], rc[i][2]);
+    }
+    l->mc_datalog = c->mc_datalog_cmd;
+}
+
+/* Count a refused config. */
+static void link_cfg_result(link_t *l, config_result_t r, uint16_t msg_type)
+{
+    if (r == CONFIG_ERR_HASH) {
+        l->schema_mismatch++;
+    } else if (r == CONFIG_ERR_RANGE) {
+        link_reject(l, (uint16_t)(LINK_REJECT_RANGE | msg_type));
+    }
+}
+
+/* Handle one valid frame; returns 1 if it decoded (and deserves a reply). */
+static uint8_t link_frame(fw_t *fw, const uint8_t *frame, size_t len)
+{
+    uint16_t type = navkit_frame_type(frame);
+    union {
+        navkit_micro_cmd_t cmd;
+        navkit_micro_cfg_geometry_t geo;
+        navkit_micro_cfg_motion_t mot;
+        navkit_micro_cfg_io_t io;
+    } m;
+    switch (type) {
+    case NAVKIT_MSG_TYPE_MICRO_CMD:
+        if (navkit_micro_cmd_decode(frame, len, &m.cmd) != NAVKIT_OK) {
+            return 0u;
+        }
+        link_cmd(fw, &m.cmd);
+        break;
+    case NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY:
+        if (navkit_micro_cfg_geometry_decode(frame, len, &m.geo) != NAVKIT_OK) {
+            return 0u;
+        }
+        link_cfg_result(&fw->link, config_geometry(&fw->cfg, &m.geo), type);
+        break;
+    case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION:
+        if (navkit_micro_cfg_motion_decode(frame, len, &m.mot) != NAVKIT_OK) {
+            return 0u;
+        }
+        link_cfg_result(&fw->link, config_motion(&fw->cfg, &m.mot), type);
+        break;
+    case NAVKIT_MSG_TYPE_MICRO_CFG_IO:
+        if (navkit_micro_cfg_io_decode(frame, len, &m.io) != NAVKIT_OK) {
+            return 0u;
+        }
+        {
+            config_result_t r = config_io(&fw->cfg, &m.io);
+            if (r == CONFIG_OK) {
+                dio_configure(&fw->dio, fw->cfg.dio_direction, fw->cfg.dio_safe_state);
+            }
+            link_cfg_result(&fw->link, r, type);
+        }
+        break;
+    default:
+        return 0u;
+    }
+    watchdog_feed(&fw->wd);
+    return 1u;
+}
+
+static int16_t link_clamp16(float v)
+{
+    if (v > 32767.0f) {
+        return 32767;
+    }
+    if (v < -32768.0f) {
+        return -32768;
+    }
+    return (int16_t)((v >= 0.0f) ? v + 0.5f : v - 0.5f);
+}
+
+static int32_t link_round32(float v)
+{
+    return (int32_t)((v >= 0.0f) ? v + 0.5f : v - 0.5f);
+}
+
+/* mc_datalog words for the selection. */
+static void link_datalog(const fw_t *fw, int16_t w[4])
+{
+    const motion_t *ax = &fw->turn.ax;
+    uint8_t i;
+    for (i = 0u; i < 4u; i++) {
+        w[i] = 0;
+    }
+    switch (fw->link.mc_datalog) {
+    case NAVKIT_MC_DATALOG_WHEEL_LEFT: /* setpoint mm/s, speed mm/s, duty e4, integral e4 */
+        w[0] = link_clamp16(fw->sp_l);
+        w[1] = link_clamp16(fw->odom.v_l);
+        w[2] = link_clamp16(fw->wheel_l.duty * 10000.0f);
+        w[3] = link_clamp16(fw->wheel_l.integ * 10000.0f);
+        break;
+    case NAVKIT_MC_DATALOG_WHEEL_RIGHT:
+        w[0] = link_clamp16(fw->sp_r);
+        w[1] = link_clamp16(fw->odom.v_r);
+        w[2] = link_clamp16(fw->wheel_r.duty * 10000.0f);
+        w[3] = link_clamp16(fw->wheel_r.integ * 10000.0f);
+        break;
+    case NAVKIT_MC_DATALOG_FWD_PROFILE: /* ref mm/s, ref to-go mm, measured to-go mm, flags */
+        w[0] = link_clamp16(fw->fwd.prof.vel);
+        w[1] = link_clamp16(fw->fwd.prof.togo);
+        w[2] = link_clamp16(fw->fwd.target - fw_fwd_distance(fw));
+        w[3] = (int16_t)(fw->fwd.prof.moving | (fw->fwd.done << 1) | (fw->fwd.latched << 2) |
+                         (fw->fwd.limited << 3));
+        break;
+    case NAVKIT_MC_DATALOG_TURN_PROFILE: /* ref deg*10/s, ref to-go deg*10, measured to-go deg*10, flags */
+        w[0] = link_clamp16(ax->prof.vel * 10.0f);
+        w[1] = link_clamp16(ax->prof.togo * 10.0f);
+        w[2] = link_clamp16((ax->target - fw_turn_angle(fw)) * 10.0f);
+        w[3] = (int16_t)(ax->prof.moving | (ax->done << 1) | (ax->latched << 2) | (ax->limited << 3) |
+                         (fw->turn.hdg << 4));
+        break;
+    case NAVKIT_MC_DATALOG_HEADING: /* heading deg*10, rate deg*10/s, bias LSB*10, compass error deg*10 */
+        w[0] = (int16_t)heading_deg10(&fw->hdg);
+        w[1] = link_clamp16(fw->hdg.rate * 10.0f);
+        w[2] = link_clamp16(fw->hdg.bias * 10.0f);
+        w[3] = link_clamp16(heading_wrap180(0.1f * (float)fw->compass - heading_deg(&fw->hdg)) * 10.0f);
+        break;
+    default: /* NAVKIT_MC_DATALOG_NONE */
+        break;
+    }
+}
+
+void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
+{
+    const link_t *l = &fw->link;
+    const navkit_link_stats_t *st = &l->parser.stats;
+    uint8_t i;
+    navkit_micro_data_defaults(d);
+    d->time_tag = l->tx_tag;
+    d->ack_time_tag = l->ack_tag;
+    d->status = fw_status(fw);
+    d->fw_version = FW_VERSION;
+    d->spec_hash = NAVKIT_SPEC_HASH;
+    d->micro_time = fw->ms;
+    d->enc_left = fw->odom.enc_l;
+    d->enc_right = fw->odom.enc_r;
+    d->distance = link_round32(fw_fwd_distance(fw));
+    d->fwd_speed = link_clamp16(0.5f * (fw->odom.v_l + fw->odom.v_r));
+    d->turn_progress = link_round32(fw_turn_angle(fw) * 10.0f);
+    d->heading = heading_deg10(&fw->hdg);
+    d->yaw_rate = link_clamp16(fw->hdg.rate * 10.0f);
+    d->x = fw->odom.x;
+    d->y = fw->odom.y;
+    for (i = 0u; i < 8u; i++) {
+        d->adc[i] = fw->adc[i];
+        d->servo_pos[i] = servo_pos10(&fw->servo[i]);
+    }
+    d->gyro_raw = fw->gyro_raw;
+    d->compass = fw->compass;
+    for (i = 0u; i < 4u; i++) {
+        d->sonar_echo[i] = fw->sonar[i];
+    }
+    d->dio_state = dio_state(&fw->dio);
+    link_datalog(fw, d->mc_datalog);
+    d->rx_good = (uint16_t)st->good;
+    d->rx_bad_crc = (uint16_t)st->bad_crc;
+    d->rx_unknown_type = (uint16_t)st->unknown_type;
+    d->rx_bad_length = (uint16_t)st->bad_length;
+    d->rx_schema_mismatch = l->schema_mismatch;
+    d->rx_dropped_bytes = (uint16_t)st->dropped_bytes;
+    d->cmd_rejected = l->cmd_rejected;
+    d->last_reject = l->last_reject;
+    d->watchdog_stops = fw->watchdog_stops;
+}
+
+/* One micro_data back, whole or not at all. */
+static void link_reply(fw_t *fw)
+{
+    navkit_micro_data_t d;
+    uint8_t buf[NAVKIT_MICRO_DATA_BYTES];
+    size_t n;
+    if (hal_uart_tx_free(fw->hal) < NAVKIT_MICRO_DATA_BYTES) {
+        return;
+    }
+    fw->link.tx_tag++;
+    link_telemetry(fw, &d);
+    n = navkit_micro_data_encode(&d, buf, sizeof buf);
+    hal_uart_write(fw->hal, buf, n);
+}
+
+void link_poll(fw_t *fw)
+{
+    uint8_t chunk[LINK_RX_CHUNK];
+    size_t got;
+    while ((got = hal_uart_read(fw->hal, chunk, sizeof chunk)) > 0u) {
+        const uint8_t *p = chunk;
+        while (got > 0u) {
+            const uint8_t *frame;
+            size_t flen;
+            size_t took = navkit_parser_feed(&fw->link.parser, p, got);
+            p += took;
+            got -= took;
+            while (navkit_parser_next(&fw->link.parser, &frame, &flen)) {
+                if (link_frame(fw, frame, flen)) {
+                    link_reply(fw);
+                }
+            }
+        }
+    }
+}

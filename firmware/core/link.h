@@ -1,0 +1,44 @@
+/* link: the micro link, between control ticks (prefix link_).
+ *
+ * Bytes from hal_uart_read() go through the generated frame parser. Per valid frame:
+ *   - micro_cmd: feeds the watchdog; a new time tag is handled once (executed, or
+ *     refused and counted), a repeated one is not re-executed;
+ *   - micro_cfg_*: feeds the watchdog; applied, or refused (wrong spec_hash: counted in
+ *     rx_schema_mismatch; out of range: counted in cmd_rejected);
+ *   - then one micro_data goes back (if the TX FIFO has room for the whole frame).
+ * A micro_cmd is executed whole or not at all: it is refused (cmd_rejected + 1,
+ * last_reject = the code) while unconfigured, for an unknown or unimplemented fwd_cmd or
+ * turn_cmd, or for a field out of its spec range (last_reject = LINK_REJECT_RANGE).
+ */
+#ifndef NAVKIT_LINK_H
+#define NAVKIT_LINK_H
+
+#include <stdint.h>
+
+#include "navkit/navkit_proto.h"
+
+#define LINK_REJECT_RANGE 0x8000u /* last_reject: a field out of range; | msg_type */
+
+struct fw;
+
+typedef struct {
+    navkit_parser_t parser;  /* frame parser and its counters */
+    uint16_t last_tag;       /* time tag of the last handled micro_cmd */
+    uint16_t ack_tag;        /* time tag of the last executed micro_cmd */
+    uint16_t tx_tag;         /* micro_data sequence number */
+    uint16_t schema_mismatch;/* configs refused for spec_hash */
+    uint16_t cmd_rejected;   /* commands refused */
+    uint16_t last_reject;    /* code of the last refused command */
+    uint16_t mc_datalog;     /* NAVKIT_MC_DATALOG_* selection */
+    uint8_t have_tag;        /* a micro_cmd was handled since reset */
+} link_t;
+
+/* Empty parser, zero counters, no time tag seen. */
+void link_reset(link_t *l);
+/* Drain the UART and handle every complete frame (see the contract in hal.h). */
+void link_poll(struct fw *fw);
+/* Fill d with the current telemetry (what the next micro_data will carry, except its
+ * own time tag). */
+void link_telemetry(const struct fw *fw, navkit_micro_data_t *d);
+
+#endif /* NAVKIT_LINK_H */

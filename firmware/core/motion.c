@@ -1,0 +1,85 @@
+/* motion: one commanded axis with the seed's command rules. See motion.h. */
+#include "motion.h"
+
+#include <math.h>
+
+void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r)
+{
+    profile_init(&m->prof, 1.0f, 1.0f);
+    m->ref_l = enc_l;
+    m->ref_r = enc_r;
+    m->target = 0.0f;
+    m->started = 0u;
+    m->latched = 0u;
+    m->done = 0u;
+    m->limited = 0u;
+}
+
+void motion_start(motion_t *m, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax)
+{
+    /* u: reference position minus measured position, in the old reference's frame */
+    float lead = m->prof.moving ? (m->target - m->prof.togo) - meas : 0.0f;
+    m->ref_l = enc_l;
+    m->ref_r = enc_r;
+    m->target = target;
+    m->prof.togo = 0.0f;
+    profile_retarget(&m->prof, target - lead, vmax, amax);
+    m->started = 1u;
+    m->latched = 0u;
+    m->done = 0u;
+}
+
+motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax)
+{
+    if (!m->started) {
+        return MOTION_NOT_STARTED;
+    }
+    if (m->latched) {
+        return MOTION_LATCHED;
+    }
+    profile_retarget(&m->prof, target - m->target, vmax, amax);
+    m->target = target;
+    m->done = 0u;
+    return MOTION_OK;
+}
+
+void motion_stop(motion_t *m, float amax, float dt)
+{
+    m->latched = 1u;
+    if (!m->started) {
+        return;
+    }
+    /* the new target is where the reference comes to rest */
+    m->target -= m->prof.togo;
+    profile_stop(&m->prof, amax, dt);
+    m->target += m->prof.togo;
+    m->done = 0u;
+}
+
+uint8_t motion_active(const motion_t *m)
+{
+    return (uint8_t)(m->started && (m->prof.moving || !m->done));
+}
+
+float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol,
+                  float dt)
+{
+    float vel;
+    if (!motion_active(m)) {
+        m->limited = 0u;
+        return 0.0f;
+    }
+    m->limited = profile_track(&m->prof, m->target - meas, vel_meas, window, vwindow);
+    if (!m->prof.moving && fabsf(m->target - meas) > tol && fabsf(vel_meas) <= vtol) {
+        /* the reference is on the target but the robot came to rest short of it (or
+           beyond): plan a new short move from where the robot is */
+        m->prof.togo = m->target - meas;
+        m->prof.togo_c = 0.0f;
+        m->prof.moving = 1u;
+    }
+    vel = profile_step(&m->prof, dt);
+    if (!m->prof.moving && fabsf(m->target - meas) <= tol && fabsf(vel_meas) <= vtol) {
+        m->done = 1u;
+    }
+    return vel;
+}

@@ -1,0 +1,58 @@
+/* motion: one commanded axis with the seed's command rules (prefix motion_).
+ *
+ * Used for forward motion (u = mm, measured by encoder distance) and for turning
+ * (u = deg, measured by encoder turn angle). The rules of the seed's "Notes on use of
+ * robot motion control commands":
+ *   start (cmd 1)  : new distance reference here; go to target; clears the stop latch.
+ *   modify (cmd 3) : new limits and/or target, same reference; speeds up, slows down,
+ *                    reverses if the target is now behind, restarts after completion;
+ *                    no effect while the stop latch is set (or before any start).
+ *   stop (cmd 5)   : decelerate at the given rate to rest; sets the stop latch.
+ * Each tick re-plans from the measured state (profile_track) so a plant that cannot
+ * reach the speed still stops at the target.
+ */
+#ifndef NAVKIT_MOTION_H
+#define NAVKIT_MOTION_H
+
+#include <stdint.h>
+
+#include "profile.h"
+
+/* Result of motion_modify(). */
+typedef enum {
+    MOTION_OK = 0,          /* applied */
+    MOTION_LATCHED = 1,     /* ignored: an explicit stop latched the axis */
+    MOTION_NOT_STARTED = 2  /* ignored: no start (cmd 1) since reset */
+} motion_result_t;
+
+typedef struct {
+    profile_t prof;   /* reference profile, u and u/s */
+    int32_t ref_l;    /* counts: left encoder at the reference (cmd 1) */
+    int32_t ref_r;    /* counts: right encoder at the reference */
+    float target;     /* u: target measured from the reference */
+    uint8_t started;  /* a start since reset */
+    uint8_t latched;  /* stop latch */
+    uint8_t done;     /* at rest within tolerance of the target */
+    uint8_t limited;  /* the plant lagged the reference on the last tick */
+} motion_t;
+
+/* Idle, no reference yet (reference counts = the given encoder counts). */
+void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r);
+/* Start (cmd 1): reference = encoder counts enc_l/enc_r (counts); meas (u) is the
+ * measured position relative to the old reference, so the reference keeps its lead and
+ * velocity (no jump). target (u, signed), vmax (u/s, > 0), amax (u/s^2, > 0). */
+void motion_start(motion_t *m, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax);
+/* Modify (cmd 3): new target (u from the original reference), vmax (u/s), amax (u/s^2). */
+motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax);
+/* Stop (cmd 5, or the watchdog): decelerate at amax (u/s^2, > 0) with tick dt (s); latch. */
+void motion_stop(motion_t *m, float amax, float dt);
+/* 1 while the axis wants the wheels driven (moving, or not yet settled on its target). */
+uint8_t motion_active(const motion_t *m);
+/* One tick: meas (u) and vel_meas (u/s) are the measured position from the reference
+ * and velocity; window (u) and vwindow (u/s) bound how far the reference may lead the
+ * measurement; tol (u) and vtol (u/s) define "done"; dt (s). Returns the reference
+ * velocity (u/s). */
+float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol,
+                  float dt);
+
+#endif /* NAVKIT_MOTION_H */

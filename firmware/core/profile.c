@@ -1,0 +1,149 @@
+/* profile: one-axis online trapezoidal velocity profile. See profile.h. */
+#include "profile.h"
+
+#include <math.h>
+
+/* u: below this the reference is on the target */
+#define PROFILE_EPS_POS 1e-4f
+/* The braking curve is planned at (1 - margin) * amax. Following a curve that needs
+   exactly amax is marginally stable in single precision (a rounding error above the
+   curve can only grow once the limit clamps); the margin lets every tick correct it. */
+#define PROFILE_BRAKE_MARGIN 2e-3f
+
+/* Largest speed (u/s, >= 0) from which decelerating by dv per tick, one tick at a time
+ * of dt, covers exactly d (u, >= 0): the terms are r, r+dv, ..., r+(m-1)dv with
+ * 0 < r <= dv and their sum times dt equal to d. */
+static float profile_brake_speed(float d, float dv, float dt)
+{
+    float s, m, r;
+    if (d <= 0.0f) {
+        return 0.0f;
+    }
+    s = d / dt; /* u/s: sum of the speed terms */
+    /* smallest whole m with dv*m*(m+1)/2 >= s */
+    m = ceilf((sqrtf(1.0f + 8.0f * s / dv) - 1.0f) * 0.5f);
+    if (m < 1.0f) {
+        m = 1.0f;
+    }
+    r = (s - dv * m * (m - 1.0f) * 0.5f) / m;
+    /* the square root is rounded: m may be one off either way */
+    if (r > dv) {
+        m += 1.0f;
+        r = (s - dv * m * (m - 1.0f) * 0.5f) / m;
+    } else if (r <= 0.0f && m > 1.0f) {
+        m -= 1.0f;
+        r = (s - dv * m * (m - 1.0f) * 0.5f) / m;
+    }
+    if (r < 0.0f) {
+        r = 0.0f;
+    } else if (r > dv) {
+        r = dv;
+    }
+    return r + (m - 1.0f) * dv;
+}
+
+void profile_init(profile_t *p, float vmax, float amax)
+{
+    p->togo = 0.0f;
+    p->togo_c = 0.0f;
+    p->vel = 0.0f;
+    p->vmax = vmax;
+    p->amax = amax;
+    p->moving = 0u;
+}
+
+void profile_retarget(profile_t *p, float delta, float vmax, float amax)
+{
+    p->togo += delta;
+    p->vmax = vmax;
+    p->amax = amax;
+    p->moving = 1u;
+}
+
+float profile_stop_distance(float v, float amax, float dt)
+{
+    float dv = amax * dt;
+    float u = fabsf(v);
+    float n;
+    if (u <= dv) {
+        return 0.0f;
+    }
+    /* terms u-dv, u-2dv, ..., u-n*dv, all > 0 */
+    n = ceilf(u / dv) - 1.0f;
+    return dt * (n * u - dv * n * (n + 1.0f) * 0.5f);
+}
+
+void profile_stop(profile_t *p, float amax, float dt)
+{
+    float d = profile_stop_distance(p->vel, amax, dt);
+    p->amax = amax;
+    p->togo = (p->vel < 0.0f) ? -d : d;
+    p->togo_c = 0.0f;
+    p->moving = 1u;
+}
+
+uint8_t profile_track(profile_t *p, float togo_meas, float vel_meas, float window, float vwindow)
+{
+    float lead = togo_meas - p->togo; /* u: how far the reference is ahead of the robot */
+    if (lead > window) {
+        p->togo = togo_meas - window;
+    } else if (lead < -window) {
+        p->togo = togo_meas + window;
+    } else {
+        return 0u;
+    }
+    p->togo_c = 0.0f;
+    if (p->vel > vel_meas + vwindow) {
+        p->vel = vel_meas + vwindow;
+    } else if (p->vel < vel_meas - vwindow) {
+        p->vel = vel_meas - vwindow;
+    }
+    p->moving = 1u;
+    return 1u;
+}
+
+float profile_step(profile_t *p, float dt)
+{
+    float dv = p->amax * dt; /* u/s: the most the velocity may change this tick */
+    float dir, u, goal, brake, reach;
+
+    if (!p->moving) {
+        return 0.0f;
+    }
+    if (fabsf(p->togo) <= PROFILE_EPS_POS && fabsf(p->vel) <= dv) {
+        p->togo = 0.0f;
+        p->togo_c = 0.0f;
+        p->vel = 0.0f;
+        p->moving = 0u;
+        return 0.0f;
+    }
+    /* work in the direction of the target: u = speed toward it */
+    dir = (p->togo > 0.0f || (p->togo == 0.0f && p->vel > 0.0f)) ? 1.0f : -1.0f;
+    u = p->vel * dir;
+    goal = p->vmax;
+    /* the braking curve can only bind within (v + dv)^2 / (2 amax) of the target, v the
+       larger of vmax and the present speed: skip its square root while far away */
+    reach = ((p->vmax > fabsf(u)) ? p->vmax : fabsf(u)) + dv;
+    if (fabsf(p->togo) * 2.0f * p->amax * (1.0f - PROFILE_BRAKE_MARGIN) < reach * reach) {
+        brake = profile_brake_speed(fabsf(p->togo), dv * (1.0f - PROFILE_BRAKE_MARGIN), dt);
+        if (brake < goal) {
+            goal = brake;
+        }
+    }
+    if (goal > u + dv) {
+        u += dv;
+    } else if (goal < u - dv) {
+        u -= dv;
+    } else {
+        u = goal;
+    }
+    p->vel = u * dir;
+    {
+        /* togo -= vel*dt, compensated so thousands of ticks add no drift */
+        float y = -p->vel * dt - p->togo_c;
+        float t = p->togo + y;
+        p->togo_c = (t - p->togo) - y;
+        p->togo = t;
+    }
+    return p->vel;
+}

@@ -1,0 +1,46 @@
+/* profile: one-axis online trapezoidal velocity profile (prefix profile_).
+ *
+ * Units are the caller's: "u" is mm for forward motion and deg for turning. The state
+ * is the distance still to go (togo, u) and the reference velocity (vel, u/s), both
+ * signed toward +target. Keeping togo instead of an absolute position keeps single
+ * precision exact where it matters, near the target.
+ *
+ * Each tick the profile re-plans from its state (and, through profile_track(), from
+ * the measured state): it accelerates at most amax toward min(vmax, braking speed),
+ * where the braking speed is the exact discrete-time speed from which decelerating by
+ * amax*dt per tick covers togo exactly (no truncation, no overshoot).
+ */
+#ifndef NAVKIT_PROFILE_H
+#define NAVKIT_PROFILE_H
+
+#include <stdint.h>
+
+typedef struct {
+    float togo;  /* u: reference distance still to go, + toward the target */
+    float togo_c; /* u: compensation of togo's rounding (Kahan summation) */
+    float vel;   /* u/s: reference velocity (+ = toward larger positions) */
+    float vmax;  /* u/s: cruise limit, > 0 */
+    float amax;  /* u/s^2: acceleration and deceleration limit, > 0 */
+    uint8_t moving; /* 1 while the reference moves or has not reached the target */
+} profile_t;
+
+/* At rest on the target, with limits vmax (u/s) and amax (u/s^2). */
+void profile_init(profile_t *p, float vmax, float amax);
+/* Move the target by delta (u) and set new limits vmax (u/s) and amax (u/s^2), both > 0;
+ * the reference position and velocity are kept (no jump). */
+void profile_retarget(profile_t *p, float delta, float vmax, float amax);
+/* Stop: decelerate at amax (u/s^2, > 0) and put the target exactly where that stop
+ * ends for tick dt (s). */
+void profile_stop(profile_t *p, float amax, float dt);
+/* Distance (u, >= 0) the profile covers while stopping from speed v (u/s) at amax
+ * (u/s^2, > 0) with tick dt (s): the exact discrete sum, not truncated. */
+float profile_stop_distance(float v, float amax, float dt);
+/* Re-plan from the measured state: togo_meas (u) is the measured distance to go and
+ * vel_meas (u/s) the measured velocity. If the reference is more than window (u) away
+ * from the measurement it is pulled to the window edge and its velocity to within
+ * vwindow (u/s) of vel_meas. Returns 1 if it had to pull (the plant lags). */
+uint8_t profile_track(profile_t *p, float togo_meas, float vel_meas, float window, float vwindow);
+/* Advance one tick of dt (s); returns the new reference velocity (u/s). */
+float profile_step(profile_t *p, float dt);
+
+#endif /* NAVKIT_PROFILE_H */

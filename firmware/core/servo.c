@@ -1,0 +1,90 @@
+/* servo: RC servo GoTo and Scan. See servo.h. */
+#include "servo.h"
+
+static int16_t servo_clamp(const servo_cal_t *cal, int16_t a10)
+{
+    if (a10 < cal->min10) {
+        return cal->min10;
+    }
+    if (a10 > cal->max10) {
+        return cal->max10;
+    }
+    return a10;
+}
+
+void servo_reset(servo_t *s)
+{
+    s->pos = 0;
+    s->goal = 0;
+    s->right = 0;
+    s->left = 0;
+    s->rate = 0u;
+    s->mode = SERVO_OFF;
+}
+
+uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2)
+{
+    if (p0 <= 0) {
+        return 0u;
+    }
+    s->rate = (uint16_t)p0;
+    if (p2 == SERVO_GOTO_FLAG) {
+        s->goal = servo_clamp(cal, p1);
+        s->mode = SERVO_GOTO;
+    } else {
+        s->right = servo_clamp(cal, p1);
+        s->left = servo_clamp(cal, p2);
+        s->goal = s->right;
+        s->mode = SERVO_SCAN;
+    }
+    return 1u;
+}
+
+void servo_hold(servo_t *s)
+{
+    if (s->mode != SERVO_OFF) {
+        s->mode = SERVO_HOLD;
+    }
+}
+
+void servo_step(servo_t *s, const servo_cal_t *cal, uint16_t rate_hz)
+{
+    int32_t goal, step;
+    if (s->mode != SERVO_GOTO && s->mode != SERVO_SCAN) {
+        return;
+    }
+    goal = (int32_t)servo_clamp(cal, s->goal) * 1000L;
+    step = (int32_t)s->rate * 1000L / (int32_t)rate_hz; /* 1e-4 deg per tick */
+    if (step < 1) {
+        step = 1;
+    }
+    if (s->pos < goal) {
+        s->pos = (goal - s->pos > step) ? s->pos + step : goal;
+    } else if (s->pos > goal) {
+        s->pos = (s->pos - goal > step) ? s->pos - step : goal;
+    }
+    if (s->pos == goal) {
+        if (s->mode == SERVO_GOTO) {
+            s->mode = SERVO_HOLD;
+        } else if (s->left != s->right) {
+            s->goal = (s->goal == s->right) ? s->left : s->right;
+        }
+    }
+}
+
+int16_t servo_pos10(const servo_t *s)
+{
+    int32_t p = s->pos;
+    return (int16_t)((p >= 0) ? (p + 500L) / 1000L : (p - 500L) / 1000L);
+}
+
+uint16_t servo_pulse_us(const servo_t *s, const servo_cal_t *cal)
+{
+    int32_t us;
+    if (s->mode == SERVO_OFF) {
+        return 0u;
+    }
+    /* deg*10 * (0.01 us/deg) / 1000 = us */
+    us = (int32_t)cal->center_us + ((int32_t)servo_pos10(s) * (int32_t)cal->us_per_deg_e2) / 1000L;
+    return (us < 0) ? 0u : (uint16_t)us;
+}

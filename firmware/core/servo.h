@@ -1,0 +1,54 @@
+/* servo: RC servo GoTo and Scan (prefix servo_).
+ *
+ * Angles are deg*10, + clockwise (right). GoTo (param2 = 9999) moves to param1 at rate
+ * param0; Scan moves back and forth between param1 (right limit) and param2 (left limit)
+ * at rate param0, going to param1 first. param0 = 0 means no command. Every angle is
+ * clamped to the servo's calibrated travel [min, max]. A servo is not driven (pulse 0)
+ * until its first command, and starts from 0 deg.
+ */
+#ifndef NAVKIT_SERVO_H
+#define NAVKIT_SERVO_H
+
+#include <stdint.h>
+
+#define SERVO_COUNT 8u
+#define SERVO_GOTO_FLAG 9999 /* param2 value that selects GoTo */
+
+typedef enum {
+    SERVO_OFF = 0,  /* not driven */
+    SERVO_HOLD = 1, /* driven, standing at pos */
+    SERVO_GOTO = 2, /* moving to goal, then HOLD */
+    SERVO_SCAN = 3  /* moving between left and right */
+} servo_mode_t;
+
+typedef struct {
+    uint16_t center_us;      /* us: pulse at 0 deg */
+    uint16_t us_per_deg_e2;  /* 0.01 us/deg: pulse change per deg, + clockwise */
+    int16_t min10;           /* deg*10: left travel limit */
+    int16_t max10;           /* deg*10: right travel limit */
+} servo_cal_t;
+
+typedef struct {
+    int32_t pos;     /* deg*10 * 1000: position (1e-4 deg) */
+    int16_t goal;    /* deg*10: where it is moving now */
+    int16_t right;   /* deg*10: scan right limit (param1) */
+    int16_t left;    /* deg*10: scan left limit (param2) */
+    uint16_t rate;   /* deg*10/s */
+    uint8_t mode;    /* servo_mode_t */
+} servo_t;
+
+/* Not driven, at 0 deg. */
+void servo_reset(servo_t *s);
+/* Apply one command: p0 rate (deg*10/s, 0 = no command, must be >= 0), p1 and p2 as in
+ * the seed. Returns 1 if a command was taken, 0 for "no command". */
+uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2);
+/* Stop where it is (watchdog); a servo not yet driven stays off. */
+void servo_hold(servo_t *s);
+/* One tick at rate_hz (Hz): move toward the goal. */
+void servo_step(servo_t *s, const servo_cal_t *cal, uint16_t rate_hz);
+/* Position, deg*10. */
+int16_t servo_pos10(const servo_t *s);
+/* Pulse width, us; 0 when not driven. */
+uint16_t servo_pulse_us(const servo_t *s, const servo_cal_t *cal);
+
+#endif /* NAVKIT_SERVO_H */

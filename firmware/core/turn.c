@@ -1,0 +1,77 @@
+/* turn: encoder turns and HdgSel. See turn.h. */
+#include "turn.h"
+
+#include <math.h>
+
+#include "heading.h"
+
+#define TURN_HDG_MIN_RATE 0.5f /* deg/s: HdgSel rate floor so the P law arrives */
+
+void turn_reset(turn_t *t, int32_t enc_l, int32_t enc_r)
+{
+    motion_reset(&t->ax, enc_l, enc_r);
+    t->hdg_target = 0.0f;
+    t->hdg_rate = 0.0f;
+    t->hdg = 0u;
+    t->hdg_reached = 0u;
+}
+
+void turn_start(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax)
+{
+    t->hdg = 0u;
+    t->hdg_reached = 0u;
+    motion_start(&t->ax, enc_l, enc_r, meas, target, vmax, amax);
+}
+
+motion_result_t turn_modify(turn_t *t, float target, float vmax, float amax)
+{
+    if (t->hdg) {
+        return MOTION_NOT_STARTED;
+    }
+    return motion_modify(&t->ax, target, vmax, amax);
+}
+
+void turn_stop(turn_t *t, float amax, float dt)
+{
+    t->hdg = 0u;
+    t->hdg_reached = 0u;
+    motion_stop(&t->ax, amax, dt);
+}
+
+void turn_hdg_select(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float hdg, float heading_now, float vmax,
+                     float amax)
+{
+    float h = hdg - 360.0f * floorf(hdg / 360.0f);
+    motion_start(&t->ax, enc_l, enc_r, meas, heading_wrap180(h - heading_now), vmax, amax);
+    t->hdg_target = h;
+    t->hdg_rate = vmax;
+    t->hdg = 1u;
+    t->hdg_reached = 0u;
+}
+
+uint8_t turn_active(const turn_t *t)
+{
+    return (uint8_t)(t->hdg || motion_active(&t->ax));
+}
+
+float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, float window, float vwindow,
+                float tol, float vtol, float dt)
+{
+    if (t->hdg) {
+        /* re-aim the axis at the gyro heading every tick: target = here + heading error */
+        float err = heading_wrap180(t->hdg_target - heading_now);
+        float target = meas + err;
+        float vmax = kp * fabsf(err);
+        if (vmax > t->hdg_rate) {
+            vmax = t->hdg_rate;
+        }
+        if (vmax < TURN_HDG_MIN_RATE) {
+            vmax = TURN_HDG_MIN_RATE;
+        }
+        profile_retarget(&t->ax.prof, target - t->ax.target, vmax, t->ax.prof.amax);
+        t->ax.target = target;
+        t->ax.done = 0u;
+        t->hdg_reached = (uint8_t)(fabsf(err) <= tol && fabsf(vel_meas) <= vtol);
+    }
+    return motion_tick(&t->ax, meas, vel_meas, window, vwindow, tol, vtol, dt);
+}

@@ -1,0 +1,49 @@
+/* turn: turning by encoder degrees (cmd 1/3/5) and HdgSel to a gyro heading (cmd 10)
+ * (prefix turn_).
+ *
+ * Angles are deg, clockwise positive looking down, also when reversing. The turn rate
+ * is added to the forward motion as a wheel-speed difference, so a robot that is not
+ * moving forward pivots in place. HdgSel keeps steering to its heading (heading hold)
+ * until a turn stop or a new turn start; it is "reached" within tolerance.
+ */
+#ifndef NAVKIT_TURN_H
+#define NAVKIT_TURN_H
+
+#include <stdint.h>
+
+#include "motion.h"
+
+typedef struct {
+    motion_t ax;        /* the turn axis, deg from the turn reference */
+    float hdg_target;   /* deg, 0..360: HdgSel heading */
+    float hdg_rate;     /* deg/s: HdgSel rate limit */
+    uint8_t hdg;        /* 1 while HdgSel steers */
+    uint8_t hdg_reached;/* 1 while HdgSel is within tolerance and at rest */
+} turn_t;
+
+/* Idle, no reference (reference counts = enc_l/enc_r, counts). */
+void turn_reset(turn_t *t, int32_t enc_l, int32_t enc_r);
+/* Turn 1: new reference at enc_l/enc_r (counts); meas (deg) is the turn angle from the
+ * old reference; target (deg, + clockwise), vmax (deg/s), amax (deg/s^2). */
+void turn_start(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax);
+/* Turn 3: new target (deg from the turn-1 reference), vmax (deg/s), amax (deg/s^2).
+ * MOTION_NOT_STARTED while HdgSel steers (there is no turn 1 to modify). */
+motion_result_t turn_modify(turn_t *t, float target, float vmax, float amax);
+/* Turn 5 (or the watchdog): decelerate at amax (deg/s^2) with tick dt (s); latch; ends
+ * HdgSel. */
+void turn_stop(turn_t *t, float amax, float dt);
+/* HdgSel: new reference at enc_l/enc_r (counts), meas (deg) as in turn_start; steer the
+ * shortest way to heading hdg (deg, any value, wrapped) from the current heading
+ * heading_now (deg); vmax (deg/s), amax (deg/s^2). */
+void turn_hdg_select(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float hdg, float heading_now, float vmax,
+                     float amax);
+/* 1 while the turn wants the wheels driven. */
+uint8_t turn_active(const turn_t *t);
+/* One tick: meas (deg) turn angle from the reference, vel_meas (deg/s) measured turn
+ * rate, heading_now (deg) gyro heading, kp ((deg/s)/deg) HdgSel gain, window (deg) and
+ * vwindow (deg/s) re-plan window, tol (deg) and vtol (deg/s) "done" limits, dt (s).
+ * Returns the reference turn rate (deg/s, clockwise). */
+float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, float window, float vwindow,
+                float tol, float vtol, float dt);
+
+#endif /* NAVKIT_TURN_H */

@@ -1,0 +1,426 @@
+/* Whole-firmware tests through the link: frames in through the UART wires, a simple
+ * wheel plant (sim_hal) closing the loop, micro_data out. */
+#include <string.h>
+
+#include "check.h"
+#include "sim_hal.h"
+
+static fw_t fw;
+static struct hal h;
+
+static void boot(void)
+{
+    sim_init(&h);
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100); /* gyro calibration */
+}
+
+/* The host: repeat command c (same time tag) every 100 ms for `seconds`. */
+static void host_run(const navkit_micro_cmd_t *c, double seconds)
+{
+    long frames = (long)(seconds * 10.0 + 0.5), f;
+    for (f = 0; f < frames; f++) {
+        sim_cmd(&fw, &h, c);
+        sim_run(&fw, &h, 100);
+    }
+}
+
+static navkit_micro_data_t data(void)
+{
+    navkit_micro_data_t d;
+    memset(&d, 0, sizeof d);
+    CHECK(sim_last_data(&h, &d));
+    return d;
+}
+
+static uint16_t tag = 100;
+
+static navkit_micro_cmd_t cmd(void)
+{
+    navkit_micro_cmd_t c;
+    sim_cmd_init(&c, ++tag);
+    return c;
+}
+
+static void test_unconfigured(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    navkit_micro_cfg_geometry_t g;
+    uint8_t buf[64];
+    boot();
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.distance = 1000;
+    host_run(&c, 0.5);
+    d = data();
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_CONFIGURED));
+    CHECK(d.cmd_rejected == 1 && d.last_reject == 1);
+    CHECK(h.duty_l == 0 && h.duty_r == 0 && h.dist_mm == 0.0);
+    CHECK(d.spec_hash == NAVKIT_SPEC_HASH && d.fw_version == FW_VERSION);
+    CHECK(d.rx_good == 5);
+    /* a config from another spec is refused and counted */
+    navkit_micro_cfg_geometry_defaults(&g);
+    g.spec_hash = 0x12345678u;
+    h.tx_len = 0;
+    sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+    fw_link_poll(&fw);
+    d = data();
+    CHECK(d.rx_schema_mismatch == 1);
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK));
+    /* the three configs: configured */
+    sim_configure(&fw, &h);
+    d = data();
+    CHECK(d.status & NAVKIT_MICRO_STATUS_CONFIGURED);
+    CHECK(h.tx_len == 3u * NAVKIT_MICRO_DATA_BYTES); /* one micro_data per frame */
+    /* reset: unconfigured again */
+    fw_init(&fw, &h);
+    sim_cmd(&fw, &h, &c);
+    d = data();
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_CONFIGURED));
+}
+
+static void test_forward_move(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    double peak = 0.0;
+    int i;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = -200; /* sign ignored */
+    c.distance = 1000;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_FWD_PROFILE;
+    for (i = 0; i < 75; i++) {
+        host_run(&c, 0.1);
+        d = data();
+        if (d.fwd_speed > peak) {
+            peak = d.fwd_speed;
+        }
+        if (i == 10) {
+            CHECK(d.mc_datalog[0] > 150); /* reference speed while accelerating (default 300 mm/s^2) */
+        }
+    }
+    d = data();
+    CHECK_NEAR(peak, 200.0, 15.0);
+    CHECK_NEAR(h.dist_mm, 1000.0, 5.0);
+    CHECK_NEAR(d.distance, 1000.0, 5.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_DONE);
+    CHECK_NEAR(d.x, 1000.0, 6.0);
+    CHECK_NEAR(d.y, 0.0, 3.0);
+    CHECK(d.ack_time_tag == c.time_tag);
+    /* a repeated tag is not re-executed: same frame with a changed distance does nothing */
+    c.distance = 200;
+    host_run(&c, 1.0);
+    CHECK_NEAR(h.dist_mm, 1000.0, 5.0);
+    /* restart after completion: modify to 1300 from the same reference */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    c.speed = 200;
+    c.distance = 1300;
+    host_run(&c, 3.0);
+    d = data();
+    CHECK_NEAR(h.dist_mm, 1300.0, 5.0);
+    CHECK_NEAR(d.distance, 1300.0, 5.0);
+}
+
+static void test_modify_reverse(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    double far = 0.0;
+    int i;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 300;
+    c.accel = 500;
+    c.distance = 3000;
+    host_run(&c, 2.0);
+    d = data();
+    CHECK_NEAR(d.fwd_speed, 300.0, 20.0);
+    /* slow down */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    c.speed = 100;
+    c.accel = 500;
+    c.distance = 3000;
+    host_run(&c, 1.0);
+    d = data();
+    CHECK_NEAR(d.fwd_speed, 100.0, 15.0);
+    /* target behind: brake, back up to 200 (reference of the original start) */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    c.speed = 200;
+    c.accel = 500;
+    c.distance = 200;
+    for (i = 0; i < 100; i++) {
+        host_run(&c, 0.1);
+        if (h.dist_mm > far) {
+            far = h.dist_mm;
+        }
+    }
+    d = data();
+    CHECK(far > 600.0);
+    CHECK_NEAR(h.dist_mm, 200.0, 5.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_DONE);
+}
+
+static void test_stop_latch(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    double at_stop;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 300;
+    c.distance = 2000000000; /* forever */
+    host_run(&c, 3.0);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_STOP;
+    c.accel = 600;
+    host_run(&c, 0.1);
+    at_stop = h.dist_mm;
+    host_run(&c, 1.5);
+    d = data();
+    /* v^2/2a = 75 mm from 300 mm/s at 600 mm/s^2 */
+    CHECK_NEAR(h.dist_mm - at_stop, 75.0 - 0.1 * 300.0 + 0.5 * 600.0 * 0.01, 15.0);
+    CHECK(d.fwd_speed == 0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_STOP_LATCHED);
+    at_stop = h.dist_mm;
+    /* modify after a stop: no effect */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    c.speed = 300;
+    c.distance = 2000000000;
+    host_run(&c, 1.0);
+    CHECK_NEAR(h.dist_mm, at_stop, 2.0);
+    /* a new start moves again, from a new reference */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = -300;
+    host_run(&c, 4.0);
+    d = data();
+    CHECK_NEAR(h.dist_mm, at_stop - 300.0, 5.0);
+    CHECK_NEAR(d.distance, -300.0, 5.0);
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_FWD_STOP_LATCHED));
+}
+
+static void test_speed_limited_plant(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    int i, limited = 0;
+    boot();
+    sim_configure(&fw, &h);
+    h.speed_cap = 150.0; /* deep rug: cannot reach 400 mm/s */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 400;
+    c.distance = 1500;
+    for (i = 0; i < 150; i++) {
+        host_run(&c, 0.1);
+        d = data();
+        if (d.status & NAVKIT_MICRO_STATUS_SPEED_LIMITED) {
+            limited++;
+        }
+    }
+    d = data();
+    CHECK(limited > 10);
+    CHECK_NEAR(h.dist_mm, 1500.0, 5.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_DONE);
+}
+
+static void test_turns(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    boot();
+    h.gyro_bias = 25; /* estimated during the start-up calibration */
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100);
+    sim_configure(&fw, &h);
+    /* pivot 90 deg clockwise */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 450;
+    c.turn_distance = 900;
+    host_run(&c, 4.0);
+    d = data();
+    CHECK_NEAR(h.yaw_deg, 90.0, 2.0);
+    CHECK_NEAR(h.dist_mm, 0.0, 3.0);
+    CHECK_NEAR(d.turn_progress, 900.0, 20.0);
+    CHECK_NEAR(d.heading, 900.0, 20.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_DONE);
+    /* backing up while turning clockwise: still clockwise */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 150;
+    c.distance = -600;
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 200;
+    c.turn_distance = 450;
+    host_run(&c, 6.0);
+    d = data();
+    CHECK_NEAR(h.yaw_deg, 135.0, 2.0);
+    CHECK_NEAR(d.distance, -600.0, 5.0);
+    /* HdgSel across 0/360: set the heading to 350, select 10 -> 20 deg clockwise */
+    c = cmd();
+    c.dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
+    c.dg_set = 3500;
+    c.x_set = 1000;
+    c.y_set = -2000;
+    host_run(&c, 0.2);
+    d = data();
+    CHECK_NEAR(d.heading, 3500.0, 2.0);
+    CHECK(d.x == 1000 && d.y == -2000);
+    {
+        double yaw0 = h.yaw_deg;
+        c = cmd();
+        c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+        c.turn_rate = 300;
+        c.turn_distance = 100;
+        host_run(&c, 4.0);
+        d = data();
+        CHECK_NEAR(h.yaw_deg - yaw0, 20.0, 1.0);
+        CHECK_NEAR(d.heading, 100.0, 10.0);
+        CHECK(d.status & NAVKIT_MICRO_STATUS_HDG_ACTIVE);
+        CHECK(d.status & NAVKIT_MICRO_STATUS_HDG_HOLD);
+        /* and back the short way: 10 -> 300 is 70 deg counter-clockwise */
+        c = cmd();
+        c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+        c.turn_rate = 300;
+        c.turn_distance = -600; /* -60 = 300 */
+        host_run(&c, 5.0);
+        d = data();
+        CHECK_NEAR(h.yaw_deg - yaw0, 20.0 - 70.0, 1.5);
+        CHECK_NEAR(d.heading, 3000.0, 15.0);
+    }
+    /* unimplemented turn codes are refused whole */
+    {
+        static const uint16_t codes[] = {13, 15, 20, 23, 25, 7};
+        unsigned k;
+        for (k = 0; k < sizeof codes / sizeof codes[0]; k++) {
+            uint16_t before = data().cmd_rejected;
+            double dist0 = h.dist_mm;
+            c = cmd();
+            c.fwd_cmd = NAVKIT_FWD_CMD_START; /* not half-done either */
+            c.distance = 500;
+            c.turn_cmd = codes[k];
+            host_run(&c, 0.5);
+            d = data();
+            CHECK(d.cmd_rejected == before + 1 && d.last_reject == codes[k]);
+            CHECK_NEAR(h.dist_mm, dist0, 1.0);
+        }
+    }
+    /* forward codes outside 0/1/3/5 too */
+    c = cmd();
+    c.fwd_cmd = 2;
+    host_run(&c, 0.1);
+    CHECK(data().last_reject == 2);
+}
+
+static void test_watchdog_stop(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    double at_trip;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 300;
+    c.distance = 2000000000;
+    c.dio_command = 0x00F0;
+    c.rc3_param0 = 100; /* scan servo 3 at 10 deg/s */
+    c.rc3_param1 = 300;
+    c.rc3_param2 = -300;
+    host_run(&c, 2.0);
+    CHECK(h.dio_out == 0x00F0);
+    /* the host goes silent (its last frame came 100 ticks ago) */
+    sim_run(&fw, &h, 198);
+    CHECK(!(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
+    sim_run(&fw, &h, 2);
+    CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    CHECK(h.dio_out == 0x0000); /* safe state */
+    at_trip = h.dist_mm;
+    {
+        uint16_t pulse = h.servo_us[3];
+        sim_run(&fw, &h, 2000);
+        CHECK(h.servo_us[3] == pulse); /* servo holds */
+    }
+    /* 300 mm/s at 500 mm/s^2: ~90 mm */
+    CHECK_NEAR(h.dist_mm - at_trip, 90.0, 20.0);
+    CHECK_NEAR(h.v_l, 0.0, 1.0);
+    /* the old command repeated, and a modify: no resume */
+    c.distance = 2000000001;
+    host_run(&c, 0.5);
+    {
+        navkit_micro_cmd_t m = cmd();
+        m.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+        m.speed = 300;
+        m.distance = 2000000000;
+        host_run(&m, 1.0);
+    }
+    d = data();
+    CHECK_NEAR(h.v_l, 0.0, 1.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    CHECK(d.watchdog_stops == 1);
+    /* a new start resumes and clears the flag */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 100;
+    c.distance = 100;
+    host_run(&c, 2.0);
+    d = data();
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
+    CHECK_NEAR(d.distance, 100.0, 5.0);
+}
+
+static void test_servo_dio_sensors(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    boot();
+    sim_configure(&fw, &h);
+    h.dio_in = 0x0F00;
+    h.adc[0] = 512;
+    h.adc[4] = 800;
+    h.sonar[2] = 5800;
+    h.compass = 1234;
+    c = cmd();
+    c.rc2_param0 = 1000; /* seed example: servo 2 to 30 deg at 100 deg/s */
+    c.rc2_param1 = 300;
+    c.rc2_param2 = 9999;
+    c.rc5_param0 = 0; /* no command: servo 5 stays undriven */
+    c.rc5_param1 = 300;
+    c.rc5_param2 = 9999;
+    c.dio_command = 0x0FF9;
+    host_run(&c, 0.5);
+    d = data();
+    CHECK(h.servo_us[2] == 1800u);
+    CHECK(d.servo_pos[2] == 300);
+    CHECK(h.servo_us[5] == 0u);
+    CHECK(h.dio_dir == 0x00FF && h.dio_out == 0x00F9);
+    CHECK(d.dio_state == 0x0FF9);
+    CHECK(d.adc[0] == 512 && d.adc[4] == 800 && d.sonar_echo[2] == 5800 && d.compass == 1234);
+}
+
+int main(void)
+{
+    test_unconfigured();
+    test_forward_move();
+    test_modify_reverse();
+    test_stop_latch();
+    test_speed_limited_plant();
+    test_turns();
+    test_watchdog_stop();
+    test_servo_dio_sensors();
+    CHECK_DONE();
+}

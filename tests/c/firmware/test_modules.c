@@ -1,0 +1,379 @@
+/* Unit tests of the firmware modules one by one: heading, odom, wheel, servo, dio,
+ * watchdog, motion rules, config. */
+#include <string.h>
+
+#include "check.h"
+#include "config.h"
+#include "dio.h"
+#include "heading.h"
+#include "motion.h"
+#include "odom.h"
+#include "servo.h"
+#include "turn.h"
+#include "watchdog.h"
+#include "wheel.h"
+
+static void test_wrap(void)
+{
+    CHECK_NEAR(heading_wrap180(10.0f - 350.0f), 20.0, 1e-4);  /* 350 -> 10: 20 clockwise */
+    CHECK_NEAR(heading_wrap180(350.0f - 10.0f), -20.0, 1e-4); /* 10 -> 350: 20 counter-clockwise */
+    CHECK_NEAR(heading_wrap180(0.0f - 359.9f), 0.1, 1e-3);
+    CHECK_NEAR(heading_wrap180(360.0f - 0.0f), 0.0, 1e-4);
+    CHECK_NEAR(heading_wrap180(-360.0f + 90.0f), 90.0, 1e-4);
+    CHECK_NEAR(heading_wrap180(179.0f), 179.0, 1e-4);
+    CHECK_NEAR(heading_wrap180(181.0f), -179.0, 1e-4);
+}
+
+static void test_heading(void)
+{
+    heading_t h;
+    int i;
+    float dps = -1.0f / 131.0f; /* default: CCW-positive gyro, 131 LSB per deg/s */
+    heading_reset(&h);
+    /* 1 s of standstill with a bias of 50 LSB: calibrated */
+    for (i = 0; i < 1000; i++) {
+        heading_update(&h, 50, dps, 1u, 1000u, 0.001f);
+    }
+    CHECK(!h.calibrating);
+    CHECK_NEAR(h.bias, 50.0, 1e-3);
+    /* turn clockwise at 90 deg/s for 1 s (gyro reads -90*131 + bias) */
+    for (i = 0; i < 1000; i++) {
+        heading_update(&h, (int16_t)(50 - 90 * 131), dps, 0u, 1000u, 0.001f);
+    }
+    CHECK_NEAR(heading_deg(&h), 90.0, 0.01);
+    CHECK(heading_deg10(&h) == 900u);
+    /* counter-clockwise 100 deg: wraps through 0 to 350 */
+    for (i = 0; i < 1000; i++) {
+        heading_update(&h, (int16_t)(50 + 100 * 131), dps, 0u, 1000u, 0.001f);
+    }
+    CHECK_NEAR(heading_deg(&h), 350.0, 0.01);
+    CHECK(heading_deg10(&h) == 3500u);
+    /* standstill bias tracking: the bias moves to 60, the heading does not drift */
+    for (i = 0; i < 20000; i++) {
+        heading_update(&h, 60, dps, 1u, 1000u, 0.001f);
+    }
+    CHECK_NEAR(h.bias, 60.0, 0.1);
+    CHECK_NEAR(heading_deg(&h), 350.0, 0.01);
+    /* compass fusion pulls the shortest way across 0/360 */
+    heading_set(&h, 355.0f);
+    for (i = 0; i < 5000; i++) {
+        heading_fuse(&h, 50u, 1.0f, 0.001f); /* compass 5.0 deg */
+    }
+    CHECK(heading_deg(&h) < 10.0f && heading_deg(&h) > 4.0f);
+    heading_set(&h, -90.0f);
+    CHECK(heading_deg10(&h) == 2700u);
+    heading_set(&h, 359.99f);
+    CHECK(heading_deg10(&h) == 0u); /* rounds to 3600 -> 0, never 3600 */
+}
+
+static void test_heading_moving_calibration(void)
+{
+    heading_t h;
+    heading_reset(&h);
+    heading_update(&h, 40, -1.0f / 131.0f, 1u, 1000u, 0.001f);
+    heading_update(&h, 40, -1.0f / 131.0f, 0u, 1000u, 0.001f); /* moves: calibration ends early */
+    CHECK(!h.calibrating);
+    CHECK_NEAR(h.bias, 40.0, 1e-4);
+}
+
+static void test_odom(void)
+{
+    odom_t o;
+    float mpc = 0.5f;
+    int i;
+    odom_reset(&o);
+    odom_update(&o, 1000, -1000, 1, -1, mpc, 0.0f, 0.001f); /* primes only */
+    CHECK(o.enc_l == 0 && o.enc_r == 0);
+    /* straight at heading 0: +X */
+    for (i = 1; i <= 100; i++) {
+        odom_update(&o, 1000 + i * 2, -1000 - i * 2, 1, -1, mpc, 0.0f, 0.001f);
+    }
+    CHECK(o.enc_l == 200 && o.enc_r == 200);
+    CHECK_NEAR(odom_distance(&o, 0, 0, mpc), 100.0, 1e-4);
+    CHECK(o.x == 100 && o.y == 0);
+    CHECK_NEAR(o.v_l, 1000.0, 1.0); /* 2 counts * 0.5 mm per ms */
+    /* heading 90 (clockwise = right): -Y */
+    for (i = 101; i <= 200; i++) {
+        odom_update(&o, 1000 + i * 2, -1000 - i * 2, 1, -1, mpc, 90.0f, 0.001f);
+    }
+    CHECK(o.x == 100 && o.y == -100);
+    /* encoder wrap at 2^31 is harmless */
+    CHECK(odom_counts_since((int32_t)0x80000005l, 0x7FFFFFFBl) == 10);
+    CHECK(odom_counts_since(0x7FFFFFFBl, (int32_t)0x80000005l) == -10);
+    /* turn angle: left +pi*150 mm, right -pi*150 mm on a 300 mm track = +180 deg */
+    odom_reset(&o);
+    odom_update(&o, 0, 0, 1, 1, 1.0f, 0.0f, 0.001f);
+    odom_update(&o, 471, -471, 1, 1, 1.0f, 0.0f, 0.001f);
+    CHECK_NEAR(odom_turn(&o, 0, 0, 1.0f, 300.0f), 471.0 * 2.0 / 300.0 * 57.2957795, 1e-3);
+    /* X/Y set */
+    odom_set_xy(&o, -5000, 7000);
+    CHECK(o.x == -5000 && o.y == 7000);
+}
+
+static void test_odom_long_run_precision(void)
+{
+    /* 100 m at 0.3 mm per tick: the X sum keeps sub-mm precision */
+    odom_t o;
+    long i;
+    odom_reset(&o);
+    odom_update(&o, 0, 0, 1, 1, 0.1f, 0.0f, 0.001f);
+    for (i = 1; i <= 333333; i++) {
+        odom_update(&o, (int32_t)(i * 3), (int32_t)(i * 3), 1, 1, 0.1f, 0.0f, 0.001f);
+    }
+    CHECK_NEAR((double)o.x + o.x_frac, 333333 * 0.3, 1.0);
+}
+
+static void test_wheel(void)
+{
+    wheel_gains_t g = {0.0018f, 0.004f, 0.04f, 0.0f, 0.5f, 0.8f};
+    wheel_t w;
+    float d;
+    int i;
+    wheel_reset(&w);
+    /* feed-forward + P at zero error */
+    d = wheel_update(&w, &g, 100.0f, 100.0f, 0.001f);
+    CHECK_NEAR(d, 0.18, 1e-5);
+    /* saturates at pwm_limit */
+    d = wheel_update(&w, &g, 1000.0f, 0.0f, 0.001f);
+    CHECK_NEAR(d, 0.8, 1e-6);
+    CHECK(w.saturated);
+    /* anti-windup: a stalled wheel does not wind the integral while saturated */
+    for (i = 0; i < 10000; i++) {
+        wheel_update(&w, &g, 1000.0f, 0.0f, 0.001f);
+    }
+    CHECK(w.integ < 0.05f);
+    /* integral clamp */
+    wheel_reset(&w);
+    for (i = 0; i < 100000; i++) {
+        wheel_update(&w, &g, 10.0f, 0.0f, 0.001f);
+    }
+    CHECK(w.integ <= 0.5f + 1e-6f);
+    /* kd: a step in error gives a derivative kick */
+    {
+        wheel_gains_t gd = {0.0f, 0.0f, 0.0f, 0.00001f, 0.5f, 1.0f};
+        wheel_reset(&w);
+        d = wheel_update(&w, &gd, 10.0f, 0.0f, 0.001f);
+        CHECK_NEAR(d, 0.00001 * 10.0 / 0.001, 1e-5);
+    }
+}
+
+static const servo_cal_t cal = {1500u, 1000u, -900, 900}; /* 10 us/deg, +/-90 deg */
+
+static void test_servo_goto(void)
+{
+    servo_t s;
+    int i;
+    servo_reset(&s);
+    CHECK(servo_pulse_us(&s, &cal) == 0u); /* not driven before a command */
+    CHECK(servo_command(&s, &cal, 0, 300, 9999) == 0u); /* param0 = 0: no command */
+    CHECK(s.mode == SERVO_OFF);
+    /* seed example: servo 2 to 30 deg at 100 deg/s */
+    CHECK(servo_command(&s, &cal, 1000, 300, 9999) == 1u);
+    for (i = 0; i < 150; i++) {
+        servo_step(&s, &cal, 1000u);
+    }
+    CHECK(servo_pos10(&s) == 150); /* halfway after 0.15 s */
+    for (i = 0; i < 200; i++) {
+        servo_step(&s, &cal, 1000u);
+    }
+    CHECK(servo_pos10(&s) == 300);
+    CHECK(s.mode == SERVO_HOLD);
+    CHECK(servo_pulse_us(&s, &cal) == 1800u);
+    /* beyond the travel: clamped to max */
+    servo_command(&s, &cal, 10000, 1500, 9999);
+    for (i = 0; i < 1000; i++) {
+        servo_step(&s, &cal, 1000u);
+    }
+    CHECK(servo_pos10(&s) == 900);
+    CHECK(servo_pulse_us(&s, &cal) == 2400u);
+}
+
+static void test_servo_scan(void)
+{
+    servo_t s;
+    int i, lo = 0, hi = 0, reversals = 0, prev = 0, dir = 0;
+    servo_reset(&s);
+    /* seed example: scan between +80 and -90 deg at 30 deg/s */
+    servo_command(&s, &cal, 300, 800, -900);
+    for (i = 0; i < 30000; i++) {
+        int p, d;
+        servo_step(&s, &cal, 1000u);
+        p = servo_pos10(&s);
+        if (p < lo) {
+            lo = p;
+        }
+        if (p > hi) {
+            hi = p;
+        }
+        d = (p > prev) - (p < prev);
+        if (d != 0 && dir != 0 && d != dir) {
+            reversals++;
+        }
+        if (d != 0) {
+            dir = d;
+        }
+        prev = p;
+    }
+    CHECK(hi == 800 && lo == -900);
+    /* 30 s at 30 deg/s over a 170 deg span (first leg 80 deg): about 5 reversals */
+    CHECK(reversals >= 4 && reversals <= 6);
+    /* hold (watchdog): stops scanning */
+    servo_hold(&s);
+    {
+        int p0 = servo_pos10(&s);
+        for (i = 0; i < 500; i++) {
+            servo_step(&s, &cal, 1000u);
+        }
+        CHECK(servo_pos10(&s) == p0);
+    }
+    /* scan limits outside the travel are clamped */
+    servo_command(&s, &cal, 2000, 1800, -1800);
+    CHECK(s.right == 900 && s.left == -900);
+}
+
+static void test_dio(void)
+{
+    dio_t d;
+    dio_reset(&d);
+    d.in = 0x0ABC;
+    CHECK(d.dir == 0u && dio_state(&d) == 0x0ABC); /* all inputs before config */
+    dio_configure(&d, 0x00FF, 0x0F0F);              /* seed default: bits 0-7 outputs */
+    CHECK(d.out == 0x000F);                         /* safe state, output bits only */
+    dio_command(&d, 0x0FF9);                        /* input bits ignored */
+    CHECK(d.out == 0x00F9);
+    CHECK(dio_state(&d) == ((0x00F9 & 0x00FF) | (0x0ABC & 0x0F00)));
+    dio_command(&d, 0x0009); /* seed example: bits 0 and 3 high */
+    CHECK(d.out == 0x0009);
+    dio_safe(&d);
+    CHECK(d.out == 0x000F);
+}
+
+static void test_watchdog(void)
+{
+    watchdog_t w;
+    int i, trips = 0;
+    watchdog_reset(&w);
+    for (i = 0; i < 299; i++) {
+        trips += watchdog_tick(&w, 1000u, 300u);
+    }
+    CHECK(trips == 0);
+    trips += watchdog_tick(&w, 1000u, 300u);
+    CHECK(trips == 1 && w.tripped);
+    for (i = 0; i < 1000; i++) {
+        trips += watchdog_tick(&w, 1000u, 300u);
+    }
+    CHECK(trips == 1); /* once per silence */
+    watchdog_feed(&w);
+    CHECK(!w.tripped);
+    for (i = 0; i < 299; i++) {
+        trips += watchdog_tick(&w, 1000u, 300u);
+    }
+    CHECK(trips == 1);
+}
+
+static void test_motion_rules(void)
+{
+    motion_t m;
+    float pos = 0.0f;
+    int i;
+    motion_reset(&m, 0, 0);
+    CHECK(motion_modify(&m, 100.0f, 100.0f, 100.0f) == MOTION_NOT_STARTED);
+    motion_start(&m, 0, 0, 0.0f, 100.0f, 100.0f, 300.0f);
+    for (i = 0; i < 5000; i++) {
+        pos += motion_tick(&m, pos, 0.0f, 25.0f, 50.0f, 1.0f, 10.0f, 0.001f) * 0.001f;
+    }
+    CHECK(m.done);
+    CHECK_NEAR(pos, 100.0, 0.01);
+    /* restart after completion with a modify */
+    CHECK(motion_modify(&m, 150.0f, 100.0f, 300.0f) == MOTION_OK);
+    CHECK(!m.done && motion_active(&m));
+    for (i = 0; i < 5000; i++) {
+        pos += motion_tick(&m, pos, 0.0f, 25.0f, 50.0f, 1.0f, 10.0f, 0.001f) * 0.001f;
+    }
+    CHECK_NEAR(pos, 150.0, 0.01);
+    /* stop latches: modify is ignored until a new start */
+    motion_stop(&m, 300.0f, 0.001f);
+    CHECK(motion_modify(&m, 500.0f, 100.0f, 300.0f) == MOTION_LATCHED);
+    CHECK_NEAR(m.target, 150.0, 0.01);
+    motion_start(&m, 0, 0, pos, 10.0f, 100.0f, 300.0f);
+    CHECK(!m.latched);
+    CHECK(motion_modify(&m, 20.0f, 100.0f, 300.0f) == MOTION_OK);
+}
+
+static void test_turn_hdg_shortest(void)
+{
+    /* from heading 350 to 10: +20 deg (clockwise), not -340 */
+    turn_t t;
+    turn_reset(&t, 0, 0);
+    turn_hdg_select(&t, 0, 0, 0.0f, 10.0f, 350.0f, 45.0f, 90.0f);
+    CHECK(t.hdg);
+    CHECK_NEAR(t.ax.target, 20.0, 1e-4);
+    /* from 10 to 350: -20 */
+    turn_hdg_select(&t, 0, 0, 0.0f, 350.0f, 10.0f, 45.0f, 90.0f);
+    CHECK_NEAR(t.ax.target, -20.0, 1e-4);
+    /* target given as -90 means 270; from 0 that is -90 */
+    turn_hdg_select(&t, 0, 0, 0.0f, -90.0f, 0.0f, 45.0f, 90.0f);
+    CHECK_NEAR(t.hdg_target, 270.0, 1e-4);
+    CHECK_NEAR(t.ax.target, -90.0, 1e-4);
+    /* 360 is 0 */
+    turn_hdg_select(&t, 0, 0, 0.0f, 360.0f, 0.0f, 45.0f, 90.0f);
+    CHECK_NEAR(t.ax.target, 0.0, 1e-4);
+    /* HdgSel has no turn 1 to modify */
+    CHECK(turn_modify(&t, 10.0f, 10.0f, 10.0f) == MOTION_NOT_STARTED);
+    turn_stop(&t, 90.0f, 0.001f);
+    CHECK(!t.hdg && t.ax.latched);
+}
+
+static void test_config(void)
+{
+    config_t c;
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    config_reset(&c);
+    CHECK(!config_complete(&c));
+    CHECK(c.tick_us == 1000u);
+    CHECK_NEAR(c.default_accel, 300.0, 1e-6);
+    navkit_micro_cfg_geometry_defaults(&g);
+    g.spec_hash ^= 1u;
+    CHECK(config_geometry(&c, &g) == CONFIG_ERR_HASH);
+    g.spec_hash ^= 1u;
+    g.enc_left_sign = 0;
+    CHECK(config_geometry(&c, &g) == CONFIG_ERR_RANGE);
+    g.enc_left_sign = -1;
+    g.control_rate = 500;
+    CHECK(config_geometry(&c, &g) == CONFIG_OK);
+    CHECK(c.tick_us == 2000u && c.enc_left_sign == -1);
+    navkit_micro_cfg_motion_defaults(&m);
+    m.watchdog_timeout = 5; /* below its minimum */
+    CHECK(config_motion(&c, &m) == CONFIG_ERR_RANGE);
+    m.watchdog_timeout = 300;
+    CHECK(config_motion(&c, &m) == CONFIG_OK);
+    CHECK(!config_complete(&c));
+    navkit_micro_cfg_io_defaults(&io);
+    io.servo_min[3] = 100;
+    io.servo_max[3] = 50;
+    CHECK(config_io(&c, &io) == CONFIG_ERR_RANGE);
+    io.servo_max[3] = 500;
+    CHECK(config_io(&c, &io) == CONFIG_OK);
+    CHECK(config_complete(&c));
+    CHECK(c.dio_direction == 0x00FFu);
+}
+
+int main(void)
+{
+    test_wrap();
+    test_heading();
+    test_heading_moving_calibration();
+    test_odom();
+    test_odom_long_run_precision();
+    test_wheel();
+    test_servo_goto();
+    test_servo_scan();
+    test_dio();
+    test_watchdog();
+    test_motion_rules();
+    test_turn_hdg_shortest();
+    test_config();
+    CHECK_DONE();
+}
