@@ -1,0 +1,194 @@
+"""`navkit plot FILE`: plot a co-simulation run (run.mcap) or a seed-format datalog.
+
+A run plot has the path (truth x/y in mm, and the micro's odometry), the forward speed
+(mm/s) and the heading (deg, clockwise 0..360) against simulated time (s), with every
+planner command marked. A datalog ("Data MM-DD-YY HH;MM;SS.txt", the seed's Dataplot
+input: the number of parameters, then one line per parameter with its name and default
+plot range, then one row per host frame) gets one panel per parameter over its range.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+__all__ = ["add_arguments", "run", "plot_mcap", "plot_datalog", "read_datalog", "read_mcap"]
+
+
+def add_arguments(parser) -> None:
+    """Arguments of `navkit plot`."""
+    parser.add_argument("file", type=Path, help="run.mcap of `navkit sim`, or a datalog .txt")
+    parser.add_argument("--out", "-o", type=Path, default=None,
+                        help="PNG to write (default: FILE with .png)")
+
+
+def run(args) -> int:
+    """Plot args.file into args.out; 0 on success, 1 with a message on error."""
+    path: Path = args.file
+    out = args.out or path.with_suffix(".png")
+    try:
+        if path.suffix == ".mcap":
+            plot_mcap(path, out)
+        else:
+            plot_datalog(path, out)
+    except (OSError, ValueError) as e:
+        print(f"navkit plot: {path}: {e}")
+        return 1
+    print(out)
+    return 0
+
+
+def read_mcap(path: Path, topics=None) -> dict:
+    """Messages of a run: {topic: [(log_time_ns, decoded JSON), ...]} for `topics` (all
+    if None)."""
+    from mcap.reader import make_reader
+
+    out: dict = {}
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        for _schema, channel, message in reader.iter_messages(topics=topics):
+            out.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+    return out
+
+
+def _figure(rows: int, height: float):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt, plt.subplots(rows, 1, figsize=(9, height))
+
+
+def _command_label(cmd: dict) -> str:
+    parts = []
+    if cmd.get("fwd_cmd"):
+        parts.append(f"fwd {cmd['fwd_cmd']} v{cmd.get('speed', 0)} d{cmd.get('distance', 0)}")
+    if cmd.get("turn_mode"):
+        parts.append(f"turn {cmd['turn_mode']} {cmd.get('turn_distance', 0) / 10:g}deg")
+    if cmd.get("rc_param0"):
+        parts.append(f"servo {cmd.get('rc_servo_num', 0)}")
+    if cmd.get("dio_active"):
+        parts.append(f"dio {cmd['dio_active']:#x}={cmd.get('dio_command', 0):#x}")
+    return ", ".join(parts) or "none"
+
+
+def plot_mcap(path: Path, out: Path) -> None:
+    """Plot run `path` (run.mcap) into PNG `out`."""
+    msgs = read_mcap(path, ["/truth", "/planner/cmd", "/micro/data", "/events"])
+    truth = [m for _, m in msgs.get("/truth", [])]
+    if not truth:
+        raise ValueError("no /truth messages")
+    cmds = msgs.get("/planner/cmd", [])
+    events = msgs.get("/events", [])
+    micro = msgs.get("/micro/data", [])
+    t = [m["t"] for m in truth]
+    plt, (fig, (ax_xy, ax_v, ax_h)) = _figure(3, 11)
+    ax_xy.plot([m["y_mm"] for m in truth], [m["x_mm"] for m in truth], label="truth")
+    if micro:
+        # the micro's odometry uses the truth's axes (x forward, y left)
+        ax_xy.plot([m["y"] for _, m in micro], [m["x"] for _, m in micro], "--", lw=0.8,
+                   label="micro odometry")
+    ax_xy.set_xlabel("y (left), mm")
+    ax_xy.set_ylabel("x (forward), mm")
+    ax_xy.invert_xaxis()
+    ax_xy.set_aspect("equal", adjustable="datalim")
+    ax_xy.set_title(f"{path.parent.name}/{path.name}: path")
+    ax_xy.legend(loc="best", fontsize="small")
+    ax_v.plot(t, [m["v_mm_s"] for m in truth], label="truth v")
+    if micro:
+        ax_v.plot([ns / 1e9 for ns, _ in micro], [m["fwd_speed"] for _, m in micro], lw=0.8,
+                  label="micro fwd_speed")
+    ax_v.set_ylabel("speed, mm/s")
+    ax_v.legend(loc="best", fontsize="small")
+    ax_h.plot(t, [m["heading_deg"] for m in truth], label="truth heading")
+    if micro:
+        ax_h.plot([ns / 1e9 for ns, _ in micro], [m["heading"] / 10 for _, m in micro], lw=0.8,
+                  label="micro heading")
+    ax_h.set_ylabel("heading, deg (cw)")
+    ax_h.set_xlabel("simulated time, s")
+    ax_h.set_ylim(-5, 365)
+    ax_h.legend(loc="best", fontsize="small")
+    for ns, cmd in cmds:
+        for ax in (ax_v, ax_h):
+            ax.axvline(ns / 1e9, color="tab:green", lw=0.8, alpha=0.7)
+        ax_v.annotate(_command_label(cmd), (ns / 1e9, 1.0), xycoords=("data", "axes fraction"),
+                      rotation=90, va="top", ha="right", fontsize=6, color="tab:green")
+    for ns, ev in events:
+        for ax in (ax_v, ax_h):
+            ax.axvline(ns / 1e9, color="tab:red", lw=0.8, ls=":")
+        ax_h.annotate(ev["kind"], (ns / 1e9, 0.0), xycoords=("data", "axes fraction"),
+                      rotation=90, va="bottom", ha="right", fontsize=6, color="tab:red")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+
+
+def read_datalog(path: Path) -> tuple[list, list]:
+    """A seed-format datalog: ([(name, lo, hi), ...], rows as lists of floats).
+    ValueError naming the line if the file does not fit the format."""
+    lines = [ln.strip() for ln in Path(path).read_text(errors="replace").splitlines()]
+    it = iter(enumerate(lines, 1))
+    params = []
+    n = None
+    for no, ln in it:
+        if not ln:
+            continue
+        try:
+            n = int(ln.split()[0])
+        except ValueError:
+            raise ValueError(f"line {no}: expected the number of parameters, got {ln!r}") from None
+        break
+    if n is None or n <= 0:
+        raise ValueError("no parameter count")
+    for no, ln in it:
+        if not ln:
+            continue
+        parts = ln.replace(",", " ").replace("\t", " ").split()
+        try:
+            lo, hi = float(parts[-2]), float(parts[-1])
+            name = " ".join(parts[:-2]) or f"p{len(params)}"
+        except (ValueError, IndexError):
+            name, lo, hi = ln, None, None
+        params.append((name, lo, hi))
+        if len(params) == n:
+            break
+    if len(params) != n:
+        raise ValueError(f"header lists {len(params)} of {n} parameters")
+    rows = []
+    for no, ln in it:
+        if not ln:
+            continue
+        parts = ln.replace(",", " ").replace("\t", " ").split()
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            raise ValueError(f"line {no}: not numbers: {ln[:60]!r}") from None
+        if len(vals) != n:
+            raise ValueError(f"line {no}: {len(vals)} values, header has {n}")
+        rows.append(vals)
+    return params, rows
+
+
+def plot_datalog(path: Path, out: Path) -> None:
+    """Plot datalog `path` into PNG `out`, one panel per parameter against row number
+    (or against the first column when it is a time)."""
+    params, rows = read_datalog(path)
+    first = params[0][0].lower()
+    timed = first in ("t", "time", "time_s", "time_ms", "timetag", "time_tag") or first.startswith("time")
+    x = [r[0] for r in rows] if timed else list(range(len(rows)))
+    shown = params[1:] if timed else params
+    off = 1 if timed else 0
+    plt, (fig, axes) = _figure(max(1, len(shown)), 1.6 * max(1, len(shown)) + 1)
+    if len(shown) == 1:
+        axes = [axes]
+    for i, (ax, (name, lo, hi)) in enumerate(zip(axes, shown)):
+        ax.plot(x, [r[i + off] for r in rows], lw=0.9)
+        ax.set_ylabel(name, fontsize="small", rotation=0, ha="right")
+        if lo is not None and hi is not None and hi > lo:
+            ax.set_ylim(lo, hi)
+    axes[0].set_title(Path(path).name)
+    axes[-1].set_xlabel(params[0][0] if timed else "frame")
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)

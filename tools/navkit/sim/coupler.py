@@ -1,0 +1,220 @@
+"""ctypes binding of the native coupler `navkit_cosim` (fmu/cosim): steps the firmware
+FMU and the plant FMU together at 1 kHz without a Python call per step.
+
+The FMUs are fmpy `FMU3Slave` objects the caller has instantiated and initialised; this
+module passes their instance handles and fmi3 function addresses to the library and
+connects every firmware input to the plant output of the same name and every firmware
+output to the plant input of the same name (Float64 and Int32, docs/internals.md).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from ctypes import POINTER, c_double, c_int, c_size_t, c_uint8, c_uint32, c_uint64, c_void_p
+from pathlib import Path
+
+__all__ = ["CouplerError", "Coupler", "library_path", "TRUTH_PLANT", "TRUTH_FIRMWARE",
+           "FIRMWARE", "PLANT"]
+
+FIRMWARE, PLANT = 0, 1
+_FLOAT64, _INT32 = 0, 1
+_TYPES = {"Float64": _FLOAT64, "Int32": _INT32}
+
+# truth columns read from the plant (in this order), then from the firmware
+TRUTH_PLANT = ("x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s",
+               "w_deg_s") + tuple(f"servo_deg_{i}" for i in range(8))
+TRUTH_FIRMWARE = ("dio_out",)
+
+
+class CouplerError(RuntimeError):
+    """The coupler library or an FMU call failed; the text says which and when."""
+
+
+class _Fmu(ctypes.Structure):
+    _fields_ = [(n, c_void_p) for n in ("instance", "get_float64", "set_float64", "get_int32",
+                                        "set_int32", "get_binary", "set_binary", "do_step")]
+
+
+def library_path() -> Path:
+    """The built coupler, `<build>/fmu/cosim/libnavkit_cosim.so`."""
+    from navkit.paths import build_dir
+
+    return build_dir() / "fmu" / "cosim" / "libnavkit_cosim.so"
+
+
+_LIB = None
+
+
+def _lib():
+    global _LIB
+    if _LIB is None:
+        path = library_path()
+        if not path.exists():
+            raise CouplerError(f"{path} not found: build it (cmake --build <build> "
+                               f"--target navkit_cosim)")
+        lib = ctypes.CDLL(str(path))
+        lib.cosim_new.restype = c_void_p
+        lib.cosim_new.argtypes = [POINTER(_Fmu), POINTER(_Fmu), c_double, c_double]
+        lib.cosim_free.argtypes = [c_void_p]
+        lib.cosim_connect.argtypes = [c_void_p, c_int, c_int, c_uint32, c_uint32]
+        lib.cosim_serial.argtypes = [c_void_p, c_uint32, c_uint32]
+        lib.cosim_record.argtypes = [c_void_p, c_int, c_int, c_uint32]
+        lib.cosim_record_every.argtypes = [c_void_p, c_uint32]
+        lib.cosim_row_width.restype = c_size_t
+        lib.cosim_row_width.argtypes = [c_void_p]
+        lib.cosim_sample.argtypes = [c_void_p, POINTER(c_double)]
+        lib.cosim_exchange.argtypes = [c_void_p]
+        lib.cosim_run.argtypes = [c_void_p, c_uint32, c_void_p, c_size_t,
+                                  POINTER(c_uint8), c_size_t, POINTER(c_size_t),
+                                  POINTER(c_double), c_size_t, POINTER(c_size_t)]
+        lib.cosim_time.restype = c_double
+        lib.cosim_time.argtypes = [c_void_p]
+        lib.cosim_steps.restype = c_uint64
+        lib.cosim_steps.argtypes = [c_void_p]
+        lib.cosim_firmware_restart.argtypes = [c_void_p, c_double]
+        lib.cosim_fmu_ns.restype = c_uint64
+        lib.cosim_fmu_ns.argtypes = [c_void_p, c_int]
+        lib.cosim_timing.argtypes = [c_void_p, c_int]
+        lib.cosim_dropped.restype = c_uint64
+        lib.cosim_dropped.argtypes = [c_void_p]
+        lib.cosim_error.restype = ctypes.c_char_p
+        lib.cosim_error.argtypes = [c_void_p]
+        _LIB = lib
+    return _LIB
+
+
+def _fmu_struct(slave) -> _Fmu:
+    dll = slave.dll
+
+    def addr(name):
+        fn = getattr(dll, name, None)
+        return ctypes.cast(fn, c_void_p).value if fn is not None else None
+
+    return _Fmu(slave.component, addr("fmi3GetFloat64"), addr("fmi3SetFloat64"),
+                addr("fmi3GetInt32"), addr("fmi3SetInt32"), addr("fmi3GetBinary"),
+                addr("fmi3SetBinary"), addr("fmi3DoStep"))
+
+
+def _variables(md) -> dict:
+    return {v.name: v for v in md.modelVariables}
+
+
+class Coupler:
+    """The native coupler of one firmware FMU and one plant FMU.
+
+    `firmware`, `plant`: initialised fmpy FMU3Slave objects; `fw_md`, `plant_md`: their
+    model descriptions. `step_s`: the step (s, 0.001 = 1 kHz); `record_every`: steps
+    between truth rows (20 = 50 Hz). Truth columns are TRUTH_PLANT then TRUTH_FIRMWARE
+    (those the FMUs have); `columns` lists them.
+    """
+
+    def __init__(self, firmware, fw_md, plant, plant_md, *, step_s=0.001, start_s=0.0,
+                 record_every=20, tx_capacity=1 << 16, row_capacity=4096):
+        lib = _lib()
+        self._lib = lib
+        self._fw_struct, self._plant_struct = _fmu_struct(firmware), _fmu_struct(plant)
+        self._c = lib.cosim_new(ctypes.byref(self._fw_struct), ctypes.byref(self._plant_struct),
+                                step_s, start_s)
+        if not self._c:
+            raise CouplerError("cosim_new failed (bad FMU handles or step)")
+        self.step_s = step_s
+        fw_vars, plant_vars = _variables(fw_md), _variables(plant_md)
+        self.links = []          # (source, name) pairs connected
+        for name, v in fw_vars.items():
+            if v.type not in _TYPES:
+                continue
+            p = plant_vars.get(name)
+            if p is None or p.type != v.type:
+                continue
+            if v.causality == "input" and p.causality == "output":
+                self._check(lib.cosim_connect(self._c, PLANT, _TYPES[v.type],
+                                              p.valueReference, v.valueReference))
+                self.links.append(("plant", name))
+            elif v.causality == "output" and p.causality == "input":
+                self._check(lib.cosim_connect(self._c, FIRMWARE, _TYPES[v.type],
+                                              v.valueReference, p.valueReference))
+                self.links.append(("firmware", name))
+        rx, tx = fw_vars.get("serial_rx"), fw_vars.get("serial_tx")
+        if rx is None or tx is None:
+            raise CouplerError("the firmware FMU has no serial_rx/serial_tx Binary variables")
+        self._check(lib.cosim_serial(self._c, rx.valueReference, tx.valueReference))
+        self.columns = []
+        for which, names, vars_ in ((PLANT, TRUTH_PLANT, plant_vars),
+                                    (FIRMWARE, TRUTH_FIRMWARE, fw_vars)):
+            for name in names:
+                v = vars_.get(name)
+                if v is None or v.type not in _TYPES:
+                    continue
+                rc = lib.cosim_record(self._c, which, _TYPES[v.type], v.valueReference)
+                self._check(rc if rc < 0 else 0)
+                self.columns.append(name)
+        self._check(lib.cosim_record_every(self._c, record_every))
+        self.width = lib.cosim_row_width(self._c)
+        self._tx = (c_uint8 * tx_capacity)()
+        self._tx_cap = tx_capacity
+        self._rows = (c_double * (row_capacity * self.width))()
+        self._row_cap = row_capacity
+        self._tx_len, self._n_rows = c_size_t(), c_size_t()
+        self._check(lib.cosim_exchange(self._c))
+
+    def _check(self, rc: int) -> None:
+        if rc != 0:
+            raise CouplerError(self._lib.cosim_error(self._c).decode() or f"error {rc}")
+
+    def close(self) -> None:
+        """Frees the native coupler (the FMUs stay the caller's)."""
+        if self._c:
+            self._lib.cosim_free(self._c)
+            self._c = None
+
+    def __del__(self):
+        self.close()
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time (s)."""
+        return self._lib.cosim_time(self._c)
+
+    @property
+    def steps(self) -> int:
+        """Steps done so far."""
+        return self._lib.cosim_steps(self._c)
+
+    def sample(self) -> list:
+        """The current truth row [t_s, columns...] without stepping."""
+        row = (c_double * self.width)()
+        self._check(self._lib.cosim_sample(self._c, row))
+        return list(row)
+
+    def run(self, n_steps: int, rx: bytes = b"") -> tuple[bytes, list]:
+        """Do `n_steps` steps, `rx` arriving at the firmware's serial port with the first.
+        Returns (bytes the firmware sent, truth rows as lists [t_s, columns...])."""
+        cap_rows = max(self._row_cap, n_steps)  # enough even with record_every = 1
+        if cap_rows > self._row_cap:
+            self._rows = (c_double * (cap_rows * self.width))()
+            self._row_cap = cap_rows
+        rc = self._lib.cosim_run(self._c, n_steps, rx or None, len(rx), self._tx, self._tx_cap,
+                                 ctypes.byref(self._tx_len), self._rows, self._row_cap,
+                                 ctypes.byref(self._n_rows))
+        self._check(rc)
+        tx = ctypes.string_at(self._tx, self._tx_len.value)
+        n, w = self._n_rows.value, self.width
+        flat = self._rows[:n * w]
+        return tx, [flat[i * w:(i + 1) * w] for i in range(n)]
+
+    def exchange(self) -> None:
+        """Copy connected outputs to inputs both ways without stepping (after a reset)."""
+        self._check(self._lib.cosim_exchange(self._c))
+
+    def firmware_restart(self, start_s: float) -> None:
+        """The firmware was reset and re-initialised at its time `start_s` (s)."""
+        self._lib.cosim_firmware_restart(self._c, start_s)
+
+    def timing(self, on: bool = True) -> None:
+        """Measure the time spent in each FMU (for the benchmark)."""
+        self._lib.cosim_timing(self._c, 1 if on else 0)
+
+    def fmu_seconds(self) -> tuple[float, float]:
+        """(firmware, plant) wall seconds spent in their calls while timing was on."""
+        return (self._lib.cosim_fmu_ns(self._c, FIRMWARE) / 1e9,
+                self._lib.cosim_fmu_ns(self._c, PLANT) / 1e9)

@@ -1,0 +1,676 @@
+"""One co-simulation run: the firmware FMU and the plant FMU stepped together by the native
+coupler, the real `navkit-host` on a pseudo-terminal, the mission's planner on rcomm.
+
+Lockstep (the default) per host frame k at simulated time t = k * frame_s:
+
+1. mission events due at t: planner commands (rcomm), console keys (host stdin), faults;
+2. planner heartbeat; tick k to the host carrying the micro's bytes written since the last
+   tick; wait for done; read exactly its tx_bytes from the pty;
+3. the FMUs advance one frame (frame_s / 1 ms steps) in native code with the host's bytes
+   arriving at the firmware with the first step; the firmware's bytes go to the pty;
+4. everything decoded goes to run.mcap with log time = simulated time.
+
+A run is a pure function of (mission, config, seed). Real-time mode (`realtime=True`)
+runs the host on its own clock and paces the FMUs to the wall clock instead.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from navkit.sim.mission import Mission, MissionError
+
+__all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period"]
+
+STEP_S = 0.001            # firmware control period: 1 kHz
+_FW_NAME, _PLANT_NAME = "navkit_firmware", "navkit_plant"
+
+
+class SimError(RuntimeError):
+    """A run that could not be done; the text says why."""
+
+
+@dataclass
+class SimOptions:
+    """What to run and where. Times in s of simulated time."""
+
+    mission: Mission
+    out: Path
+    seed: int = 1
+    realtime: bool = False
+    config_dir: Path | None = None     # default: <repo>/config
+    build: Path | None = None          # default: navkit.paths.build_dir()
+    frame_s: float | None = None       # host frame period; default: from the config
+    truth_hz: float = 50.0
+    plot: bool = True
+    timing: bool = False               # measure time per part (benchmark)
+    host_args: list = field(default_factory=list)
+    progress: bool = False
+
+
+def _build(opts: SimOptions) -> Path:
+    from navkit.paths import build_dir
+
+    return Path(opts.build) if opts.build else build_dir()
+
+
+def host_path(build: Path) -> Path:
+    """The host binary of build folder `build`."""
+    return build / "host" / "navkit-host"
+
+
+def fmu_paths(build: Path) -> tuple[Path, Path]:
+    """(firmware FMU, plant FMU) of build folder `build`."""
+    return build / "fmus" / f"{_FW_NAME}.fmu", build / "fmus" / f"{_PLANT_NAME}.fmu"
+
+
+def frame_period(config_dir: Path) -> float:
+    """The host frame period (s) set in `config_dir`/NavAndControl.ini: a key whose name
+    says frame and ms/period/rate (e.g. FrameMs = 100, frame_rate_hz = 10); 0.1 s (the
+    seed's 100 ms frame) if none."""
+    import re
+
+    ini = Path(config_dir) / "NavAndControl.ini"
+    try:
+        text = ini.read_text(errors="replace")
+    except OSError:
+        return 0.1
+    for line in text.splitlines():
+        line = line.split(";")[0].split("#")[0].strip()
+        m = re.match(r"([A-Za-z_]*frame[A-Za-z_]*)\s*=\s*([0-9.]+)", line, re.I)
+        if not m:
+            continue
+        key, val = m.group(1).lower(), float(m.group(2))
+        if val <= 0:
+            continue
+        if "hz" in key or "rate" in key:
+            return 1.0 / val
+        if "ms" in key or "period" in key:
+            return val / 1000.0
+    return 0.1
+
+
+def _git_revision() -> str:
+    from navkit.paths import repo_root
+
+    try:
+        out = subprocess.run(["git", "-C", str(repo_root()), "rev-parse", "HEAD"],
+                             capture_output=True, text=True, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+# ------------------------------------------------------------------ FMUs
+
+def _set_start(slave, md, name: str, value, where: str) -> None:
+    """Set variable `name` of an FMU before initialisation, converting `value` to its type."""
+    var = {v.name: v for v in md.modelVariables}.get(name)
+    if var is None:
+        raise MissionError(f"{where}: key {name!r}: the plant FMU has no such variable")
+    if var.causality not in ("parameter", "input", "structuralParameter") and \
+            var.variability not in ("fixed", "tunable"):
+        raise MissionError(f"{where}: key {name!r}: not a parameter of the plant FMU "
+                           f"(causality {var.causality})")
+    vr = [var.valueReference]
+    t = var.type
+    try:
+        if t in ("Float64", "Float32"):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError
+            getattr(slave, f"set{t}")(vr, [float(value)])
+        elif t.startswith(("Int", "UInt")):
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise TypeError
+            getattr(slave, f"set{t}")(vr, [value])
+        elif t == "Boolean":
+            if not isinstance(value, bool):
+                raise TypeError
+            slave.setBoolean(vr, [value])
+        elif t == "String":
+            if not isinstance(value, str):
+                raise TypeError
+            slave.setString(vr, [value])
+        else:
+            raise MissionError(f"{where}: key {name!r}: cannot set a {t} variable")
+    except TypeError:
+        raise MissionError(f"{where}: key {name!r}: {value!r} does not fit its type {t}") from None
+
+
+class _Fmus:
+    """Both FMUs extracted, instantiated and initialised."""
+
+    def __init__(self, fw_path: Path, plant_path: Path, tmp: Path, plant_params: dict,
+                 mission_path: Path):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi3 import FMU3Slave
+
+        self.slaves = []
+        for path, name in ((fw_path, "firmware"), (plant_path, "plant")):
+            if not path.exists():
+                raise SimError(f"{path} not found: build the {name} FMU first")
+        self.fw_md = read_model_description(str(fw_path))
+        self.plant_md = read_model_description(str(plant_path))
+        fw_dir = extract(str(fw_path), unzipdir=str(tmp / "fw"))
+        plant_dir = extract(str(plant_path), unzipdir=str(tmp / "plant"))
+        self.fw = FMU3Slave(guid=self.fw_md.guid, unzipDirectory=fw_dir,
+                            modelIdentifier=self.fw_md.coSimulation.modelIdentifier,
+                            instanceName="firmware")
+        self.plant = FMU3Slave(guid=self.plant_md.guid, unzipDirectory=plant_dir,
+                               modelIdentifier=self.plant_md.coSimulation.modelIdentifier,
+                               instanceName="plant")
+        self.fw.instantiate()
+        self.slaves.append(self.fw)
+        self.plant.instantiate()
+        self.slaves.append(self.plant)
+        for name, value in plant_params.items():
+            _set_start(self.plant, self.plant_md, name, value, f"{mission_path}: [plant]")
+        for s in (self.fw, self.plant):
+            s.enterInitializationMode(startTime=0.0)
+            s.exitInitializationMode()
+
+    def reset_firmware(self, t: float) -> None:
+        """fmi3Reset of the firmware, then initialise it again starting at `t` (s)."""
+        self.fw.reset()
+        self.fw.enterInitializationMode(startTime=t)
+        self.fw.exitInitializationMode()
+
+    def close(self) -> None:
+        for s in self.slaves:
+            try:
+                s.terminate()
+            except Exception:  # noqa: BLE001 - best effort at shutdown
+                pass
+            try:
+                s.freeInstance()
+            except Exception:  # noqa: BLE001
+                pass
+        self.slaves = []
+
+
+# ------------------------------------------------------------------ planner
+
+class _Planner:
+    """The mission's planner on rcomm (navkit.rcomm): writes lisp_cmd, bumps the
+    heartbeat, reads lisp_data."""
+
+    def __init__(self, shm_name: str):
+        self.shm_name = shm_name
+        self.client = None
+        self.time_tag = 0
+
+    def attach(self, timeout_s: float) -> bool:
+        """Open the host's region, waiting up to `timeout_s` (s) for it to appear."""
+        from navkit import rcomm
+
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                self.client = rcomm.Client(self.shm_name)
+                return True
+            except (FileNotFoundError, rcomm.RcommError):
+                if time.monotonic() >= deadline:
+                    return False
+                time.sleep(0.01)
+
+    def command(self, fields: dict, t_ms: int) -> dict:
+        """Write a whole lisp_cmd (unset fields 0) with a new time tag; returns it."""
+        self.time_tag = max(self.time_tag + 1, t_ms)
+        msg = dict(fields, time_tag=self.time_tag, msg_type=0)
+        if self.client is not None:
+            self.client.write_cmd(msg)
+        return msg
+
+    def beat(self) -> None:
+        if self.client is not None:
+            self.client.beat()
+
+    def read(self) -> dict | None:
+        return self.client.read_data() if self.client is not None else None
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
+
+# ------------------------------------------------------------------ run
+
+class _Run:
+    def __init__(self, opts: SimOptions):
+        from navkit import protocol
+        from navkit.paths import repo_root
+
+        self.opts = opts
+        self.m = opts.mission
+        self.build = _build(opts)
+        self.config_dir = Path(opts.config_dir) if opts.config_dir else repo_root() / "config"
+        self.out = Path(opts.out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.frame_s = opts.frame_s or frame_period(self.config_dir)
+        self.steps_per_frame = max(1, round(self.frame_s / STEP_S))
+        self.frame_s = self.steps_per_frame * STEP_S
+        self.protocol = protocol
+        self.rng = random.Random(opts.seed)
+        self.noise_rng = random.Random(f"navkit-noise-{opts.seed}")
+        self.tmp = Path(tempfile.mkdtemp(prefix="navkit-sim-"))
+        self.shm = f"/navkit-sim-{os.getpid()}-{int(time.monotonic_ns() % 1_000_000_000)}"
+        self.proc = None
+        self.lock = None
+        self.port = None
+        self.fmus = None
+        self.coupler = None
+        self.rec = None
+        self.planner = None
+        self.host_state = "running"
+        self.silent_until = None
+        self.noise = None
+        self.noise_until = None
+        self.noise_stats = {"flips": 0, "drops": 0, "inserts": 0}
+        self.unplug_until = None
+        self.h2m = protocol.Parser(protocol.DIR_TO_MICRO)
+        self.m2h = protocol.Parser(protocol.DIR_TO_HOST)
+        self.last_truth = None
+        self.last_micro = None
+        self.last_planner = None
+        self.config_downloads = 0
+        self.frames = 0
+        self.host_exit = None
+        self.times = {"fmus": 0.0, "pty": 0.0, "host": 0.0, "record": 0.0}
+        self.stdin_log = []
+        self._truth_keys = None
+
+    # -------------------------------------------------------------- set-up / tear-down
+    def start(self) -> None:
+        from navkit.sim.coupler import Coupler
+        from navkit.sim.links import Lockstep, Port
+        from navkit.sim.record import Recorder
+
+        host = host_path(self.build)
+        if not host.exists():
+            raise SimError(f"{host} not found: build the host first")
+        fw_fmu, plant_fmu = fmu_paths(self.build)
+        plant_params = {"seed": self.opts.seed}
+        if self.m.world is not None:
+            plant_params["world_file"] = str(self.m.world)
+        plant_params.update(self.m.plant)
+        self.fmus = _Fmus(fw_fmu, plant_fmu, self.tmp, self._known_plant(plant_fmu, plant_params),
+                          self.m.path)
+        every = max(1, round(1.0 / (self.opts.truth_hz * STEP_S)))
+        self.coupler = Coupler(self.fmus.fw, self.fmus.fw_md, self.fmus.plant,
+                               self.fmus.plant_md, step_s=STEP_S, record_every=every)
+        if self.opts.timing:
+            self.coupler.timing(True)
+        meta = {"mission": self.m.text, "mission_file": str(self.m.path),
+                "seed": self.opts.seed, "spec_hash": f"0x{self.protocol.SPEC_HASH:08X}",
+                "git_revision": _git_revision(), "frame_s": self.frame_s,
+                "realtime": self.opts.realtime, "step_s": STEP_S}
+        self.rec = Recorder(self.out / "run.mcap", meta)
+        self.port = Port(self.tmp / "ttyNAVKIT")
+        cmd = [str(host), "--port", str(self.port.link), "--shm", self.shm,
+               "--config", str(self.config_dir), "--log-dir", str(self.out)]
+        pass_fds = ()
+        if self.opts.realtime:
+            cmd[1:1] = ["--clock", "real"]
+        else:
+            self.lock = Lockstep()
+            cmd[1:1] = ["--clock", "lockstep", "--lockstep-fd", str(self.lock.host_fd())]
+            pass_fds = (self.lock.host_fd(),)
+        cmd += list(self.opts.host_args)
+        self.host_log = open(self.out / "host.log", "wb")
+        self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=self.host_log,
+                                     stderr=subprocess.STDOUT, pass_fds=pass_fds,
+                                     cwd=str(self.out))
+        if self.lock:
+            self.lock.started()
+        self.planner = _Planner(self.shm)
+        if not self.planner.attach(10.0):
+            self._host_died_check()
+            raise SimError(f"the host did not create rcomm region {self.shm} within 10 s "
+                           f"(see {self.out / 'host.log'})")
+
+    def _known_plant(self, plant_fmu: Path, params: dict) -> dict:
+        """Drop harness defaults (seed, world_file) the plant FMU does not have; mission
+        [plant] keys stay and are checked when set."""
+        from fmpy import read_model_description
+
+        names = {v.name for v in read_model_description(str(plant_fmu)).modelVariables}
+        return {k: v for k, v in params.items() if k in names or k in self.m.plant}
+
+    def _host_died_check(self) -> None:
+        if self.proc is not None and self.proc.poll() is not None:
+            tail = (self.out / "host.log").read_bytes()[-2000:].decode(errors="replace")
+            raise SimError(f"navkit-host exited with status {self.proc.returncode}:\n{tail}")
+
+    def stop(self) -> None:
+        if self.lock is not None:
+            self.lock.close()
+        if self.proc is not None:
+            try:
+                if self.proc.stdin:
+                    self.proc.stdin.close()
+            except OSError:
+                pass
+            if self.opts.realtime and self.proc.poll() is None:
+                self.proc.send_signal(signal.SIGINT)
+            try:
+                self.host_exit = self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.host_exit = self.proc.wait()
+        if self.planner is not None:
+            self.planner.close()
+        try:
+            os.unlink("/dev/shm" + self.shm)   # left behind if the host was killed
+        except OSError:
+            pass
+        if self.port is not None:
+            self.port.close()
+        if self.rec is not None:
+            self.rec.close()
+        if self.coupler is not None:
+            self.coupler.close()
+        if self.fmus is not None:
+            self.fmus.close()
+        if getattr(self, "host_log", None):
+            self.host_log.close()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    # -------------------------------------------------------------- events
+    def _timeline(self):
+        ev = [(c.t, 0, "command", c) for c in self.m.commands]
+        ev += [(k.t, 1, "key", k) for k in self.m.keys]
+        ev += [(f.t, 2, "fault", f) for f in self.m.faults]
+        ev.sort(key=lambda e: (e[0], e[1]))
+        return ev
+
+    def _event(self, t: float, kind: str, detail: dict) -> None:
+        self.rec.write("/events", round(t * 1e9), {"t": round(t, 6), "kind": kind, "detail": detail})
+
+    def _apply(self, t: float, what: str, e) -> None:
+        t_ns = round(t * 1e9)
+        if what == "command":
+            if self.silent_until is not None and t < self.silent_until:
+                return          # a silent planner writes nothing
+            msg = self.planner.command(e.fields, round(t * 1000))
+            self.rec.write("/planner/cmd", t_ns, dict(msg, t=round(t, 6)))
+            self.last_planner = msg
+        elif what == "key":
+            self._event(t, "key", {"key": e.key})
+            if self.proc is not None and self.host_state == "running":
+                try:
+                    self.proc.stdin.write(e.key.encode())
+                    self.proc.stdin.flush()
+                except OSError:
+                    pass
+        else:
+            self._fault(t, e)
+
+    def _fault(self, t: float, f) -> None:
+        self._event(t, f.kind, dict(f.params))
+        if f.kind == "kill_host":
+            if self.proc is not None and self.proc.poll() is None:
+                self.proc.send_signal(signal.SIGKILL)
+                self.proc.wait()
+            self.host_state = "killed"
+            if self.lock is not None:
+                self.lock.close()
+        elif f.kind == "micro_reset":
+            self.fmus.reset_firmware(t)
+            self.coupler.firmware_restart(t)
+            self.coupler.exchange()
+        elif f.kind == "unplug":
+            self.port.unplug()
+            self.unplug_until = t + f.duration_s
+        elif f.kind == "line_noise":
+            from navkit.sim.links import LineNoise
+
+            self.noise = LineNoise(f.params["ber"], self.noise_rng)
+            self.noise_until = t + f.duration_s
+        elif f.kind == "planner_silent":
+            self.silent_until = t + f.duration_s if f.duration_s else float("inf")
+
+    def _expire(self, t: float) -> None:
+        if self.unplug_until is not None and t >= self.unplug_until - 1e-9:
+            self.port.plug()
+            self._event(t, "plug", {})
+            self.unplug_until = None
+        if self.noise is not None and t >= self.noise_until - 1e-9:
+            for k in self.noise_stats:
+                self.noise_stats[k] += getattr(self.noise, k)
+            self.noise = None
+            self._event(t, "line_noise_end", {})
+        if self.silent_until is not None and t >= self.silent_until - 1e-9:
+            self.silent_until = None
+            self._event(t, "planner_resumes", {})
+
+    # -------------------------------------------------------------- recording
+    def _record_host_bytes(self, t_ns: int, data: bytes) -> None:
+        from navkit.protocol import Frame
+
+        for ev in self.h2m.feed(data):
+            if ev.__class__ is not Frame:
+                continue
+            if ev.name == "micro_cmd":
+                self.rec.write("/micro/cmd", t_ns, dict(ev.fields, t=t_ns / 1e9))
+            else:
+                if ev.name == "micro_cfg_geometry":
+                    self.config_downloads += 1
+                self.rec.write("/micro/config", t_ns,
+                               {"t": t_ns / 1e9, "message": ev.name, "fields": ev.fields})
+
+    def _record_micro_bytes(self, t_ns: int, data: bytes) -> None:
+        from navkit.protocol import Frame
+
+        for ev in self.m2h.feed(data):
+            if ev.__class__ is Frame and ev.name == "micro_data":
+                self.last_micro = ev.fields
+                self.rec.write("/micro/data", t_ns, dict(ev.fields, t=t_ns / 1e9))
+
+    def _record_truth(self, rows) -> None:
+        if self._truth_keys is None:
+            cols = self.coupler.columns
+            self._truth_keys = cols
+        cols = self._truth_keys
+        for row in rows:
+            d = dict(zip(cols, row[1:]))
+            t = row[0]
+            truth = {"t": round(t, 6)}
+            for k in ("x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s"):
+                truth[k] = round(d.get(k, 0.0), 4)
+            truth["servo_deg"] = [round(d.get(f"servo_deg_{i}", 0.0), 4) for i in range(8)]
+            truth["dio_out"] = int(d.get("dio_out", 0)) & 0xFFF
+            self.last_truth = truth
+            self.rec.write("/truth", round(t * 1e9), truth)
+
+    def _read_planner_data(self, t_ns: int) -> None:
+        data = self.planner.read()
+        if data is not None:
+            self.last_lisp_data = data
+            self.rec.write("/planner/data", t_ns, dict(data, t=t_ns / 1e9))
+
+    # -------------------------------------------------------------- loops
+    def lockstep(self) -> None:
+        pc = time.perf_counter
+        timeline = self._timeline()
+        ei = 0
+        n_frames = int(round(self.m.duration_s / self.frame_s))
+        rx_count = 0
+        self._record_truth([self.coupler.sample()])
+        for k in range(n_frames):
+            t = k * self.frame_s
+            t_ns = k * self.steps_per_frame * 1_000_000
+            t0 = pc()
+            self._expire(t)
+            while ei < len(timeline) and timeline[ei][0] <= t + 1e-9:
+                self._apply(t, timeline[ei][2], timeline[ei][3])
+                ei += 1
+            host_bytes = b""
+            if self.host_state == "running":
+                if self.silent_until is None:
+                    self.planner.beat()
+                t1 = pc()
+                done = self.lock.frame(k, t_ns // 1000, rx_count)
+                self.times["host"] += pc() - t1
+                if done is None:
+                    self.host_state = "exited"
+                    self.proc.wait()
+                    self._event(t, "host_exited", {"status": self.proc.returncode})
+                else:
+                    tx_bytes, flags = done
+                    t1 = pc()
+                    host_bytes = self.port.read_exact(tx_bytes)
+                    self.times["pty"] += pc() - t1
+                    self.rec.write("/host/frame", t_ns, {
+                        "frame": k, "t": round(t, 6), "rx_bytes": rx_count,
+                        "tx_bytes": tx_bytes, "flags": flags, "host": "running"})
+                    self._read_planner_data(t_ns)
+                    if flags & 1:
+                        self.host_state = "exited"
+                self.frames += 1
+            self._record_host_bytes(t_ns, host_bytes)
+            if self.noise is not None:
+                host_bytes = self.noise.apply(host_bytes)
+            t1 = pc()
+            tx, rows = self.coupler.run(self.steps_per_frame, host_bytes)
+            self.times["fmus"] += pc() - t1
+            t_end_ns = t_ns + self.steps_per_frame * 1_000_000
+            self._record_truth(rows)
+            self._record_micro_bytes(t_end_ns, tx)
+            if self.noise is not None:
+                tx = self.noise.apply(tx)
+            rx_count = 0
+            if self.host_state == "running" and self.port.plugged:
+                t1 = pc()
+                rx_count = self.port.write(tx)
+                self.times["pty"] += pc() - t1
+            self.rec.flush_if(t_end_ns)
+            self.times["record"] += pc() - t0
+            if self.opts.progress and k % max(1, int(10 / self.frame_s)) == 0:
+                print(f"  t = {t:7.1f} s", flush=True)
+        self.sim_time_s = n_frames * self.frame_s
+        self.times["record"] -= self.times["fmus"] + self.times["pty"] + self.times["host"]
+
+    def realtime(self) -> None:
+        pc = time.perf_counter
+        timeline = self._timeline()
+        ei = 0
+        chunk_steps = 5
+        n_chunks = int(round(self.m.duration_s / (chunk_steps * STEP_S)))
+        self._record_truth([self.coupler.sample()])
+        wall0 = time.monotonic()
+        next_frame_t = 0.0
+        for c in range(n_chunks):
+            t = c * chunk_steps * STEP_S
+            t_ns = c * chunk_steps * 1_000_000
+            self._expire(t)
+            while ei < len(timeline) and timeline[ei][0] <= t + 1e-9:
+                self._apply(t, timeline[ei][2], timeline[ei][3])
+                ei += 1
+            if self.host_state == "running" and self.proc.poll() is not None:
+                self.host_state = "exited"
+            host_bytes = self.port.read_available()
+            self._record_host_bytes(t_ns, host_bytes)
+            if self.noise is not None:
+                host_bytes = self.noise.apply(host_bytes)
+            t1 = pc()
+            tx, rows = self.coupler.run(chunk_steps, host_bytes)
+            self.times["fmus"] += pc() - t1
+            t_end_ns = t_ns + chunk_steps * 1_000_000
+            self._record_truth(rows)
+            self._record_micro_bytes(t_end_ns, tx)
+            if self.noise is not None:
+                tx = self.noise.apply(tx)
+            if self.host_state == "running":
+                self.port.write(tx)
+            if t >= next_frame_t:
+                if self.silent_until is None and self.host_state == "running":
+                    self.planner.beat()
+                if self.host_state == "running":
+                    self._read_planner_data(t_ns)
+                next_frame_t += self.frame_s
+                self.frames += 1
+            self.rec.flush_if(t_end_ns)
+            sleep = wall0 + (t_end_ns / 1e9) - time.monotonic()
+            if sleep > 0:
+                time.sleep(sleep)
+        self.sim_time_s = n_chunks * chunk_steps * STEP_S
+
+    # -------------------------------------------------------------- summary
+    def summary(self, wall_s: float) -> dict:
+        micro = self.last_micro or {}
+        lisp = getattr(self, "last_lisp_data", None) or {}
+        h2m, m2h = self.h2m.stats, self.m2h.stats
+        for k in self.noise_stats:
+            self.noise_stats[k] += getattr(self.noise, k) if self.noise else 0
+        return {
+            "mission": str(self.m.path),
+            "seed": self.opts.seed,
+            "mode": "realtime" if self.opts.realtime else "lockstep",
+            "sim_time_s": round(self.sim_time_s, 6),
+            "wall_time_s": round(wall_s, 3),
+            "realtime_factor": round(self.sim_time_s / wall_s, 1) if wall_s > 0 else None,
+            "frames": self.frames,
+            "frame_s": self.frame_s,
+            "truth": self.last_truth,
+            "micro": micro,
+            "planner_data": lisp,
+            "link": {
+                "host_to_micro": {"frames_sent": h2m["good"],
+                                  "micro_rx_good": micro.get("rx_good"),
+                                  "crc_errors": micro.get("rx_bad_crc"),
+                                  "bad_length": micro.get("rx_bad_length"),
+                                  "unknown_type": micro.get("rx_unknown_type"),
+                                  "dropped_bytes": micro.get("rx_dropped_bytes")},
+                "micro_to_host": {"frames_sent": m2h["good"],
+                                  "host_link_errors": lisp.get("link_errors")},
+                "resyncs": (micro.get("rx_bad_crc", 0) + micro.get("rx_bad_length", 0)
+                            + micro.get("rx_unknown_type", 0)),
+                "line_noise": dict(self.noise_stats),
+                "bytes_dropped_at_port": self.port.dropped if self.port else 0,
+            },
+            "host": {"state": self.host_state, "exit_status": self.host_exit,
+                     "overruns": lisp.get("overruns"),
+                     "config_downloads": self.config_downloads,
+                     "host_status": lisp.get("host_status")},
+            "watchdog_stops": micro.get("watchdog_stops"),
+            "messages": dict(self.rec.counts) if self.rec else {},
+            "time_share_s": {k: round(v, 3) for k, v in self.times.items()},
+        }
+
+
+def run(opts: SimOptions) -> dict:
+    """Do one run; write run.mcap, summary.json (and plot.png) into opts.out; return the
+    summary. Raises MissionError for a mission that does not fit the FMUs, SimError if a
+    part is missing or fails."""
+    r = _Run(opts)
+    wall0 = time.perf_counter()
+    try:
+        r.start()
+        if opts.realtime:
+            r.realtime()
+        else:
+            r.lockstep()
+    except BaseException:
+        r.stop()
+        raise
+    r.stop()
+    wall = time.perf_counter() - wall0
+    summary = r.summary(wall)
+    if opts.timing and r.coupler is not None:
+        pass
+    (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if opts.plot:
+        from navkit.plot import plot_mcap
+
+        plot_mcap(Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png")
+    return summary

@@ -1,0 +1,241 @@
+"""The harness's ends of the host's links: the pseudo-terminal serial port, the lockstep
+control channel and seeded line noise.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import select
+import socket
+import struct
+import time
+import tty
+from pathlib import Path
+
+__all__ = ["Port", "Lockstep", "LineNoise", "LinkError", "TICK_MAGIC", "DONE_MAGIC"]
+
+TICK_MAGIC = 0x4B544B4E   # 'NKTK' (bytes in memory, little-endian)
+DONE_MAGIC = 0x4E444B4E   # 'NKDN' (bytes in memory, little-endian)
+_TICK = struct.Struct("<IIQII")
+_DONE = struct.Struct("<IIII")
+
+
+class LinkError(RuntimeError):
+    """The host broke the lockstep contract or the port failed; the text says how."""
+
+
+class Port:
+    """The host's serial port: a pty whose slave is reached through the symlink `link`
+    (the path given to the host with --port). Both ends are in raw mode; the harness
+    keeps the master and holds the slave open so the master never sees a hang-up while
+    the host re-opens the port. `unplug()` removes the symlink and closes both ends
+    (the host sees the device vanish); `plug()` makes a new pty behind the same path."""
+
+    def __init__(self, link: Path):
+        self.link = Path(link)
+        self.master = self.slave = None
+        self.dropped = 0          # bytes not written because the host was not reading
+        self.plug()
+
+    @property
+    def plugged(self) -> bool:
+        return self.master is not None
+
+    def plug(self) -> None:
+        """Create a new pty and point the symlink at its slave."""
+        if self.plugged:
+            return
+        master, slave = os.openpty()
+        tty.setraw(master)
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        tmp = self.link.with_name(self.link.name + ".new")
+        if tmp.is_symlink():
+            tmp.unlink()
+        os.symlink(os.ttyname(slave), tmp)
+        os.replace(tmp, self.link)
+        self.master, self.slave = master, slave
+
+    def unplug(self) -> None:
+        """Remove the symlink and close both ends."""
+        if self.link.is_symlink():
+            self.link.unlink()
+        for fd in (self.master, self.slave):
+            if fd is not None:
+                os.close(fd)
+        self.master = self.slave = None
+
+    def write(self, data: bytes) -> int:
+        """Write `data` toward the host without blocking; returns bytes written (the rest
+        is counted in `dropped`: the host is not reading)."""
+        if not self.plugged or not data:
+            self.dropped += len(data) if data else 0
+            return 0
+        done = 0
+        view = memoryview(data)
+        while done < len(data):
+            try:
+                done += os.write(self.master, view[done:])
+            except BlockingIOError:
+                _, w, _ = select.select([], [self.master], [], 0.2)
+                if not w:
+                    break
+            except OSError as e:
+                if e.errno == errno.EIO:
+                    break
+                raise
+        self.dropped += len(data) - done
+        return done
+
+    def read_exact(self, n: int, timeout_s: float = 5.0) -> bytes:
+        """Read exactly `n` bytes the host wrote (it has written them already in
+        lockstep); LinkError after `timeout_s`."""
+        if n == 0:
+            return b""
+        if not self.plugged:
+            raise LinkError(f"the host reports {n} bytes written while the port is unplugged")
+        buf = bytearray()
+        deadline = time.monotonic() + timeout_s
+        while len(buf) < n:
+            try:
+                chunk = os.read(self.master, n - len(buf))
+                if chunk:
+                    buf += chunk
+                    continue
+            except BlockingIOError:
+                pass
+            except OSError as e:
+                if e.errno != errno.EIO:
+                    raise
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise LinkError(f"read {len(buf)} of the {n} bytes the host reported "
+                                f"within {timeout_s} s")
+            select.select([self.master], [], [], min(left, 0.1))
+        return bytes(buf)
+
+    def read_available(self) -> bytes:
+        """Every byte waiting from the host (real-time mode)."""
+        if not self.plugged:
+            return b""
+        out = bytearray()
+        while True:
+            try:
+                chunk = os.read(self.master, 65536)
+            except (BlockingIOError, OSError):
+                break
+            if not chunk:
+                break
+            out += chunk
+        return bytes(out)
+
+    def close(self) -> None:
+        """Unplug for good."""
+        self.unplug()
+
+
+class Lockstep:
+    """The harness end of the lockstep socketpair (docs/internals.md)."""
+
+    def __init__(self):
+        self.sock, self.host_end = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.wait_s = 0.0          # wall time spent waiting for done (benchmark)
+
+    def host_fd(self) -> int:
+        """The fd to pass to the host (--lockstep-fd)."""
+        return self.host_end.fileno()
+
+    def started(self) -> None:
+        """The host has its copy: close ours."""
+        self.host_end.close()
+
+    def frame(self, frame: int, sim_time_us: int, rx_bytes: int,
+              timeout_s: float = 10.0) -> tuple[int, int] | None:
+        """Tick one frame and wait for its done: (tx_bytes, flags), or None at EOF (the
+        host went away). LinkError if the done is malformed or late."""
+        self.sock.sendall(_TICK.pack(TICK_MAGIC, frame & 0xFFFFFFFF, sim_time_us, rx_bytes, 0))
+        t0 = time.perf_counter()
+        buf = b""
+        self.sock.settimeout(timeout_s)
+        try:
+            while len(buf) < _DONE.size:
+                chunk = self.sock.recv(_DONE.size - len(buf))
+                if not chunk:
+                    return None
+                buf += chunk
+        except socket.timeout:
+            raise LinkError(f"no done from the host for frame {frame} within {timeout_s} s") from None
+        except ConnectionResetError:
+            return None
+        finally:
+            self.wait_s += time.perf_counter() - t0
+        magic, done_frame, tx_bytes, flags = _DONE.unpack(buf)
+        if magic != DONE_MAGIC:
+            raise LinkError(f"bad done magic 0x{magic:08X} for frame {frame}")
+        if done_frame != frame & 0xFFFFFFFF:
+            raise LinkError(f"done for frame {done_frame}, expected {frame}")
+        return tx_bytes, flags
+
+    def close(self) -> None:
+        """EOF to the host: it shuts down cleanly."""
+        for s in (self.sock, self.host_end):
+            try:
+                s.close()
+            except OSError:
+                pass
+
+
+class LineNoise:
+    """Seeded line noise on a byte stream: each bit flips with probability `ber`; each
+    byte is dropped with probability 4*ber and a random byte is inserted before it with
+    probability 4*ber (framing slips, like a loose connector). Events are drawn by
+    geometric skipping, so clean stretches cost nothing."""
+
+    def __init__(self, ber: float, rng):
+        self.ber = ber
+        self.rng = rng
+        self.flips = self.drops = self.inserts = 0
+        # per-byte probability of any event
+        p_flip = 1.0 - (1.0 - ber) ** 8
+        self._p = min(1.0, p_flip + 8 * ber)
+        self._skip = self._draw()
+
+    def _draw(self) -> int:
+        import math
+
+        if self._p <= 0:
+            return 1 << 62
+        if self._p >= 1:
+            return 0
+        u = self.rng.random()
+        return int(math.log(1.0 - u) / math.log(1.0 - self._p))
+
+    def apply(self, data: bytes) -> bytes:
+        """The bytes after the noise."""
+        if not data or self._p <= 0:
+            return data
+        out = bytearray()
+        i, n = 0, len(data)
+        while i < n:
+            if self._skip >= n - i:
+                self._skip -= n - i
+                out += data[i:]
+                break
+            out += data[i:i + self._skip]
+            i += self._skip
+            b = data[i]
+            r = self.rng.random() * self._p
+            if r < 4 * self.ber:
+                self.drops += 1
+            elif r < 8 * self.ber:
+                self.inserts += 1
+                out.append(self.rng.randrange(256))
+                out.append(b)
+            else:
+                bit = self.rng.randrange(8)
+                self.flips += 1
+                out.append(b ^ (1 << bit))
+            i += 1
+            self._skip = self._draw()
+        return bytes(out)

@@ -1,0 +1,260 @@
+"""Mission files: what the scripted planner does during a co-simulation run.
+
+A mission is a TOML file::
+
+    duration_s = 12.0              # simulated seconds
+    world = "room.toml"            # optional, in config/worlds/ or beside the mission
+    [plant]                        # optional plant FMU parameter overrides (by FMU name)
+    battery_full_v = 12.6
+    [[command]]                    # the planner writes this whole lisp_cmd at t
+    t = 1.0                        # s of simulated time
+    fwd_cmd = 1                    # any lisp_cmd field by its spec name; unset fields 0
+    speed = 300
+    distance = 1000
+    [[key]]                        # typed at the host's console (stdin)
+    t = 0.5
+    key = "R"
+    [[fault]]
+    t = 5.0
+    kind = "unplug"                # kill_host | micro_reset | unplug | line_noise | planner_silent
+    duration_s = 1.0               # unplug, line_noise, planner_silent (optional)
+    ber = 1e-3                     # line_noise: bit error rate per bit
+
+Every error (unknown key, bad value, time past the duration) is a MissionError naming the
+file, the entry and the key.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = ["MissionError", "Command", "Key", "Fault", "Mission", "load", "loads",
+           "FAULT_KINDS", "COMMAND_FIELDS"]
+
+# lisp_cmd fields a mission may set (time_tag and msg_type are the planner's own).
+COMMAND_FIELDS = ("fwd_cmd", "accel", "speed", "distance", "turn_mode", "turn_accel",
+                  "turn_rate", "turn_distance", "rc_servo_num", "rc_param0", "rc_param1",
+                  "rc_param2", "dio_active", "dio_command")
+
+# fault kind -> (required parameters, optional parameters)
+FAULT_KINDS = {
+    "kill_host": ((), ()),
+    "micro_reset": ((), ()),
+    "unplug": (("duration_s",), ()),
+    "line_noise": (("ber", "duration_s"), ()),
+    "planner_silent": ((), ("duration_s",)),
+}
+
+
+class MissionError(ValueError):
+    """A mission file that cannot be run; the text names file, entry and key."""
+
+
+@dataclass(frozen=True)
+class Command:
+    """A lisp_cmd written at simulated time `t` (s); `fields` by spec name, raw values."""
+
+    t: float
+    fields: dict
+
+
+@dataclass(frozen=True)
+class Key:
+    """Characters typed at the host console at simulated time `t` (s)."""
+
+    t: float
+    key: str
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A fault injected at simulated time `t` (s): `kind` with its `params`
+    (duration_s in s, ber in errors per bit)."""
+
+    t: float
+    kind: str
+    params: dict
+
+    @property
+    def duration_s(self) -> float | None:
+        """How long the fault lasts (s), or None (to the end of the run / instant)."""
+        return self.params.get("duration_s")
+
+
+@dataclass
+class Mission:
+    """A loaded, checked mission. Times in s of simulated time."""
+
+    path: Path
+    text: str
+    duration_s: float
+    world: Path | None = None
+    plant: dict = field(default_factory=dict)
+    commands: list = field(default_factory=list)
+    keys: list = field(default_factory=list)
+    faults: list = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        """The mission file's stem, e.g. 'demo'."""
+        return self.path.stem
+
+
+def _num(where: str, key: str, v, *, positive=False, lo=None, hi=None) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise MissionError(f"{where}: key {key!r}: {v!r} is not a finite number")
+    if positive and v <= 0:
+        raise MissionError(f"{where}: key {key!r}: {v!r} must be > 0")
+    if lo is not None and v < lo:
+        raise MissionError(f"{where}: key {key!r}: {v!r} must be >= {lo}")
+    if hi is not None and v > hi:
+        raise MissionError(f"{where}: key {key!r}: {v!r} must be <= {hi}")
+    return float(v)
+
+
+def _time(where: str, entry: dict, duration: float) -> float:
+    if "t" not in entry:
+        raise MissionError(f"{where}: key 't' is missing (seconds of simulated time)")
+    t = _num(where, "t", entry["t"], lo=0.0)
+    if t > duration:
+        raise MissionError(f"{where}: key 't': {t} s is past duration_s = {duration} s")
+    return t
+
+
+def _command(where: str, entry: dict, duration: float) -> Command:
+    from navkit import protocol
+
+    t = _time(where, entry, duration)
+    fields = {}
+    for k, v in entry.items():
+        if k == "t":
+            continue
+        if k not in COMMAND_FIELDS:
+            raise MissionError(f"{where}: unknown key {k!r} (a command takes t and lisp_cmd "
+                               f"fields: {', '.join(COMMAND_FIELDS)})")
+        enum = protocol.SPEC.messages["lisp_cmd"].field(k).enum
+        values = protocol.SPEC.enums[enum].values if enum else {}
+        if isinstance(v, str) and v in values:
+            v = values[v]       # an enum value by its spec name, e.g. fwd_cmd = "start"
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise MissionError(f"{where}: key {k!r}: {v!r} is not an integer (raw lisp_cmd "
+                               f"value{', or one of ' + ', '.join(values) if values else ''})")
+        if values and v not in values.values():
+            codes = ", ".join(f"{n}={c}" for n, c in values.items())
+            raise MissionError(f"{where}: key {k!r}: {v} is not a {enum} code ({codes})")
+        fields[k] = v
+    try:
+        protocol.to_bytes("lisp_cmd", fields, strict=False)
+        for k, v in fields.items():
+            protocol.check("lisp_cmd", {k: v})
+    except protocol.ProtocolError as e:
+        key = next((k for k in fields if f".{k}:" in str(e)), "?")
+        raise MissionError(f"{where}: key {key!r}: {e}") from None
+    return Command(t, fields)
+
+
+def _key(where: str, entry: dict, duration: float) -> Key:
+    t = _time(where, entry, duration)
+    for k in entry:
+        if k not in ("t", "key"):
+            raise MissionError(f"{where}: unknown key {k!r} (a key entry takes t and key)")
+    if "key" not in entry:
+        raise MissionError(f"{where}: key 'key' is missing (the character to type, e.g. \"R\")")
+    v = entry["key"]
+    if not isinstance(v, str) or not v or not v.isprintable():
+        raise MissionError(f"{where}: key 'key': {v!r} must be printable text, e.g. \"R\"")
+    return Key(t, v)
+
+
+def _fault(where: str, entry: dict, duration: float) -> Fault:
+    t = _time(where, entry, duration)
+    kind = entry.get("kind")
+    if kind is None:
+        raise MissionError(f"{where}: key 'kind' is missing (one of {', '.join(FAULT_KINDS)})")
+    if kind not in FAULT_KINDS:
+        raise MissionError(f"{where}: key 'kind': {kind!r} is not a fault kind "
+                           f"(one of {', '.join(FAULT_KINDS)})")
+    required, optional = FAULT_KINDS[kind]
+    params = {}
+    for k, v in entry.items():
+        if k in ("t", "kind"):
+            continue
+        if k not in required and k not in optional:
+            allowed = ", ".join(("t", "kind") + required + optional)
+            raise MissionError(f"{where}: unknown key {k!r} for kind {kind!r} (takes {allowed})")
+        if k == "duration_s":
+            params[k] = _num(where, k, v, positive=True)
+            if t + params[k] > duration + 1e-9 and kind != "planner_silent":
+                raise MissionError(f"{where}: key 'duration_s': the fault ends at "
+                                   f"{t + params[k]} s, past duration_s = {duration} s")
+        elif k == "ber":
+            params[k] = _num(where, k, v, lo=0.0, hi=0.5)
+    for k in required:
+        if k not in params:
+            raise MissionError(f"{where}: key {k!r} is missing (kind {kind!r} needs "
+                               f"{', '.join(required)})")
+    return Fault(t, kind, params)
+
+
+def _world(path: Path, name) -> Path:
+    from navkit.paths import repo_root
+
+    if not isinstance(name, str) or not name:
+        raise MissionError(f"{path}: key 'world': {name!r} must be a file name")
+    for cand in (path.parent / name, repo_root() / "config" / "worlds" / name, Path(name)):
+        if cand.is_file():
+            return cand.resolve()
+    raise MissionError(f"{path}: key 'world': {name!r} not found beside the mission "
+                       f"or in config/worlds/")
+
+
+def loads(text: str, path: str | Path = "<mission>") -> Mission:
+    """Parse and check mission TOML `text` (`path` names it in errors and resolves the
+    world file). Raises MissionError."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise MissionError(f"{path}: not valid TOML: {e}") from None
+    known = ("duration_s", "world", "plant", "command", "key", "fault")
+    for k in doc:
+        if k not in known:
+            raise MissionError(f"{path}: unknown top-level key {k!r} (known: {', '.join(known)})")
+    if "duration_s" not in doc:
+        raise MissionError(f"{path}: key 'duration_s' is missing (simulated seconds to run)")
+    duration = _num(f"{path}", "duration_s", doc["duration_s"], positive=True)
+    m = Mission(path=path, text=text, duration_s=duration)
+    if "world" in doc:
+        m.world = _world(path, doc["world"])
+    plant = doc.get("plant", {})
+    if not isinstance(plant, dict):
+        raise MissionError(f"{path}: key 'plant' must be a table of FMU parameters")
+    for k, v in plant.items():
+        if isinstance(v, (dict, list)):
+            raise MissionError(f"{path}: [plant]: key {k!r}: {v!r} must be a number, "
+                               f"boolean or string")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise MissionError(f"{path}: [plant]: key {k!r}: {v!r} is not finite")
+    m.plant = dict(plant)
+    for table, parse, out in (("command", _command, m.commands), ("key", _key, m.keys),
+                              ("fault", _fault, m.faults)):
+        entries = doc.get(table, [])
+        if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+            raise MissionError(f"{path}: {table!r} must be an array of tables ([[{table}]])")
+        for i, entry in enumerate(entries):
+            out.append(parse(f"{path}: [[{table}]] #{i + 1}", entry, duration))
+        out.sort(key=lambda e: e.t)   # stable: same-time entries keep file order
+    return m
+
+
+def load(path: str | Path) -> Mission:
+    """Load and check the mission file at `path`. Raises MissionError."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise MissionError(f"{path}: cannot read: {e.strerror}") from None
+    return loads(text, path)
