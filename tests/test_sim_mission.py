@@ -1,0 +1,107 @@
+"""Mission files: loading, and clear errors naming file, entry and key (no build needed)."""
+
+from pathlib import Path
+
+import pytest
+
+from navkit.paths import repo_root
+from navkit.sim.mission import MissionError, load, loads
+
+GOOD = """
+duration_s = 5.0
+[plant]
+motor_kt = 0.02
+[[command]]
+t = 1.0
+fwd_cmd = "start"
+speed = 300
+distance = 1000
+[[command]]
+t = 0.5
+turn_mode = 10
+turn_distance = 900
+[[key]]
+t = 0.2
+key = "R"
+[[fault]]
+t = 2.0
+kind = "line_noise"
+ber = 1e-3
+duration_s = 1.0
+[[fault]]
+t = 3.0
+kind = "planner_silent"
+"""
+
+
+def test_good_mission_loads_sorted():
+    m = loads(GOOD, "good.toml")
+    assert m.duration_s == 5.0
+    assert [c.t for c in m.commands] == [0.5, 1.0]
+    assert m.commands[1].fields == {"fwd_cmd": 1, "speed": 300, "distance": 1000}
+    assert m.commands[0].fields == {"turn_mode": 10, "turn_distance": 900}
+    assert m.keys[0].key == "R"
+    assert m.faults[0].kind == "line_noise" and m.faults[0].params == {"ber": 1e-3, "duration_s": 1.0}
+    assert m.faults[1].duration_s is None
+    assert m.plant == {"motor_kt": 0.02}
+
+
+def test_shipped_missions_load():
+    files = sorted((repo_root() / "config" / "missions").glob("*.toml"))
+    assert any(f.name == "demo.toml" for f in files)
+    for f in files:
+        load(f)
+
+
+@pytest.mark.parametrize("text, entry, key", [
+    ("duration_s = 5\n[[command]]\nt = 6\nfwd_cmd = 1", "[[command]] #1", "'t'"),
+    ("duration_s = 5\n[[command]]\nt = 1\nspeeed = 1", "[[command]] #1", "'speeed'"),
+    ("duration_s = 5\n[[command]]\nt = 1\n[[command]]\nt = 2\nfwd_cmd = 7", "[[command]] #2", "'fwd_cmd'"),
+    ("duration_s = 5\n[[command]]\nt = 1\ndio_active = 4096", "[[command]] #1", "'dio_active'"),
+    ("duration_s = 5\n[[command]]\nt = 1\nspeed = 1.5", "[[command]] #1", "'speed'"),
+    ("duration_s = 5\n[[command]]\nfwd_cmd = 1", "[[command]] #1", "'t'"),
+    ("duration_s = 5\n[[command]]\nt = -1", "[[command]] #1", "'t'"),
+    ("duration_s = 5\n[[key]]\nt = 1", "[[key]] #1", "'key'"),
+    ("duration_s = 5\n[[key]]\nt = 1\nkey = 'R'\nfoo = 1", "[[key]] #1", "'foo'"),
+    ("duration_s = 5\n[[fault]]\nt = 1\nkind = 'zap'", "[[fault]] #1", "'kind'"),
+    ("duration_s = 5\n[[fault]]\nt = 1\nkind = 'unplug'", "[[fault]] #1", "'duration_s'"),
+    ("duration_s = 5\n[[fault]]\nt = 4\nkind = 'unplug'\nduration_s = 2", "[[fault]] #1", "'duration_s'"),
+    ("duration_s = 5\n[[fault]]\nt = 1\nkind = 'line_noise'\nduration_s = 1\nber = 2", "[[fault]] #1", "'ber'"),
+    ("duration_s = 5\n[[fault]]\nt = 1\nkind = 'kill_host'\nduration_s = 1", "[[fault]] #1", "'duration_s'"),
+    ("duration_s = 5\n[[fault]]\nt = 1\nkind = 'micro_reset'\nber = 0.1", "[[fault]] #1", "'ber'"),
+    ("duration_s = 5\nspeed = 3", "bad.toml", "'speed'"),
+    ("duration_s = -5", "bad.toml", "'duration_s'"),
+    ("[[command]]\nt = 1", "bad.toml", "'duration_s'"),
+    ("duration_s = 5\n[plant]\nx = [1, 2]", "[plant]", "'x'"),
+])
+def test_bad_mission_names_file_entry_key(text, entry, key):
+    with pytest.raises(MissionError) as e:
+        loads(text, "bad.toml")
+    msg = str(e.value)
+    assert msg.startswith("bad.toml"), msg
+    assert entry in msg and key in msg, msg
+
+
+def test_missing_file_and_bad_toml(tmp_path: Path):
+    with pytest.raises(MissionError, match="cannot read"):
+        load(tmp_path / "nope.toml")
+    p = tmp_path / "broken.toml"
+    p.write_text("duration_s = = 3")
+    with pytest.raises(MissionError, match="broken.toml: not valid TOML"):
+        load(p)
+
+
+def test_sim_cli_rejects_bad_mission(tmp_path: Path, capsys):
+    import argparse
+
+    from navkit.sim import cli
+
+    p = tmp_path / "bad.toml"
+    p.write_text("duration_s = 2\n[[command]]\nt = 1\nfwd_cmd = 1\nsped = 100\n")
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    rc = cli.run(parser.parse_args(["--mission", str(p), "--out", str(tmp_path / "o")]))
+    out = capsys.readouterr().out
+    assert rc == 1
+    assert "bad.toml: [[command]] #1: unknown key 'sped'" in out
+    assert not (tmp_path / "o").exists()
