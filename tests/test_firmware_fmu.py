@@ -1,0 +1,390 @@
+"""The firmware FMU (build/fmus/navkit_firmware.fmu) in fmpy.
+
+The model description is checked against the C variable table it was generated from and
+against docs/internals.md; then micro_cmd frames from the Python codec go into serial_rx
+(after the three config frames), a simple wheel model in the test closes the loop, and
+the micro_data frames from serial_tx must report the motion the wheels really made.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import tempfile
+import tomllib
+
+import pytest
+
+fmpy = pytest.importorskip("fmpy")
+from fmpy.fmi1 import FMICallException  # noqa: E402
+from fmpy.fmi3 import FMU3Slave  # noqa: E402
+from fmpy.validation import validate_fmu  # noqa: E402
+
+from navkit import protocol  # noqa: E402
+from navkit.paths import build_dir, repo_root  # noqa: E402
+
+FMU = build_dir() / "fmus" / "navkit_firmware.fmu"
+MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"
+pytestmark = pytest.mark.skipif(not FMU.exists(), reason=f"{FMU} not built")
+
+MM_PER_COUNT = math.pi * 100.0 / 2000.0  # spec default geometry
+TRACK_MM = 300.0
+LSB_PER_DPS = 131.0
+
+
+def status_bit(name: str) -> int:
+    """micro_status flag `name` from the spec (bit values, never hard-coded)."""
+    spec = tomllib.loads((repo_root() / "protocol" / "navkit.toml").read_text())
+    return 1 << spec["flags"]["micro_status"]["values"][name]
+
+
+@pytest.fixture(scope="module")
+def unzipped():
+    d = tempfile.mkdtemp(prefix="navkit_fw_fmu_")
+    fmpy.extract(str(FMU), d)
+    yield d
+    shutil.rmtree(d, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def md():
+    return fmpy.read_model_description(str(FMU), validate=True)
+
+
+class Micro:
+    """One firmware FMU instance in step mode, addressed by variable name."""
+
+    def __init__(self, unzipdir, md, name="micro", baud=None, start=True):
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir,
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate()
+        self.t = 0.0
+        if start:
+            self.start(baud)
+
+    def start(self, baud=None):
+        self.fmu.enterInitializationMode(startTime=0.0)
+        if baud is not None:
+            self.fmu.setUInt32([self.vr["baud"]], [baud])
+        self.fmu.exitInitializationMode()
+        self.t = 0.0
+
+    def set_int(self, **kw):
+        self.fmu.setInt32([self.vr[k] for k in kw], list(kw.values()))
+
+    def set_real(self, **kw):
+        self.fmu.setFloat64([self.vr[k] for k in kw], list(kw.values()))
+
+    def real(self, name):
+        return self.fmu.getFloat64([self.vr[name]])[0]
+
+    def int(self, name):
+        return self.fmu.getInt32([self.vr[name]])[0]
+
+    def step(self, h=0.001, rx=b""):
+        """One doStep of h seconds with rx arriving; returns the bytes sent."""
+        self.fmu.setBinary([self.vr["serial_rx"]], [rx])
+        self.fmu.doStep(self.t, h)
+        self.t += h
+        return bytes(self.fmu.getBinary([self.vr["serial_tx"]])[0])
+
+    def free(self):
+        self.fmu.freeInstance()
+
+
+class Wheels:
+    """A differential-drive robot: each wheel's speed follows duty * top_speed (first-order
+    lag), encoders integrate it, the gyro reads the yaw rate (CCW positive)."""
+
+    def __init__(self, top_speed=1.0 / 0.0018, tau=0.03, gyro_bias=0):
+        self.top, self.tau, self.bias = top_speed, tau, gyro_bias
+        self.v = [0.0, 0.0]
+        self.enc = [0.0, 0.0]
+        self.dist = 0.0
+        self.yaw_cw = 0.0
+
+    def drive(self, micro: Micro):
+        w_cw = (self.v[0] - self.v[1]) / TRACK_MM * 180.0 / math.pi
+        micro.set_int(enc_left=math.floor(self.enc[0]), enc_right=math.floor(self.enc[1]),
+                      gyro_raw=round(-w_cw * LSB_PER_DPS) + self.bias)
+
+    def advance(self, micro: Micro, h: float):
+        duties = (micro.real("motor_left_duty"), micro.real("motor_right_duty"))
+        for i, d in enumerate(duties):
+            self.v[i] += (d * self.top - self.v[i]) * h / (self.tau + h)
+            self.enc[i] += self.v[i] * h / MM_PER_COUNT
+        self.dist += 0.5 * (self.v[0] + self.v[1]) * h
+        self.yaw_cw += (self.v[0] - self.v[1]) / TRACK_MM * 180.0 / math.pi * h
+
+
+def config_frames(hash_override=None):
+    frames = b""
+    for tag, name in enumerate(("micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"), 1):
+        fields = protocol.defaults(name)
+        if hash_override is not None:
+            fields["spec_hash"] = hash_override
+        frames += protocol.encode_frame(name, fields, time_tag=tag)
+    return frames
+
+
+def run(micro: Micro, wheels: Wheels | None, seconds: float, frame: bytes = b"",
+        frame_period: float = 0.1) -> list[dict]:
+    """Co-simulate in 1 ms steps; the host repeats `frame` every frame_period. Returns the
+    micro_data frames received."""
+    parser = protocol.Parser(protocol.DIR_TO_HOST)
+    data = []
+    every = round(frame_period / 0.001)
+    for k in range(round(seconds / 0.001)):
+        if wheels:
+            wheels.drive(micro)
+        tx = micro.step(0.001, frame if (frame and k % every == 0) else b"")
+        if wheels:
+            wheels.advance(micro, 0.001)
+        for ev in parser.feed(tx):
+            assert isinstance(ev, protocol.Frame), ev
+            data.append(ev.fields)
+    return data
+
+
+def cmd(tag, **fields):
+    return protocol.encode_frame("micro_cmd", fields, time_tag=tag)
+
+
+# ---------------------------------------------------------------- the description
+
+
+def test_passes_fmpy_validation():
+    assert validate_fmu(str(FMU)) == []
+
+
+def test_description_matches_the_c_table(md):
+    """Every variable of the C table (fw_fmu_model.h) is in modelDescription.xml with the
+    same value reference, type and causality, and nothing else is."""
+    text = MODEL_H.read_text()
+    table = {}
+    for block, typ in (("FLOAT64", "Float64"), ("INT32", "Int32"), ("UINT32", "UInt32"), ("BINARY", "Binary")):
+        body = re.search(rf"#define FWFMU_{block}_VARS\(X\)(.*?)\n\n", text, re.S).group(1)
+        for vr, name, caus in re.findall(r"X\((\d+), (\w+), (\w+)", body):
+            table[name] = (int(vr), typ, caus)
+    described = {v.name: (v.valueReference, v.type, v.causality) for v in md.modelVariables}
+    assert described == table
+
+
+def test_description_has_the_internals_contract(md):
+    """The names, types and causalities docs/internals.md fixes for the firmware FMU."""
+    want = {"motor_left_duty": ("Float64", "output"), "motor_right_duty": ("Float64", "output"),
+            "dio_out": ("Int32", "output"), "dio_dir": ("Int32", "output"),
+            "enc_left": ("Int32", "input"), "enc_right": ("Int32", "input"),
+            "gyro_raw": ("Int32", "input"), "compass_raw": ("Int32", "input"),
+            "battery_voltage": ("Float64", "input"), "dio_in": ("Int32", "input"),
+            "serial_rx": ("Binary", "input"), "serial_tx": ("Binary", "output")}
+    want.update({f"servo_pulse_{i}": ("Float64", "output") for i in range(8)})
+    want.update({f"ir_voltage_{i}": ("Float64", "input") for i in range(4)})
+    want.update({f"sonar_echo_{i}": ("Float64", "input") for i in range(4)})
+    got = {v.name: (v.type, v.causality) for v in md.modelVariables}
+    for name, tc in want.items():
+        assert got.get(name) == tc, name
+    units = {v.name: v.unit for v in md.modelVariables if v.type == "Float64"}
+    assert units["battery_voltage"] == "V" and units["servo_pulse_3"] == "us"
+    assert md.coSimulation.modelIdentifier == "navkit_firmware"
+
+
+def test_every_described_variable_is_served_by_the_code(unzipped, md):
+    """Each variable of the description can be read through its type's getter, and a
+    value reference the description does not have is refused."""
+    m = Micro(unzipped, md)
+    try:
+        getters = {"Float64": m.fmu.getFloat64, "Int32": m.fmu.getInt32, "UInt32": m.fmu.getUInt32,
+                   "Binary": m.fmu.getBinary}
+        for v in md.modelVariables:
+            getters[v.type]([v.valueReference])
+        with pytest.raises(FMICallException):
+            m.fmu.getFloat64([999])
+        with pytest.raises(FMICallException):
+            m.fmu.getInt32([m.vr["motor_left_duty"]])  # right number, wrong type
+        with pytest.raises(FMICallException):
+            m.set_real(motor_left_duty=0.5)  # outputs cannot be set
+    finally:
+        m.free()
+
+
+def test_simulates_in_fmpy():
+    r = fmpy.simulate_fmu(str(FMU), stop_time=0.3, output_interval=0.001)
+    assert len(r) == 301
+    assert max(abs(r["motor_left_duty"])) == 0.0  # unconfigured: motors off
+
+
+# ---------------------------------------------------------------- FMI behaviour
+
+
+def test_state_table_and_step_sizes(unzipped, md):
+    m = Micro(unzipped, md, start=False)
+    try:
+        with pytest.raises(FMICallException):
+            m.fmu.doStep(0.0, 0.001)  # not in step mode yet
+        m.start()
+        with pytest.raises(FMICallException):
+            m.fmu.setUInt32([m.vr["baud"]], [9600])  # fixed parameter, step mode
+        m.step(0.001)
+        m.step(0.1)  # 100 control ticks
+        assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.101)
+        with pytest.raises(FMICallException):
+            m.fmu.doStep(m.t, 0.0015)  # not a whole number of 1 ms ticks
+        with pytest.raises(FMICallException):
+            m.fmu.doStep(m.t + 0.5, 0.001)  # not the current time
+        m.fmu.terminate()
+        with pytest.raises(FMICallException):
+            m.fmu.doStep(m.t, 0.001)
+        m.fmu.reset()
+        m.start()
+        m.step(0.001)
+    finally:
+        m.free()
+
+
+def test_unconfigured_until_three_configs_and_again_after_reset(unzipped, md):
+    m = Micro(unzipped, md)
+    w = Wheels()
+    configured = status_bit("configured")
+    try:
+        data = run(m, w, 0.3, cmd(5, fwd_cmd=1, speed=200, distance=500))
+        assert len(data) == 3 and not data[-1]["status"] & configured
+        assert data[-1]["cmd_rejected"] == 1 and data[-1]["last_reject"] == 1
+        assert w.dist == 0.0
+        # a config built from another spec is refused and counted
+        data = run(m, w, 0.05, config_frames(hash_override=protocol.SPEC_HASH ^ 1))
+        assert data[-1]["rx_schema_mismatch"] == 3 and not data[-1]["status"] & configured
+        data = run(m, w, 0.05, config_frames())
+        assert len(data) == 3  # one micro_data per host frame
+        assert data[-1]["status"] & configured
+        assert data[-1]["spec_hash"] == protocol.SPEC_HASH
+        # fmi3Reset = micro reset: unconfigured again
+        m.fmu.reset()
+        m.start()
+        data = run(m, w, 0.05, cmd(6, fwd_cmd=1, speed=200, distance=500))
+        assert not data[-1]["status"] & configured and data[-1]["rx_schema_mismatch"] == 0
+    finally:
+        m.free()
+
+
+def test_forward_move_closed_loop(unzipped, md):
+    m = Micro(unzipped, md)
+    w = Wheels()
+    try:
+        run(m, w, 1.2)  # gyro calibration
+        run(m, w, 0.05, config_frames())
+        frame = cmd(10, fwd_cmd=1, speed=250, distance=800, mc_datalog_cmd=3)
+        data = run(m, w, 5.0, frame)
+        assert len(data) == 50  # one reply per frame the host sent
+        peak = max(d["fwd_speed"] for d in data)
+        assert 230 <= peak <= 265
+        assert max(d["mc_datalog"][0] for d in data) == pytest.approx(250, abs=2)  # reference speed
+        last = data[-1]
+        assert w.dist == pytest.approx(800, abs=5)
+        assert last["distance"] == pytest.approx(800, abs=5)
+        assert last["x"] == pytest.approx(800, abs=6) and abs(last["y"]) <= 3
+        assert last["status"] & status_bit("fwd_done")
+        assert last["ack_time_tag"] == 10
+        assert abs(last["enc_left"] - round(w.enc[0])) <= 1
+    finally:
+        m.free()
+
+
+def test_pivot_and_heading_select_across_north(unzipped, md):
+    m = Micro(unzipped, md)
+    w = Wheels(gyro_bias=40)
+    try:
+        run(m, w, 1.2)
+        run(m, w, 0.05, config_frames())
+        data = run(m, w, 4.0, cmd(20, turn_cmd=1, turn_rate=450, turn_distance=-900))  # 90 deg left
+        assert w.yaw_cw == pytest.approx(-90, abs=2)
+        assert data[-1]["heading"] == pytest.approx(2700, abs=20)
+        assert data[-1]["turn_progress"] == pytest.approx(-900, abs=20)
+        # HdgSel from 270 to 30: shortest way is 120 deg clockwise, through north
+        data = run(m, w, 6.0, cmd(21, turn_cmd=10, turn_rate=450, turn_distance=300))
+        assert w.yaw_cw == pytest.approx(30, abs=1.5)
+        assert data[-1]["heading"] == pytest.approx(300, abs=10)
+        assert data[-1]["status"] & status_bit("hdg_active")
+        # an unimplemented turn code is refused and counted
+        data = run(m, w, 0.2, cmd(22, turn_cmd=20, turn_distance=100))
+        assert data[-1]["last_reject"] == 20 and data[-1]["cmd_rejected"] == 1
+    finally:
+        m.free()
+
+
+def test_watchdog_stop(unzipped, md):
+    m = Micro(unzipped, md)
+    w = Wheels()
+    try:
+        run(m, w, 1.2)
+        run(m, w, 0.05, config_frames())
+        run(m, w, 2.0, cmd(30, fwd_cmd=1, speed=300, distance=2000000000))
+        assert sum(w.v) / 2 == pytest.approx(300, abs=20)
+        run(m, w, 1.5)  # the host goes quiet
+        assert abs(w.v[0]) < 1 and abs(w.v[1]) < 1
+        data = run(m, w, 0.1, cmd(30, fwd_cmd=1, speed=300, distance=2000000000))  # repeat: no resume
+        assert data[-1]["status"] & status_bit("watchdog_stop")
+        assert data[-1]["watchdog_stops"] == 1
+        run(m, w, 1.0, cmd(31, fwd_cmd=1, speed=300, distance=2000000000))  # new start
+        assert sum(w.v) / 2 == pytest.approx(300, abs=20)
+    finally:
+        m.free()
+
+
+def test_uart_runs_at_the_baud_rate(unzipped, md):
+    """At 9600 baud a 36-byte config frame needs 37.5 ms on the line, and the 126-byte
+    reply 131 ms: the reply starts after the frame arrived and ends ~170 ms later."""
+    m = Micro(unzipped, md, baud=9600)
+    try:
+        frame = protocol.encode_frame("micro_cfg_geometry", protocol.defaults("micro_cfg_geometry"), time_tag=1)
+        got = []
+        for k in range(250):
+            tx = m.step(0.001, frame if k == 0 else b"")
+            got.extend((k, b) for b in tx)
+        first, last = got[0][0], got[-1][0]
+        assert len(got) == 126
+        assert 36 <= first <= 40
+        assert 36 + 130 <= last <= 40 + 133
+        assert protocol.decode_frame(bytes(b for _, b in got))[0] == "micro_data"
+        # one 100 ms step at 115200 baud carries frame and reply in the same step
+        m.fmu.reset()
+        m.start(baud=115200)
+        assert protocol.decode_frame(m.step(0.1, frame))[0] == "micro_data"
+    finally:
+        m.free()
+
+
+def test_instances_are_independent(unzipped, md):
+    a, b = Micro(unzipped, md, "a"), Micro(unzipped, md, "b")
+    wa, wb = Wheels(), Wheels()
+    try:
+        run(a, wa, 0.05, config_frames())
+        da = run(a, wa, 1.0, cmd(3, fwd_cmd=1, speed=200, distance=100))
+        db = run(b, wb, 1.0, cmd(3, fwd_cmd=1, speed=200, distance=100))
+        assert da[-1]["status"] & status_bit("configured")
+        assert not db[-1]["status"] & status_bit("configured")
+        assert wa.dist == pytest.approx(100, abs=5) and wb.dist == 0.0
+    finally:
+        a.free()
+        b.free()
+
+
+def test_servo_dio_and_sensors(unzipped, md):
+    m = Micro(unzipped, md)
+    try:
+        run(m, None, 0.05, config_frames())
+        m.set_int(dio_in=0x0A00, compass_raw=1234)
+        m.set_real(ir_voltage_0=2.5, battery_voltage=12.0, sonar_echo_1=5800.0)
+        data = run(m, None, 0.6, cmd(4, rc2_param0=1000, rc2_param1=300, rc2_param2=9999,
+                                     dio_command=0x0FF9))
+        assert m.real("servo_pulse_2") == 1800.0 and m.real("servo_pulse_0") == 0.0
+        assert m.int("dio_dir") == 0x00FF and m.int("dio_out") == 0x00F9
+        d = data[-1]
+        assert d["servo_pos"][2] == 300
+        assert d["dio_state"] == 0x0AF9
+        assert d["adc"][0] == 512 and d["adc"][4] == 819  # 12 V / 3 on a 5 V, 10-bit ADC
+        assert d["sonar_echo"][1] == 5800 and d["compass"] == 1234
+    finally:
+        m.free()
