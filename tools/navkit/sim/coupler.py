@@ -35,20 +35,21 @@ class _Fmu(ctypes.Structure):
                                         "set_int32", "get_binary", "set_binary", "do_step")]
 
 
-def library_path() -> Path:
-    """The built coupler, `<build>/fmu/cosim/libnavkit_cosim.so`."""
+def library_path(build: Path | None = None) -> Path:
+    """The built coupler, `<build>/fmu/cosim/libnavkit_cosim.so` (default build folder:
+    navkit.paths.build_dir())."""
     from navkit.paths import build_dir
 
-    return build_dir() / "fmu" / "cosim" / "libnavkit_cosim.so"
+    return Path(build or build_dir()) / "fmu" / "cosim" / "libnavkit_cosim.so"
 
 
 _LIB = None
 
 
-def _lib():
+def _lib(build: Path | None = None):
     global _LIB
     if _LIB is None:
-        path = library_path()
+        path = library_path(build)
         if not path.exists():
             raise CouplerError(f"{path} not found: build it (cmake --build <build> "
                                f"--target navkit_cosim)")
@@ -105,12 +106,14 @@ class Coupler:
     `firmware`, `plant`: initialised fmpy FMU3Slave objects; `fw_md`, `plant_md`: their
     model descriptions. `step_s`: the step (s, 0.001 = 1 kHz); `record_every`: steps
     between truth rows (20 = 50 Hz). Truth columns are TRUTH_PLANT then TRUTH_FIRMWARE
-    (those the FMUs have); `columns` lists them.
+    (those the FMUs have); `columns` lists them. `build`: the build folder holding the
+    library (default navkit.paths.build_dir()).
     """
 
     def __init__(self, firmware, fw_md, plant, plant_md, *, step_s=0.001, start_s=0.0,
-                 record_every=20, tx_capacity=1 << 16, row_capacity=4096):
-        lib = _lib()
+                 record_every=20, tx_capacity=1 << 16, row_capacity=4096, build=None):
+        self._c = None
+        lib = _lib(build)
         self._lib = lib
         self._fw_struct, self._plant_struct = _fmu_struct(firmware), _fmu_struct(plant)
         self._c = lib.cosim_new(ctypes.byref(self._fw_struct), ctypes.byref(self._plant_struct),
@@ -163,7 +166,7 @@ class Coupler:
 
     def close(self) -> None:
         """Frees the native coupler (the FMUs stay the caller's)."""
-        if self._c:
+        if getattr(self, "_c", None):
             self._lib.cosim_free(self._c)
             self._c = None
 

@@ -199,33 +199,103 @@ class _Fmus:
 
 # ------------------------------------------------------------------ planner
 
+class _ShmRegion:
+    """Direct access to the host's rcomm region (docs/internals.md), used only when the
+    planner client `navkit.rcomm` is not installed: seqlock writer of lisp_cmd, seqlock
+    reader of lisp_data, planner heartbeat."""
+
+    def __init__(self, name: str):
+        import mmap
+        import struct
+
+        from navkit import protocol
+
+        self._struct = struct
+        path = "/dev/shm/" + name.lstrip("/")
+        fd = os.open(path, os.O_RDWR)
+        try:
+            self.mm = mmap.mmap(fd, protocol.RCOMM_SIZE)
+        finally:
+            os.close(fd)
+        magic, version, spec = struct.unpack_from("<III", self.mm, 0)
+        if magic != protocol.RCOMM_MAGIC or version != protocol.RCOMM_VERSION:
+            self.mm.close()
+            raise ConnectionError(f"rcomm region {name}: magic 0x{magic:08X} version {version}")
+        if spec != protocol.SPEC_HASH:
+            self.mm.close()
+            raise ConnectionError(f"rcomm region {name}: spec hash 0x{spec:08X}, ours "
+                                  f"0x{protocol.SPEC_HASH:08X}")
+        self.cmd_off = protocol.RCOMM_OFFSETS["lisp_cmd"]
+        self.data_off = protocol.RCOMM_OFFSETS["lisp_data"]
+        self.protocol = protocol
+        self.beats = 0
+
+    def write_cmd(self, fields: dict) -> None:
+        st = self._struct
+        data = self.protocol.to_bytes("lisp_cmd", fields)
+        seq = st.unpack_from("<I", self.mm, self.cmd_off)[0]
+        seq = (seq | 1) if seq % 2 == 0 else seq + 2
+        st.pack_into("<I", self.mm, self.cmd_off, seq & 0xFFFFFFFF)
+        self.mm[self.cmd_off + 4:self.cmd_off + 4 + len(data)] = data
+        st.pack_into("<I", self.mm, self.cmd_off, (seq + 1) & 0xFFFFFFFF)
+
+    def beat(self) -> None:
+        self.beats = (self.beats + 1) & 0xFFFFFFFF
+        self._struct.pack_into("<I", self.mm, 12, self.beats)
+
+    def read_data(self) -> dict | None:
+        st = self._struct
+        size = self.protocol.SPEC.messages["lisp_data"].size
+        for _ in range(100):
+            s1 = st.unpack_from("<I", self.mm, self.data_off)[0]
+            if s1 % 2:
+                continue
+            data = bytes(self.mm[self.data_off + 4:self.data_off + 4 + size])
+            if st.unpack_from("<I", self.mm, self.data_off)[0] == s1:
+                return self.protocol.from_bytes("lisp_data", data) if s1 else None
+        return None
+
+    def close(self) -> None:
+        self.mm.close()
+
+
 class _Planner:
-    """The mission's planner on rcomm (navkit.rcomm): writes lisp_cmd, bumps the
-    heartbeat, reads lisp_data."""
+    """The mission's planner on rcomm: writes lisp_cmd, bumps the heartbeat, reads
+    lisp_data. Uses the planner client navkit.rcomm."""
 
     def __init__(self, shm_name: str):
         self.shm_name = shm_name
         self.client = None
         self.time_tag = 0
 
-    def attach(self, timeout_s: float) -> bool:
-        """Open the host's region, waiting up to `timeout_s` (s) for it to appear."""
-        from navkit import rcomm
+    def _open(self):
+        try:
+            from navkit import rcomm
+        except ImportError:
+            return _ShmRegion(self.shm_name)
+        return rcomm.Client(self.shm_name)
 
+    def attach(self, timeout_s: float, alive=lambda: True) -> bool:
+        """Open the host's region, waiting up to `timeout_s` (s) for it to appear while
+        `alive()` says the host still runs."""
         deadline = time.monotonic() + timeout_s
         while True:
             try:
-                self.client = rcomm.Client(self.shm_name)
+                self.client = self._open()
                 return True
-            except (FileNotFoundError, rcomm.RcommError):
-                if time.monotonic() >= deadline:
+            except (OSError, ConnectionError, ValueError):
+                if time.monotonic() >= deadline or not alive():
                     return False
-                time.sleep(0.01)
+                time.sleep(0.005)
 
     def command(self, fields: dict, t_ms: int) -> dict:
         """Write a whole lisp_cmd (unset fields 0) with a new time tag; returns it."""
         self.time_tag = max(self.time_tag + 1, t_ms)
-        msg = dict(fields, time_tag=self.time_tag, msg_type=0)
+        msg = dict.fromkeys(("fwd_cmd", "accel", "speed", "distance", "turn_mode",
+                             "turn_accel", "turn_rate", "turn_distance", "rc_servo_num",
+                             "rc_param0", "rc_param1", "rc_param2", "dio_active",
+                             "dio_command"), 0)
+        msg.update(fields, time_tag=self.time_tag, msg_type=0)
         if self.client is not None:
             self.client.write_cmd(msg)
         return msg
@@ -307,7 +377,8 @@ class _Run:
                           self.m.path)
         every = max(1, round(1.0 / (self.opts.truth_hz * STEP_S)))
         self.coupler = Coupler(self.fmus.fw, self.fmus.fw_md, self.fmus.plant,
-                               self.fmus.plant_md, step_s=STEP_S, record_every=every)
+                               self.fmus.plant_md, step_s=STEP_S, record_every=every,
+                               build=self.build)
         if self.opts.timing:
             self.coupler.timing(True)
         meta = {"mission": self.m.text, "mission_file": str(self.m.path),
@@ -333,7 +404,7 @@ class _Run:
         if self.lock:
             self.lock.started()
         self.planner = _Planner(self.shm)
-        if not self.planner.attach(10.0):
+        if not self.planner.attach(10.0, lambda: self.proc.poll() is None):
             self._host_died_check()
             raise SimError(f"the host did not create rcomm region {self.shm} within 10 s "
                            f"(see {self.out / 'host.log'})")
@@ -378,6 +449,8 @@ class _Run:
         if self.rec is not None:
             self.rec.close()
         if self.coupler is not None:
+            if self.opts.timing:
+                self.fmu_split = self.coupler.fmu_seconds()
             self.coupler.close()
         if self.fmus is not None:
             self.fmus.close()
@@ -666,8 +739,8 @@ def run(opts: SimOptions) -> dict:
     r.stop()
     wall = time.perf_counter() - wall0
     summary = r.summary(wall)
-    if opts.timing and r.coupler is not None:
-        pass
+    if opts.timing and getattr(r, "fmu_split", None):
+        summary["fmu_split_s"] = [round(x, 3) for x in r.fmu_split]
     (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     if opts.plot:
         from navkit.plot import plot_mcap

@@ -1,0 +1,84 @@
+"""`navkit bench-sim`: time a long lockstep co-simulation end to end.
+
+Runs a generated mission (default 10 simulated minutes: out-and-back legs, heading
+selects, servo scans, DIO) through the real host over the pty, and prints the real-time
+factor (simulated s per wall s), the share of wall time in the FMUs (native coupler),
+the pty, the host (tick to done) and the harness's own Python (decoding, MCAP), and the
+peak memory of the harness and of the host.
+"""
+
+from __future__ import annotations
+
+import resource
+import tempfile
+from pathlib import Path
+
+__all__ = ["add_arguments", "run", "bench_mission"]
+
+
+def add_arguments(parser) -> None:
+    """Arguments of `navkit bench-sim`."""
+    parser.add_argument("--minutes", type=float, default=10.0,
+                        help="simulated minutes (default 10)")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=None,
+                        help="keep the run's outputs here (default: a temporary folder)")
+    parser.add_argument("--build", type=Path, default=None,
+                        help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+
+
+def bench_mission(minutes: float) -> str:
+    """Mission TOML text: `minutes` of 20-s cycles (1 m out, turn around by heading
+    select, 1 m back, servo scan, DIO toggles)."""
+    dur = minutes * 60.0
+    lines = [f"duration_s = {dur}"]
+    t, k = 1.0, 0
+    while t + 20.0 <= dur:
+        hdg = 1800 if k % 2 == 0 else 0
+        lines += ["[[command]]", f"t = {t}", "fwd_cmd = 1", "speed = 400", "distance = 1000",
+                  "rc_servo_num = 1", "rc_param0 = 900", "rc_param1 = 600", "rc_param2 = -600",
+                  "dio_active = 15", f"dio_command = {k % 16}"]
+        lines += ["[[command]]", f"t = {t + 5.0}", "turn_mode = 10", "turn_rate = 900",
+                  f"turn_distance = {hdg}", "dio_active = 15", f"dio_command = {(k + 1) % 16}"]
+        lines += ["[[command]]", f"t = {t + 10.0}", "fwd_cmd = 1", "speed = 300",
+                  "distance = 1000", "turn_mode = 11", "turn_rate = 300"]
+        t += 20.0
+        k += 1
+    return "\n".join(lines) + "\n"
+
+
+def run(args) -> int:
+    """Run the benchmark and print its figures; 0 on success."""
+    from navkit.sim.harness import SimError, SimOptions
+    from navkit.sim.harness import run as run_sim
+    from navkit.sim.mission import loads
+
+    with tempfile.TemporaryDirectory(prefix="navkit-bench-") as tmp:
+        out = args.out or Path(tmp) / "out"
+        mission = loads(bench_mission(args.minutes), Path(tmp) / "bench.toml")
+        opts = SimOptions(mission=mission, out=out, seed=args.seed, build=args.build,
+                          plot=False, timing=True)
+        try:
+            s = run_sim(opts)
+        except SimError as e:
+            print(f"navkit bench-sim: {e}")
+            return 1
+    wall = s["wall_time_s"]
+    share = s["time_share_s"]
+    print(f"simulated {s['sim_time_s']:.0f} s in {wall:.2f} s wall: "
+          f"real-time factor {s['realtime_factor']}x ({s['frames']} host frames of "
+          f"{s['frame_s'] * 1000:.0f} ms, FMUs at 1 kHz)")
+    rest = wall - sum(share.values())
+    parts = dict(share, startup_and_shutdown=rest)
+    names = {"fmus": "FMUs (native coupler)", "pty": "pty reads/writes",
+             "host": "host frame (tick -> done)", "record": "harness Python (decode, MCAP)",
+             "startup_and_shutdown": "start-up, shutdown, summary"}
+    for k, v in parts.items():
+        print(f"  {names.get(k, k):32s} {v:7.3f} s  {100 * v / wall:5.1f} %")
+    fw, plant = s.get("fmu_split_s", (None, None))
+    if fw is not None:
+        print(f"  of the FMUs: firmware {fw:.3f} s, plant {plant:.3f} s")
+    me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    print(f"peak memory: harness {me:.0f} MiB, host {kids:.0f} MiB")
+    return 0
