@@ -128,6 +128,10 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
         link_reject(l, c->turn_cmd);
         return;
     }
+    if (c->turn_cmd == NAVKIT_TURN_CMD_HDG_SEL && (c->turn_distance < -3600 || c->turn_distance > 3600)) {
+        link_reject(l, c->turn_cmd); /* HdgSel takes a heading of -360..360 deg */
+        return;
+    }
     if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK) {
         link_reject(l, (uint16_t)(LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD));
         return;

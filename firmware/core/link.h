@@ -7,8 +7,13 @@
  *     rx_schema_mismatch; out of range: counted in cmd_rejected);
  *   - then one micro_data goes back (if the TX FIFO has room for the whole frame).
  * A micro_cmd is executed whole or not at all: it is refused (cmd_rejected + 1,
- * last_reject = the code) while unconfigured, for an unknown or unimplemented fwd_cmd or
- * turn_cmd, or for a field out of its spec range (last_reject = LINK_REJECT_RANGE).
+ * last_reject = the code) for an unknown or unimplemented fwd_cmd or turn_cmd, for a
+ * HdgSel heading outside -3600..3600 (last_reject = 10), for a field out of its spec
+ * range (last_reject = LINK_REJECT_RANGE | 1), and while unconfigured (last_reject =
+ * fwd_cmd, or turn_cmd when fwd_cmd is 0). A refused config counts in cmd_rejected with
+ * last_reject = LINK_REJECT_RANGE | its msg_type (or in rx_schema_mismatch for a wrong
+ * spec_hash). A fwd_cmd/turn_cmd 3 with no 1 to modify is refused with its code; a 3
+ * after a stop latch is ignored without counting (the latch shows in the status).
  */
 #ifndef NAVKIT_LINK_H
 #define NAVKIT_LINK_H

@@ -319,6 +319,28 @@ static void test_turns(void)
             CHECK_NEAR(h.dist_mm, dist0, 1.0);
         }
     }
+    /* a HdgSel heading outside -360..360 deg */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_distance = 3601;
+    host_run(&c, 0.1);
+    d = data();
+    CHECK(d.last_reject == 10);
+    CHECK_NEAR(fw.turn.hdg_target, 300.0, 1e-3); /* the HdgSel before it still steers */
+    /* a field out of its spec range (dg_set 0..3599) */
+    c = cmd();
+    c.dg_control = NAVKIT_DG_CONTROL_SET_HEADING;
+    c.dg_set = 3600;
+    host_run(&c, 0.1);
+    d = data();
+    CHECK(d.last_reject == (LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD));
+    /* a turn modify while HdgSel steers: there is no turn 1 to modify */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    c.turn_distance = 100;
+    host_run(&c, 0.1);
+    d = data();
+    CHECK(d.last_reject == NAVKIT_TURN_CMD_MODIFY);
     /* forward codes outside 0/1/3/5 too */
     c = cmd();
     c.fwd_cmd = 2;
