@@ -205,6 +205,20 @@ class Coupler:
         flat = self._rows[:n * w]
         return tx, [flat[i * w:(i + 1) * w] for i in range(n)]
 
+    def run_raw(self, n_steps: int, rx: bytes = b"") -> tuple[bytes, bytes]:
+        """As run(), but the truth rows come back as the raw bytes of their doubles
+        (native byte order, `width` doubles per row)."""
+        cap_rows = max(self._row_cap, n_steps)
+        if cap_rows > self._row_cap:
+            self._rows = (c_double * (cap_rows * self.width))()
+            self._row_cap = cap_rows
+        rc = self._lib.cosim_run(self._c, n_steps, rx or None, len(rx), self._tx, self._tx_cap,
+                                 ctypes.byref(self._tx_len), self._rows, self._row_cap,
+                                 ctypes.byref(self._n_rows))
+        self._check(rc)
+        return (ctypes.string_at(self._tx, self._tx_len.value),
+                ctypes.string_at(self._rows, self._n_rows.value * self.width * 8))
+
     def exchange(self) -> None:
         """Copy connected outputs to inputs both ways without stepping (after a reset)."""
         self._check(self._lib.cosim_exchange(self._c))

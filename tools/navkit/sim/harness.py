@@ -325,45 +325,33 @@ class _Run:
         self.build = _build(opts)
         self.config_dir = Path(opts.config_dir) if opts.config_dir else repo_root() / "config"
         self.out = Path(opts.out)
-        self.out.mkdir(parents=True, exist_ok=True)
         self.frame_s = opts.frame_s or frame_period(self.config_dir)
         self.steps_per_frame = max(1, round(self.frame_s / STEP_S))
         self.frame_s = self.steps_per_frame * STEP_S
         self.protocol = protocol
-        self.rng = random.Random(opts.seed)
         self.noise_rng = random.Random(f"navkit-noise-{opts.seed}")
         self.tmp = Path(tempfile.mkdtemp(prefix="navkit-sim-"))
-        self.shm = f"/navkit-sim-{os.getpid()}-{int(time.monotonic_ns() % 1_000_000_000)}"
-        self.proc = None
-        self.lock = None
-        self.port = None
-        self.fmus = None
-        self.coupler = None
-        self.rec = None
-        self.planner = None
+        self.shm = f"/navkit-sim-{os.getpid()}-{time.monotonic_ns() % 1_000_000_000}"
+        self.proc = self.lock = self.port = self.fmus = self.coupler = None
+        self.log = self.planner = self.host_log = None
         self.host_state = "running"
         self.silent_until = None
         self.noise = None
         self.noise_until = None
         self.noise_stats = {"flips": 0, "drops": 0, "inserts": 0}
         self.unplug_until = None
-        self.h2m = protocol.Parser(protocol.DIR_TO_MICRO)
-        self.m2h = protocol.Parser(protocol.DIR_TO_HOST)
-        self.last_truth = None
-        self.last_micro = None
-        self.last_planner = None
-        self.config_downloads = 0
         self.frames = 0
         self.host_exit = None
-        self.times = {"fmus": 0.0, "pty": 0.0, "host": 0.0, "record": 0.0}
-        self.stdin_log = []
-        self._truth_keys = None
+        self.results = {}
+        self.fmu_split = None
+        self.sim_time_s = 0.0
+        self.times = {"fmus": 0.0, "pty": 0.0, "host": 0.0, "harness": 0.0}
 
     # -------------------------------------------------------------- set-up / tear-down
     def start(self) -> None:
         from navkit.sim.coupler import Coupler
         from navkit.sim.links import Lockstep, Port
-        from navkit.sim.record import Recorder
+        from navkit.sim.record import RunLog
 
         host = host_path(self.build)
         if not host.exists():
@@ -381,14 +369,18 @@ class _Run:
                                build=self.build)
         if self.opts.timing:
             self.coupler.timing(True)
-        meta = {"mission": self.m.text, "mission_file": str(self.m.path),
+        self.out.mkdir(parents=True, exist_ok=True)
+        meta = {"mission": self.m.text, "mission_file": self.m.path.name,
                 "seed": self.opts.seed, "spec_hash": f"0x{self.protocol.SPEC_HASH:08X}",
                 "git_revision": _git_revision(), "frame_s": self.frame_s,
-                "realtime": self.opts.realtime, "step_s": STEP_S}
-        self.rec = Recorder(self.out / "run.mcap", meta)
+                "realtime": self.opts.realtime, "step_s": STEP_S,
+                "plant_fmu": self.fmus.plant_md.modelName,
+                "firmware_fmu": self.fmus.fw_md.modelName}
+        # fork the log worker before any pty, socket or child process exists
+        self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width)
         self.port = Port(self.tmp / "ttyNAVKIT")
         cmd = [str(host), "--port", str(self.port.link), "--shm", self.shm,
-               "--config", str(self.config_dir), "--log-dir", str(self.out)]
+               "--config", str(self.config_dir), "--log-dir", str(self.out.resolve())]
         pass_fds = ()
         if self.opts.realtime:
             cmd[1:1] = ["--clock", "real"]
@@ -419,6 +411,8 @@ class _Run:
 
     def _host_died_check(self) -> None:
         if self.proc is not None and self.proc.poll() is not None:
+            if self.host_log:
+                self.host_log.flush()
             tail = (self.out / "host.log").read_bytes()[-2000:].decode(errors="replace")
             raise SimError(f"navkit-host exited with status {self.proc.returncode}:\n{tail}")
 
@@ -446,15 +440,16 @@ class _Run:
             pass
         if self.port is not None:
             self.port.close()
-        if self.rec is not None:
-            self.rec.close()
+        if self.log is not None:
+            self.results = self.log.close()
+            self.log = None
         if self.coupler is not None:
             if self.opts.timing:
                 self.fmu_split = self.coupler.fmu_seconds()
             self.coupler.close()
         if self.fmus is not None:
             self.fmus.close()
-        if getattr(self, "host_log", None):
+        if self.host_log:
             self.host_log.close()
         shutil.rmtree(self.tmp, ignore_errors=True)
 
@@ -466,19 +461,17 @@ class _Run:
         ev.sort(key=lambda e: (e[0], e[1]))
         return ev
 
-    def _event(self, t: float, kind: str, detail: dict) -> None:
-        self.rec.write("/events", round(t * 1e9), {"t": round(t, 6), "kind": kind, "detail": detail})
+    def _event(self, t_ns: int, kind: str, detail: dict) -> None:
+        self.log.event(t_ns, kind, detail)
 
-    def _apply(self, t: float, what: str, e) -> None:
-        t_ns = round(t * 1e9)
+    def _apply(self, t_ns: int, what: str, e) -> None:
         if what == "command":
-            if self.silent_until is not None and t < self.silent_until:
+            if self.silent_until is not None:
                 return          # a silent planner writes nothing
-            msg = self.planner.command(e.fields, round(t * 1000))
-            self.rec.write("/planner/cmd", t_ns, dict(msg, t=round(t, 6)))
-            self.last_planner = msg
+            msg = self.planner.command(e.fields, t_ns // 1_000_000)
+            self.log.command(t_ns, msg)
         elif what == "key":
-            self._event(t, "key", {"key": e.key})
+            self._event(t_ns, "key", {"key": e.key})
             if self.proc is not None and self.host_state == "running":
                 try:
                     self.proc.stdin.write(e.key.encode())
@@ -486,10 +479,11 @@ class _Run:
                 except OSError:
                     pass
         else:
-            self._fault(t, e)
+            self._fault(t_ns, e)
 
-    def _fault(self, t: float, f) -> None:
-        self._event(t, f.kind, dict(f.params))
+    def _fault(self, t_ns: int, f) -> None:
+        t = t_ns / 1e9
+        self._event(t_ns, f.kind, dict(f.params))
         if f.kind == "kill_host":
             if self.proc is not None and self.proc.poll() is None:
                 self.proc.send_signal(signal.SIGKILL)
@@ -507,85 +501,64 @@ class _Run:
         elif f.kind == "line_noise":
             from navkit.sim.links import LineNoise
 
+            self._end_noise()
             self.noise = LineNoise(f.params["ber"], self.noise_rng)
             self.noise_until = t + f.duration_s
         elif f.kind == "planner_silent":
             self.silent_until = t + f.duration_s if f.duration_s else float("inf")
 
-    def _expire(self, t: float) -> None:
-        if self.unplug_until is not None and t >= self.unplug_until - 1e-9:
-            self.port.plug()
-            self._event(t, "plug", {})
-            self.unplug_until = None
-        if self.noise is not None and t >= self.noise_until - 1e-9:
+    def _end_noise(self) -> None:
+        if self.noise is not None:
             for k in self.noise_stats:
                 self.noise_stats[k] += getattr(self.noise, k)
             self.noise = None
-            self._event(t, "line_noise_end", {})
+
+    def _expire(self, t_ns: int) -> None:
+        t = t_ns / 1e9
+        if self.unplug_until is not None and t >= self.unplug_until - 1e-9:
+            self.port.plug()
+            self._event(t_ns, "plug", {})
+            self.unplug_until = None
+        if self.noise is not None and t >= self.noise_until - 1e-9:
+            self._end_noise()
+            self._event(t_ns, "line_noise_end", {})
         if self.silent_until is not None and t >= self.silent_until - 1e-9:
             self.silent_until = None
-            self._event(t, "planner_resumes", {})
+            self._event(t_ns, "planner_resumes", {})
 
-    # -------------------------------------------------------------- recording
-    def _record_host_bytes(self, t_ns: int, data: bytes) -> None:
-        from navkit.protocol import Frame
-
-        for ev in self.h2m.feed(data):
-            if ev.__class__ is not Frame:
-                continue
-            if ev.name == "micro_cmd":
-                self.rec.write("/micro/cmd", t_ns, dict(ev.fields, t=t_ns / 1e9))
-            else:
-                if ev.name == "micro_cfg_geometry":
-                    self.config_downloads += 1
-                self.rec.write("/micro/config", t_ns,
-                               {"t": t_ns / 1e9, "message": ev.name, "fields": ev.fields})
-
-    def _record_micro_bytes(self, t_ns: int, data: bytes) -> None:
-        from navkit.protocol import Frame
-
-        for ev in self.m2h.feed(data):
-            if ev.__class__ is Frame and ev.name == "micro_data":
-                self.last_micro = ev.fields
-                self.rec.write("/micro/data", t_ns, dict(ev.fields, t=t_ns / 1e9))
-
-    def _record_truth(self, rows) -> None:
-        if self._truth_keys is None:
-            cols = self.coupler.columns
-            self._truth_keys = cols
-        cols = self._truth_keys
-        for row in rows:
-            d = dict(zip(cols, row[1:]))
-            t = row[0]
-            truth = {"t": round(t, 6)}
-            for k in ("x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s"):
-                truth[k] = round(d.get(k, 0.0), 4)
-            truth["servo_deg"] = [round(d.get(f"servo_deg_{i}", 0.0), 4) for i in range(8)]
-            truth["dio_out"] = int(d.get("dio_out", 0)) & 0xFFF
-            self.last_truth = truth
-            self.rec.write("/truth", round(t * 1e9), truth)
-
-    def _read_planner_data(self, t_ns: int) -> None:
-        data = self.planner.read()
-        if data is not None:
-            self.last_lisp_data = data
-            self.rec.write("/planner/data", t_ns, dict(data, t=t_ns / 1e9))
+    def _lisp_raw(self):
+        c = self.planner.client
+        if c is None:
+            return None
+        raw = getattr(c, "read_data_raw", None)
+        if raw is not None:
+            return raw()
+        d = c.read_data()
+        return None if d is None else self.protocol.to_bytes("lisp_data", d)
 
     # -------------------------------------------------------------- loops
     def lockstep(self) -> None:
         pc = time.perf_counter
         timeline = self._timeline()
-        ei = 0
+        ei, n_ev = 0, len(timeline)
         n_frames = int(round(self.m.duration_s / self.frame_s))
+        frame_ns = self.steps_per_frame * 1_000_000
         rx_count = 0
-        self._record_truth([self.coupler.sample()])
+        log, coupler, port = self.log, self.coupler, self.port
+        spf = self.steps_per_frame
+        times = self.times
+        row = coupler.sample()
+        import array
+
+        log.truth(array.array("d", row).tobytes())
+        loop0 = pc()
         for k in range(n_frames):
-            t = k * self.frame_s
-            t_ns = k * self.steps_per_frame * 1_000_000
-            t0 = pc()
-            self._expire(t)
-            while ei < len(timeline) and timeline[ei][0] <= t + 1e-9:
-                self._apply(t, timeline[ei][2], timeline[ei][3])
+            t_ns = k * frame_ns
+            if self.unplug_until is not None or self.noise is not None or \
+                    self.silent_until is not None:
+                self._expire(t_ns)
+            while ei < n_ev and timeline[ei][0] * 1e9 <= t_ns + 1:
+                self._apply(t_ns, timeline[ei][2], timeline[ei][3])
                 ei += 1
             host_bytes = b""
             if self.host_state == "running":
@@ -593,99 +566,95 @@ class _Run:
                     self.planner.beat()
                 t1 = pc()
                 done = self.lock.frame(k, t_ns // 1000, rx_count)
-                self.times["host"] += pc() - t1
+                t2 = pc()
+                times["host"] += t2 - t1
                 if done is None:
                     self.host_state = "exited"
                     self.proc.wait()
-                    self._event(t, "host_exited", {"status": self.proc.returncode})
+                    self._event(t_ns, "host_exited", {"status": self.proc.returncode})
                 else:
                     tx_bytes, flags = done
-                    t1 = pc()
-                    host_bytes = self.port.read_exact(tx_bytes)
-                    self.times["pty"] += pc() - t1
-                    self.rec.write("/host/frame", t_ns, {
-                        "frame": k, "t": round(t, 6), "rx_bytes": rx_count,
-                        "tx_bytes": tx_bytes, "flags": flags, "host": "running"})
-                    self._read_planner_data(t_ns)
+                    host_bytes = port.read_exact(tx_bytes)
+                    times["pty"] += pc() - t2
+                    log.frame(k, t_ns, rx_count, tx_bytes, flags, host_bytes, self._lisp_raw())
                     if flags & 1:
                         self.host_state = "exited"
                 self.frames += 1
-            self._record_host_bytes(t_ns, host_bytes)
+            else:
+                log.host(t_ns, host_bytes)
             if self.noise is not None:
                 host_bytes = self.noise.apply(host_bytes)
             t1 = pc()
-            tx, rows = self.coupler.run(self.steps_per_frame, host_bytes)
-            self.times["fmus"] += pc() - t1
-            t_end_ns = t_ns + self.steps_per_frame * 1_000_000
-            self._record_truth(rows)
-            self._record_micro_bytes(t_end_ns, tx)
+            tx, rows = coupler.run_raw(spf, host_bytes)
+            t2 = pc()
+            times["fmus"] += t2 - t1
+            t_end_ns = t_ns + frame_ns
+            log.truth(rows)
+            log.micro(t_end_ns, tx)
             if self.noise is not None:
                 tx = self.noise.apply(tx)
             rx_count = 0
-            if self.host_state == "running" and self.port.plugged:
+            if self.host_state == "running" and port.plugged:
                 t1 = pc()
-                rx_count = self.port.write(tx)
-                self.times["pty"] += pc() - t1
-            self.rec.flush_if(t_end_ns)
-            self.times["record"] += pc() - t0
+                rx_count = port.write(tx)
+                times["pty"] += pc() - t1
+            log.end_frame(t_end_ns)
             if self.opts.progress and k % max(1, int(10 / self.frame_s)) == 0:
-                print(f"  t = {t:7.1f} s", flush=True)
+                print(f"  t = {t_ns / 1e9:7.1f} s", flush=True)
         self.sim_time_s = n_frames * self.frame_s
-        self.times["record"] -= self.times["fmus"] + self.times["pty"] + self.times["host"]
+        times["harness"] = pc() - loop0 - times["fmus"] - times["pty"] - times["host"]
 
     def realtime(self) -> None:
-        pc = time.perf_counter
+        import array
+
         timeline = self._timeline()
         ei = 0
         chunk_steps = 5
+        chunk_ns = chunk_steps * 1_000_000
         n_chunks = int(round(self.m.duration_s / (chunk_steps * STEP_S)))
-        self._record_truth([self.coupler.sample()])
+        self.log.truth(array.array("d", self.coupler.sample()).tobytes())
         wall0 = time.monotonic()
-        next_frame_t = 0.0
+        next_frame_ns = 0
         for c in range(n_chunks):
-            t = c * chunk_steps * STEP_S
-            t_ns = c * chunk_steps * 1_000_000
-            self._expire(t)
-            while ei < len(timeline) and timeline[ei][0] <= t + 1e-9:
-                self._apply(t, timeline[ei][2], timeline[ei][3])
+            t_ns = c * chunk_ns
+            self._expire(t_ns)
+            while ei < len(timeline) and timeline[ei][0] * 1e9 <= t_ns + 1:
+                self._apply(t_ns, timeline[ei][2], timeline[ei][3])
                 ei += 1
             if self.host_state == "running" and self.proc.poll() is not None:
                 self.host_state = "exited"
             host_bytes = self.port.read_available()
-            self._record_host_bytes(t_ns, host_bytes)
+            self.log.host(t_ns, host_bytes)
             if self.noise is not None:
                 host_bytes = self.noise.apply(host_bytes)
-            t1 = pc()
-            tx, rows = self.coupler.run(chunk_steps, host_bytes)
-            self.times["fmus"] += pc() - t1
-            t_end_ns = t_ns + chunk_steps * 1_000_000
-            self._record_truth(rows)
-            self._record_micro_bytes(t_end_ns, tx)
+            tx, rows = self.coupler.run_raw(chunk_steps, host_bytes)
+            self.log.truth(rows)
+            self.log.micro(t_ns + chunk_ns, tx)
             if self.noise is not None:
                 tx = self.noise.apply(tx)
             if self.host_state == "running":
                 self.port.write(tx)
-            if t >= next_frame_t:
-                if self.silent_until is None and self.host_state == "running":
-                    self.planner.beat()
+            if t_ns >= next_frame_ns:
                 if self.host_state == "running":
-                    self._read_planner_data(t_ns)
-                next_frame_t += self.frame_s
+                    if self.silent_until is None:
+                        self.planner.beat()
+                    self.log.lisp(t_ns, self._lisp_raw())
+                next_frame_ns += round(self.frame_s * 1e9)
                 self.frames += 1
-            self.rec.flush_if(t_end_ns)
-            sleep = wall0 + (t_end_ns / 1e9) - time.monotonic()
+                self.log.end_frame(t_ns + chunk_ns)
+            sleep = wall0 + (t_ns + chunk_ns) / 1e9 - time.monotonic()
             if sleep > 0:
                 time.sleep(sleep)
         self.sim_time_s = n_chunks * chunk_steps * STEP_S
 
     # -------------------------------------------------------------- summary
     def summary(self, wall_s: float) -> dict:
-        micro = self.last_micro or {}
-        lisp = getattr(self, "last_lisp_data", None) or {}
-        h2m, m2h = self.h2m.stats, self.m2h.stats
-        for k in self.noise_stats:
-            self.noise_stats[k] += getattr(self.noise, k) if self.noise else 0
-        return {
+        res = self.results or {}
+        micro = res.get("last_micro") or {}
+        lisp = res.get("last_lisp") or {}
+        h2m, m2h = res.get("h2m", {}), res.get("m2h", {})
+        self._end_noise()
+        out = {
             "mission": str(self.m.path),
             "seed": self.opts.seed,
             "mode": "realtime" if self.opts.realtime else "lockstep",
@@ -694,18 +663,19 @@ class _Run:
             "realtime_factor": round(self.sim_time_s / wall_s, 1) if wall_s > 0 else None,
             "frames": self.frames,
             "frame_s": self.frame_s,
-            "truth": self.last_truth,
+            "truth": res.get("last_truth"),
             "micro": micro,
             "planner_data": lisp,
             "link": {
-                "host_to_micro": {"frames_sent": h2m["good"],
+                "host_to_micro": {"frames_sent": h2m.get("good"),
                                   "micro_rx_good": micro.get("rx_good"),
                                   "crc_errors": micro.get("rx_bad_crc"),
                                   "bad_length": micro.get("rx_bad_length"),
                                   "unknown_type": micro.get("rx_unknown_type"),
                                   "dropped_bytes": micro.get("rx_dropped_bytes")},
-                "micro_to_host": {"frames_sent": m2h["good"],
+                "micro_to_host": {"frames_sent": m2h.get("good"),
                                   "host_link_errors": lisp.get("link_errors")},
+                "crc_errors": micro.get("rx_bad_crc", 0),
                 "resyncs": (micro.get("rx_bad_crc", 0) + micro.get("rx_bad_length", 0)
                             + micro.get("rx_unknown_type", 0)),
                 "line_noise": dict(self.noise_stats),
@@ -713,12 +683,15 @@ class _Run:
             },
             "host": {"state": self.host_state, "exit_status": self.host_exit,
                      "overruns": lisp.get("overruns"),
-                     "config_downloads": self.config_downloads,
+                     "config_downloads": res.get("config_downloads"),
                      "host_status": lisp.get("host_status")},
             "watchdog_stops": micro.get("watchdog_stops"),
-            "messages": dict(self.rec.counts) if self.rec else {},
+            "messages": res.get("counts", {}),
             "time_share_s": {k: round(v, 3) for k, v in self.times.items()},
         }
+        if self.fmu_split:
+            out["fmu_split_s"] = [round(x, 3) for x in self.fmu_split]
+        return out
 
 
 def run(opts: SimOptions) -> dict:
@@ -739,8 +712,6 @@ def run(opts: SimOptions) -> dict:
     r.stop()
     wall = time.perf_counter() - wall0
     summary = r.summary(wall)
-    if opts.timing and getattr(r, "fmu_split", None):
-        summary["fmu_split_s"] = [round(x, 3) for x in r.fmu_split]
     (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     if opts.plot:
         from navkit.plot import plot_mcap

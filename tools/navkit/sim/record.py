@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-__all__ = ["Recorder", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS"]
+__all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS"]
 
 TRUTH_SCHEMA = {
     "title": "navkit.truth",
@@ -67,11 +67,11 @@ TOPICS = {
 
 def message_schema(name: str) -> dict:
     """JSON schema of spec message `name`: one property per field (raw integer values,
-    units and scale in the description), plus `t` (simulated time, s)."""
+    units and scale in the description). The log time is the simulated time."""
     from navkit import protocol
 
     m = protocol.SPEC.messages[name]
-    props = {"t": {"type": "number", "description": "simulated time, s"}}
+    props = {}
     for f in m.fields:
         desc = f.doc
         if f.units:
@@ -89,7 +89,7 @@ def _config_schema() -> dict:
             "description": "A config message sent to the micro (micro_cfg_geometry, "
                            "micro_cfg_motion or micro_cfg_io) with its decoded fields.",
             "type": "object",
-            "properties": {"t": {"type": "number"}, "message": {"type": "string"},
+            "properties": {"message": {"type": "string"},
                            "fields": {"type": "object"}}}
 
 
@@ -140,3 +140,225 @@ class Recorder:
             self._w.finish()
             self._file.close()
             self._file = None
+
+
+class _Decoder:
+    """Turns the harness's raw items into MCAP messages (runs in the log worker)."""
+
+    def __init__(self, path: Path, metadata: dict, columns: list, width: int):
+        from navkit import protocol
+
+        self.p = protocol
+        self.rec = Recorder(path, metadata)
+        self.h2m = protocol.Parser(protocol.DIR_TO_MICRO)
+        self.m2h = protocol.Parser(protocol.DIR_TO_HOST)
+        self.frame_cls = protocol.Frame
+        self.dumps = json.JSONEncoder(separators=(",", ":")).encode
+        self.cmd_cache = {}
+        self.width = width
+        self.last_micro = None
+        self.last_lisp = None
+        self.last_row = None
+        self.config_downloads = 0
+        self.lisp_size = protocol.SPEC.messages["lisp_data"].size
+        idx = {name: i + 1 for i, name in enumerate(columns)}
+        parts, sel = [], []
+        for k in ("t", "x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s",
+                  "w_deg_s"):
+            parts.append(f'"{k}":%r')
+            sel.append(0 if k == "t" else idx.get(k))
+        parts.append('"servo_deg":[' + ",".join(["%r"] * 8) + "]")
+        sel += [idx.get(f"servo_deg_{i}") for i in range(8)]
+        self.dio_col = idx.get("dio_out")
+        parts.append('"dio_out":%d')
+        self.truth_fmt = "{" + ",".join(parts) + "}"
+        self.truth_sel = sel
+
+    def _truth_text(self, row) -> str:
+        vals = tuple(0.0 if i is None else row[i] for i in self.truth_sel)
+        dio = int(row[self.dio_col]) & 0xFFF if self.dio_col else 0
+        return self.truth_fmt % (vals + (dio,))
+
+    def handle(self, item) -> None:
+        kind = item[0]
+        rec = self.rec
+        if kind == "F":          # host frame: (F, k, t_ns, rx, tx, flags, host_bytes, lisp_raw)
+            _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw = item
+            rec.write_raw("/host/frame", t_ns, (
+                '{"frame":%d,"t":%r,"rx_bytes":%d,"tx_bytes":%d,"flags":%d,"host":"running"}'
+                % (k, t_ns / 1e9, rx, tx, flags)).encode())
+            if lisp_raw is not None:
+                d = self.p.from_bytes("lisp_data", lisp_raw)
+                self.last_lisp = d
+                rec.write_raw("/planner/data", t_ns, self.dumps(d).encode())
+            if host_bytes:
+                self.host_bytes(t_ns, host_bytes)
+        elif kind == "H":        # host bytes outside a lockstep frame (real time)
+            self.host_bytes(item[1], item[2])
+        elif kind == "M":        # micro bytes: (M, t_ns, bytes)
+            t_ns = item[1]
+            for ev in self.m2h.feed(item[2]):
+                if ev.__class__ is self.frame_cls and ev.name == "micro_data":
+                    self.last_micro = ev.fields
+                    rec.write_raw("/micro/data", t_ns, self.dumps(ev.fields).encode())
+        elif kind == "T":        # truth rows: (T, raw doubles)
+            import array
+
+            a = array.array("d")
+            a.frombytes(item[1])
+            w = self.width
+            for r in range(len(a) // w):
+                row = a[r * w:(r + 1) * w]
+                rec.write_raw("/truth", round(row[0] * 1e3) * 1_000_000,
+                              self._truth_text(row).encode())
+                self.last_row = row
+        elif kind == "C":        # planner command: (C, t_ns, dict)
+            rec.write("/planner/cmd", item[1], item[2])
+        elif kind == "E":        # event: (E, t_ns, kind, detail)
+            rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
+        elif kind == "S":        # end of a frame: flush point (S, t_ns)
+            rec.flush_if(item[1])
+
+    def host_bytes(self, t_ns: int, data: bytes) -> None:
+        for ev in self.h2m.feed(data):
+            if ev.__class__ is not self.frame_cls:
+                continue
+            if ev.name == "micro_cmd":
+                # the host repeats its last command every frame: reuse the JSON text
+                js = self.cmd_cache.get(ev.raw)
+                if js is None:
+                    js = self.dumps(ev.fields).encode()
+                    self.cmd_cache = {ev.raw: js}
+                self.rec.write_raw("/micro/cmd", t_ns, js)
+            else:
+                if ev.name == "micro_cfg_geometry":
+                    self.config_downloads += 1
+                self.rec.write("/micro/config", t_ns, {"message": ev.name, "fields": ev.fields})
+
+    def finish(self) -> dict:
+        self.rec.close()
+        return {"counts": dict(self.rec.counts), "last_micro": self.last_micro,
+                "last_lisp": self.last_lisp,
+                "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
+                "config_downloads": self.config_downloads,
+                "h2m": dict(self.h2m.stats), "m2h": dict(self.m2h.stats)}
+
+
+def _worker(conn, path, metadata, columns, width) -> None:
+    """Log worker process: decode and write until the harness says stop (None) or goes
+    away (EOF), then close the MCAP file and send the results back."""
+    dec = _Decoder(path, metadata, columns, width)
+    try:
+        while True:
+            try:
+                batch = conn.recv()
+            except (EOFError, OSError):
+                batch = None
+            if batch is None:
+                break
+            for item in batch:
+                dec.handle(item)
+    finally:
+        res = dec.finish()
+        try:
+            conn.send(res)
+        except (OSError, BrokenPipeError):
+            pass
+
+
+class RunLog:
+    """The harness's side of the run log. Items are queued raw (bytes as they were on the
+    links, truth rows as doubles) and sent in batches to a worker process that decodes
+    them with the Python codec and writes run.mcap, so decoding and MCAP writing run on
+    the other core, off the lockstep loop. `inline=True` does it all in this process.
+
+    Items: frame(), micro(), truth(), command(), event(), end_frame(); close() returns
+    the worker's results (message counts, last decoded micro_data / lisp_data / truth,
+    config downloads, parser statistics)."""
+
+    def __init__(self, path: Path, metadata: dict, columns: list, width: int,
+                 inline: bool = False, batch_frames: int = 10):
+        self._items: list = []
+        self._batch = batch_frames
+        self._frames = 0
+        self.send_s = 0.0
+        if inline:
+            self._dec = _Decoder(path, metadata, columns, width)
+            self._conn = self._proc = None
+        else:
+            import multiprocessing as mp
+
+            ctx = mp.get_context("fork")
+            self._conn, child = ctx.Pipe()
+            self._proc = ctx.Process(target=_worker, args=(child, path, metadata, columns, width),
+                                     name="navkit-sim-log", daemon=True)
+            self._proc.start()
+            child.close()
+            self._dec = None
+
+    def frame(self, k, t_ns, rx, tx, flags, host_bytes, lisp_raw) -> None:
+        """Lockstep frame k at t_ns: tick's rx_bytes, done's tx_bytes and flags, the
+        host's bytes and the raw lisp_data read after it (or None)."""
+        self._items.append(("F", k, t_ns, rx, tx, flags, host_bytes, lisp_raw))
+
+    def host(self, t_ns, data) -> None:
+        """Bytes the host sent (real-time mode)."""
+        if data:
+            self._items.append(("H", t_ns, data))
+
+    def lisp(self, t_ns, lisp_raw) -> None:
+        """A lisp_data read outside a lockstep frame (real-time mode)."""
+        self._items.append(("F", -1, t_ns, 0, 0, 0, b"", lisp_raw))
+
+    def micro(self, t_ns, data) -> None:
+        """Bytes the micro sent in the FMU chunk ending at t_ns."""
+        if data:
+            self._items.append(("M", t_ns, data))
+
+    def truth(self, raw) -> None:
+        """Truth rows (raw doubles of the coupler)."""
+        if raw:
+            self._items.append(("T", raw))
+
+    def command(self, t_ns, msg) -> None:
+        self._items.append(("C", t_ns, msg))
+
+    def event(self, t_ns, kind, detail) -> None:
+        self._items.append(("E", t_ns, kind, detail))
+
+    def end_frame(self, t_ns) -> None:
+        """A frame ends at t_ns: flush point; sends the batch every `batch_frames`."""
+        self._items.append(("S", t_ns))
+        self._frames += 1
+        if self._frames >= self._batch:
+            self._send()
+
+    def _send(self) -> None:
+        import time
+
+        t0 = time.perf_counter()
+        items, self._items, self._frames = self._items, [], 0
+        if self._dec is not None:
+            for it in items:
+                self._dec.handle(it)
+        elif items:
+            self._conn.send(items)
+        self.send_s += time.perf_counter() - t0
+
+    def close(self) -> dict:
+        """Send what is left, stop the worker, return its results."""
+        self._send()
+        if self._dec is not None:
+            res, self._dec = self._dec.finish(), None
+            return res
+        if self._conn is None:
+            return {}
+        try:
+            self._conn.send(None)
+            res = self._conn.recv() if self._conn.poll(60) else {}
+        except (EOFError, OSError):
+            res = {}
+        self._proc.join(10)
+        self._conn.close()
+        self._conn = None
+        return res
