@@ -495,8 +495,8 @@ static void substep(np_model_t *m, double h) {
   m->fc[0] = fc0;
   m->fc[1] = fc1;
   double vn[2] = { vf0 - w00 * fc0 - w01 * fc1, vf1 - w01 * fc0 - w11 * fc1 };
-  if (fabs(vn[0]) < 1e-12) vn[0] = 0.0;
-  if (fabs(vn[1]) < 1e-12) vn[1] = 0.0;
+  if (fabs(vn[0]) < 1e-9) vn[0] = 0.0;   /* m/s: what the iterations leave of a stuck wheel */
+  if (fabs(vn[1]) < 1e-9) vn[1] = 0.0;
 
   /* battery: the H-bridge draws duty * motor current */
   double ibat = v->battery_idle_a;
