@@ -73,6 +73,18 @@ def _command_label(cmd: dict) -> str:
     return ", ".join(parts) or "none"
 
 
+def _wrapped(t, h):
+    """Break a 0..360 heading line where it wraps (NaN between the two sides)."""
+    ts, hs = [], []
+    for i, (a, b) in enumerate(zip(t, h)):
+        if i and abs(b - hs[-1]) > 180:
+            ts.append(a)
+            hs.append(float("nan"))
+        ts.append(a)
+        hs.append(b)
+    return ts, hs
+
+
 def plot_mcap(path: Path, out: Path) -> None:
     """Plot run `path` (run.mcap) into PNG `out`."""
     msgs = read_mcap(path, ["/truth", "/planner/cmd", "/micro/data", "/events"])
@@ -101,10 +113,10 @@ def plot_mcap(path: Path, out: Path) -> None:
                   label="micro fwd_speed")
     ax_v.set_ylabel("speed, mm/s")
     ax_v.legend(loc="best", fontsize="small")
-    ax_h.plot(t, [m["heading_deg"] for m in truth], label="truth heading")
+    ax_h.plot(*_wrapped(t, [m["heading_deg"] % 360 for m in truth]), label="truth heading")
     if micro:
-        ax_h.plot([ns / 1e9 for ns, _ in micro], [m["heading"] / 10 for _, m in micro], lw=0.8,
-                  label="micro heading")
+        ax_h.plot(*_wrapped([ns / 1e9 for ns, _ in micro], [m["heading"] / 10 for _, m in micro]),
+                  lw=0.8, label="micro heading")
     ax_h.set_ylabel("heading, deg (cw)")
     ax_h.set_xlabel("simulated time, s")
     ax_h.set_ylim(-5, 365)
