@@ -142,6 +142,20 @@ def test_xml_follows_the_header_table(md):
     assert [v.valueReference for v in md.modelVariables] == list(range(len(names)))
 
 
+def test_docs_parameter_table_matches_the_header(md):
+    """docs/plant.md lists every parameter with its default and unit."""
+    doc = (repo_root() / "docs" / "plant.md").read_text()
+    rows = dict(re.findall(r"^\| `(\w+)` \| ([^|]+?) \| ", doc, re.M))
+    for v in md.modelVariables:
+        if v.causality != "parameter":
+            continue
+        assert v.name in rows, v.name
+        if v.type == "Float64":
+            assert float(rows[v.name]) == float(v.start), v.name
+        elif v.type == "Int32":
+            assert int(rows[v.name]) == int(v.start), v.name
+
+
 # ---------------------------------------------------------------- drive
 
 
