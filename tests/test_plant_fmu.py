@@ -452,3 +452,48 @@ def test_illegal_calls_are_errors_and_reset_restarts(md, unzipped):
         fmu.doStep(0.001, 0.001)
     fmu.freeInstance()
     assert any("not allowed" in m for m in log)
+
+
+# ---------------------------------------------------------------- FMI 2.0 from the same source
+
+FMU2 = build_dir() / "fmus" / "navkit_plant_fmi2.fmu"
+needs_fmi2 = pytest.mark.skipif(not FMU2.exists(), reason=f"{FMU2} not built")
+
+
+@needs_fmi2
+def test_fmi2_validates():
+    assert validate_fmu(str(FMU2)) == []
+
+
+@needs_fmi2
+def test_fmi2_same_variables_and_outputs_as_fmi3(md, plant, tmp_path):
+    from fmpy.fmi2 import FMU2Slave
+
+    md2 = read_model_description(str(FMU2))
+    assert [(v.name, v.valueReference, v.causality) for v in md2.modelVariables] == \
+           [(v.name, v.valueReference, v.causality) for v in md.modelVariables]
+    vr = {v.name: v.valueReference for v in md2.modelVariables}
+    fmu = FMU2Slave(guid=md2.guid, unzipDirectory=extract(str(FMU2), unzipdir=str(tmp_path / "u2")),
+                    modelIdentifier=md2.coSimulation.modelIdentifier, instanceName="p2")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.setString([vr["world_file"]], [str(WORLDS / "hallway.txt")])
+    fmu.setInteger([vr["seed"]], [5])
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    p3 = plant(world_file=str(WORLDS / "hallway.txt"), seed=5)
+    duties = {"motor_left_duty": 0.6, "motor_right_duty": 0.4}
+    fmu.setReal([vr[k] for k in duties], list(duties.values()))
+    p3.set(**duties)
+    t = 0.0
+    for _ in range(50):
+        fmu.doStep(t, 0.02)
+        t += 0.02
+    p3.h = 0.02
+    p3.run(1.0)
+    for name in ("x_mm", "y_mm", "yaw_deg", "ir_voltage_1", "sonar_echo_2", "battery_voltage"):
+        assert fmu.getReal([vr[name]])[0] == p3.get(name), name
+    for name in ("enc_left", "enc_right", "gyro_raw", "compass_raw"):
+        assert fmu.getInteger([vr[name]])[0] == p3.get(name), name
+    fmu.terminate()
+    fmu.freeInstance()
