@@ -6,4 +6,4 @@ native `navkit_cosim` library), `harness` (one run), `record` (MCAP writer), `cl
 (`navkit sim`).
 """
 
-__all__ = ["mission", "coupler", "harness", "record", "cli"]
+__all__ = ["mission", "coupler", "harness", "links", "record", "results", "cli"]

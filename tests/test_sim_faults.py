@@ -1,0 +1,151 @@
+"""Each fault kind end to end through the real host and the FMUs: the robot stops when the
+host dies, a reset micro is configured again and stays still, line noise causes no wrong
+motion, the host recovers from an unplugged port, a silent planner stops the robot."""
+
+import pytest
+
+from test_sim_util import run_mission
+
+pytestmark = pytest.mark.timeout(120)
+
+T0 = 1.5
+WATCHDOG_S = 0.300        # micro_cfg_motion.watchdog_timeout default
+WATCHDOG_DECEL = 500.0    # micro_cfg_motion.watchdog_decel default, mm/s^2
+
+
+def test_kill_host_robot_stops_within_watchdog_timeout_plus_decel(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "kill", f"""
+duration_s = 7.0
+[[command]]
+t = {T0}
+fwd_cmd = 1
+speed = 400
+distance = 5000
+[[fault]]
+t = 3.5
+kind = "kill_host"
+""")
+    v0 = r.truth_at(3.5)["v_mm_s"]
+    assert v0 > 350
+    # the last bytes of the host may still be in flight for one frame + UART
+    limit = 3.5 + 0.1 + WATCHDOG_S + v0 / WATCHDOG_DECEL + 0.15
+    stopped = r.stopped_since()
+    assert stopped is not None and stopped <= limit, (stopped, limit)
+    coast = r.truth[-1]["distance_mm"] - r.truth_at(3.5)["distance_mm"]
+    assert coast <= v0 * (0.1 + WATCHDOG_S + 0.05) + v0 ** 2 / (2 * WATCHDOG_DECEL) + 30, coast
+    assert r.summary["host"]["state"] == "killed"
+    assert not r.micro_between(4.0), "no host, no frames: the micro stays silent"
+
+
+def test_micro_reset_config_again_and_no_motion_until_a_new_command(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "reset", f"""
+duration_s = 11.0
+[[command]]
+t = {T0}
+fwd_cmd = 1
+speed = 300
+distance = 2000
+[[fault]]
+t = 3.0
+kind = "micro_reset"
+[[command]]
+t = 8.0
+fwd_cmd = 1
+speed = 200
+distance = 300
+""")
+    configs = [m["message"] for t, m in r.messages("/micro/config") if t > 3.0]
+    assert "micro_cfg_geometry" in configs and "micro_cfg_motion" in configs \
+        and "micro_cfg_io" in configs, "the host downloads the config again"
+    assert r.summary["host"]["config_downloads"] >= 2
+    # motors released at the reset: the robot rolls to a stop and stays there
+    d_rest = r.truth_at(7.9)["distance_mm"]
+    still = r.truth_between(4.5, 8.0)
+    assert all(abs(m["v_mm_s"]) < 2 for m in still), "nothing moves until a new command"
+    assert abs(still[0]["distance_mm"] - d_rest) < 2
+    assert r.micro_between(4.5, 8.0)[-1]["status"] & 1, "configured again"
+    assert abs(r.truth[-1]["distance_mm"] - (d_rest + 300)) <= 15, "the new command runs"
+
+
+def test_line_noise_causes_no_wrong_motion(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "noise", f"""
+duration_s = 10.0
+[[fault]]
+t = 1.0
+kind = "line_noise"
+ber = 2e-4
+duration_s = 8.0
+[[command]]
+t = {T0}
+fwd_cmd = 1
+speed = 300
+distance = 1500
+[[command]]
+t = 2.0
+rc_servo_num = 1
+rc_param0 = 900
+rc_param1 = 450
+rc_param2 = 9999
+""")
+    s = r.summary
+    noise = s["link"]["line_noise"]
+    assert noise["flips"] + noise["drops"] + noise["inserts"] > 10
+    errs = (s["micro"]["rx_bad_crc"] + s["micro"]["rx_bad_length"] + s["micro"]["rx_dropped_bytes"]
+            + (s["planner_data"].get("link_errors") or 0))
+    assert errs > 0, "the noise was seen and rejected"
+    d = [m["distance_mm"] for m in r.truth]
+    assert max(d) <= 1500 + 10, "never past the target"
+    assert all(b >= a - 1.0 for a, b in zip(d, d[1:])), "never backwards"
+    assert all(abs(m["y_mm"]) < 15 and min(m["heading_deg"], 360 - m["heading_deg"]) < 2
+               for m in r.truth), "no turn"
+    assert all(abs(m["servo_deg"][k]) < 0.01 for m in r.truth for k in (0, 2, 3, 4, 5, 6, 7))
+    assert all(abs(m["servo_deg"][1]) <= 45.5 for m in r.truth)
+    if not s["watchdog_stops"]:
+        assert abs(d[-1] - 1500) <= 15
+
+
+def test_unplug_host_recovers(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "unplug", f"""
+duration_s = 10.0
+[[command]]
+t = {T0}
+fwd_cmd = 1
+speed = 200
+distance = 5000
+[[fault]]
+t = 3.0
+kind = "unplug"
+duration_s = 1.0
+[[command]]
+t = 6.0
+fwd_cmd = 1
+speed = 200
+distance = 500
+""")
+    assert r.truth_at(3.0)["v_mm_s"] > 180
+    assert all(abs(m["v_mm_s"]) < 2 for m in r.truth_between(4.0, 6.0)), "watchdog stop"
+    frames = [m for t, m in r.messages("/host/frame")]
+    assert any(m["flags"] & 2 for m in frames), "the host saw its port closed"
+    assert not (frames[-1]["flags"] & 2), "and open again"
+    d6 = r.truth_at(6.0)["distance_mm"]
+    assert abs(r.truth[-1]["distance_mm"] - (d6 + 500)) <= 15, "commands flow again"
+    assert r.summary["watchdog_stops"] >= 1
+
+
+def test_planner_silent_robot_stops(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "silent", f"""
+duration_s = 8.0
+[[command]]
+t = {T0}
+fwd_cmd = 1
+speed = 250
+distance = 5000
+[[fault]]
+t = 3.0
+kind = "planner_silent"
+""")
+    assert r.truth_at(3.0)["v_mm_s"] > 200
+    stopped = r.stopped_since()
+    assert stopped is not None and stopped < 7.0, stopped
+    data = [m for t, m in r.messages("/planner/data") if t > stopped]
+    assert data and data[-1]["host_status"] & (1 << 3), "planner_timeout_stop"

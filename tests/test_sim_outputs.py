@@ -1,0 +1,141 @@
+"""What a run leaves behind: MCAP topics, schemas, metadata and chunking, summary.json,
+plot.png, the host's datalog and `navkit plot`; determinism; the demo mission."""
+
+import argparse
+import json
+
+import pytest
+
+from test_sim_util import require_build, run_mission
+
+pytestmark = pytest.mark.timeout(180)
+
+NOISY = """
+duration_s = 6.0
+[[key]]
+t = 0.5
+key = "R"
+[[command]]
+t = 1.5
+fwd_cmd = 1
+speed = 300
+distance = 600
+turn_mode = 1
+turn_rate = 300
+turn_distance = 300
+rc_servo_num = 3
+rc_param0 = 600
+rc_param1 = 300
+rc_param2 = -300
+dio_active = 3
+dio_command = 1
+[[fault]]
+t = 2.0
+kind = "line_noise"
+ber = 1e-4
+duration_s = 2.0
+[[key]]
+t = 5.5
+key = "S"
+"""
+
+
+def _contents(r):
+    return {topic: [(t, m) for t, m in msgs] for topic, msgs in r.topics.items()}
+
+
+def test_two_runs_identical_message_contents(tmp_path_factory):
+    a = run_mission(tmp_path_factory, "det-a", NOISY)
+    b = run_mission(tmp_path_factory, "det-b", NOISY)
+    assert _contents(a) == _contents(b)
+    strip = lambda m: {k: v for k, v in m.items() if k != "mission_file"}  # noqa: E731
+    assert strip(a.metadata) == strip(b.metadata)
+    c = run_mission(tmp_path_factory, "det-a", NOISY, seed=2)
+    assert [m for _, m in c.messages("/truth")] != [m for _, m in a.messages("/truth")], \
+        "another seed, another run (plant noise, line noise)"
+
+
+def test_mcap_topics_schemas_metadata_and_chunks(tmp_path_factory):
+    from mcap.reader import make_reader
+
+    r = run_mission(tmp_path_factory, "det-a", NOISY)
+    for topic in ("/truth", "/micro/cmd", "/micro/data", "/planner/cmd", "/planner/data",
+                  "/host/frame", "/micro/config", "/events"):
+        assert r.messages(topic), topic
+    truth = r.truth
+    assert set(truth[0]) == {"t", "x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm",
+                             "v_mm_s", "w_deg_s", "servo_deg", "dio_out"}
+    assert len(truth[0]["servo_deg"]) == 8
+    ts = [m["t"] for m in truth]
+    assert max(b - a for a, b in zip(ts, ts[1:])) <= 0.02 + 1e-9, ">= 50 Hz"
+    assert ts[-1] == pytest.approx(6.0)
+    assert len(r.messages("/host/frame")) == r.summary["frames"]
+    meta = r.metadata
+    assert meta["seed"] == "1" and "fwd_cmd = 1" in meta["mission"]
+    assert meta["spec_hash"].startswith("0x") and meta["git_revision"]
+    with open(r.out / "run.mcap", "rb") as f:
+        reader = make_reader(f)
+        summ = reader.get_summary()
+        for s in summ.schemas.values():
+            assert s.encoding == "jsonschema"
+            schema = json.loads(s.data)
+            assert schema["type"] == "object" and schema["properties"]
+        for ch in summ.channels.values():
+            assert ch.message_encoding == "json"
+        # closed at least every simulated second
+        assert len(summ.chunk_indexes) >= 6
+        assert all(c.message_end_time - c.message_start_time <= 1_000_000_000
+                   for c in summ.chunk_indexes)
+    # planner commands are whole lisp_cmds with a time tag
+    cmd = r.messages("/planner/cmd")[0][1]
+    assert cmd["time_tag"] == 1500 and cmd["rc_servo_num"] == 3 and cmd["accel"] == 0
+
+
+def test_summary_fields(tmp_path_factory):
+    s = run_mission(tmp_path_factory, "det-a", NOISY).summary
+    for k in ("sim_time_s", "wall_time_s", "realtime_factor", "frames", "truth", "micro",
+              "link", "host", "watchdog_stops"):
+        assert k in s, k
+    assert s["sim_time_s"] == pytest.approx(6.0)
+    assert s["frames"] > 0 and s["realtime_factor"] > 1
+    assert s["micro"]["msg_type"] == 17
+    assert s["link"]["host_to_micro"]["frames_sent"] > 0
+    assert s["link"]["micro_to_host"]["frames_sent"] > 0
+    assert "crc_errors" in s["link"] and "resyncs" in s["link"]
+    assert "overruns" in s["host"] and s["host"]["config_downloads"] >= 1
+
+
+def test_datalog_and_plots(tmp_path_factory, tmp_path):
+    from navkit import plot
+
+    r = run_mission(tmp_path_factory, "det-a", NOISY)
+    logs = sorted(r.out.glob("Data *.txt"))
+    assert logs, "R ... S recorded a datalog in the output folder"
+    params, rows = plot.read_datalog(logs[0])
+    assert params and len(rows) >= 30, "about one row per 100 ms frame for 5 s"
+    parser = argparse.ArgumentParser()
+    plot.add_arguments(parser)
+    assert plot.run(parser.parse_args([str(logs[0]), "-o", str(tmp_path / "log.png")])) == 0
+    assert plot.run(parser.parse_args([str(r.out / "run.mcap"), "-o", str(tmp_path / "run.png")])) == 0
+    assert (tmp_path / "log.png").stat().st_size > 10_000
+    assert (tmp_path / "run.png").stat().st_size > 10_000
+
+
+def test_demo_mission_through_the_cli(tmp_path, capsys):
+    from navkit.paths import repo_root
+    from navkit.sim import cli
+
+    require_build()
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    out = tmp_path / "demo"
+    rc = cli.run(parser.parse_args(["--mission", str(repo_root() / "config/missions/demo.toml"),
+                                    "--out", str(out)]))
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "real time" in text and str(out) in text
+    for f in ("run.mcap", "summary.json", "plot.png"):
+        assert (out / f).exists(), f
+    s = json.loads((out / "summary.json").read_text())
+    t = s["truth"]
+    assert (t["x_mm"] ** 2 + t["y_mm"] ** 2) ** 0.5 > 500, "the demo goes somewhere"
