@@ -113,7 +113,7 @@ def plot_mcap(path: Path, out: Path) -> None:
                   label="micro fwd_speed")
     ax_v.set_ylabel("speed, mm/s")
     ax_v.legend(loc="best", fontsize="small")
-    ax_h.plot(*_wrapped(t, [m["heading_deg"] % 360 for m in truth]), label="truth heading")
+    ax_h.plot(t, [m["heading_deg"] % 360 for m in truth], ".", ms=2, label="truth heading")
     if micro:
         ax_h.plot(*_wrapped([ns / 1e9 for ns, _ in micro], [m["heading"] / 10 for _, m in micro]),
                   lw=0.8, label="micro heading")
