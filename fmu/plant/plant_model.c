@@ -319,7 +319,7 @@ static void update_outputs(np_model_t *m) {
   v->yaw_deg = m->yaw / DEG;
   double hdg = fmod(-v->yaw_deg, 360.0);
   if (hdg < 0.0) hdg += 360.0;
-  if (hdg >= 360.0) hdg = 0.0;
+  if (hdg >= 360.0 || hdg == 0.0) hdg = 0.0;   /* also turns -0 into +0 */
   v->heading_deg = hdg;
   v->distance_mm = 500.0 * (m->sw[0] + m->sw[1]);
   v->v_mm_s = 500.0 * (m->vw[0] + m->vw[1]);
