@@ -2,10 +2,21 @@
 #include "config.h"
 
 #define CONFIG_PI 3.14159265f
+#define CONFIG_RAD_TO_DEG 57.29577951f
+#define CONFIG_STILL_S 0.25f /* s: quiet encoders for this long = standing still */
 
 static uint8_t config_sign_ok(int16_t s)
 {
     return (uint8_t)(s == 1 || s == -1);
+}
+
+/* Values that depend on both geometry and motion. */
+static void config_derive(config_t *c)
+{
+    c->turn_window = CONFIG_TRACK_WINDOW_MM * c->wheel_deg_per_mm;
+    c->turn_vwindow = CONFIG_TRACK_VWINDOW_MM_S * c->wheel_deg_per_mm;
+    c->turn_tol = c->stop_tolerance * c->wheel_deg_per_mm;
+    c->turn_vtol = CONFIG_DONE_VTOL_MM_S * c->wheel_deg_per_mm;
 }
 
 void config_reset(config_t *c)
@@ -31,6 +42,7 @@ uint8_t config_complete(const config_t *c)
 
 config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *m)
 {
+    float track_mm = 0.1f * (float)m->track_width;
     if (m->spec_hash != NAVKIT_SPEC_HASH) {
         return CONFIG_ERR_HASH;
     }
@@ -40,16 +52,26 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
         return CONFIG_ERR_RANGE;
     }
     c->mm_per_count = CONFIG_PI * 0.01f * (float)m->wheel_diameter / (float)m->counts_per_rev;
-    c->track_mm = 0.1f * (float)m->track_width;
     c->gyro_dps_per_lsb = (float)m->gyro_sign / (0.01f * (float)m->gyro_lsb_per_dps);
     c->compass_gain = 0.001f * (float)m->compass_weight;
     c->control_rate = m->control_rate;
     c->dt = 1.0f / (float)m->control_rate;
     c->tick_us = (1000000ul + m->control_rate / 2u) / m->control_rate;
-    c->enc_left_sign = (int8_t)m->enc_left_sign;
-    c->enc_right_sign = (int8_t)m->enc_right_sign;
+    c->tick_ms = (uint16_t)(c->tick_us / 1000u);
+    c->tick_us_rem = (uint16_t)(c->tick_us % 1000u);
+    c->wheel_deg_per_mm = CONFIG_RAD_TO_DEG / (0.5f * track_mm);
+    c->wheel_mm_per_deg = 1.0f / c->wheel_deg_per_mm;
+    c->still_ticks = (uint16_t)(CONFIG_STILL_S * (float)m->control_rate + 0.5f);
+    c->odom.mm_per_count = c->mm_per_count;
+    c->odom.speed_per_count = c->mm_per_count * (float)m->control_rate;
+    c->odom.speed_alpha = c->dt / (ODOM_SPEED_TAU_S + c->dt);
+    c->odom.turn_deg_per_count = c->mm_per_count / track_mm * CONFIG_RAD_TO_DEG;
+    c->odom.sign_l = (int8_t)m->enc_left_sign;
+    c->odom.sign_r = (int8_t)m->enc_right_sign;
+    c->odom.xy_ticks = (uint8_t)((m->control_rate >= 200u) ? m->control_rate / 100u : 1u); /* ~10 ms */
     c->motor_left_sign = (int8_t)m->motor_left_sign;
     c->motor_right_sign = (int8_t)m->motor_right_sign;
+    config_derive(c);
     c->received |= NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK;
     return CONFIG_OK;
 }
@@ -78,6 +100,7 @@ config_result_t config_motion(config_t *c, const navkit_micro_cfg_motion_t *m)
     c->watchdog_timeout_ms = m->watchdog_timeout;
     c->watchdog_decel = (float)m->watchdog_decel;
     c->stop_tolerance = (float)m->stop_tolerance;
+    config_derive(c);
     c->received |= NAVKIT_MICRO_STATUS_CFG_MOTION_OK;
     return CONFIG_OK;
 }

@@ -11,8 +11,14 @@
 #include <stdint.h>
 
 #include "navkit/navkit_proto.h"
+#include "odom.h"
 #include "servo.h"
 #include "wheel.h"
+
+/* Re-plan window and "done" speed, at the wheel (the turn axis uses the same at the wheel). */
+#define CONFIG_TRACK_WINDOW_MM 25.0f    /* mm: how far a reference may lead the wheels */
+#define CONFIG_TRACK_VWINDOW_MM_S 50.0f /* mm/s: its speed lead when pulled back */
+#define CONFIG_DONE_VTOL_MM_S 10.0f     /* mm/s: "stopped" for done */
 
 /* Result of config_*(). */
 typedef enum {
@@ -23,15 +29,18 @@ typedef enum {
 
 typedef struct {
     /* geometry */
+    odom_geom_t odom;         /* encoder geometry for odom_update() */
     float mm_per_count;       /* mm per encoder count */
-    float track_mm;           /* mm: wheel contact distance */
+    float wheel_deg_per_mm;   /* deg of turn per mm one wheel runs ahead of the centre */
+    float wheel_mm_per_deg;   /* its inverse, mm per deg */
     float gyro_dps_per_lsb;   /* deg/s per LSB, gyro_sign folded in (clockwise positive) */
     float compass_gain;       /* 1/s: compass fusion gain, 0 = gyro only */
     float dt;                 /* s: control tick */
     uint32_t tick_us;         /* us: control tick, rounded */
+    uint16_t tick_ms;         /* ms: whole milliseconds of tick_us */
+    uint16_t tick_us_rem;     /* us: tick_us beyond tick_ms */
+    uint16_t still_ticks;     /* ticks of quiet encoders that mean "standing still" (0.25 s) */
     uint16_t control_rate;    /* Hz */
-    int8_t enc_left_sign;     /* +1/-1 */
-    int8_t enc_right_sign;    /* +1/-1 */
     int8_t motor_left_sign;   /* +1/-1 */
     int8_t motor_right_sign;  /* +1/-1 */
     /* motion */
@@ -45,6 +54,11 @@ typedef struct {
     float watchdog_decel;     /* mm/s^2 */
     float stop_tolerance;     /* mm */
     wheel_gains_t wheel;      /* wheel-speed loop gains */
+    /* the turn axis's window, tolerance and "stopped" speed, from geometry and motion */
+    float turn_window;        /* deg */
+    float turn_vwindow;       /* deg/s */
+    float turn_tol;           /* deg */
+    float turn_vtol;          /* deg/s */
     uint16_t watchdog_timeout_ms; /* ms */
     /* io */
     uint16_t dio_direction;   /* bitmask, 1 = output */

@@ -3,11 +3,6 @@
 
 #include <math.h>
 
-#define FW_TRACK_WINDOW_MM 25.0f   /* mm: how far a reference may lead the wheels */
-#define FW_TRACK_VWINDOW_MM_S 50.0f /* mm/s: its speed lead when pulled back */
-#define FW_DONE_VTOL_MM_S 10.0f    /* mm/s: "stopped" for done */
-#define FW_STILL_S 0.25f           /* s: encoders quiet this long = standing still */
-#define FW_RAD_TO_DEG 57.29577951f
 #define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
 
 void fw_init(fw_t *fw, hal_t *hal)
@@ -43,6 +38,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->driven = 0u;
     fw->wd_stop = 0u;
     fw->limited = 0u;
+    fw->servo_next = 0u;
 }
 
 uint32_t fw_tick_period_us(const fw_t *fw)
@@ -62,7 +58,7 @@ float fw_fwd_distance(const fw_t *fw)
 
 float fw_turn_angle(const fw_t *fw)
 {
-    return odom_turn(&fw->odom, fw->turn.ax.ref_l, fw->turn.ax.ref_r, fw->cfg.mm_per_count, fw->cfg.track_mm);
+    return odom_turn(&fw->odom, fw->turn.ax.ref_l, fw->turn.ax.ref_r, fw->cfg.odom.turn_deg_per_count);
 }
 
 uint16_t fw_status(const fw_t *fw)
@@ -105,7 +101,7 @@ void fw_watchdog_stop(fw_t *fw)
 {
     uint8_t i;
     /* the same wheel deceleration for the turn: mm/s^2 at the wheel -> deg/s^2 */
-    float turn_decel = fw->cfg.watchdog_decel / (0.5f * fw->cfg.track_mm) * FW_RAD_TO_DEG;
+    float turn_decel = fw->cfg.watchdog_decel * fw->cfg.wheel_deg_per_mm;
     motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt);
     turn_stop(&fw->turn, turn_decel, fw->cfg.dt);
     for (i = 0u; i < SERVO_COUNT; i++) {
@@ -151,7 +147,6 @@ void fw_tick(fw_t *fw)
 {
     const config_t *c = &fw->cfg;
     float dt = c->dt;
-    float deg_per_mm = FW_RAD_TO_DEG / (0.5f * c->track_mm); /* wheel mm -> turn deg */
     float v_fwd, w_turn, half;
     int32_t raw_l, raw_r;
     uint8_t still, i;
@@ -160,10 +155,9 @@ void fw_tick(fw_t *fw)
     fw_sample(fw, &raw_l, &raw_r);
 
     /* estimation */
-    odom_update(&fw->odom, raw_l, raw_r, c->enc_left_sign, c->enc_right_sign, c->mm_per_count, heading_deg(&fw->hdg),
-                dt);
-    still = (uint8_t)(!fw->driven && fw->odom.still_s > 0.0f &&
-                      (fw->hdg.calibrating || fw->odom.still_s >= FW_STILL_S));
+    odom_update(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
+    still = (uint8_t)(!fw->driven && fw->odom.still_ticks > 0u &&
+                      (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks));
     heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
     if ((c->sensor_enable & NAVKIT_SENSOR_ENABLE_COMPASS) && c->compass_gain > 0.0f && !fw->hdg.calibrating) {
         heading_fuse(&fw->hdg, fw->compass, c->compass_gain, dt);
@@ -175,15 +169,14 @@ void fw_tick(fw_t *fw)
     }
 
     /* motion: forward + turn -> wheel setpoints -> wheel loops */
-    v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), FW_TRACK_WINDOW_MM,
-                        FW_TRACK_VWINDOW_MM_S, c->stop_tolerance, FW_DONE_VTOL_MM_S, dt);
-    w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * 0.5f * deg_per_mm,
-                       heading_deg(&fw->hdg), c->heading_kp, FW_TRACK_WINDOW_MM * deg_per_mm,
-                       FW_TRACK_VWINDOW_MM_S * deg_per_mm, c->stop_tolerance * deg_per_mm,
-                       FW_DONE_VTOL_MM_S * deg_per_mm, dt);
+    v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM,
+                        CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
+    w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * 0.5f * c->wheel_deg_per_mm,
+                       heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol,
+                       c->turn_vtol, dt);
     fw->driven = (uint8_t)(motion_active(&fw->fwd) || turn_active(&fw->turn));
     if (fw->driven) {
-        half = w_turn / deg_per_mm; /* mm/s at each wheel */
+        half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
         fw->sp_l = v_fwd + half;
         fw->sp_r = v_fwd - half;
         duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, dt), c->motor_left_sign);
@@ -198,12 +191,17 @@ void fw_tick(fw_t *fw)
                             fw->wheel_r.saturated);
 
     for (i = 0u; i < SERVO_COUNT; i++) {
-        servo_step(&fw->servo[i], &c->servo[i], c->control_rate);
+        servo_step(&fw->servo[i], &c->servo[i]);
+    }
+    /* one servo's pulse width per tick: each is refreshed every 8 ticks */
+    fw->servo_next = (uint8_t)((fw->servo_next + 1u) % SERVO_COUNT);
+    if (fw->servo[fw->servo_next].mode != SERVO_OFF) {
+        servo_update_pulse(&fw->servo[fw->servo_next], &c->servo[fw->servo_next]);
     }
 
     /* uptime */
-    fw->us_frac = (uint16_t)(fw->us_frac + (uint16_t)(c->tick_us % 1000u));
-    fw->ms += c->tick_us / 1000u;
+    fw->us_frac = (uint16_t)(fw->us_frac + c->tick_us_rem);
+    fw->ms += c->tick_ms;
     if (fw->us_frac >= 1000u) {
         fw->us_frac = (uint16_t)(fw->us_frac - 1000u);
         fw->ms++;
@@ -212,7 +210,7 @@ void fw_tick(fw_t *fw)
     /* outputs, once each, at the end of the tick */
     hal_motor(fw->hal, duty_l, duty_r);
     for (i = 0u; i < SERVO_COUNT; i++) {
-        hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i], &c->servo[i]));
+        hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i]));
     }
     hal_dio_write(fw->hal, fw->dio.dir, fw->dio.out);
 }

@@ -51,6 +51,7 @@ typedef struct fw {
     uint8_t driven;      /* 1 if the wheel loops drove the motors on the last tick */
     uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
+    uint8_t servo_next;  /* servo whose pulse width is refreshed next */
 } fw_t;
 
 /* Power-on reset: unconfigured, spec defaults loaded, all outputs off/safe. */

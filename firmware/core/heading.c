@@ -9,8 +9,11 @@
 
 static void heading_wrap_q(heading_t *h)
 {
-    h->q %= HEADING_FULL_Q;
-    if (h->q < 0) {
+    /* per-tick changes are small: a conditional add is enough (no 32-bit division) */
+    while (h->q >= HEADING_FULL_Q) {
+        h->q -= HEADING_FULL_Q;
+    }
+    while (h->q < 0) {
         h->q += HEADING_FULL_Q;
     }
 }
@@ -55,7 +58,7 @@ void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still,
         }
     }
     if (still) {
-        h->bias += ((float)raw - h->bias) * (dt / HEADING_BIAS_TAU_S);
+        h->bias += ((float)raw - h->bias) * (dt * (1.0f / HEADING_BIAS_TAU_S));
         h->rate = 0.0f;
         return;
     }
@@ -65,7 +68,7 @@ void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still,
 
 float heading_wrap180(float deg)
 {
-    return deg - 360.0f * floorf((deg + 180.0f) / 360.0f);
+    return deg - 360.0f * floorf(deg * (1.0f / 360.0f) + 0.5f);
 }
 
 void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt)
@@ -76,7 +79,7 @@ void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt)
 
 void heading_set(heading_t *h, float deg)
 {
-    float w = deg - 360.0f * floorf(deg / 360.0f);
+    float w = deg - 360.0f * floorf(deg * (1.0f / 360.0f));
     h->q = (int32_t)(w * HEADING_ONE_DEG + 0.5f);
     h->q_frac = 0.0f;
     heading_wrap_q(h);
@@ -84,7 +87,7 @@ void heading_set(heading_t *h, float deg)
 
 float heading_deg(const heading_t *h)
 {
-    return ((float)h->q + h->q_frac) / HEADING_ONE_DEG;
+    return ((float)h->q + h->q_frac) * (1.0f / HEADING_ONE_DEG);
 }
 
 uint16_t heading_deg10(const heading_t *h)

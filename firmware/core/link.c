@@ -152,7 +152,7 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
     link_turn(fw, c);
     dio_command(&fw->dio, c->dio_command);
     for (i = 0u; i < SERVO_COUNT; i++) {
-        (void)servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[i][0], rc[i][1], rc[i][2]);
+        (void)servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[i][0], rc[i][1], rc[i][2], fw->cfg.control_rate);
     }
     l->mc_datalog = c->mc_datalog_cmd;
 }
@@ -188,7 +188,16 @@ static uint8_t link_frame(fw_t *fw, const uint8_t *frame, size_t len)
         if (navkit_micro_cfg_geometry_decode(frame, len, &m.geo) != NAVKIT_OK) {
             return 0u;
         }
-        link_cfg_result(&fw->link, config_geometry(&fw->cfg, &m.geo), type);
+        {
+            config_result_t r = config_geometry(&fw->cfg, &m.geo);
+            uint8_t i;
+            if (r == CONFIG_OK) {
+                for (i = 0u; i < SERVO_COUNT; i++) {
+                    servo_retime(&fw->servo[i], fw->cfg.control_rate);
+                }
+            }
+            link_cfg_result(&fw->link, r, type);
+        }
         break;
     case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION:
         if (navkit_micro_cfg_motion_decode(frame, len, &m.mot) != NAVKIT_OK) {

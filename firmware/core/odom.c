@@ -3,9 +3,8 @@
 
 #include <math.h>
 
-#define ODOM_SPEED_TAU_S 0.01f   /* s: wheel-speed low-pass time constant */
-#define ODOM_STILL_CAP_S 60.0f   /* s: still_s stops growing here */
-#define ODOM_RAD_TO_DEG 57.29577951f
+#include "heading.h"
+
 #define ODOM_DEG_TO_RAD 0.01745329252f
 
 void odom_reset(odom_t *o)
@@ -16,11 +15,8 @@ void odom_reset(odom_t *o)
     o->raw_r = 0;
     o->v_l = 0.0f;
     o->v_r = 0.0f;
-    o->x = 0;
-    o->y = 0;
-    o->x_frac = 0.0f;
-    o->y_frac = 0.0f;
-    o->still_s = 0.0f;
+    odom_set_xy(o, 0, 0);
+    o->still_ticks = 0u;
     o->primed = 0u;
 }
 
@@ -40,32 +36,41 @@ static void odom_accumulate(int32_t *whole, float *frac, float step)
     *frac = f - (float)k;
 }
 
-void odom_update(odom_t *o, int32_t raw_l, int32_t raw_r, int8_t sign_l, int8_t sign_r, float mm_per_count,
-                 float heading_deg, float dt)
+void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
 {
     int32_t dl = 0, dr = 0;
-    float alpha = dt / (ODOM_SPEED_TAU_S + dt);
     if (o->primed) {
-        dl = odom_counts_since(raw_l, o->raw_l) * sign_l;
-        dr = odom_counts_since(raw_r, o->raw_r) * sign_r;
+        dl = odom_counts_since(raw_l, o->raw_l) * g->sign_l;
+        dr = odom_counts_since(raw_r, o->raw_r) * g->sign_r;
     }
     o->raw_l = raw_l;
     o->raw_r = raw_r;
     o->primed = 1u;
     o->enc_l = (int32_t)((uint32_t)o->enc_l + (uint32_t)dl);
     o->enc_r = (int32_t)((uint32_t)o->enc_r + (uint32_t)dr);
-    o->v_l += ((float)dl * mm_per_count / dt - o->v_l) * alpha;
-    o->v_r += ((float)dr * mm_per_count / dt - o->v_r) * alpha;
+    o->v_l += ((float)dl * g->speed_per_count - o->v_l) * g->speed_alpha;
+    o->v_r += ((float)dr * g->speed_per_count - o->v_r) * g->speed_alpha;
     if (dl == 0 && dr == 0) {
-        if (o->still_s < ODOM_STILL_CAP_S) {
-            o->still_s += dt;
+        if (o->still_ticks < 0xFFFFu) {
+            o->still_ticks++;
         }
     } else {
-        float ds = 0.5f * (float)(dl + dr) * mm_per_count;
-        float h = heading_deg * ODOM_DEG_TO_RAD;
-        o->still_s = 0.0f;
-        odom_accumulate(&o->x, &o->x_frac, ds * cosf(h));
-        odom_accumulate(&o->y, &o->y_frac, -ds * sinf(h));
+        o->still_ticks = 0u;
+        if (o->xy_n == 0u) {
+            o->xy_h0 = heading_deg;
+        }
+        o->xy_ds += 0.5f * (float)(dl + dr) * g->mm_per_count;
+    }
+    if (o->xy_n > 0u || dl != 0 || dr != 0) {
+        o->xy_n++;
+    }
+    if (o->xy_n >= g->xy_ticks) {
+        /* one X/Y step along the heading at its middle */
+        float h = (o->xy_h0 + 0.5f * heading_wrap180(heading_deg - o->xy_h0)) * ODOM_DEG_TO_RAD;
+        odom_accumulate(&o->x, &o->x_frac, o->xy_ds * cosf(h));
+        odom_accumulate(&o->y, &o->y_frac, -o->xy_ds * sinf(h));
+        o->xy_ds = 0.0f;
+        o->xy_n = 0u;
     }
 }
 
@@ -76,11 +81,11 @@ float odom_distance(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_
     return 0.5f * (cl + cr) * mm_per_count;
 }
 
-float odom_turn(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_count, float track_mm)
+float odom_turn(const odom_t *o, int32_t ref_l, int32_t ref_r, float deg_per_count)
 {
     float cl = (float)odom_counts_since(o->enc_l, ref_l);
     float cr = (float)odom_counts_since(o->enc_r, ref_r);
-    return (cl - cr) * mm_per_count / track_mm * ODOM_RAD_TO_DEG;
+    return (cl - cr) * deg_per_count;
 }
 
 void odom_set_xy(odom_t *o, int32_t x, int32_t y)
@@ -89,4 +94,7 @@ void odom_set_xy(odom_t *o, int32_t x, int32_t y)
     o->y = y;
     o->x_frac = 0.0f;
     o->y_frac = 0.0f;
+    o->xy_ds = 0.0f;
+    o->xy_h0 = 0.0f;
+    o->xy_n = 0u;
 }

@@ -1,12 +1,25 @@
 /* odom: encoder distance, encoder turn angle, wheel speeds and X/Y odometry (prefix odom_).
  *
  * Frame: X along heading 0, Y along heading 270 (to the left of heading 0); heading is
- * clockwise positive, so at reset (heading 0) X is forward and Y is left.
+ * clockwise positive, so at reset (heading 0) X is forward and Y is left. X/Y advance in
+ * steps of about 10 ms (odom_geom_t.xy_ticks) along the mid-step heading, so the sine and
+ * cosine are not paid every tick.
  */
 #ifndef NAVKIT_ODOM_H
 #define NAVKIT_ODOM_H
 
 #include <stdint.h>
+
+/* Geometry in working units, computed once per config (no division per tick). */
+typedef struct {
+    float mm_per_count;       /* mm of wheel travel per count */
+    float speed_per_count;    /* mm/s per count moved in one tick (mm_per_count / dt) */
+    float speed_alpha;        /* wheel-speed low-pass coefficient per tick, dt / (tau + dt) */
+    float turn_deg_per_count; /* deg of turn per count of (left - right) difference */
+    int8_t sign_l;            /* +1/-1: enc_left_sign */
+    int8_t sign_r;            /* +1/-1: enc_right_sign */
+    uint8_t xy_ticks;         /* ticks per X/Y step, >= 1 */
+} odom_geom_t;
 
 typedef struct {
     int32_t enc_l;   /* counts: left encoder, sign-corrected, since reset */
@@ -19,24 +32,28 @@ typedef struct {
     int32_t y;       /* mm: Y, whole part */
     float x_frac;    /* mm: X residual, -0.5..0.5 */
     float y_frac;    /* mm: Y residual, -0.5..0.5 */
-    float still_s;   /* s: time since an encoder last changed (capped) */
+    float xy_ds;     /* mm: path of the X/Y step in progress */
+    float xy_h0;     /* deg: heading at its start */
+    uint16_t still_ticks; /* ticks since an encoder last changed (capped) */
+    uint8_t xy_n;    /* ticks in the X/Y step in progress (0 = none) */
     uint8_t primed;  /* raw_* hold a reading */
 } odom_t;
 
+/* Wheel-speed low-pass time constant, s. */
+#define ODOM_SPEED_TAU_S 0.01f
+
 /* Counts and X/Y zero, not primed (the first update only takes the raw readings). */
 void odom_reset(odom_t *o);
-/* One tick: raw_l/raw_r (counts, raw sign), sign_l/sign_r (+1/-1), mm_per_count (mm),
- * heading_deg (deg, clockwise) for the X/Y step, dt (s). */
-void odom_update(odom_t *o, int32_t raw_l, int32_t raw_r, int8_t sign_l, int8_t sign_r, float mm_per_count,
-                 float heading_deg, float dt);
-/* Counts moved by the left (right) wheel since the reference count ref (counts). */
+/* One tick: raw_l/raw_r (counts, raw sign), heading_deg (deg, clockwise) for X/Y. */
+void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
+/* Counts moved since the reference count ref (counts), wrap-safe. */
 int32_t odom_counts_since(int32_t now, int32_t ref);
 /* Distance (mm) moved since the reference counts ref_l/ref_r: mean of the wheels. */
 float odom_distance(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_count);
-/* Turn angle (deg, clockwise) since the reference counts, from the wheel difference
- * over track_mm (mm). */
-float odom_turn(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_count, float track_mm);
-/* Set X/Y (mm). */
+/* Turn angle (deg, clockwise) since the reference counts; deg_per_count (deg per count
+ * of left-right difference). */
+float odom_turn(const odom_t *o, int32_t ref_l, int32_t ref_r, float deg_per_count);
+/* Set X/Y (mm); a partial X/Y step is dropped. */
 void odom_set_xy(odom_t *o, int32_t x, int32_t y);
 
 #endif /* NAVKIT_ODOM_H */

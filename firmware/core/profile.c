@@ -10,18 +10,19 @@
    curve can only grow once the limit clamps); the margin lets every tick correct it. */
 #define PROFILE_BRAKE_MARGIN 2e-3f
 
-/* Largest speed (u/s, >= 0) from which decelerating by dv per tick, one tick at a time
+/* Largest speed (u/s, >= 0) from which decelerating by k_dvp per tick, one tick at a time
  * of dt, covers exactly d (u, >= 0): the terms are r, r+dv, ..., r+(m-1)dv with
  * 0 < r <= dv and their sum times dt equal to d. */
-static float profile_brake_speed(float d, float dv, float dt)
+static float profile_brake_speed(const profile_t *p, float d)
 {
+    float dv = p->k_dvp;
     float s, m, r;
     if (d <= 0.0f) {
         return 0.0f;
     }
-    s = d / dt; /* u/s: sum of the speed terms */
+    s = d * p->k_inv_dt; /* u/s: sum of the speed terms */
     /* smallest whole m with dv*m*(m+1)/2 >= s */
-    m = ceilf((sqrtf(1.0f + 8.0f * s / dv) - 1.0f) * 0.5f);
+    m = ceilf((sqrtf(1.0f + s * p->k_8_dvp) - 1.0f) * 0.5f);
     if (m < 1.0f) {
         m = 1.0f;
     }
@@ -42,6 +43,20 @@ static float profile_brake_speed(float d, float dv, float dt)
     return r + (m - 1.0f) * dv;
 }
 
+/* Refresh the per-(amax, dt) constants when either changed. */
+static void profile_constants(profile_t *p, float dt)
+{
+    if (p->amax != p->k_amax || dt != p->k_dt) {
+        p->k_amax = p->amax;
+        p->k_dt = dt;
+        p->k_dv = p->amax * dt;
+        p->k_dvp = p->k_dv * (1.0f - PROFILE_BRAKE_MARGIN);
+        p->k_inv_dt = 1.0f / dt;
+        p->k_8_dvp = 8.0f / p->k_dvp;
+        p->k_2ap = 2.0f * p->amax * (1.0f - PROFILE_BRAKE_MARGIN);
+    }
+}
+
 void profile_init(profile_t *p, float vmax, float amax)
 {
     p->togo = 0.0f;
@@ -49,6 +64,8 @@ void profile_init(profile_t *p, float vmax, float amax)
     p->vel = 0.0f;
     p->vmax = vmax;
     p->amax = amax;
+    p->k_amax = -1.0f; /* constants not computed yet */
+    p->k_dt = 0.0f;
     p->moving = 0u;
 }
 
@@ -104,13 +121,15 @@ uint8_t profile_track(profile_t *p, float togo_meas, float vel_meas, float windo
 
 float profile_step(profile_t *p, float dt)
 {
-    float dv = p->amax * dt; /* u/s: the most the velocity may change this tick */
-    float dir, u, goal, brake, reach;
+    float dv, dir, u, goal, brake, reach, d;
 
     if (!p->moving) {
         return 0.0f;
     }
-    if (fabsf(p->togo) <= PROFILE_EPS_POS && fabsf(p->vel) <= dv) {
+    profile_constants(p, dt);
+    dv = p->k_dv; /* u/s: the most the velocity may change this tick */
+    d = fabsf(p->togo);
+    if (d <= PROFILE_EPS_POS && fabsf(p->vel) <= dv) {
         p->togo = 0.0f;
         p->togo_c = 0.0f;
         p->vel = 0.0f;
@@ -124,8 +143,8 @@ float profile_step(profile_t *p, float dt)
     /* the braking curve can only bind within (v + dv)^2 / (2 amax) of the target, v the
        larger of vmax and the present speed: skip its square root while far away */
     reach = ((p->vmax > fabsf(u)) ? p->vmax : fabsf(u)) + dv;
-    if (fabsf(p->togo) * 2.0f * p->amax * (1.0f - PROFILE_BRAKE_MARGIN) < reach * reach) {
-        brake = profile_brake_speed(fabsf(p->togo), dv * (1.0f - PROFILE_BRAKE_MARGIN), dt);
+    if (d * p->k_2ap < reach * reach) {
+        brake = profile_brake_speed(p, d);
         if (brake < goal) {
             goal = brake;
         }

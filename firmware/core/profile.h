@@ -21,6 +21,14 @@ typedef struct {
     float vel;   /* u/s: reference velocity (+ = toward larger positions) */
     float vmax;  /* u/s: cruise limit, > 0 */
     float amax;  /* u/s^2: acceleration and deceleration limit, > 0 */
+    /* per-(amax, dt) constants, recomputed only when either changes (no per-tick division) */
+    float k_amax;   /* u/s^2: amax the constants are for */
+    float k_dt;     /* s: dt the constants are for */
+    float k_dv;     /* u/s: amax * dt */
+    float k_dvp;    /* u/s: the braking curve's step, k_dv less the margin */
+    float k_inv_dt; /* 1/s */
+    float k_8_dvp;  /* s/u: 8 / k_dvp */
+    float k_2ap;    /* u/s^2: 2 * amax less the margin */
     uint8_t moving; /* 1 while the reference moves or has not reached the target */
 } profile_t;
 

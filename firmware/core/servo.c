@@ -15,19 +15,31 @@ static int16_t servo_clamp(const servo_cal_t *cal, int16_t a10)
 void servo_reset(servo_t *s)
 {
     s->pos = 0;
+    s->step = 0;
     s->goal = 0;
     s->right = 0;
     s->left = 0;
     s->rate = 0u;
+    s->pulse = 0u;
     s->mode = SERVO_OFF;
 }
 
-uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2)
+void servo_retime(servo_t *s, uint16_t rate_hz)
+{
+    /* deg*10/s -> deg*10*Q per tick, at least 1 so a move always ends */
+    s->step = (int32_t)s->rate * SERVO_Q / (int32_t)rate_hz;
+    if (s->step < 1) {
+        s->step = 1;
+    }
+}
+
+uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz)
 {
     if (p0 <= 0) {
         return 0u;
     }
     s->rate = (uint16_t)p0;
+    servo_retime(s, rate_hz);
     if (p2 == SERVO_GOTO_FLAG) {
         s->goal = servo_clamp(cal, p1);
         s->mode = SERVO_GOTO;
@@ -37,6 +49,7 @@ uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1
         s->goal = s->right;
         s->mode = SERVO_SCAN;
     }
+    servo_update_pulse(s, cal);
     return 1u;
 }
 
@@ -47,21 +60,17 @@ void servo_hold(servo_t *s)
     }
 }
 
-void servo_step(servo_t *s, const servo_cal_t *cal, uint16_t rate_hz)
+void servo_step(servo_t *s, const servo_cal_t *cal)
 {
-    int32_t goal, step;
+    int32_t goal;
     if (s->mode != SERVO_GOTO && s->mode != SERVO_SCAN) {
         return;
     }
-    goal = (int32_t)servo_clamp(cal, s->goal) * 1000L;
-    step = (int32_t)s->rate * 1000L / (int32_t)rate_hz; /* 1e-4 deg per tick */
-    if (step < 1) {
-        step = 1;
-    }
+    goal = (int32_t)servo_clamp(cal, s->goal) * SERVO_Q;
     if (s->pos < goal) {
-        s->pos = (goal - s->pos > step) ? s->pos + step : goal;
+        s->pos = (goal - s->pos > s->step) ? s->pos + s->step : goal;
     } else if (s->pos > goal) {
-        s->pos = (s->pos - goal > step) ? s->pos - step : goal;
+        s->pos = (s->pos - goal > s->step) ? s->pos - s->step : goal;
     }
     if (s->pos == goal) {
         if (s->mode == SERVO_GOTO) {
@@ -75,16 +84,17 @@ void servo_step(servo_t *s, const servo_cal_t *cal, uint16_t rate_hz)
 int16_t servo_pos10(const servo_t *s)
 {
     int32_t p = s->pos;
-    return (int16_t)((p >= 0) ? (p + 500L) / 1000L : (p - 500L) / 1000L);
+    return (int16_t)((p >= 0) ? (p + SERVO_Q / 2) / SERVO_Q : (p - SERVO_Q / 2) / SERVO_Q);
 }
 
-uint16_t servo_pulse_us(const servo_t *s, const servo_cal_t *cal)
+void servo_update_pulse(servo_t *s, const servo_cal_t *cal)
 {
-    int32_t us;
-    if (s->mode == SERVO_OFF) {
-        return 0u;
-    }
     /* deg*10 * (0.01 us/deg) / 1000 = us */
-    us = (int32_t)cal->center_us + ((int32_t)servo_pos10(s) * (int32_t)cal->us_per_deg_e2) / 1000L;
-    return (us < 0) ? 0u : (uint16_t)us;
+    int32_t us = (int32_t)cal->center_us + ((int32_t)servo_pos10(s) * (int32_t)cal->us_per_deg_e2) / 1000L;
+    s->pulse = (us < 0) ? 0u : (uint16_t)us;
+}
+
+uint16_t servo_pulse_us(const servo_t *s)
+{
+    return (s->mode == SERVO_OFF) ? 0u : s->pulse;
 }

@@ -5,6 +5,10 @@
  * at rate param0, going to param1 first. param0 = 0 means no command. Every angle is
  * clamped to the servo's calibrated travel [min, max]. A servo is not driven (pulse 0)
  * until its first command, and starts from 0 deg.
+ *
+ * Cost on a small micro: stepping is integer adds (position in deg*10 * 1024); the pulse
+ * width (one 32-bit division) is refreshed by servo_update_pulse(), which the firmware
+ * calls for one servo per tick in turn (an RC servo only samples it every 20 ms).
  */
 #ifndef NAVKIT_SERVO_H
 #define NAVKIT_SERVO_H
@@ -13,6 +17,7 @@
 
 #define SERVO_COUNT 8u
 #define SERVO_GOTO_FLAG 9999 /* param2 value that selects GoTo */
+#define SERVO_Q 1024L        /* position units per deg*10 */
 
 typedef enum {
     SERVO_OFF = 0,  /* not driven */
@@ -29,26 +34,33 @@ typedef struct {
 } servo_cal_t;
 
 typedef struct {
-    int32_t pos;     /* deg*10 * 1000: position (1e-4 deg) */
+    int32_t pos;     /* deg*10 * SERVO_Q: position */
+    int32_t step;    /* deg*10 * SERVO_Q per tick: speed */
     int16_t goal;    /* deg*10: where it is moving now */
     int16_t right;   /* deg*10: scan right limit (param1) */
     int16_t left;    /* deg*10: scan left limit (param2) */
-    uint16_t rate;   /* deg*10/s */
+    uint16_t rate;   /* deg*10/s: commanded rate */
+    uint16_t pulse;  /* us: pulse width as last refreshed */
     uint8_t mode;    /* servo_mode_t */
 } servo_t;
 
 /* Not driven, at 0 deg. */
 void servo_reset(servo_t *s);
-/* Apply one command: p0 rate (deg*10/s, 0 = no command, must be >= 0), p1 and p2 as in
- * the seed. Returns 1 if a command was taken, 0 for "no command". */
-uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2);
+/* Apply one command: p0 rate (deg*10/s, 0 = no command), p1 and p2 as in the seed;
+ * rate_hz (Hz) is the control tick rate. Returns 1 if a command was taken, 0 for "no
+ * command". */
+uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz);
+/* The control tick rate changed to rate_hz (Hz): keep the speed in deg/s. */
+void servo_retime(servo_t *s, uint16_t rate_hz);
 /* Stop where it is (watchdog); a servo not yet driven stays off. */
 void servo_hold(servo_t *s);
-/* One tick at rate_hz (Hz): move toward the goal. */
-void servo_step(servo_t *s, const servo_cal_t *cal, uint16_t rate_hz);
-/* Position, deg*10. */
+/* One tick: move toward the goal (integer only). */
+void servo_step(servo_t *s, const servo_cal_t *cal);
+/* Recompute the pulse width from the position and calibration. */
+void servo_update_pulse(servo_t *s, const servo_cal_t *cal);
+/* Position, deg*10 (rounded). */
 int16_t servo_pos10(const servo_t *s);
-/* Pulse width, us; 0 when not driven. */
-uint16_t servo_pulse_us(const servo_t *s, const servo_cal_t *cal);
+/* Pulse width, us, as last refreshed; 0 when not driven. */
+uint16_t servo_pulse_us(const servo_t *s);
 
 #endif /* NAVKIT_SERVO_H */

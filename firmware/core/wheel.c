@@ -24,7 +24,10 @@ float wheel_update(wheel_t *w, const wheel_gains_t *g, float sp, float meas, flo
     if (!(w->saturated && ((w->duty > 0.0f && integ > w->integ) || (w->duty < 0.0f && integ < w->integ)))) {
         w->integ = integ;
     }
-    out = g->kff * sp + g->kp * e + w->integ + g->kd * (e - w->prev_err) / dt;
+    out = g->kff * sp + g->kp * e + w->integ;
+    if (g->kd != 0.0f) {
+        out += g->kd * (e - w->prev_err) / dt;
+    }
     w->prev_err = e;
     w->saturated = 0u;
     if (out > g->pwm_limit) {

@@ -1,6 +1,9 @@
-# Compile every source with avr-gcc for the ATmega2560 (-Os, warnings are errors), link a
-# footprint program, and check flash (text+data) and static RAM (data+bss) budgets.
-# Arguments (-D): AVR_GCC AVR_SIZE OUT INCLUDES SOURCES (|-separated) CORE_DIR FLASH_MAX RAM_MAX
+# Compile every source with avr-gcc for the ATmega2560 (-Os, warnings are errors) and link.
+# MODE=size: check flash (text+data) and static RAM (data+bss) against FLASH_MAX/RAM_MAX.
+# MODE=cycles: run the program in SIMAVR (16 MHz) and check the max fw_tick cycles it
+# prints against CYCLES_MAX.
+# Arguments (-D): MODE AVR_GCC AVR_SIZE SIMAVR OUT INCLUDES SOURCES (|-separated) CORE_DIR
+#                 FLASH_MAX RAM_MAX CYCLES_MAX
 string(REPLACE "|" ";" incs "${INCLUDES}")
 string(REPLACE "|" ";" srcs "${SOURCES}")
 set(flags -mmcu=atmega2560 -Os -Wall -Wextra -Werror -std=c99 -ffunction-sections -fdata-sections)
@@ -20,10 +23,31 @@ foreach(s ${srcs})
   endif()
   list(APPEND objs ${OUT}/${n}.o)
 endforeach()
-execute_process(COMMAND ${AVR_GCC} -mmcu=atmega2560 -Os -Wl,--gc-sections ${objs} -lm -o ${OUT}/fw.elf
+set(libs -lm)
+if(MODE STREQUAL "cycles")
+  set(libs -Wl,-u,vfprintf -lprintf_min -lm)
+endif()
+execute_process(COMMAND ${AVR_GCC} -mmcu=atmega2560 -Os -Wl,--gc-sections ${objs} ${libs} -o ${OUT}/fw.elf
                 RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "avr-gcc link failed")
+endif()
+if(MODE STREQUAL "cycles")
+  execute_process(COMMAND ${SIMAVR} -m atmega2560 -f 16000000 ${OUT}/fw.elf
+                  OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 60 RESULT_VARIABLE rc)
+  string(REGEX MATCH "fw_tick cycles: mean ([0-9]+) max ([0-9]+)" m "${out}${err}")
+  if(NOT m)
+    message(FATAL_ERROR "no cycle count from simavr: ${out}${err}")
+  endif()
+  set(mean ${CMAKE_MATCH_1})
+  set(max ${CMAKE_MATCH_2})
+  math(EXPR mean_us "${mean} / 16")
+  math(EXPR max_us "${max} / 16")
+  message(STATUS "fw_tick on atmega2560 at 16 MHz, forward move and turn at once: mean ${mean} cycles (${mean_us} us), max ${max} cycles (${max_us} us)")
+  if(max GREATER CYCLES_MAX)
+    message(FATAL_ERROR "fw_tick max ${max} cycles > ${CYCLES_MAX}")
+  endif()
+  return()
 endif()
 execute_process(COMMAND ${AVR_SIZE} -A ${OUT}/fw.elf OUTPUT_VARIABLE out RESULT_VARIABLE rc)
 foreach(sec text data bss)

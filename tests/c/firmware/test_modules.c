@@ -76,35 +76,56 @@ static void test_heading_moving_calibration(void)
     CHECK_NEAR(h.bias, 40.0, 1e-4);
 }
 
+static odom_geom_t geom(float mpc, int8_t sl, int8_t sr, uint8_t xy_ticks)
+{
+    odom_geom_t g;
+    g.mm_per_count = mpc;
+    g.speed_per_count = mpc * 1000.0f;
+    g.speed_alpha = 0.001f / (ODOM_SPEED_TAU_S + 0.001f);
+    g.turn_deg_per_count = mpc / 300.0f * 57.2957795f;
+    g.sign_l = sl;
+    g.sign_r = sr;
+    g.xy_ticks = xy_ticks;
+    return g;
+}
+
 static void test_odom(void)
 {
     odom_t o;
-    float mpc = 0.5f;
+    odom_geom_t g = geom(0.5f, 1, -1, 10);
     int i;
     odom_reset(&o);
-    odom_update(&o, 1000, -1000, 1, -1, mpc, 0.0f, 0.001f); /* primes only */
+    odom_update(&o, &g, 1000, -1000, 0.0f); /* primes only */
     CHECK(o.enc_l == 0 && o.enc_r == 0);
     /* straight at heading 0: +X */
     for (i = 1; i <= 100; i++) {
-        odom_update(&o, 1000 + i * 2, -1000 - i * 2, 1, -1, mpc, 0.0f, 0.001f);
+        odom_update(&o, &g, 1000 + i * 2, -1000 - i * 2, 0.0f);
     }
     CHECK(o.enc_l == 200 && o.enc_r == 200);
-    CHECK_NEAR(odom_distance(&o, 0, 0, mpc), 100.0, 1e-4);
+    CHECK_NEAR(odom_distance(&o, 0, 0, g.mm_per_count), 100.0, 1e-4);
     CHECK(o.x == 100 && o.y == 0);
     CHECK_NEAR(o.v_l, 1000.0, 1.0); /* 2 counts * 0.5 mm per ms */
     /* heading 90 (clockwise = right): -Y */
     for (i = 101; i <= 200; i++) {
-        odom_update(&o, 1000 + i * 2, -1000 - i * 2, 1, -1, mpc, 90.0f, 0.001f);
+        odom_update(&o, &g, 1000 + i * 2, -1000 - i * 2, 90.0f);
     }
     CHECK(o.x == 100 && o.y == -100);
+    /* X/Y steps use the mid-step heading, across 0/360 too: 350 -> 10 is along 0 */
+    odom_set_xy(&o, 0, 0);
+    for (i = 1; i <= 10; i++) {
+        odom_update(&o, &g, 1400 + i * 2, -1400 - i * 2, (i <= 5) ? 350.0f : 10.0f);
+    }
+    CHECK(o.xy_n == 0u);
+    CHECK(o.x == 10 && o.y == 0);
     /* encoder wrap at 2^31 is harmless */
     CHECK(odom_counts_since((int32_t)0x80000005l, 0x7FFFFFFBl) == 10);
     CHECK(odom_counts_since(0x7FFFFFFBl, (int32_t)0x80000005l) == -10);
-    /* turn angle: left +pi*150 mm, right -pi*150 mm on a 300 mm track = +180 deg */
+    /* turn angle: left +471 mm, right -471 mm on a 300 mm track */
+    g = geom(1.0f, 1, 1, 10);
     odom_reset(&o);
-    odom_update(&o, 0, 0, 1, 1, 1.0f, 0.0f, 0.001f);
-    odom_update(&o, 471, -471, 1, 1, 1.0f, 0.0f, 0.001f);
-    CHECK_NEAR(odom_turn(&o, 0, 0, 1.0f, 300.0f), 471.0 * 2.0 / 300.0 * 57.2957795, 1e-3);
+    odom_update(&o, &g, 0, 0, 0.0f);
+    odom_update(&o, &g, 471, -471, 0.0f);
+    CHECK_NEAR(odom_turn(&o, 0, 0, g.turn_deg_per_count), 471.0 * 2.0 / 300.0 * 57.2957795, 1e-3);
     /* X/Y set */
     odom_set_xy(&o, -5000, 7000);
     CHECK(o.x == -5000 && o.y == 7000);
@@ -114,13 +135,14 @@ static void test_odom_long_run_precision(void)
 {
     /* 100 m at 0.3 mm per tick: the X sum keeps sub-mm precision */
     odom_t o;
+    odom_geom_t g = geom(0.1f, 1, 1, 10);
     long i;
     odom_reset(&o);
-    odom_update(&o, 0, 0, 1, 1, 0.1f, 0.0f, 0.001f);
-    for (i = 1; i <= 333333; i++) {
-        odom_update(&o, (int32_t)(i * 3), (int32_t)(i * 3), 1, 1, 0.1f, 0.0f, 0.001f);
+    odom_update(&o, &g, 0, 0, 0.0f);
+    for (i = 1; i <= 333330; i++) {
+        odom_update(&o, &g, (int32_t)(i * 3), (int32_t)(i * 3), 0.0f);
     }
-    CHECK_NEAR((double)o.x + o.x_frac, 333333 * 0.3, 1.0);
+    CHECK_NEAR((double)o.x + o.x_frac, 333330 * 0.3, 1.0);
 }
 
 static void test_wheel(void)
@@ -164,28 +186,42 @@ static void test_servo_goto(void)
     servo_t s;
     int i;
     servo_reset(&s);
-    CHECK(servo_pulse_us(&s, &cal) == 0u); /* not driven before a command */
-    CHECK(servo_command(&s, &cal, 0, 300, 9999) == 0u); /* param0 = 0: no command */
+    CHECK(servo_pulse_us(&s) == 0u); /* not driven before a command */
+    CHECK(servo_command(&s, &cal, 0, 300, 9999, 1000u) == 0u); /* param0 = 0: no command */
     CHECK(s.mode == SERVO_OFF);
     /* seed example: servo 2 to 30 deg at 100 deg/s */
-    CHECK(servo_command(&s, &cal, 1000, 300, 9999) == 1u);
+    CHECK(servo_command(&s, &cal, 1000, 300, 9999, 1000u) == 1u);
     for (i = 0; i < 150; i++) {
-        servo_step(&s, &cal, 1000u);
+        servo_step(&s, &cal);
     }
     CHECK(servo_pos10(&s) == 150); /* halfway after 0.15 s */
     for (i = 0; i < 200; i++) {
-        servo_step(&s, &cal, 1000u);
+        servo_step(&s, &cal);
     }
     CHECK(servo_pos10(&s) == 300);
     CHECK(s.mode == SERVO_HOLD);
-    CHECK(servo_pulse_us(&s, &cal) == 1800u);
+    servo_update_pulse(&s, &cal);
+    CHECK(servo_pulse_us(&s) == 1800u);
+    /* a slower tick rate keeps the speed in deg/s */
+    servo_command(&s, &cal, 1000, 0, 9999, 1000u);
+    servo_retime(&s, 250u);
+    for (i = 0; i < 15; i++) {
+        servo_step(&s, &cal); /* 60 ms at 250 Hz */
+    }
+    CHECK(servo_pos10(&s) == 240);
+    servo_retime(&s, 1000u);
+    servo_command(&s, &cal, 1000, 300, 9999, 1000u);
+    for (i = 0; i < 100; i++) {
+        servo_step(&s, &cal);
+    }
     /* beyond the travel: clamped to max */
-    servo_command(&s, &cal, 10000, 1500, 9999);
+    servo_command(&s, &cal, 10000, 1500, 9999, 1000u);
     for (i = 0; i < 1000; i++) {
-        servo_step(&s, &cal, 1000u);
+        servo_step(&s, &cal);
     }
     CHECK(servo_pos10(&s) == 900);
-    CHECK(servo_pulse_us(&s, &cal) == 2400u);
+    servo_update_pulse(&s, &cal);
+    CHECK(servo_pulse_us(&s) == 2400u);
 }
 
 static void test_servo_scan(void)
@@ -194,10 +230,10 @@ static void test_servo_scan(void)
     int i, lo = 0, hi = 0, reversals = 0, prev = 0, dir = 0;
     servo_reset(&s);
     /* seed example: scan between +80 and -90 deg at 30 deg/s */
-    servo_command(&s, &cal, 300, 800, -900);
+    servo_command(&s, &cal, 300, 800, -900, 1000u);
     for (i = 0; i < 30000; i++) {
         int p, d;
-        servo_step(&s, &cal, 1000u);
+        servo_step(&s, &cal);
         p = servo_pos10(&s);
         if (p < lo) {
             lo = p;
@@ -222,12 +258,12 @@ static void test_servo_scan(void)
     {
         int p0 = servo_pos10(&s);
         for (i = 0; i < 500; i++) {
-            servo_step(&s, &cal, 1000u);
+            servo_step(&s, &cal);
         }
         CHECK(servo_pos10(&s) == p0);
     }
     /* scan limits outside the travel are clamped */
-    servo_command(&s, &cal, 2000, 1800, -1800);
+    servo_command(&s, &cal, 2000, 1800, -1800, 1000u);
     CHECK(s.right == 900 && s.left == -900);
 }
 
@@ -343,7 +379,7 @@ static void test_config(void)
     g.enc_left_sign = -1;
     g.control_rate = 500;
     CHECK(config_geometry(&c, &g) == CONFIG_OK);
-    CHECK(c.tick_us == 2000u && c.enc_left_sign == -1);
+    CHECK(c.tick_us == 2000u && c.odom.sign_l == -1 && c.odom.xy_ticks == 5u && c.still_ticks == 125u);
     navkit_micro_cfg_motion_defaults(&m);
     m.watchdog_timeout = 5; /* below its minimum */
     CHECK(config_motion(&c, &m) == CONFIG_ERR_RANGE);
