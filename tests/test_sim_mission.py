@@ -105,3 +105,22 @@ def test_sim_cli_rejects_bad_mission(tmp_path: Path, capsys):
     assert rc == 1
     assert "bad.toml: [[command]] #1: unknown key 'sped'" in out
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("plant, key, what", [
+    ("no_such_parameter = 1.0", "'no_such_parameter'", "no such variable"),
+    ("mass_kg = \"heavy\"", "'mass_kg'", "does not fit"),
+    ("x_mm = 5.0", "'x_mm'", "not a parameter"),
+])
+def test_plant_overrides_checked_against_the_plant_fmu(tmp_path: Path, plant, key, what):
+    from navkit.paths import build_dir
+    from navkit.sim.harness import SimOptions, fmu_paths, run
+
+    if not all(p.exists() for p in fmu_paths(build_dir())):
+        pytest.skip("FMUs not built")
+    m = loads(f"duration_s = 1.0\n[plant]\n{plant}\n", tmp_path / "p.toml")
+    with pytest.raises(MissionError) as e:
+        run(SimOptions(mission=m, out=tmp_path / "out", plot=False))
+    msg = str(e.value)
+    assert "p.toml: [plant]" in msg and key in msg and what in msg, msg
+    assert not (tmp_path / "out").exists()

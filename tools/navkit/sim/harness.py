@@ -117,8 +117,7 @@ def _set_start(slave, md, name: str, value, where: str) -> None:
     var = {v.name: v for v in md.modelVariables}.get(name)
     if var is None:
         raise MissionError(f"{where}: key {name!r}: the plant FMU has no such variable")
-    if var.causality not in ("parameter", "input", "structuralParameter") and \
-            var.variability not in ("fixed", "tunable"):
+    if var.causality not in ("parameter", "structuralParameter"):
         raise MissionError(f"{where}: key {name!r}: not a parameter of the plant FMU "
                            f"(causality {var.causality})")
     vr = [var.valueReference]
@@ -340,6 +339,7 @@ class _Run:
         self.noise_until = None
         self.noise_stats = {"flips": 0, "drops": 0, "inserts": 0}
         self.unplug_until = None
+        self.rx_count = 0
         self.frames = 0
         self.host_exit = None
         self.results = {}
@@ -353,9 +353,6 @@ class _Run:
         from navkit.sim.links import Lockstep, Port
         from navkit.sim.record import RunLog
 
-        host = host_path(self.build)
-        if not host.exists():
-            raise SimError(f"{host} not found: build the host first")
         fw_fmu, plant_fmu = fmu_paths(self.build)
         plant_params = {"seed": self.opts.seed}
         if self.m.world is not None:
@@ -369,6 +366,9 @@ class _Run:
                                build=self.build)
         if self.opts.timing:
             self.coupler.timing(True)
+        host = host_path(self.build)
+        if not host.exists():
+            raise SimError(f"{host} not found: build the host first")
         self.out.mkdir(parents=True, exist_ok=True)
         meta = {"mission": self.m.text, "mission_file": self.m.path.name,
                 "seed": self.opts.seed, "spec_hash": f"0x{self.protocol.SPEC_HASH:08X}",
@@ -497,6 +497,7 @@ class _Run:
             self.coupler.exchange()
         elif f.kind == "unplug":
             self.port.unplug()
+            self.rx_count = 0       # bytes still in the pty are gone with it
             self.unplug_until = t + f.duration_s
         elif f.kind == "line_noise":
             from navkit.sim.links import LineNoise
@@ -543,7 +544,7 @@ class _Run:
         ei, n_ev = 0, len(timeline)
         n_frames = int(round(self.m.duration_s / self.frame_s))
         frame_ns = self.steps_per_frame * 1_000_000
-        rx_count = 0
+        self.rx_count = 0
         log, coupler, port = self.log, self.coupler, self.port
         spf = self.steps_per_frame
         times = self.times
@@ -565,7 +566,7 @@ class _Run:
                 if self.silent_until is None:
                     self.planner.beat()
                 t1 = pc()
-                done = self.lock.frame(k, t_ns // 1000, rx_count)
+                done = self.lock.frame(k, t_ns // 1000, self.rx_count)
                 t2 = pc()
                 times["host"] += t2 - t1
                 if done is None:
@@ -576,7 +577,8 @@ class _Run:
                     tx_bytes, flags = done
                     host_bytes = port.read_exact(tx_bytes)
                     times["pty"] += pc() - t2
-                    log.frame(k, t_ns, rx_count, tx_bytes, flags, host_bytes, self._lisp_raw())
+                    log.frame(k, t_ns, self.rx_count, tx_bytes, flags, host_bytes,
+                              self._lisp_raw())
                     if flags & 1:
                         self.host_state = "exited"
                 self.frames += 1
@@ -593,10 +595,10 @@ class _Run:
             log.micro(t_end_ns, tx)
             if self.noise is not None:
                 tx = self.noise.apply(tx)
-            rx_count = 0
+            self.rx_count = 0
             if self.host_state == "running" and port.plugged:
                 t1 = pc()
-                rx_count = port.write(tx)
+                self.rx_count = port.write(tx)
                 times["pty"] += pc() - t1
             log.end_frame(t_end_ns)
             if self.opts.progress and k % max(1, int(10 / self.frame_s)) == 0:
