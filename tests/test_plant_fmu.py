@@ -317,6 +317,19 @@ def test_gyro_and_compass(plant):
     assert fast.get("gyro_raw") == 32767       # 16-bit saturation
 
 
+def test_gyro_bias_random_walk(plant):
+    still = plant(gyro_noise_dps=0.0, gyro_bias_walk_dps_rt_s=0.0)
+    walk = plant(gyro_noise_dps=0.0, gyro_bias_walk_dps_rt_s=0.02)
+    for p in (still, walk):
+        p.h = 0.1
+    rows_s = still.run(100.0, watch=["gyro_raw"])["gyro_raw"]
+    rows_w = walk.run(100.0, watch=["gyro_raw"])["gyro_raw"]
+    assert set(rows_s) == {round(0.5 * 131)}
+    drift = [abs(r - 66) for r in rows_w]
+    assert max(drift) > 5                      # 0.02 deg/s/rt(s) over 100 s: ~0.2 deg/s, ~26 LSB
+    assert max(drift) < 131                    # but not a whole deg/s
+
+
 def test_servo_rate_limit_and_hold(plant):
     p = plant()
     p.set(servo_pulse_0=2400.0, servo_pulse_1=1000.0)     # +90 deg (clockwise), -50 deg
