@@ -139,3 +139,19 @@ def test_demo_mission_through_the_cli(tmp_path, capsys):
     s = json.loads((out / "summary.json").read_text())
     t = s["truth"]
     assert (t["x_mm"] ** 2 + t["y_mm"] ** 2) ** 0.5 > 500, "the demo goes somewhere"
+
+
+def test_realtime_mode_paces_to_the_wall_clock(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "realtime", """
+duration_s = 3.0
+[[command]]
+t = 1.2
+fwd_cmd = 1
+speed = 300
+distance = 200
+""", realtime=True)
+    s = r.summary
+    assert s["mode"] == "realtime"
+    assert 0.7 < s["realtime_factor"] <= 1.1, s["wall_time_s"]
+    assert abs(r.truth[-1]["distance_mm"] - 200) <= 15, "the command reached the micro"
+    assert s["host"]["config_downloads"] >= 1
