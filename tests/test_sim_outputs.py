@@ -155,3 +155,47 @@ distance = 200
     assert 0.7 < s["realtime_factor"] <= 1.1, s["wall_time_s"]
     assert abs(r.truth[-1]["distance_mm"] - 200) <= 15, "the command reached the micro"
     assert s["host"]["config_downloads"] >= 1
+
+
+def test_a_killed_run_keeps_what_came_before(tmp_path):
+    """SIGKILL to the whole run (harness, log worker, host) in real-time mode after ~2.5 s:
+    run.mcap still holds the chunks of the simulated seconds before."""
+    import glob
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from mcap.stream_reader import StreamReader
+    from mcap.records import Message
+
+    require_build()
+    mission = tmp_path / "long.toml"
+    mission.write_text("duration_s = 30.0\n[[command]]\nt = 1.2\nfwd_cmd = 1\nspeed = 100\n"
+                       "distance = 5000\n")
+    code = ("import sys; from pathlib import Path; from navkit.sim.harness import SimOptions, run;"
+            "from navkit.sim.mission import load;"
+            "run(SimOptions(mission=load(sys.argv[1]), out=Path(sys.argv[2]), realtime=True,"
+            " plot=False))")
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-c", code, str(mission), str(out)],
+                         start_new_session=True)
+    try:
+        time.sleep(3.0)
+    finally:
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait()
+        for f in glob.glob(f"/dev/shm/navkit-sim-{p.pid}-*"):
+            os.unlink(f)
+    times = []
+    with open(out / "run.mcap", "rb") as f:
+        try:
+            for rec in StreamReader(f, skip_magic=False).records:
+                if isinstance(rec, Message):
+                    times.append(rec.log_time / 1e9)
+        except Exception:  # noqa: BLE001 - the file ends mid-record: expected
+            pass
+    assert times, "messages of the first seconds survived"
+    assert 0.9 <= max(times) < 10.0, max(times)
+    assert not (out / "summary.json").exists()
