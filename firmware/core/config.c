@@ -56,7 +56,7 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     c->compass_gain = 0.001f * (float)m->compass_weight;
     c->control_rate = m->control_rate;
     c->dt = 1.0f / (float)m->control_rate;
-    c->tick_us = (1000000ul + m->control_rate / 2u) / m->control_rate;
+    c->tick_us = (uint32_t)((1000000ul + m->control_rate / 2u) / m->control_rate);
     c->tick_ms = (uint16_t)(c->tick_us / 1000u);
     c->tick_us_rem = (uint16_t)(c->tick_us % 1000u);
     c->wheel_deg_per_mm = CONFIG_RAD_TO_DEG / (0.5f * track_mm);

@@ -27,7 +27,7 @@ void servo_reset(servo_t *s)
 void servo_retime(servo_t *s, uint16_t rate_hz)
 {
     /* deg*10/s -> deg*10*Q per tick, at least 1 so a move always ends */
-    s->step = (int32_t)s->rate * SERVO_Q / (int32_t)rate_hz;
+    s->step = (int32_t)((int32_t)s->rate * SERVO_Q / (int32_t)rate_hz);
     if (s->step < 1) {
         s->step = 1;
     }
