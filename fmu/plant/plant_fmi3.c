@@ -12,10 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* navkit_add_fmu builds with hidden visibility and an empty FMI3_FUNCTION_PREFIX, which
- * leaves fmi3Functions.h's FMI3_Export empty: export the FMI functions explicitly. */
-#define FMI3_Export __attribute__((visibility("default")))
-#include "fmi3Functions.h"
+#include "fmi3Functions.h" /* exports the fmi3 functions (visibility default) */
 
 enum { ST_INSTANTIATED = 1, ST_INIT = 2, ST_STEP = 4, ST_TERMINATED = 8 };
 #define ST_ANY (ST_INSTANTIATED | ST_INIT | ST_STEP | ST_TERMINATED)
