@@ -20,6 +20,9 @@ typedef struct {
     fmi3ValueReference dst[MAX_LINKS];
     double f64[MAX_LINKS];
     int32_t i32[MAX_LINKS];
+    double f64_last[MAX_LINKS];    /* values set last time: unchanged values are not set again */
+    int32_t i32_last[MAX_LINKS];
+    int valid;                     /* *_last hold what the destination has */
 } links_t;
 
 /* Recorded columns read from one FMU, of one type. */
@@ -201,25 +204,40 @@ static int transfer(cosim_t *c, int src)
     const fmu_t *s = &c->fmu[src], *d = &c->fmu[1 - src];
     links_t *f = &c->links[src][COSIM_FLOAT64], *i = &c->links[src][COSIM_INT32];
     if (f->n) {
-        if (s->get_f64(s->inst, f->src, f->n, f->f64, f->n) > fmi3Warning ||
-            d->set_f64(d->inst, f->dst, f->n, f->f64, f->n) > fmi3Warning)
-            return fail(c, COSIM_ERR_FMU, "Float64 exchange %s -> %s failed at t=%.3f s",
-                        fmu_name(src), fmu_name(1 - src), cosim_time(c));
+        if (s->get_f64(s->inst, f->src, f->n, f->f64, f->n) > fmi3Warning)
+            return fail(c, COSIM_ERR_FMU, "getting Float64 of %s failed at t=%.3f s",
+                        fmu_name(src), cosim_time(c));
+        if (!f->valid || memcmp(f->f64, f->f64_last, f->n * sizeof(double)) != 0) {
+            if (d->set_f64(d->inst, f->dst, f->n, f->f64, f->n) > fmi3Warning)
+                return fail(c, COSIM_ERR_FMU, "setting Float64 of %s failed at t=%.3f s",
+                            fmu_name(1 - src), cosim_time(c));
+            memcpy(f->f64_last, f->f64, f->n * sizeof(double));
+            f->valid = 1;
+        }
     }
     if (i->n) {
-        if (s->get_i32(s->inst, i->src, i->n, i->i32, i->n) > fmi3Warning ||
-            d->set_i32(d->inst, i->dst, i->n, i->i32, i->n) > fmi3Warning)
-            return fail(c, COSIM_ERR_FMU, "Int32 exchange %s -> %s failed at t=%.3f s",
-                        fmu_name(src), fmu_name(1 - src), cosim_time(c));
+        if (s->get_i32(s->inst, i->src, i->n, i->i32, i->n) > fmi3Warning)
+            return fail(c, COSIM_ERR_FMU, "getting Int32 of %s failed at t=%.3f s",
+                        fmu_name(src), cosim_time(c));
+        if (!i->valid || memcmp(i->i32, i->i32_last, i->n * sizeof(int32_t)) != 0) {
+            if (d->set_i32(d->inst, i->dst, i->n, i->i32, i->n) > fmi3Warning)
+                return fail(c, COSIM_ERR_FMU, "setting Int32 of %s failed at t=%.3f s",
+                            fmu_name(1 - src), cosim_time(c));
+            memcpy(i->i32_last, i->i32, i->n * sizeof(int32_t));
+            i->valid = 1;
+        }
     }
     return COSIM_OK;
 }
 
 int cosim_exchange(cosim_t *c)
 {
-    int rc;
+    int rc, a, b;
     if (!c)
         return COSIM_ERR_ARG;
+    for (a = 0; a < 2; a++)
+        for (b = 0; b < 2; b++)
+            c->links[a][b].valid = 0;
     rc = transfer(c, COSIM_PLANT);
     return rc ? rc : transfer(c, COSIM_FIRMWARE);
 }

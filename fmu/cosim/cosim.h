@@ -86,7 +86,9 @@ COSIM_API size_t cosim_row_width(const cosim_t *c);
 COSIM_API int cosim_sample(cosim_t *c, double *row);
 
 /* Copies every plant output connected to the firmware into the firmware's inputs and
- * vice versa without stepping (after initialisation or a firmware reset). */
+ * vice versa without stepping (after initialisation or a firmware reset). During
+ * cosim_run() a group of inputs whose values did not change since they were last set is
+ * not set again (an FMU keeps its inputs); this call sets all of them. */
 COSIM_API int cosim_exchange(cosim_t *c);
 
 /* Does `n_steps` steps. `rx` (`rx_len` bytes, may be NULL/0) is set as serial_rx before
