@@ -4,12 +4,16 @@
  * every tick the reference must stay within its acceleration limit (and within its speed
  * limit unless decelerating toward a lowered one), never be NaN, never overshoot a
  * target it could reach without overshoot, and come to rest on the target in bounded
- * time. Seed and count: argv[1], argv[2], or NAVKIT_PROP_SEED / NAVKIT_PROP_COUNT. */
+ * time. A second run drives a motion_ axis (profile + re-planning from the measured state)
+ * against a plant that lags and may not reach the speed: it must settle within the stop
+ * tolerance in bounded time. Seed and count: argv[1], argv[2], or NAVKIT_PROP_SEED /
+ * NAVKIT_PROP_COUNT (the second run does a tenth of the count). */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 
 #include "check.h"
+#include "motion.h"
 #include "profile.h"
 
 /* ---- shapes ---- */
@@ -241,6 +245,62 @@ static int prop_case(unsigned long idx)
     return bad;
 }
 
+/* One random move of a motion_ axis against a lagging, speed-capped plant; 0 when it
+ * settled within tolerance in time. */
+static int prop_tracked_case(unsigned long idx)
+{
+    const double dt = 0.001, tol = 5.0;
+    motion_t m;
+    double amax = rng_uniform(50.0, 2000.0);
+    double vmax = rng_uniform(20.0, 800.0);
+    double cap = vmax * rng_uniform(0.3, 1.5);     /* the plant's top speed */
+    double tau = rng_uniform(0.0, 0.08);           /* s: the plant's lag */
+    double target = rng_uniform(-3000.0, 3000.0);
+    double pos = 0.0, vel = 0.0, bound;
+    long k, limit;
+    int mods = (int)(rng_next() % 3u), bad = 0;
+
+    motion_reset(&m, 0, 0);
+    motion_start(&m, 0, 0, 0.0f, (float)target, (float)vmax, (float)amax);
+    bound = fabs(target) / (vmax < cap ? vmax : cap) + 2.0 * vmax / amax + 10.0 * tau + 2.0;
+    limit = (long)(bound / dt);
+    for (k = 0; k < limit; k++) {
+        double sp;
+        if (mods > 0 && (rng_next() % 2000u) == 0u) {
+            mods--;
+            target = rng_uniform(-3000.0, 3000.0);
+            motion_modify(&m, (float)target, (float)vmax, (float)amax);
+            limit = k + (long)((fabs(target - pos) / (vmax < cap ? vmax : cap) + 2.0 * vmax / amax + 10.0 * tau +
+                                fabs(vel) / amax + 2.0) / dt);
+        }
+        sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, (float)tol, 10.0f, (float)dt);
+        if (sp != sp) {
+            bad |= 1;
+            break;
+        }
+        if (sp > cap) {
+            sp = cap;
+        } else if (sp < -cap) {
+            sp = -cap;
+        }
+        vel += (sp - vel) * dt / (tau + dt);
+        pos += vel * dt;
+        if (m.done) {
+            break;
+        }
+    }
+    if (!m.done) {
+        bad |= 2; /* never settled */
+    } else if (fabs(pos - target) > tol + 0.5) {
+        bad |= 4; /* settled outside the tolerance */
+    }
+    if (bad) {
+        fprintf(stderr, "tracked case %lu failed: mask %d (amax %g vmax %g cap %g tau %g target %g pos %g)\n", idx,
+                bad, amax, vmax, cap, tau, target, pos);
+    }
+    return bad;
+}
+
 int main(int argc, char **argv)
 {
     const char *es = getenv("NAVKIT_PROP_SEED");
@@ -272,6 +332,17 @@ int main(int argc, char **argv)
         }
     }
     printf("property: seed %llu, %lu moves, %lu failed\n", seed, i, failed);
+    CHECK(failed == 0);
+    failed = 0;
+    for (i = 0; i < count / 10u; i++) {
+        if (prop_tracked_case(i)) {
+            failed++;
+            if (failed >= 10) {
+                break;
+            }
+        }
+    }
+    printf("tracked property: %lu moves, %lu failed\n", i, failed);
     CHECK(failed == 0);
     CHECK_DONE();
 }
