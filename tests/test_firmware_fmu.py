@@ -244,6 +244,31 @@ def test_state_table_and_step_sizes(unzipped, md):
         m.free()
 
 
+def test_control_rate_from_config(unzipped, md):
+    """control_rate = 500 Hz: a 2 ms tick, so 1 ms steps are refused and 2 ms ones run one
+    tick; the step that carries the config still ends on time."""
+    m = Micro(unzipped, md)
+    try:
+        geo = protocol.defaults("micro_cfg_geometry")
+        geo["control_rate"] = 500
+        m.step(0.1, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=1))
+        assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.1)
+        with pytest.raises(FMICallException):
+            m.fmu.doStep(m.t, 0.001)
+        parser = protocol.Parser(protocol.DIR_TO_HOST)
+        tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=2))
+        for _ in range(50):
+            tx += m.step(0.002)
+        t0 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
+        tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=3))
+        for _ in range(50):
+            tx += m.step(0.002)
+        t1 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
+        assert t1 - t0 == 102  # 51 ticks of 2 ms
+    finally:
+        m.free()
+
+
 def test_unconfigured_until_three_configs_and_again_after_reset(unzipped, md):
     m = Micro(unzipped, md)
     w = Wheels()

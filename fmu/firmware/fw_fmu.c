@@ -91,8 +91,7 @@ typedef struct {
     fwfmu_state_t state;
     double time;               /* s: time of the next doStep */
     double start_time;         /* s */
-    uint64_t ticks;            /* control ticks since the start */
-    uint64_t elapsed_us;       /* us: simulated time since the start, from the ticks */
+    uint64_t elapsed_us;       /* us: communication steps since the start, summed */
     uint8_t rx_stage[FWFMU_RX_CAP]; /* serial_rx as set, consumed by the next doStep */
     size_t rx_stage_len;
     char *name;
@@ -232,8 +231,6 @@ static void fwfmu_tick(fwfmu_t *m)
         h->tx_head = (h->tx_head + 1u) % FWFMU_TX_CAP;
         h->tx_len--;
     }
-    m->ticks++;
-    m->elapsed_us += tick_us;
 }
 
 /* ---------------------------------------------------------------- instance life */
@@ -255,7 +252,6 @@ static void fwfmu_power_on(fwfmu_t *m)
     m->rx_stage_len = 0u;
     m->time = 0.0;
     m->start_time = 0.0;
-    m->ticks = 0u;
     m->elapsed_us = 0u;
     fw_init(&m->fw, &m->hal);
     /* outputs as the micro holds them before its first tick: everything off */
@@ -597,8 +593,9 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     m->rx_stage_len = 0u;
     h->wire_len = 0u;
     for (k = 0; k < n; k++) {
-        fwfmu_tick(m);
+        fwfmu_tick(m); /* a config may change the tick period: the step still ends at t + h */
     }
+    m->elapsed_us += (uint64_t)floor(h_s * 1e6 + 0.5);
     m->time = m->start_time + (double)m->elapsed_us * 1e-6;
     *lastSuccessfulTime = m->time;
     return fmi3OK;
