@@ -225,6 +225,9 @@ def test_state_table_and_step_sizes(unzipped, md):
         with pytest.raises(FMICallException):
             m.fmu.doStep(0.0, 0.001)  # not in step mode yet
         m.start()
+        m.fmu.setDebugLogging(True, ["logEvents", "logStatusError"])
+        with pytest.raises(FMICallException):
+            m.fmu.setDebugLogging(True, ["logEverything"])  # no such category
         with pytest.raises(FMICallException):
             m.fmu.setUInt32([m.vr["baud"]], [9600])  # fixed parameter, step mode
         m.step(0.001)

@@ -97,14 +97,15 @@ typedef struct {
     char *name;
     fmi3InstanceEnvironment env;
     fmi3LogMessageCallback log;
-    int logging;
+    unsigned log_events;       /* 1: report logEvents messages (fmi3SetDebugLogging) */
 } fwfmu_t;
 
+/* Report a message: logStatusError always, logEvents only when debug logging enabled it. */
 static void fwfmu_log(const fwfmu_t *m, fmi3Status st, const char *cat, const char *fmt, ...)
 {
     char msg[256];
     va_list ap;
-    if (!m->log || (!m->logging && st == fmi3OK)) {
+    if (!m || !m->log || (strcmp(cat, "logEvents") == 0 && !m->log_events)) {
         return;
     }
     va_start(ap, fmt);
@@ -296,7 +297,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     strcpy(m->name, instanceName);
     m->env = instanceEnvironment;
     m->log = logMessage;
-    m->logging = loggingOn ? 1 : 0;
+    m->log_events = loggingOn ? 1u : 0u;
     fwfmu_power_on(m);
     m->state = ST_INSTANTIATED;
     return m;
@@ -343,12 +344,26 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
                                const fmi3String categories[])
 {
     fwfmu_t *m = (fwfmu_t *)instance;
-    (void)categories;
-    (void)nCategories;
+    size_t i;
+    unsigned events = 0u;
     if (!fwfmu_allowed(m, F_SET_DEBUG_LOGGING)) {
         return fmi3Error;
     }
-    m->logging = loggingOn ? 1 : 0;
+    if (nCategories == 0u) {
+        events = 1u; /* all categories */
+    }
+    for (i = 0; i < nCategories; i++) {
+        if (strcmp(categories[i], "logEvents") == 0) {
+            events = 1u;
+        } else if (strcmp(categories[i], "logStatusError") != 0) {
+            fwfmu_log(m, fmi3Error, "logStatusError", "unknown log category \"%s\"", categories[i]);
+            return fmi3Error;
+        }
+    }
+    /* logStatusError is always reported; loggingOn switches logEvents when it is listed */
+    if (events) {
+        m->log_events = loggingOn ? 1u : 0u;
+    }
     return fmi3OK;
 }
 
