@@ -19,11 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* navkit_add_fmu() defines FMI3_FUNCTION_PREFIX (empty), which makes fmi3Functions.h
-   define FMI3_Export as nothing; with hidden default visibility the API must be exported
-   explicitly. */
-#define FMI3_Export __attribute__((visibility("default")))
-#include "fmi3Functions.h"
+#include "fmi3Functions.h" /* exports the fmi3* API (the rest is hidden) */
 #include "fw.h"
 #include "fw_fmu_model.h"
 
