@@ -17,6 +17,9 @@ SUBCOMMANDS = {
     "proto": ("navkit.proto_cli", "encode, decode and sniff protocol frames"),
     "bench-proto": ("navkit.proto_bench", "benchmark the C and Python codecs (frames/s)"),
     "fuzz-proto": ("navkit.proto_fuzz", "differential fuzz of the Python and C frame parsers"),
+    "sim": ("navkit.sim.cli", "co-simulate a mission: the real host, the firmware FMU and the plant FMU"),
+    "plot": ("navkit.plot", "plot an MCAP run or a seed-format datalog"),
+    "bench-sim": ("navkit.sim_bench", "benchmark the co-simulation (real-time factor, time shares, memory)"),
 }
 
 
