@@ -1,0 +1,119 @@
+// Ini: the seed's INI class. Reads config/NavAndControl.ini and config/sensors.ini with
+// inih into one Config. Every key has a default (the value shipped in the INI files);
+// an unknown section or key, a malformed or out-of-range value, a duplicate key or a
+// missing file throws ConfigError with the text "file:line: key: reason".
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+extern "C" {
+#include "navkit/navkit_proto.h"
+}
+
+namespace navkit {
+
+class ConfigError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct ExecutiveCfg {
+    double frame_rate_hz = 10.0;     // Hz, frame k starts at t0 + k / frame_rate_hz
+    double planner_timeout_s = 1.0;  // s without a planner heartbeat -> stop; 0 = never
+    double console_idle_s = 2.0;     // s after the last planner command before console teleop is obeyed
+    std::string shm_name = "/navkit";
+    std::string shm_group;           // empty: mode 0600; a group name: 0660 and that group
+    std::string log_dir = ".";
+    bool record = false;             // start the datalog at start-up
+    int dio_default = 0;             // levels of the DIO bits no planner owns (12 bits)
+};
+
+struct MicroCfg {
+    MicroCfg()
+    {
+        navkit_micro_cfg_geometry_defaults(&geometry);
+        navkit_micro_cfg_motion_defaults(&motion);
+        navkit_micro_cfg_io_defaults(&io);
+    }
+    std::string port = "auto";       // "auto" = first FTDI (VID 0403) serial device
+    int baud = 115200;
+    int data_bits = 8;
+    char parity = 'N';               // N, E or O
+    int stop_bits = 1;
+    int latency_timer_ms = 1;        // FTDI latency timer, where sysfs lets us set it; 0 = leave
+    navkit_micro_cfg_geometry_t geometry{};
+    navkit_micro_cfg_motion_t motion{};
+    navkit_micro_cfg_io_t io{};
+};
+
+struct ConsoleCfg {
+    int teleop_speed = 200;          // mm/s of the forward/reverse keys
+    int teleop_accel = 300;          // mm/s^2
+    int teleop_turn_rate = 300;      // deg/s x 10 of the left/right keys
+    double status_period_s = 1.0;    // s between status lines when stdout is not a terminal
+};
+
+struct SafetyCfg {
+    double battery_min_v = 0.0;      // V; below it (micro online) the robot stops; 0 = off
+    int ir_stop_mm = 0;              // mm; an IR range below it stops the robot; 0 = off
+};
+
+struct BatteryCal {
+    int channel = 4;                 // ADC channel
+    double vref = 5.0;               // V at ADC full scale (1023)
+    double divider = 3.0;            // board divider ratio
+    double offset_v = 0.0;           // V added after scaling
+};
+
+struct Gp2d12Cal {
+    int channel = 0;                 // ADC channel
+    double vref = 5.0;               // V at ADC full scale
+    double a_v_mm = 331.4;           // curve V = a / (d + b) + c, d in mm
+    double b_mm = 40.0;
+    double c_v = 0.015;
+    int min_mm = 100;                // valid range; outside it the value is 0
+    int max_mm = 800;
+};
+
+struct Srf04Cal {
+    double mm_per_us = 0.1715;       // half the speed of sound
+    double offset_mm = 0.0;
+    int max_mm = 3000;               // farther = 0 (no echo)
+};
+
+struct ServoCal {
+    double gain = 1.0;               // position = gain * reported + offset
+    double offset_deg = 0.0;
+};
+
+struct SensorsCfg {
+    SensorsCfg()
+    {
+        for (int i = 0; i < 4; i++) {
+            ir[i].channel = i;  // GP2D12 rangers on ADC ch0-3
+        }
+    }
+    BatteryCal battery;
+    Gp2d12Cal ir[4];
+    Srf04Cal sonar[4];
+    ServoCal servo[8];
+};
+
+struct Config {
+    ExecutiveCfg exec;
+    MicroCfg micro;
+    ConsoleCfg console;
+    SafetyCfg safety;
+    SensorsCfg sensors;
+};
+
+class Ini {
+public:
+    // Defaults, then dir/NavAndControl.ini and dir/sensors.ini over them.
+    static Config load(const std::string &dir);
+    // One file into cfg (the file's name decides which sections it may hold).
+    static void load_file(const std::string &path, Config &cfg);
+};
+
+}  // namespace navkit

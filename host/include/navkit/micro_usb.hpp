@@ -1,0 +1,115 @@
+// MicroUsb: the seed's MicroUSB class. Finds the FTDI serial port (or uses a given
+// path), sets it raw and non-blocking, receives micro_data (only the newest whole frame
+// of those waiting is used), and sends exactly one message per frame: a config message
+// while the micro is unconfigured, else the command (new, or the last one repeated with
+// its time tag). A micro built from another spec is refused (no command is ever sent).
+// A vanished port is reported and reopened when its path returns.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "navkit/ini.hpp"
+
+extern "C" {
+#include "navkit/navkit_proto.h"
+}
+
+namespace navkit {
+
+class Console;
+
+// The port: discovery, termios, non-blocking read/write. Pure OS plumbing.
+class SerialPort {
+public:
+    ~SerialPort();
+    // port = "auto" or a path. "" on success, else why not.
+    std::string open(const MicroCfg &cfg);
+    void close();
+    bool is_open() const { return fd_ >= 0; }
+    int fd() const { return fd_; }
+    const std::string &path() const { return path_; }
+    // >0 bytes read, 0 nothing waiting, -1 the port is gone (closed by this call).
+    long read_some(uint8_t *buf, size_t cap);
+    // Bytes written (all or nothing on a tty), -1 the port is gone (closed by this call).
+    long write_all(const uint8_t *buf, size_t len);
+    // First FTDI (USB VID 0403) tty: /dev/serial/by-id, then /sys/class/tty; "" if none.
+    static std::string find_ftdi();
+    // sysfs latency_timer of tty path `dev`; "" if the device has none (not FTDI).
+    static std::string latency_timer_path(const std::string &dev);
+
+private:
+    int fd_ = -1;
+    std::string path_;
+};
+
+class MicroUsb {
+public:
+    MicroUsb(const MicroCfg &cfg, Console &console);
+    void init();
+    void shutdown();
+
+    // Reads the port. want_bytes < 0 (real time): whatever is waiting; >= 0 (lockstep):
+    // polls until that many bytes have been read (1 s limit, then counts an error).
+    // True when at least one whole micro_data arrived; *out = the newest.
+    bool receive(long want_bytes, navkit_micro_data_t *out);
+
+    // The micro's state, from the data received.
+    bool online(int64_t now_us) const;
+    bool configured() const { return configured_; }
+    bool spec_mismatch() const { return mismatch_; }
+    bool needs_config() const { return !configured_ || mismatch_; }
+
+    // The command of this frame: new (a new time tag) or not (repeat the last one).
+    void queue_command(const navkit_micro_cmd_t &cmd, bool is_new);
+    // Send the one message of this frame: config while unconfigured, else the command.
+    void send();
+    // Send a stop (fwd 5, turn 5) now, outside the frame order (shutdown).
+    void send_stop(uint16_t dio);
+
+    // A stop command carrying these DIO levels (the seed's Navigation Init command).
+    static navkit_micro_cmd_t stop_command(uint16_t dio);
+
+    bool port_open() const { return port_.is_open(); }
+    uint32_t tx_bytes_frame() const { return tx_frame_; }
+    void begin_frame(int64_t now_us);
+    uint32_t link_errors() const;
+    uint64_t config_downloads() const { return config_sent_; }
+    uint64_t superseded() const { return superseded_; }
+    uint64_t short_reads() const { return short_reads_; }
+    uint64_t tx_errors() const { return tx_errors_; }
+    uint16_t last_tag() const { return last_.time_tag; }
+    const navkit_micro_cmd_t &last_command() const { return last_; }
+    const std::string &port_path() const { return port_.path(); }
+
+private:
+    void open_port();
+    void port_lost(const char *why);
+    void note_data(const navkit_micro_data_t &d);
+    void write_frame(const uint8_t *buf, size_t len);
+    void reset_parser();
+
+    const MicroCfg &cfg_;
+    Console &con_;
+    SerialPort port_;
+    navkit_parser_t parser_{};
+    std::string last_open_error_;
+    int64_t now_us_ = 0;
+    int64_t last_rx_us_ = -1;
+    bool have_data_ = false;
+    uint16_t status_ = 0;
+    bool configured_ = false;
+    bool mismatch_ = false;
+    uint32_t mismatch_hash_ = 0;
+    int next_cfg_ = 0;           // 0 geometry, 1 motion, 2 io
+    uint16_t cfg_tag_ = 0;
+    navkit_micro_cmd_t last_{};  // the command repeated while nothing new comes
+    uint32_t tx_frame_ = 0;
+    uint64_t config_sent_ = 0;   // config downloads started (a geometry message sent)
+    uint64_t superseded_ = 0;    // whole micro_data dropped for a newer one
+    uint64_t short_reads_ = 0;   // lockstep ticks whose rx_bytes did not all arrive in 1 s
+    uint64_t tx_errors_ = 0;     // frames written only in part (output buffer full)
+    uint32_t err_base_ = 0;      // link errors of parsers before the last reopen
+};
+
+}  // namespace navkit

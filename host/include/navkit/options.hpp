@@ -1,0 +1,25 @@
+// Command line of navkit-host (overrides the INI files).
+#pragma once
+
+#include <string>
+
+namespace navkit {
+
+struct Options {
+    std::string config_dir = "config";
+    std::string port;          // "" = INI
+    double rate_hz = 0;        // 0 = INI
+    bool lockstep = false;
+    int lockstep_fd = -1;
+    std::string shm;           // "" = INI
+    bool record = false;
+    std::string log_dir;       // "" = INI
+    std::string timing_log;    // "" = none
+    bool help = false;
+};
+
+// "" on success, else the error (unknown option, missing or bad value).
+std::string parse_options(int argc, char **argv, Options *o);
+const char *usage();
+
+}  // namespace navkit

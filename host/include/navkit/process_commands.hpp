@@ -1,0 +1,83 @@
+// ProcessCommands: the seed's arbitration between command sources. Rules (docs/host.md):
+//  1. Safety first: while a safety condition holds, motion commands of every source are
+//     ignored; when it starts, one stop is sent. After it clears, the next new command
+//     is obeyed.
+//  2. The planner has priority: every new planner command (a changed time tag) that
+//     passes the spec's range check goes to Navigation. A planner that stops beating
+//     its heartbeat for planner_timeout_s gets one stop sent and loses its DIO bits; its
+//     next new command is obeyed again.
+//  3. The console's teleop keys are obeyed only when the planner has sent no command for
+//     console_idle_s (or timed out, or never sent one).
+//  4. DIO, exactly as the seed says: the planner owns a bit only while the bit is set in
+//     dio_active of its current message; its level is then dio_command's bit. Every
+//     other bit takes the console's level (dio_default, toggled by keys 0-9, '-', '=').
+#pragma once
+
+#include <cstdint>
+
+#include "navkit/ini.hpp"
+
+extern "C" {
+#include "navkit/navkit_proto.h"
+}
+
+namespace navkit {
+
+enum class Teleop { none, forward, reverse, left, right, stop };
+
+struct PlannerInput {
+    bool have = false;          // a lisp_cmd was read this frame
+    navkit_lisp_cmd_t cmd{};
+    uint32_t heartbeat = 0;
+};
+
+struct ConsoleInput {
+    Teleop teleop = Teleop::none;
+    uint16_t dio_toggle = 0;    // DIO bits whose console level flips
+};
+
+struct SafetyInput {
+    bool stop = false;          // a safety condition holds now
+};
+
+enum class Owner { none, planner, console };
+
+struct Arbitration {
+    bool planner_new = false;        // pass arb.planner to Navigation
+    navkit_lisp_cmd_t planner{};
+    bool planner_rejected = false;   // a new planner command failed the range check
+    int rejected_field = -1;
+    bool teleop_new = false;         // pass arb.teleop to Navigation
+    Teleop teleop = Teleop::none;
+    bool stop = false;               // send a stop (safety started or planner timed out)
+    bool timeout_started = false;    // the planner timed out in this frame
+    bool safety_started = false;
+    uint16_t dio = 0;                // merged DIO levels
+    Owner owner = Owner::none;
+};
+
+class ProcessCommands {
+public:
+    ProcessCommands(const ExecutiveCfg &exec);
+    Arbitration update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s,
+                       int64_t now_us);
+    bool planner_timed_out() const { return timed_out_; }
+    bool safety_stopped() const { return safety_; }
+    int32_t last_planner_tag() const { return last_tag_; }
+
+private:
+    double timeout_s_, idle_s_;
+    bool have_tag_ = false;
+    int32_t last_tag_ = 0;
+    bool hb_seen_ = false;
+    uint32_t last_hb_ = 0;
+    int64_t hb_change_us_ = 0;
+    bool timed_out_ = false;
+    bool safety_ = false;
+    int64_t last_cmd_us_ = -1;
+    uint16_t planner_active_ = 0, planner_dio_ = 0;
+    uint16_t console_dio_;
+    Owner owner_ = Owner::none;
+};
+
+}  // namespace navkit

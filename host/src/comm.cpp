@@ -1,0 +1,182 @@
+#include "navkit/comm.hpp"
+
+#include <cerrno>
+#include <cstring>
+#include <fcntl.h>
+#include <grp.h>
+#include <stdexcept>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace navkit {
+
+// Every shared word is read and written with atomic 32-bit accesses (aligned: the
+// layout's offsets are multiples of 4); byte order is fixed to little-endian by
+// navkit_put_u32/navkit_get_u32 on the local copies.
+static uint32_t load32(const uint8_t *base, size_t off, int order)
+{
+    return __atomic_load_n(reinterpret_cast<const uint32_t *>(base + off), order);
+}
+
+static void store32(uint8_t *base, size_t off, uint32_t v, int order)
+{
+    __atomic_store_n(reinterpret_cast<uint32_t *>(base + off), v, order);
+}
+
+static uint32_t le32(uint32_t native)
+{
+    uint8_t b[4];
+    std::memcpy(b, &native, 4);
+    return navkit_get_u32(b);
+}
+
+static uint32_t native32(uint32_t le)
+{
+    uint8_t b[4];
+    navkit_put_u32(b, le);
+    uint32_t v;
+    std::memcpy(&v, b, 4);
+    return v;
+}
+
+bool Comm::seqlock_read(const uint8_t *base, size_t slot_off, uint8_t *out, size_t nbytes)
+{
+    // Reader: copy between two equal, even reads of seq; bounded retries.
+    for (int attempt = 0; attempt < 1000; attempt++) {
+        const uint32_t s1 = le32(load32(base, slot_off, __ATOMIC_ACQUIRE));
+        if (s1 & 1u) {
+            continue;  // a write is in progress
+        }
+        for (size_t i = 0; i < nbytes; i += 4) {
+            navkit_put_u32(out + i, le32(load32(base, slot_off + 4 + i, __ATOMIC_RELAXED)));
+        }
+        __atomic_thread_fence(__ATOMIC_ACQUIRE);
+        const uint32_t s2 = le32(load32(base, slot_off, __ATOMIC_RELAXED));
+        if (s1 == s2) {
+            return s1 != 0;  // seq 0: never written
+        }
+    }
+    return false;
+}
+
+void Comm::seqlock_write(uint8_t *base, size_t slot_off, const uint8_t *in, size_t nbytes)
+{
+    // Writer: seq odd, words, seq even (+2 per message).
+    uint32_t s = le32(load32(base, slot_off, __ATOMIC_RELAXED));
+    s += (s & 1u) ? 1u : 0u;  // a writer that died mid-write left it odd
+    store32(base, slot_off, native32(s + 1), __ATOMIC_RELAXED);
+    __atomic_thread_fence(__ATOMIC_RELEASE);
+    for (size_t i = 0; i < nbytes; i += 4) {
+        store32(base, slot_off + 4 + i, native32(navkit_get_u32(in + i)), __ATOMIC_RELAXED);
+    }
+    store32(base, slot_off, native32(s + 2), __ATOMIC_RELEASE);
+}
+
+Comm::Comm(std::string name, std::string group) : name_(std::move(name)), group_(std::move(group)) {}
+
+Comm::~Comm()
+{
+    shutdown();
+}
+
+void Comm::init()
+{
+    const std::string what = "rcomm " + name_ + ": ";
+    // a stale region: ours is unlinked, another user's is refused
+    int fd = shm_open(name_.c_str(), O_RDONLY, 0);
+    if (fd >= 0) {
+        struct stat st;
+        const bool mine = fstat(fd, &st) == 0 && st.st_uid == geteuid();
+        ::close(fd);
+        if (!mine) {
+            throw std::runtime_error(what + "exists and belongs to another user (uid " +
+                                     std::to_string(st.st_uid) + "): refused");
+        }
+        shm_unlink(name_.c_str());
+    }
+    fd = shm_open(name_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);
+    if (fd < 0) {
+        throw std::runtime_error(what + std::strerror(errno));
+    }
+    created_ = true;
+    mode_t mode = 0600;
+    if (!group_.empty()) {
+        const group *g = getgrnam(group_.c_str());
+        if (!g || fchown(fd, static_cast<uid_t>(-1), g->gr_gid) != 0) {
+            ::close(fd);
+            throw std::runtime_error(what + "group " + group_ + ": " + (g ? std::strerror(errno) : "unknown"));
+        }
+        mode = 0660;
+    }
+    if (fchmod(fd, mode) != 0 || ftruncate(fd, NAVKIT_RCOMM_SIZE) != 0) {
+        const int e = errno;
+        ::close(fd);
+        throw std::runtime_error(what + std::strerror(e));
+    }
+    void *p = mmap(nullptr, NAVKIT_RCOMM_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    ::close(fd);
+    if (p == MAP_FAILED) {
+        throw std::runtime_error(what + "mmap: " + std::strerror(errno));
+    }
+    base_ = static_cast<uint8_t *>(p);
+    // header last-but-magic-last: a client that sees the magic sees the rest
+    store32(base_, NAVKIT_RCOMM_VERSION_OFFSET, native32(NAVKIT_RCOMM_VERSION), __ATOMIC_RELAXED);
+    store32(base_, NAVKIT_RCOMM_SPEC_HASH_OFFSET, native32(NAVKIT_SPEC_HASH), __ATOMIC_RELAXED);
+    store32(base_, NAVKIT_RCOMM_MAGIC_OFFSET, native32(NAVKIT_RCOMM_MAGIC), __ATOMIC_RELEASE);
+}
+
+void Comm::shutdown()
+{
+    if (base_) {
+        munmap(base_, NAVKIT_RCOMM_SIZE);
+        base_ = nullptr;
+    }
+    if (created_) {
+        shm_unlink(name_.c_str());
+        created_ = false;
+    }
+}
+
+bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
+{
+    uint8_t b[NAVKIT_LISP_CMD_BYTES];
+    if (!base_ || !seqlock_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, b, sizeof b)) {
+        return false;
+    }
+    navkit_lisp_cmd_load(b, out);
+    return true;
+}
+
+bool Comm::read_emotion(navkit_emotion_t *out) const
+{
+    uint8_t b[NAVKIT_EMOTION_BYTES];
+    if (!base_ || !seqlock_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, b, sizeof b)) {
+        return false;
+    }
+    navkit_emotion_load(b, out);
+    return true;
+}
+
+void Comm::send_lisp_data(const navkit_lisp_data_t &d)
+{
+    uint8_t b[NAVKIT_LISP_DATA_BYTES];
+    navkit_lisp_data_store(&d, b);
+    if (base_) {
+        seqlock_write(base_, NAVKIT_RCOMM_LISP_DATA_OFFSET, b, sizeof b);
+    }
+}
+
+uint32_t Comm::planner_heartbeat() const
+{
+    return base_ ? le32(load32(base_, NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET, __ATOMIC_ACQUIRE)) : 0;
+}
+
+void Comm::set_host_heartbeat(uint32_t v)
+{
+    if (base_) {
+        store32(base_, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, native32(v), __ATOMIC_RELEASE);
+    }
+}
+
+}  // namespace navkit

@@ -1,0 +1,106 @@
+#include "navkit/console.hpp"
+
+#include <cstdarg>
+#include <cstring>
+#include <poll.h>
+#include <termios.h>
+#include <unistd.h>
+
+namespace navkit {
+
+static_assert(sizeof(termios) <= 64, "saved_termios_ too small");
+
+Console::Console(std::FILE *out, int in_fd, double status_period_s)
+    : out_(out), in_fd_(in_fd), status_period_s_(status_period_s)
+{
+}
+
+Console::~Console()
+{
+    shutdown();
+}
+
+void Console::init()
+{
+    out_tty_ = isatty(fileno(out_)) == 1;
+    if (isatty(in_fd_) == 1) {
+        termios t;
+        if (tcgetattr(in_fd_, &t) == 0) {
+            std::memcpy(saved_termios_, &t, sizeof t);
+            t.c_lflag &= static_cast<tcflag_t>(~(ICANON | ECHO));
+            t.c_cc[VMIN] = 0;
+            t.c_cc[VTIME] = 0;
+            in_raw_ = tcsetattr(in_fd_, TCSANOW, &t) == 0;
+        }
+    }
+}
+
+void Console::shutdown()
+{
+    if (in_raw_) {
+        termios t;
+        std::memcpy(&t, saved_termios_, sizeof t);
+        tcsetattr(in_fd_, TCSANOW, &t);
+        in_raw_ = false;
+    }
+    if (status_shown_ && out_tty_) {
+        std::fputs("\n", out_);
+        status_shown_ = false;
+    }
+    std::fflush(out_);
+}
+
+void Console::print(const char *fmt, ...)
+{
+    char line[512];
+    va_list ap;
+    va_start(ap, fmt);
+    std::vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    if (status_shown_ && out_tty_) {
+        std::fputs("\r\033[K", out_);  // the status line moves below the new line
+        status_shown_ = false;
+    }
+    std::fprintf(out_, "[%9.3f] %s\n", static_cast<double>(t_us_) / 1e6, line);
+    std::fflush(out_);
+}
+
+void Console::status(const std::string &line)
+{
+    if (out_tty_) {
+        std::fprintf(out_, "\r\033[K%s", line.c_str());
+        status_shown_ = true;
+        std::fflush(out_);
+        return;
+    }
+    if (last_status_us_ >= 0 &&
+        static_cast<double>(t_us_ - last_status_us_) < status_period_s_ * 1e6) {
+        return;
+    }
+    last_status_us_ = t_us_;
+    std::fprintf(out_, "[%9.3f] status: %s\n", static_cast<double>(t_us_) / 1e6, line.c_str());
+    std::fflush(out_);
+}
+
+std::string Console::keys()
+{
+    std::string out;
+    while (!in_eof_) {
+        pollfd p{in_fd_, POLLIN, 0};
+        if (poll(&p, 1, 0) <= 0 || !(p.revents & (POLLIN | POLLHUP))) {
+            break;
+        }
+        char buf[64];
+        const ssize_t n = ::read(in_fd_, buf, sizeof buf);
+        if (n > 0) {
+            out.append(buf, static_cast<size_t>(n));
+        } else if (n == 0 && !in_raw_) {
+            in_eof_ = true;  // no more keys: the executive keeps running
+        } else {
+            break;
+        }
+    }
+    return out;
+}
+
+}  // namespace navkit

@@ -1,0 +1,81 @@
+// navkit-host: the executive. Loads the config, picks the clock, then runs the seed's
+// RobotInit, RobotMain once per frame, and RobotShutdown (host/src/robot.cpp).
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+
+#include "navkit/options.hpp"
+#include "navkit/robot.hpp"
+
+using namespace navkit;
+
+int main(int argc, char **argv)
+{
+    Options o;
+    const std::string err = parse_options(argc, argv, &o);
+    if (!err.empty()) {
+        std::fprintf(stderr, "navkit-host: %s\n%s", err.c_str(), usage());
+        return 2;
+    }
+    if (o.help) {
+        std::fputs(usage(), stdout);
+        return 0;
+    }
+    Config cfg;
+    try {
+        cfg = Ini::load(o.config_dir);
+    } catch (const ConfigError &e) {
+        std::fprintf(stderr, "navkit-host: %s\n", e.what());
+        return 1;
+    }
+    if (!o.port.empty()) {
+        cfg.micro.port = o.port;
+    }
+    if (o.rate_hz > 0) {
+        cfg.exec.frame_rate_hz = o.rate_hz;
+    }
+    if (!o.shm.empty()) {
+        cfg.exec.shm_name = o.shm;
+    }
+    if (!o.log_dir.empty()) {
+        cfg.exec.log_dir = o.log_dir;
+    }
+    cfg.exec.record = cfg.exec.record || o.record;
+
+    install_signal_handlers();
+    std::unique_ptr<Clock> clock;
+    if (o.lockstep) {
+        clock.reset(new LockstepClock(o.lockstep_fd));
+    } else {
+        clock.reset(new RealClock(cfg.exec.frame_rate_hz, o.timing_log));
+    }
+    Robot r(cfg);
+    r.clock = clock.get();
+    try {
+        RobotInit(r);
+    } catch (const std::runtime_error &e) {
+        std::fprintf(stderr, "navkit-host: %s\n", e.what());
+        r.console.shutdown();
+        return 1;
+    }
+    FrameTick tick;
+    while (clock->wait_frame(&tick)) {
+        r.tick = tick;
+        RobotMain(r);
+        const uint32_t flags = (r.quit ? 1u : 0u) | (r.micro.port_open() ? 0u : 2u);
+        clock->frame_done(r.micro.tx_bytes_frame(), flags);
+        if (r.quit) {
+            r.console.print("Q: quitting");
+            break;
+        }
+    }
+    int rc = 0;
+    if (!clock->error().empty()) {
+        r.console.print("%s", clock->error().c_str());
+        rc = 1;
+    } else if (g_quit_signal) {
+        r.console.print("signal %d: shutting down", g_quit_signal);
+    }
+    RobotShutdown(r);
+    return rc;
+}

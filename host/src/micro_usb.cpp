@@ -1,0 +1,478 @@
+#include "navkit/micro_usb.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <dirent.h>
+#include <fcntl.h>
+#include <fstream>
+#include <poll.h>
+#include <termios.h>
+#include <unistd.h>
+#include <vector>
+
+#include "navkit/console.hpp"
+
+namespace navkit {
+
+// ------------------------------------------------------------------ SerialPort
+
+SerialPort::~SerialPort()
+{
+    close();
+}
+
+static speed_t baud_constant(int baud)
+{
+    switch (baud) {
+    case 9600: return B9600;
+    case 19200: return B19200;
+    case 38400: return B38400;
+    case 57600: return B57600;
+    case 115200: return B115200;
+    case 230400: return B230400;
+    case 460800: return B460800;
+    case 500000: return B500000;
+    case 921600: return B921600;
+    case 1000000: return B1000000;
+    case 2000000: return B2000000;
+    case 3000000: return B3000000;
+    default: return 0;
+    }
+}
+
+static std::string read_line(const std::string &path)
+{
+    std::ifstream f(path);
+    std::string s;
+    std::getline(f, s);
+    return s;
+}
+
+static std::string real_path(const std::string &p)
+{
+    char buf[PATH_MAX];
+    return realpath(p.c_str(), buf) ? std::string(buf) : std::string();
+}
+
+static std::string base_name(const std::string &p)
+{
+    const size_t s = p.rfind('/');
+    return s == std::string::npos ? p : p.substr(s + 1);
+}
+
+static std::vector<std::string> list_dir(const std::string &dir)
+{
+    std::vector<std::string> out;
+    DIR *d = opendir(dir.c_str());
+    if (!d) {
+        return out;
+    }
+    while (dirent *e = readdir(d)) {
+        if (e->d_name[0] != '.') {
+            out.push_back(e->d_name);
+        }
+    }
+    closedir(d);
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// USB vendor of a tty (ttyUSB0): the interface's parent device holds idVendor.
+static bool is_ftdi(const std::string &tty)
+{
+    for (const char *rel : {"/device/../idVendor", "/device/../../idVendor"}) {
+        if (read_line("/sys/class/tty/" + tty + rel).rfind("0403", 0) == 0) {
+            return true;
+        }
+    }
+    return false;
+}
+
+std::string SerialPort::find_ftdi()
+{
+    for (const std::string &e : list_dir("/dev/serial/by-id")) {
+        const std::string p = "/dev/serial/by-id/" + e;
+        if (is_ftdi(base_name(real_path(p)))) {
+            return p;
+        }
+    }
+    for (const std::string &e : list_dir("/sys/class/tty")) {
+        if (e.rfind("ttyUSB", 0) == 0 && is_ftdi(e)) {
+            return "/dev/" + e;
+        }
+    }
+    return "";
+}
+
+std::string SerialPort::latency_timer_path(const std::string &dev)
+{
+    const std::string p = "/sys/bus/usb-serial/devices/" + base_name(real_path(dev)) + "/latency_timer";
+    return access(p.c_str(), F_OK) == 0 ? p : std::string();
+}
+
+std::string SerialPort::open(const MicroCfg &cfg)
+{
+    close();
+    const std::string path = cfg.port == "auto" ? find_ftdi() : cfg.port;
+    if (path.empty()) {
+        return "no FTDI (USB VID 0403) serial port found";
+    }
+    const speed_t speed = baud_constant(cfg.baud);
+    if (!speed) {
+        return "baud " + std::to_string(cfg.baud) + " is not supported";
+    }
+    const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        return path + ": " + std::strerror(errno);
+    }
+    termios t;
+    if (tcgetattr(fd, &t) != 0) {
+        const int e = errno;
+        ::close(fd);
+        return path + ": not a serial port (" + std::strerror(e) + ")";
+    }
+    cfmakeraw(&t);
+    cfsetispeed(&t, speed);
+    cfsetospeed(&t, speed);
+    t.c_cflag &= static_cast<tcflag_t>(~(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS));
+    const tcflag_t sizes[] = {CS5, CS6, CS7, CS8};
+    t.c_cflag |= sizes[cfg.data_bits - 5] | CLOCAL | CREAD;
+    if (cfg.parity != 'N') {
+        t.c_cflag |= PARENB | (cfg.parity == 'O' ? PARODD : 0);
+    }
+    if (cfg.stop_bits == 2) {
+        t.c_cflag |= CSTOPB;
+    }
+    t.c_cc[VMIN] = 0;  // reads never wait
+    t.c_cc[VTIME] = 0;
+    if (tcsetattr(fd, TCSANOW, &t) != 0) {
+        const int e = errno;
+        ::close(fd);
+        return path + ": " + std::strerror(e);
+    }
+    fd_ = fd;
+    path_ = path;
+    return "";
+}
+
+void SerialPort::close()
+{
+    if (fd_ >= 0) {
+        ::close(fd_);
+        fd_ = -1;
+    }
+}
+
+long SerialPort::read_some(uint8_t *buf, size_t cap)
+{
+    if (fd_ < 0) {
+        return -1;
+    }
+    pollfd p{fd_, POLLIN, 0};
+    if (poll(&p, 1, 0) < 0) {
+        return 0;
+    }
+    if (p.revents & POLLIN) {
+        const ssize_t n = ::read(fd_, buf, cap);
+        if (n > 0) {
+            return n;
+        }
+        if (n < 0 && (errno == EAGAIN || errno == EINTR)) {
+            return 0;
+        }
+        if (n < 0 || (p.revents & POLLHUP)) {
+            close();  // EIO/ENODEV: unplugged, or the other end of a pty went away
+            return -1;
+        }
+        return 0;
+    }
+    if (p.revents & (POLLHUP | POLLERR | POLLNVAL)) {
+        close();
+        return -1;
+    }
+    return 0;
+}
+
+long SerialPort::write_all(const uint8_t *buf, size_t len)
+{
+    if (fd_ < 0) {
+        return -1;
+    }
+    const ssize_t n = ::write(fd_, buf, len);
+    if (n >= 0) {
+        return n;
+    }
+    if (errno == EAGAIN || errno == EINTR) {
+        return 0;  // the output buffer is full (nobody reads): this frame's message is lost
+    }
+    close();
+    return -1;
+}
+
+// ------------------------------------------------------------------ MicroUsb
+
+MicroUsb::MicroUsb(const MicroCfg &cfg, Console &console) : cfg_(cfg), con_(console)
+{
+    navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
+    last_ = stop_command(0);
+}
+
+navkit_micro_cmd_t MicroUsb::stop_command(uint16_t dio)
+{
+    navkit_micro_cmd_t m;
+    navkit_micro_cmd_defaults(&m);
+    m.fwd_cmd = NAVKIT_FWD_CMD_STOP;
+    m.turn_cmd = NAVKIT_TURN_CMD_STOP;
+    m.dio_command = dio;
+    return m;
+}
+
+void MicroUsb::init()
+{
+    last_ = stop_command(0);
+    last_.time_tag = 1;
+    open_port();
+}
+
+void MicroUsb::shutdown()
+{
+    port_.close();
+}
+
+void MicroUsb::reset_parser()
+{
+    const navkit_link_stats_t &s = parser_.stats;
+    err_base_ += s.bad_crc + s.unknown_type + s.bad_length;
+    navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
+}
+
+void MicroUsb::open_port()
+{
+    const std::string err = port_.open(cfg_);
+    if (!err.empty()) {
+        if (err != last_open_error_) {
+            con_.print("micro port: %s (trying again every frame)", err.c_str());
+            last_open_error_ = err;
+        }
+        return;
+    }
+    last_open_error_.clear();
+    reset_parser();  // bytes of the old connection are gone
+    con_.print("micro port %s open (%d baud, 8N1 raw)", port_.path().c_str(), cfg_.baud);
+    const std::string lt = SerialPort::latency_timer_path(port_.path());
+    if (!lt.empty() && cfg_.latency_timer_ms > 0) {
+        std::ofstream f(lt);
+        f << cfg_.latency_timer_ms << "\n";
+        f.close();
+        const std::string now = read_line(lt);
+        if (now != std::to_string(cfg_.latency_timer_ms)) {
+            con_.print("micro port: FTDI latency timer is %s ms, could not set %d ms (%s): "
+                       "request/response is capped near 60 Hz",
+                       now.c_str(), cfg_.latency_timer_ms, lt.c_str());
+        }
+    }
+}
+
+void MicroUsb::port_lost(const char *why)
+{
+    con_.print("micro port %s lost (%s): reopening when it returns", port_.path().c_str(), why);
+    port_.close();
+    reset_parser();
+    last_open_error_.clear();
+}
+
+void MicroUsb::begin_frame(int64_t now_us)
+{
+    now_us_ = now_us;
+    tx_frame_ = 0;
+    if (!port_.is_open()) {
+        open_port();
+    }
+}
+
+static int64_t mono_ms()
+{
+    timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<int64_t>(ts.tv_sec) * 1000 + ts.tv_nsec / 1000000;
+}
+
+bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
+{
+    uint8_t buf[4096];
+    long total = 0;
+    unsigned got = 0;
+    const int64_t deadline_ms = mono_ms() + 1000;  // lockstep: wait at most 1 s for rx_bytes
+    // real time: read until nothing waits, bounded so a streaming micro cannot hold the frame
+    for (int reads = 0; port_.is_open() && reads < 256; reads++) {
+        const long n = port_.read_some(buf, sizeof buf);
+        if (n < 0) {
+            port_lost("read failed or hung up");
+            break;
+        }
+        const uint8_t *d = buf;
+        size_t len = static_cast<size_t>(n);
+        while (len) {
+            const size_t k = navkit_parser_feed(&parser_, d, len);
+            d += k;
+            len -= k;
+            const uint8_t *f;
+            size_t fl;
+            while (navkit_parser_next(&parser_, &f, &fl)) {
+                // the parser only returns micro_data (DIR_TO_HOST); the newest one wins
+                if (navkit_micro_data_decode(f, fl, out) == NAVKIT_OK) {
+                    got++;
+                }
+            }
+        }
+        total += n;
+        if (want_bytes < 0) {
+            if (n == 0) {
+                break;
+            }
+            continue;
+        }
+        if (total >= want_bytes) {
+            break;
+        }
+        if (n == 0) {
+            const int64_t left = deadline_ms - mono_ms();
+            if (left <= 0) {
+                short_reads_++;
+                con_.print("lockstep: %ld of %ld serial bytes arrived within 1 s", total, want_bytes);
+                break;
+            }
+            pollfd p{port_.fd(), POLLIN, 0};
+            poll(&p, 1, static_cast<int>(left));
+        }
+    }
+    if (got > 1) {
+        superseded_ += got - 1;
+    }
+    if (got) {
+        last_rx_us_ = now_us_;
+        note_data(*out);
+    }
+    return got > 0;
+}
+
+void MicroUsb::note_data(const navkit_micro_data_t &d)
+{
+    have_data_ = true;
+    status_ = d.status;
+    if (d.spec_hash != NAVKIT_SPEC_HASH) {
+        if (!mismatch_ || d.spec_hash != mismatch_hash_) {
+            con_.print("micro spec hash 0x%08X differs from the host's 0x%08X: refusing to drive it",
+                       static_cast<unsigned>(d.spec_hash), static_cast<unsigned>(NAVKIT_SPEC_HASH));
+        }
+        mismatch_ = true;
+        mismatch_hash_ = d.spec_hash;
+        return;
+    }
+    if (mismatch_) {
+        con_.print("micro spec hash matches the host's 0x%08X now", static_cast<unsigned>(NAVKIT_SPEC_HASH));
+        mismatch_ = false;
+    }
+    const bool conf = (d.status & NAVKIT_MICRO_STATUS_CONFIGURED) != 0;
+    if (!conf && configured_) {
+        // a reset micro has forgotten the time tags: repeating the last command would run
+        // it again, so it is replaced by a stop (the seed's Navigation Init command)
+        con_.print("micro reset (reports unconfigured): downloading the config again");
+        queue_command(stop_command(last_.dio_command), true);
+    }
+    if (conf && !configured_) {
+        con_.print("micro configured (firmware %u.%u)", d.fw_version >> 8, d.fw_version & 0xFFu);
+    }
+    configured_ = conf;
+}
+
+bool MicroUsb::online(int64_t now_us) const
+{
+    return port_.is_open() && last_rx_us_ >= 0 && now_us - last_rx_us_ <= 1000000;
+}
+
+void MicroUsb::queue_command(const navkit_micro_cmd_t &cmd, bool is_new)
+{
+    if (!is_new) {
+        return;  // the last command is repeated with its time tag
+    }
+    const uint16_t tag = static_cast<uint16_t>(last_.time_tag + 1u);
+    last_ = cmd;
+    last_.time_tag = tag;
+}
+
+void MicroUsb::write_frame(const uint8_t *buf, size_t len)
+{
+    const long n = port_.write_all(buf, len);
+    if (n < 0) {
+        port_lost("write failed");
+        return;
+    }
+    if (static_cast<size_t>(n) != len) {
+        tx_errors_++;
+    }
+    tx_frame_ += static_cast<uint32_t>(n);
+}
+
+void MicroUsb::send()
+{
+    if (!port_.is_open()) {
+        return;
+    }
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    size_t n = 0;
+    if (needs_config()) {
+        // the config messages in order, skipping those the micro reports as received
+        static const uint16_t ok_bits[3] = {NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK, NAVKIT_MICRO_STATUS_CFG_MOTION_OK,
+                                            NAVKIT_MICRO_STATUS_CFG_IO_OK};
+        int pick = next_cfg_;
+        for (int i = 0; i < 3; i++) {
+            const int c = (next_cfg_ + i) % 3;
+            if (!have_data_ || mismatch_ || !(status_ & ok_bits[c])) {
+                pick = c;
+                break;
+            }
+        }
+        next_cfg_ = (pick + 1) % 3;
+        const uint16_t tag = ++cfg_tag_;
+        if (pick == 0) {
+            navkit_micro_cfg_geometry_t m = cfg_.geometry;
+            m.time_tag = tag;
+            n = navkit_micro_cfg_geometry_encode(&m, buf, sizeof buf);
+            config_sent_++;
+        } else if (pick == 1) {
+            navkit_micro_cfg_motion_t m = cfg_.motion;
+            m.time_tag = tag;
+            n = navkit_micro_cfg_motion_encode(&m, buf, sizeof buf);
+        } else {
+            navkit_micro_cfg_io_t m = cfg_.io;
+            m.time_tag = tag;
+            n = navkit_micro_cfg_io_encode(&m, buf, sizeof buf);
+        }
+    } else {
+        n = navkit_micro_cmd_encode(&last_, buf, sizeof buf);
+    }
+    write_frame(buf, n);
+}
+
+void MicroUsb::send_stop(uint16_t dio)
+{
+    if (!port_.is_open() || mismatch_) {
+        return;
+    }
+    queue_command(stop_command(dio), true);
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    write_frame(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
+}
+
+uint32_t MicroUsb::link_errors() const
+{
+    const navkit_link_stats_t &s = parser_.stats;
+    return err_base_ + s.bad_crc + s.unknown_type + s.bad_length;
+}
+
+}  // namespace navkit

@@ -1,0 +1,175 @@
+#include "navkit/navigation.hpp"
+
+#include <cstdint>
+#include <limits>
+
+namespace navkit {
+
+static const int32_t kForever = 2000000000;  // the seed's "very large distance"
+
+static bool fits16(int32_t v)
+{
+    return v >= std::numeric_limits<int16_t>::min() && v <= std::numeric_limits<int16_t>::max();
+}
+
+navkit_micro_cmd_t Navigation::neutral(uint16_t dio)
+{
+    navkit_micro_cmd_t m;
+    navkit_micro_cmd_defaults(&m);  // fwd none, turn none, no servo command
+    m.dio_command = dio;
+    return m;
+}
+
+int Navigation::convert(const navkit_lisp_cmd_t &in, uint16_t heading, uint16_t dio, navkit_micro_cmd_t *out)
+{
+    navkit_micro_cmd_t m = neutral(dio);
+    int result = NAVKIT_NAV_RESULT_OK;
+    switch (in.fwd_cmd) {
+    case NAVKIT_FWD_CMD_NONE:
+        break;
+    case NAVKIT_FWD_CMD_START:
+    case NAVKIT_FWD_CMD_MODIFY:
+    case NAVKIT_FWD_CMD_STOP:
+        if (!fits16(in.accel) || !fits16(in.speed)) {
+            return NAVKIT_NAV_RESULT_REJECTED;
+        }
+        m.fwd_cmd = static_cast<uint16_t>(in.fwd_cmd);
+        m.accel = static_cast<int16_t>(in.accel);
+        m.speed = static_cast<int16_t>(in.speed);
+        m.distance = in.distance;
+        break;
+    case NAVKIT_FWD_CMD_CONTEST_HALLWAY:
+    case NAVKIT_FWD_CMD_CONTEST_START_CIRCLE:
+    case NAVKIT_FWD_CMD_EXPLORE:
+        result = NAVKIT_NAV_RESULT_NOT_IMPLEMENTED;  // high level: no forward motion
+        break;
+    default:
+        return NAVKIT_NAV_RESULT_REJECTED;
+    }
+
+    if (in.turn_mode != NAVKIT_TURN_MODE_NONE && (!fits16(in.turn_accel) || !fits16(in.turn_rate))) {
+        return NAVKIT_NAV_RESULT_REJECTED;
+    }
+    switch (in.turn_mode) {
+    case NAVKIT_TURN_MODE_NONE:
+        break;
+    case NAVKIT_TURN_MODE_TURN:
+    case NAVKIT_TURN_MODE_MODIFY:
+    case NAVKIT_TURN_MODE_STOP:
+        m.turn_cmd = static_cast<uint16_t>(in.turn_mode);
+        m.turn_distance = in.turn_distance;
+        break;
+    case NAVKIT_TURN_MODE_HEADING_SELECT:
+        // 0..3600 deg x 10 on both sides (docs/protocol.md seed slips): passed through
+        if (in.turn_distance < 0 || in.turn_distance > 3600) {
+            return NAVKIT_NAV_RESULT_REJECTED;
+        }
+        m.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+        m.turn_distance = in.turn_distance;
+        break;
+    case NAVKIT_TURN_MODE_HEADING_HOLD: {
+        // HdgSel to the heading at arrival plus word 9, wrapped to 0..3599
+        const int64_t h = (static_cast<int64_t>(heading) + in.turn_distance) % 3600;
+        m.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+        m.turn_distance = static_cast<int32_t>(h < 0 ? h + 3600 : h);
+        break;
+    }
+    default:
+        return NAVKIT_NAV_RESULT_REJECTED;
+    }
+    if (m.turn_cmd != NAVKIT_TURN_CMD_NONE) {
+        m.turn_accel = static_cast<int16_t>(in.turn_accel);
+        m.turn_rate = static_cast<int16_t>(in.turn_rate);
+    }
+
+    // RC servo: slot rc_servo_num 0..7 when param0 (rate) is not 0; else no effect
+    if (in.rc_servo_num >= 0 && in.rc_servo_num <= 7 && in.rc_param0 != 0) {
+        if (in.rc_param0 < 0 || !fits16(in.rc_param0) || !fits16(in.rc_param1) || !fits16(in.rc_param2)) {
+            return NAVKIT_NAV_RESULT_REJECTED;
+        }
+        int16_t *slots[8][3] = {
+            {&m.rc0_param0, &m.rc0_param1, &m.rc0_param2}, {&m.rc1_param0, &m.rc1_param1, &m.rc1_param2},
+            {&m.rc2_param0, &m.rc2_param1, &m.rc2_param2}, {&m.rc3_param0, &m.rc3_param1, &m.rc3_param2},
+            {&m.rc4_param0, &m.rc4_param1, &m.rc4_param2}, {&m.rc5_param0, &m.rc5_param1, &m.rc5_param2},
+            {&m.rc6_param0, &m.rc6_param1, &m.rc6_param2}, {&m.rc7_param0, &m.rc7_param1, &m.rc7_param2},
+        };
+        *slots[in.rc_servo_num][0] = static_cast<int16_t>(in.rc_param0);
+        *slots[in.rc_servo_num][1] = static_cast<int16_t>(in.rc_param1);
+        *slots[in.rc_servo_num][2] = static_cast<int16_t>(in.rc_param2);
+    }
+    *out = m;
+    return result;
+}
+
+navkit_micro_cmd_t Navigation::teleop(Teleop t, const ConsoleCfg &c, uint16_t dio)
+{
+    navkit_micro_cmd_t m = neutral(dio);
+    switch (t) {
+    case Teleop::forward:
+    case Teleop::reverse:
+        m.fwd_cmd = NAVKIT_FWD_CMD_START;
+        m.accel = static_cast<int16_t>(c.teleop_accel);
+        m.speed = static_cast<int16_t>(c.teleop_speed);
+        m.distance = t == Teleop::forward ? kForever : -kForever;
+        break;
+    case Teleop::left:
+    case Teleop::right:
+        m.turn_cmd = NAVKIT_TURN_CMD_TURN;
+        m.turn_rate = static_cast<int16_t>(c.teleop_turn_rate);
+        m.turn_distance = t == Teleop::right ? kForever : -kForever;  // + is clockwise (right)
+        break;
+    case Teleop::stop:
+        m.fwd_cmd = NAVKIT_FWD_CMD_STOP;
+        m.turn_cmd = NAVKIT_TURN_CMD_STOP;
+        break;
+    case Teleop::none:
+        break;
+    }
+    return m;
+}
+
+Navigation::Navigation(const ConsoleCfg &console) : console_(console) {}
+
+void Navigation::init()
+{
+    result_ = NAVKIT_NAV_RESULT_OK;
+    ack_ = 0;
+    dio_ = 0;
+}
+
+NavOutput Navigation::update(const Arbitration &a, uint16_t heading)
+{
+    NavOutput o;
+    if (a.timeout_started) {
+        result_ = NAVKIT_NAV_RESULT_PLANNER_TIMEOUT;
+    }
+    if (a.planner_rejected) {
+        result_ = NAVKIT_NAV_RESULT_REJECTED;
+    }
+    if (a.stop) {
+        o.is_new = true;
+        o.cmd = teleop(Teleop::stop, console_, a.dio);
+    } else if (a.planner_new) {
+        ack_ = a.planner.time_tag;
+        navkit_micro_cmd_t m;
+        result_ = convert(a.planner, heading, a.dio, &m);
+        if (result_ != NAVKIT_NAV_RESULT_REJECTED) {
+            o.is_new = true;
+            o.cmd = m;
+        }
+    } else if (a.teleop_new) {
+        o.is_new = true;
+        o.cmd = teleop(a.teleop, console_, a.dio);
+    }
+    if (!o.is_new && a.dio != dio_) {
+        // only the DIO levels changed: a command that changes nothing else
+        o.is_new = true;
+        o.cmd = neutral(a.dio);
+    }
+    if (o.is_new) {
+        dio_ = o.cmd.dio_command;
+    }
+    return o;
+}
+
+}  // namespace navkit

@@ -1,0 +1,87 @@
+#include "navkit/options.hpp"
+
+#include <cstdlib>
+#include <cstring>
+
+namespace navkit {
+
+const char *usage()
+{
+    return "usage: navkit-host [options]\n"
+           "  --config DIR       folder of NavAndControl.ini and sensors.ini (default: config)\n"
+           "  --port PATH        serial port of the micro, or 'auto' (overrides [micro] port)\n"
+           "  --rate HZ          frame rate (overrides [executive] frame_rate_hz)\n"
+           "  --clock real|lockstep  real time (default) or one frame per lockstep tick\n"
+           "  --lockstep-fd N    the lockstep socket (with --clock lockstep)\n"
+           "  --shm NAME         rcomm shared-memory name (overrides [executive] shm_name)\n"
+           "  --record           start the datalog at start-up\n"
+           "  --log-dir DIR      folder of the datalog files (overrides [executive] log_dir)\n"
+           "  --timing-log FILE  real time: one line per frame (scheduled, start, end ns)\n"
+           "  --help             this text\n"
+           "keys: R record, S stop recording, Q quit; w/x forward/reverse, a/d turn, space stop,\n"
+           "      0-9 - = toggle DIO bits 0-11 (console levels)\n";
+}
+
+std::string parse_options(int argc, char **argv, Options *o)
+{
+    for (int i = 1; i < argc; i++) {
+        const std::string a = argv[i];
+        auto value = [&](std::string *out) -> bool {
+            if (i + 1 >= argc) {
+                return false;
+            }
+            *out = argv[++i];
+            return true;
+        };
+        std::string v;
+        if (a == "--help" || a == "-h") {
+            o->help = true;
+        } else if (a == "--record") {
+            o->record = true;
+        } else if (a == "--config" || a == "--port" || a == "--rate" || a == "--clock" ||
+                   a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
+            if (!value(&v) || v.empty()) {
+                return a + ": needs a value";
+            }
+            char *end = nullptr;
+            if (a == "--config") {
+                o->config_dir = v;
+            } else if (a == "--port") {
+                o->port = v;
+            } else if (a == "--rate") {
+                o->rate_hz = std::strtod(v.c_str(), &end);
+                if (*end || !(o->rate_hz > 0 && o->rate_hz <= 1000)) {
+                    return a + ": " + v + ": not a rate in (0, 1000] Hz";
+                }
+            } else if (a == "--clock") {
+                if (v != "real" && v != "lockstep") {
+                    return a + ": " + v + ": choose real or lockstep";
+                }
+                o->lockstep = v == "lockstep";
+            } else if (a == "--lockstep-fd") {
+                const long fd = std::strtol(v.c_str(), &end, 10);
+                if (*end || fd < 0 || fd > 65535) {
+                    return a + ": " + v + ": not a file descriptor";
+                }
+                o->lockstep_fd = static_cast<int>(fd);
+            } else if (a == "--shm") {
+                o->shm = v[0] == '/' ? v : "/" + v;
+            } else if (a == "--log-dir") {
+                o->log_dir = v;
+            } else {
+                o->timing_log = v;
+            }
+        } else {
+            return a + ": unknown option (see --help)";
+        }
+    }
+    if (o->lockstep && o->lockstep_fd < 0) {
+        return "--clock lockstep needs --lockstep-fd N";
+    }
+    if (!o->lockstep && o->lockstep_fd >= 0) {
+        return "--lockstep-fd needs --clock lockstep";
+    }
+    return "";
+}
+
+}  // namespace navkit

@@ -1,0 +1,230 @@
+// The seed's RobotInit / RobotMain / RobotShutdown: the functions a user edits to make
+// the robot do more. RobotMain runs once per frame in the seed's order; nothing in it
+// waits (the lockstep receive waits only for bytes the driver says were already sent).
+#include "navkit/robot.hpp"
+
+#include <ctime>
+#include <unistd.h>
+#include <vector>
+
+namespace navkit {
+
+Robot::Robot(const Config &c)
+    : cfg(c), console(stdout, STDIN_FILENO, cfg.console.status_period_s), micro(cfg.micro, console),
+      comm(cfg.exec.shm_name, cfg.exec.shm_group), process(cfg.exec), nav(cfg.console), sensors(cfg.sensors),
+      datalog(cfg.exec.log_dir)
+{
+}
+
+// What the datalog records each frame: name and default plot range.
+static const std::vector<LogParam> &log_params()
+{
+    static const std::vector<LogParam> p = {
+        {"time_s", 0, 600},          {"frame", 0, 10000},        {"distance_mm", -5000, 5000},
+        {"speed_mm_s", -1000, 1000}, {"heading_deg", 0, 360},    {"turn_deg", -360, 360},
+        {"x_mm", -5000, 5000},       {"y_mm", -5000, 5000},      {"ir0_mm", 0, 800},
+        {"ir1_mm", 0, 800},          {"ir2_mm", 0, 800},         {"ir3_mm", 0, 800},
+        {"sonar0_mm", 0, 3000},      {"sonar1_mm", 0, 3000},     {"sonar2_mm", 0, 3000},
+        {"sonar3_mm", 0, 3000},      {"battery_v", 0, 15},       {"fwd_cmd", 0, 5},
+        {"turn_cmd", 0, 25},         {"cmd_time_tag", 0, 65535}, {"dio", 0, 4095},
+        {"micro_status", 0, 8191},   {"overruns", 0, 100},
+    };
+    return p;
+}
+
+static void start_recording(Robot &r)
+{
+    if (r.datalog.recording()) {
+        return;
+    }
+    const std::string err = r.datalog.start(std::time(nullptr), log_params());
+    if (err.empty()) {
+        r.console.print("recording to %s", r.datalog.path().c_str());
+    } else {
+        r.console.print("cannot record: %s", err.c_str());
+    }
+}
+
+static void stop_recording(Robot &r)
+{
+    if (r.datalog.recording()) {
+        r.console.print("recording stopped: %s", r.datalog.path().c_str());
+        r.datalog.stop();
+    }
+}
+
+// Keys typed since the last frame: the seed's R / S, Q to quit, and the teleop keys.
+static ConsoleInput handle_keys(Robot &r)
+{
+    ConsoleInput in;
+    static const char dio_keys[] = "1234567890-=";  // DIO bits 0..11
+    for (char k : r.console.keys()) {
+        switch (k) {
+        case 'R': case 'r': start_recording(r); break;
+        case 'S': case 's': stop_recording(r); break;
+        case 'Q': case 'q': r.quit = true; break;
+        case 'w': in.teleop = Teleop::forward; break;
+        case 'x': in.teleop = Teleop::reverse; break;
+        case 'a': in.teleop = Teleop::left; break;
+        case 'd': in.teleop = Teleop::right; break;
+        case ' ': in.teleop = Teleop::stop; break;
+        default:
+            for (int b = 0; dio_keys[b]; b++) {
+                if (k == dio_keys[b]) {
+                    in.dio_toggle = static_cast<uint16_t>(in.dio_toggle ^ (1u << b));
+                }
+            }
+        }
+    }
+    return in;
+}
+
+void RobotInit(Robot &r)
+{
+    r.console.init();
+    r.console.print("navkit-host: spec hash 0x%08X, %.3g Hz frames, rcomm %s",
+                    static_cast<unsigned>(NAVKIT_SPEC_HASH), r.cfg.exec.frame_rate_hz, r.cfg.exec.shm_name.c_str());
+    r.comm.init();
+    r.micro.init();
+    r.nav.init();
+    navkit_lisp_data_defaults(&r.lisp_data);
+    if (r.cfg.exec.record) {
+        start_recording(r);
+    }
+}
+
+void RobotMain(Robot &r)
+{
+    const int64_t now = r.tick.time_us;
+    r.console.set_time_us(now);
+    r.micro.begin_frame(now);
+    const ConsoleInput keys = handle_keys(r);
+
+    // 1. face: not in this build ([animation] is a later part)
+    // 2. receive the micro's data (the newest whole micro_data)
+    if (r.micro.receive(r.tick.rx_bytes, &r.data)) {
+        r.have_data = true;
+        r.sensors.update(r.data);
+    }
+    // 3. an unconfigured micro gets config messages: MicroUsb::send() picks them
+    // 4. read the planner's command
+    PlannerInput pin;
+    pin.have = r.comm.read_lisp_cmd(&r.lisp_cmd);
+    pin.cmd = r.lisp_cmd;
+    pin.heartbeat = r.comm.planner_heartbeat();
+    // 5. arbitrate
+    SafetyInput safety;
+    const bool online = r.micro.online(now);
+    if (online && r.cfg.safety.battery_min_v > 0 && r.sensors.battery.value() < r.cfg.safety.battery_min_v) {
+        safety.stop = true;
+    }
+    for (int i = 0; i < 4 && online && r.cfg.safety.ir_stop_mm > 0; i++) {
+        const int d = r.sensors.ir[i].value();
+        safety.stop = safety.stop || (d > 0 && d < r.cfg.safety.ir_stop_mm);
+    }
+    const Arbitration arb = r.process.update(pin, keys, safety, now);
+    if (arb.timeout_started) {
+        r.console.print("planner silent for %.2f s: robot stopped (obeys its next new command)",
+                        r.cfg.exec.planner_timeout_s);
+    }
+    if (arb.safety_started) {
+        r.console.print("safety stop (battery below %.2f V or IR range below %d mm)", r.cfg.safety.battery_min_v,
+                        r.cfg.safety.ir_stop_mm);
+    }
+    if (arb.planner_rejected) {
+        r.console.print("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),
+                        navkit_lisp_cmd_field_name(arb.rejected_field));
+    }
+    // 6. navigation
+    const NavOutput nav = r.nav.update(arb, r.have_data ? r.data.heading : 0);
+    if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_NOT_IMPLEMENTED) {
+        r.console.print("planner fwd_cmd %d (high level) is not implemented", static_cast<int>(arb.planner.fwd_cmd));
+    } else if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_REJECTED) {
+        r.console.print("planner command %d rejected: a value does not fit the micro command",
+                        static_cast<int>(arb.planner.time_tag));
+    }
+    // 7. send one micro message (Q: this frame's message is the stop)
+    if (r.quit) {
+        r.micro.queue_command(MicroUsb::stop_command(arb.dio), true);
+    } else {
+        r.micro.queue_command(nav.cmd, nav.is_new);
+    }
+    r.micro.send();
+    // 8. publish the planner's data
+    navkit_lisp_data_t &ld = r.lisp_data;
+    const navkit_micro_data_t &d = r.data;
+    ld.time_tag = static_cast<int32_t>(now / 1000);
+    ld.ack_time_tag = r.nav.ack_time_tag();
+    ld.nav_result = r.nav.nav_result();
+    uint32_t hs = 0;
+    hs |= online ? NAVKIT_HOST_STATUS_MICRO_ONLINE : 0u;
+    hs |= r.micro.configured() && !r.micro.spec_mismatch() ? NAVKIT_HOST_STATUS_MICRO_CONFIGURED : 0u;
+    hs |= r.micro.spec_mismatch() ? NAVKIT_HOST_STATUS_SPEC_MISMATCH : 0u;
+    hs |= r.process.planner_timed_out() ? NAVKIT_HOST_STATUS_PLANNER_TIMEOUT_STOP : 0u;
+    hs |= (d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP) ? NAVKIT_HOST_STATUS_WATCHDOG_STOP : 0u;
+    hs |= r.datalog.recording() ? NAVKIT_HOST_STATUS_RECORDING : 0u;
+    hs |= r.micro.port_open() ? 0u : NAVKIT_HOST_STATUS_PORT_LOST;
+    ld.host_status = static_cast<int32_t>(hs);
+    ld.micro_status = d.status;
+    ld.frame = static_cast<int32_t>(r.frames);
+    ld.distance = d.distance;
+    ld.speed = d.fwd_speed;
+    ld.turn_progress = d.turn_progress;
+    ld.heading = d.heading;
+    ld.yaw_rate = d.yaw_rate;
+    ld.x = d.x;
+    ld.y = d.y;
+    for (int i = 0; i < 4; i++) {
+        ld.ir_range[i] = r.sensors.ir[i].value();
+        ld.sonar_range[i] = r.sensors.sonar[i].value();
+    }
+    ld.battery = static_cast<int32_t>(r.sensors.battery.value() * 1000.0 + 0.5);
+    for (int i = 0; i < 8; i++) {
+        ld.servo_pos[i] = r.sensors.servo[i].value();
+    }
+    ld.dio_state = d.dio_state;
+    ld.compass = d.compass;
+    ld.overruns = static_cast<int32_t>(r.clock ? r.clock->overruns() : 0);
+    ld.link_errors = static_cast<int32_t>(r.micro.link_errors());
+    r.comm.send_lisp_data(ld);
+    r.comm.set_host_heartbeat(r.frames);
+    // 9. datalog row
+    if (r.datalog.recording()) {
+        const navkit_micro_cmd_t &c = r.micro.last_command();
+        r.datalog.row({now / 1e6, static_cast<double>(r.frames), static_cast<double>(d.distance),
+                       static_cast<double>(d.fwd_speed), d.heading / 10.0, d.turn_progress / 10.0,
+                       static_cast<double>(d.x), static_cast<double>(d.y),
+                       static_cast<double>(ld.ir_range[0]), static_cast<double>(ld.ir_range[1]),
+                       static_cast<double>(ld.ir_range[2]), static_cast<double>(ld.ir_range[3]),
+                       static_cast<double>(ld.sonar_range[0]), static_cast<double>(ld.sonar_range[1]),
+                       static_cast<double>(ld.sonar_range[2]), static_cast<double>(ld.sonar_range[3]),
+                       r.sensors.battery.value(), static_cast<double>(c.fwd_cmd), static_cast<double>(c.turn_cmd),
+                       static_cast<double>(c.time_tag), static_cast<double>(c.dio_command),
+                       static_cast<double>(d.status), static_cast<double>(ld.overruns)});
+    }
+    // 10. status line
+    char line[200];
+    std::snprintf(line, sizeof line, "frame %u  micro %s%s  cmd tag %u  dist %d mm  hdg %.1f  link errors %u  overruns %d%s",
+                  r.frames, online ? "online" : "offline",
+                  r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : ""),
+                  static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance), d.heading / 10.0,
+                  static_cast<unsigned>(ld.link_errors), static_cast<int>(ld.overruns),
+                  r.datalog.recording() ? "  REC" : "");
+    r.console.status(line);
+    r.frames++;
+}
+
+void RobotShutdown(Robot &r)
+{
+    if (!r.quit) {
+        r.micro.send_stop(r.micro.last_command().dio_command);
+    }
+    stop_recording(r);
+    r.comm.shutdown();
+    r.micro.shutdown();
+    r.console.print("shut down after %u frames (micro stopped, rcomm %s removed)", r.frames,
+                    r.cfg.exec.shm_name.c_str());
+    r.console.shutdown();
+}
+
+}  // namespace navkit
