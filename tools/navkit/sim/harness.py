@@ -388,6 +388,8 @@ class _Run:
             self.lock = Lockstep()
             cmd[1:1] = ["--clock", "lockstep", "--lockstep-fd", str(self.lock.host_fd())]
             pass_fds = (self.lock.host_fd(),)
+        if self.opts.frame_s:
+            cmd += ["--rate", f"{1.0 / self.frame_s:g}"]
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")
         self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=self.host_log,
