@@ -303,6 +303,26 @@ int line_of(const std::string &path, const std::string &section, const std::stri
     return 0;
 }
 
+// inih calls the handler for keys only: a section without keys is checked here.
+void check_sections(const std::string &path, const Table &table)
+{
+    std::ifstream f(path);
+    std::string line;
+    int no = 0;
+    while (std::getline(f, line)) {
+        no++;
+        const size_t a = line.find_first_not_of(" \t");
+        if (a == std::string::npos || line[a] != '[') {
+            continue;
+        }
+        const size_t b = line.find(']', a);
+        const std::string sec = line.substr(a + 1, b == std::string::npos ? std::string::npos : b - a - 1);
+        if (b != std::string::npos && table.find(lower(sec)) == table.end()) {
+            throw ConfigError(path + ":" + std::to_string(no) + ": [" + sec + "]: unknown section");
+        }
+    }
+}
+
 std::string base_name(const std::string &path)
 {
     const size_t s = path.rfind('/');
@@ -347,6 +367,7 @@ void Ini::load_file(const std::string &path, Config &cfg)
     if (!f) {
         throw ConfigError(path + ":0: file: " + std::strerror(errno));
     }
+    check_sections(path, table);
     ParseState st{&table, "", {}};
     const int rc = ini_parse_file(f, handler, &st);
     std::fclose(f);

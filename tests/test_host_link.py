@@ -1,0 +1,197 @@
+"""navkit-host's micro link and planner link, end to end through the real binary in
+lockstep mode: config download at start and after a micro reset, one message per frame,
+repeats keep their time tag, only the newest micro_data is used, garbage is survived,
+the port vanishes and returns, a micro of another spec is refused, planner commands
+reach the wire in the frame that reads them, a silent planner stops the robot."""
+
+import os
+import signal
+
+import pytest
+
+from navkit import protocol
+from test_host_util import Micro, host_factory  # noqa: F401  (fixture)
+
+pytestmark = pytest.mark.timeout(60)
+
+CONFIGS = ["micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"]
+
+
+def test_config_download_at_start_then_one_command_per_frame(host_factory):
+    h, m = host_factory(), Micro()
+    sent = h.configure(m)
+    assert [n for n, _ in sent] == CONFIGS + ["micro_cmd"], "config in order, then the command"
+    assert sent[0][1]["spec_hash"] == protocol.SPEC_HASH
+    cmd = sent[-1][1]
+    assert cmd["fwd_cmd"] == 5 and cmd["turn_cmd"] == 5, "Navigation Init: the current command is Stop"
+    tags = set()
+    for _ in range(5):
+        msgs, flags = h.step(m)
+        assert len(msgs) == 1 and msgs[0][0] == "micro_cmd" and flags == 0
+        tags.add(msgs[0][1]["time_tag"])
+    assert tags == {cmd["time_tag"]}, "a repeated message keeps its time tag"
+
+
+def test_config_values_come_from_the_ini(host_factory):
+    h, m = host_factory(ini={"NavAndControl.ini": ""}), Micro()
+    geo = dict(h.configure(m)[:3])["micro_cfg_geometry"]
+    assert geo["wheel_diameter"] == protocol.defaults("micro_cfg_geometry")["wheel_diameter"]
+
+
+def test_micro_reset_config_again_and_no_old_command_rerun(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 10, "fwd_cmd": 1, "speed": 300, "distance": 2000})
+    msgs, _ = h.step(m)
+    go = msgs[0][1]
+    assert go["fwd_cmd"] == 1 and go["speed"] == 300
+    m.reset()
+    h.step(m)                      # the host learns of the reset from this frame's reply
+    again = h.configure(m)
+    assert [n for n, _ in again[:3]] == CONFIGS, "the config is downloaded again"
+    after = again[-1][1]
+    assert after["time_tag"] != go["time_tag"], "a new time tag after the reset"
+    assert after["fwd_cmd"] == 5, "the old start is not run again by the reset micro"
+    assert "micro reset" in h.output()
+
+
+def test_planner_command_reaches_the_wire_in_the_next_frame(host_factory):
+    h, m = host_factory(), Micro()
+    first = h.configure(m)[-1][1]
+    h.client.write_cmd({"time_tag": 1234, "fwd_cmd": 1, "accel": 400, "speed": 250,
+                        "distance": 1500, "turn_mode": 1, "turn_rate": 300, "turn_distance": -450,
+                        "rc_servo_num": 2, "rc_param0": 1000, "rc_param1": 300, "rc_param2": 9999,
+                        "dio_active": 0b1001, "dio_command": 0b0001})
+    msgs, _ = h.step(m)
+    assert len(msgs) == 1
+    c = msgs[0][1]
+    assert c["time_tag"] == (first["time_tag"] + 1) & 0xFFFF
+    assert (c["fwd_cmd"], c["accel"], c["speed"], c["distance"]) == (1, 400, 250, 1500)
+    assert (c["turn_cmd"], c["turn_rate"], c["turn_distance"]) == (1, 300, -450)
+    assert (c["rc2_param0"], c["rc2_param1"], c["rc2_param2"]) == (1000, 300, 9999)
+    assert c["rc0_param0"] == 0 and c["dio_command"] == 0b0001
+    again, _ = h.step(m)
+    assert again[0][1] == c, "repeated unchanged, same time tag"
+    data = h.client.read_data()
+    assert data["ack_time_tag"] == 1234 and data["nav_result"] == 0
+
+
+def test_heading_hold_and_high_level_codes(host_factory):
+    h, m = host_factory(), Micro()
+    m.fields["heading"] = 3500
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 5, "turn_mode": 11, "turn_rate": 200, "turn_distance": 300})
+    c = h.step(m)[0][0][1]
+    assert c["turn_cmd"] == 10 and c["turn_distance"] == 200, "3500 + 300 wraps to 200"
+    h.client.write_cmd({"time_tag": 6, "fwd_cmd": 105})
+    c = h.step(m)[0][0][1]
+    assert c["fwd_cmd"] == 0
+    h.step(m)
+    assert h.client.read_data()["nav_result"] == 1, "not_implemented"
+    assert "not implemented" in h.output()
+    h.client.write_cmd({"time_tag": 7, "fwd_cmd": 2})
+    h.step(m)
+    h.step(m)
+    assert h.client.read_data()["nav_result"] == 2, "rejected"
+
+
+def test_only_the_newest_of_several_micro_data_is_used(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    h.write(m.data(distance=111) + m.data(distance=222) + m.data(distance=333))
+    h.step(m, reply=False)
+    assert h.client.read_data()["distance"] == 333
+
+
+def test_garbage_on_the_line_is_survived(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    bad = bytearray(m.data(distance=7))
+    bad[20] ^= 0xFF                                   # a CRC error
+    h.write(bytes(range(256)) + b"\xa5\xff\x00" + bytes(bad) + os.urandom(300) + m.data(distance=42))
+    msgs, flags = h.step(m, reply=False)
+    assert len(msgs) == 1 and msgs[0][0] == "micro_cmd" and flags == 0
+    d = h.client.read_data()
+    assert d["distance"] == 42 and d["link_errors"] >= 1
+    for _ in range(3):
+        assert len(h.step(m)[0]) == 1
+
+
+def test_port_vanishes_and_returns(host_factory):
+    h, m = host_factory(), Micro()
+    cmd = h.configure(m)[-1][1]
+    h.unplug()
+    msgs, flags = h.tick()
+    assert msgs == [] and flags & 2, "the host sees the port closed"
+    msgs, flags = h.tick()
+    assert msgs == [] and flags & 2
+    assert h.client.read_data()["host_status"] & (1 << 6), "port_lost"
+    h.plug()
+    msgs, flags = h.step(m)
+    assert flags == 0 and len(msgs) == 1, "reopened when the path returned"
+    assert msgs[0][1]["time_tag"] == cmd["time_tag"], "the micro kept its config: the command repeats"
+    out = h.output()
+    assert "lost" in out and out.count("open (") >= 2
+
+
+def test_spec_hash_mismatch_is_refused(host_factory):
+    h = host_factory()
+    m = Micro(spec_hash=0xDEADBEEF)
+    m.cfg.update(CONFIGS)                 # claims to be configured
+    sent = []
+    for _ in range(8):
+        sent += h.step(m)[0]
+    assert sent and all(n != "micro_cmd" for n, _ in sent), "never a command"
+    assert "0xDEADBEEF" in h.output() and f"0x{protocol.SPEC_HASH:08X}" in h.output()
+    assert h.client.read_data()["host_status"] & (1 << 2)
+
+
+def test_silent_planner_stops_the_robot_then_obeys_again(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+    go = h.step(m)[0][0][1]
+    stop = None
+    for _ in range(15):                    # 1.5 s of silence, planner_timeout = 1 s
+        c = h.step(m)[0][0][1]
+        if c["time_tag"] != go["time_tag"]:
+            stop = c
+            break
+    assert stop is not None and stop["fwd_cmd"] == 5 and stop["turn_cmd"] == 5
+    assert h.client.read_data()["host_status"] & (1 << 3)
+    assert "planner silent" in h.output()
+    h.client.write_cmd({"time_tag": 2, "fwd_cmd": 1, "speed": 100, "distance": 100})
+    c = h.step(m)[0][0][1]
+    assert c["fwd_cmd"] == 1 and c["speed"] == 100
+    assert not h.client.read_data()["host_status"] & (1 << 3)
+
+
+def test_dio_masks(host_factory):
+    h, m = host_factory(ini={"NavAndControl.ini": ""}), Micro()
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 1, "dio_active": 0b1001, "dio_command": 0b0001})
+    assert h.step(m)[0][0][1]["dio_command"] == 0b0001
+    h.proc.stdin.write(b"4")                   # the console sets bit 3 (planner-owned: no effect)
+    h.proc.stdin.write(b"3")                   # and bit 2 (free: taken)
+    h.proc.stdin.flush()
+    assert h.step(m)[0][0][1]["dio_command"] == 0b0101
+    h.client.write_cmd({"time_tag": 2, "dio_active": 0, "dio_command": 0})
+    assert h.step(m)[0][0][1]["dio_command"] == 0b1100, "released bits fall to the console's levels"
+
+
+def test_sigterm_stops_the_robot_and_exits_cleanly(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+    h.step(m)
+    assert h.stop(signal.SIGTERM) == 0
+    tail = h.decode(h.read_available(wait_s=1.0))
+    assert tail and tail[-1][0] == "micro_cmd" and tail[-1][1]["fwd_cmd"] == 5
+    assert not os.path.exists("/dev/shm" + h.shm), "rcomm region removed"
+
+
+def test_eof_on_the_lockstep_socket_is_a_clean_shutdown(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    assert h.stop() == 0
+    assert not os.path.exists("/dev/shm" + h.shm)
