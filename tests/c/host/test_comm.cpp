@@ -1,0 +1,138 @@
+// Comm: the rcomm region (layout, mode, owner check), seqlocks, and the planner's C
+// header rcomm.h against the host's side.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fcntl.h>
+#include <string>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "navkit/comm.hpp"
+#include "navkit/rcomm.h"
+
+using namespace navkit;
+
+static std::string unique_name(const char *what)
+{
+    return "/nk-gtest-" + std::string(what) + "-" + std::to_string(getpid());
+}
+
+TEST(Comm, RegionLayoutModeAndUnlink)
+{
+    const std::string name = unique_name("layout");
+    {
+        Comm c(name, "");
+        c.init();
+        struct stat st;
+        ASSERT_EQ(stat(("/dev/shm" + name).c_str(), &st), 0);
+        EXPECT_EQ(st.st_mode & 0777, 0600u);
+        EXPECT_EQ(st.st_size, static_cast<off_t>(NAVKIT_RCOMM_SIZE));
+        navkit_rcomm_t r;
+        ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+        navkit_rcomm_close(&r);
+        c.shutdown();
+        EXPECT_NE(stat(("/dev/shm" + name).c_str(), &st), 0) << "removed at shutdown";
+    }
+}
+
+TEST(Comm, PlannerHeaderRoundTrip)
+{
+    const std::string name = unique_name("roundtrip");
+    Comm c(name, "");
+    c.init();
+    navkit_rcomm_t r;
+    ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+
+    navkit_lisp_cmd_t out;
+    EXPECT_FALSE(c.read_lisp_cmd(&out)) << "nothing written yet";
+    navkit_lisp_cmd_t in;
+    navkit_lisp_cmd_defaults(&in);
+    in.time_tag = 4242;
+    in.fwd_cmd = 1;
+    in.distance = -2000000000;
+    in.dio_active = 0x9;
+    int32_t w[NAVKIT_LISP_CMD_WORDS];
+    navkit_lisp_cmd_pack(&in, w);
+    const uint32_t hb0 = c.planner_heartbeat();
+    navkit_rcomm_write_cmd(&r, w);
+    ASSERT_TRUE(c.read_lisp_cmd(&out));
+    EXPECT_EQ(out.time_tag, 4242);
+    EXPECT_EQ(out.distance, -2000000000);
+    EXPECT_EQ(out.dio_active, 0x9);
+    EXPECT_EQ(c.planner_heartbeat(), hb0 + 1) << "write_cmd beats";
+
+    navkit_lisp_data_t d;
+    navkit_lisp_data_defaults(&d);
+    d.frame = 77;
+    d.ir_range[3] = 555;
+    c.send_lisp_data(d);
+    c.set_host_heartbeat(77);
+    int32_t dw[NAVKIT_LISP_DATA_WORDS];
+    ASSERT_TRUE(navkit_rcomm_read_data(&r, dw));
+    navkit_lisp_data_t back;
+    navkit_lisp_data_unpack(dw, &back);
+    EXPECT_EQ(back.frame, 77);
+    EXPECT_EQ(back.ir_range[3], 555);
+    EXPECT_EQ(navkit_rcomm_host_heartbeat(&r), 77u);
+
+    int32_t ew[NAVKIT_EMOTION_WORDS] = {1, 0, 50, 60, 0, 0, 0, 1};
+    navkit_rcomm_write_emotion(&r, ew);
+    navkit_emotion_t e;
+    ASSERT_TRUE(c.read_emotion(&e));
+    EXPECT_EQ(e.happiness, 50);
+    EXPECT_EQ(e.talking, 1);
+    navkit_rcomm_close(&r);
+}
+
+TEST(Comm, SeqlockReaderNeverTakesAWriteInProgress)
+{
+    uint8_t region[64] = {};
+    const uint8_t msg[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+    uint8_t out[8];
+    EXPECT_FALSE(Comm::seqlock_read(region, 0, out, 8)) << "seq 0: never written";
+    Comm::seqlock_write(region, 0, msg, 8);
+    EXPECT_EQ(navkit_get_u32(region), 2u);
+    ASSERT_TRUE(Comm::seqlock_read(region, 0, out, 8));
+    EXPECT_EQ(std::memcmp(out, msg, 8), 0);
+    navkit_put_u32(region, 3);  // a writer stopped half way
+    EXPECT_FALSE(Comm::seqlock_read(region, 0, out, 8));
+    Comm::seqlock_write(region, 0, msg, 8);
+    EXPECT_EQ(navkit_get_u32(region), 6u) << "the next writer skips the odd value";
+}
+
+TEST(Comm, RefusesARegionOfAnotherUser)
+{
+    if (geteuid() != 0) {
+        GTEST_SKIP() << "needs root to make a region owned by another user";
+    }
+    const std::string name = unique_name("foreign");
+    const int fd = shm_open(name.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(fchown(fd, 65534, 65534), 0);
+    close(fd);
+    Comm c(name, "");
+    try {
+        c.init();
+        FAIL() << "accepted another user's region";
+    } catch (const std::runtime_error &e) {
+        EXPECT_NE(std::string(e.what()).find("another user"), std::string::npos) << e.what();
+    }
+    struct stat st;
+    EXPECT_EQ(stat(("/dev/shm" + name).c_str(), &st), 0) << "left alone";
+    shm_unlink(name.c_str());
+}
+
+TEST(Comm, StaleRegionOfOurOwnIsReplaced)
+{
+    const std::string name = unique_name("stale");
+    const int fd = shm_open(name.c_str(), O_RDWR | O_CREAT | O_EXCL, 0644);
+    ASSERT_GE(fd, 0);
+    close(fd);
+    Comm c(name, "");
+    c.init();
+    navkit_rcomm_t r;
+    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+    navkit_rcomm_close(&r);
+}

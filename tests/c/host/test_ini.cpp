@@ -1,0 +1,145 @@
+// Ini: the shipped files load; every refusal names file:line: key: reason.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+#include "navkit/ini.hpp"
+
+using namespace navkit;
+
+static const std::string kConfig = std::string(NAVKIT_SOURCE_DIR) + "/config";
+
+class IniFiles : public ::testing::Test {
+protected:
+    void SetUp() override
+    {
+        char tmpl[] = "/tmp/navkit-iniXXXXXX";
+        ASSERT_NE(mkdtemp(tmpl), nullptr);
+        dir_ = tmpl;
+        copy("sensors.ini");
+        copy("NavAndControl.ini");
+    }
+    void TearDown() override
+    {
+        std::remove((dir_ + "/sensors.ini").c_str());
+        std::remove((dir_ + "/NavAndControl.ini").c_str());
+        rmdir(dir_.c_str());
+    }
+    void copy(const std::string &name)
+    {
+        std::ifstream in(kConfig + "/" + name);
+        std::ofstream out(dir_ + "/" + name);
+        out << in.rdbuf();
+    }
+    void write(const std::string &name, const std::string &text)
+    {
+        std::ofstream(dir_ + "/" + name) << text;
+    }
+    // The ConfigError text of loading dir_, or "" if it loads.
+    std::string error()
+    {
+        try {
+            Ini::load(dir_);
+        } catch (const ConfigError &e) {
+            return e.what();
+        }
+        return "";
+    }
+    std::string dir_;
+};
+
+TEST(Ini, ShippedFilesLoadWithTheSpecDefaults)
+{
+    const Config c = Ini::load(kConfig);
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_motion_defaults(&m);
+    EXPECT_EQ(c.micro.motion.watchdog_timeout, m.watchdog_timeout);
+    EXPECT_EQ(c.micro.motion.spec_hash, NAVKIT_SPEC_HASH);
+    EXPECT_DOUBLE_EQ(c.exec.frame_rate_hz, 10.0);
+    EXPECT_DOUBLE_EQ(c.exec.planner_timeout_s, 1.0);
+    EXPECT_EQ(c.micro.port, "auto");
+    EXPECT_EQ(c.sensors.ir[3].channel, 3);
+    EXPECT_EQ(c.micro.io.servo_center[7], 1500);
+}
+
+TEST_F(IniFiles, OverridesApply)
+{
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 50\n[micro]\nport = /dev/ttyUSB3\nparity = E\n"
+                               "[micro_cfg_io]\nservo_center = 1400, 1410, 1420, 1430, 1440, 1450, 1460, 1470\n");
+    const Config c = Ini::load(dir_);
+    EXPECT_DOUBLE_EQ(c.exec.frame_rate_hz, 50.0);
+    EXPECT_EQ(c.micro.port, "/dev/ttyUSB3");
+    EXPECT_EQ(c.micro.parity, 'E');
+    EXPECT_EQ(c.micro.io.servo_center[0], 1400);
+    EXPECT_EQ(c.micro.io.servo_center[7], 1470);
+}
+
+TEST_F(IniFiles, UnknownKey)
+{
+    write("NavAndControl.ini", "; x\n[executive]\nframe_rate = 5\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: frame_rate: unknown key in [executive]");
+}
+
+TEST_F(IniFiles, UnknownSectionEvenWithoutKeys)
+{
+    write("sensors.ini", "[battery]\nchannel = 4\n\n[lidar]\n");
+    EXPECT_EQ(error(), dir_ + "/sensors.ini:4: [lidar]: unknown section");
+}
+
+TEST_F(IniFiles, MalformedValue)
+{
+    write("NavAndControl.ini", "[executive]\nrecord = yes\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: record: 'yes' is not 0 or 1");
+}
+
+TEST_F(IniFiles, OutOfRangeValue)
+{
+    write("NavAndControl.ini", "[executive]\n\ndio_default = 4096\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: dio_default: 4096 is outside 0..4095");
+}
+
+TEST_F(IniFiles, SpecRangeOfAConfigField)
+{
+    write("NavAndControl.ini", "[micro_cfg_motion]\ndefault_speed = 100\nwatchdog_timeout = 5\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: watchdog_timeout: outside the spec's range "
+                              "(docs/protocol.md, micro_cfg_motion)");
+}
+
+TEST_F(IniFiles, ValueThatDoesNotFitTheField)
+{
+    write("NavAndControl.ini", "[micro_cfg_geometry]\ncounts_per_rev = 70000\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: counts_per_rev: 70000 is outside 0..65535");
+}
+
+TEST_F(IniFiles, ArrayNeedsOneOrEightValues)
+{
+    write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = -900, -900\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: servo_min: needs 1 or 8 comma-separated values, got 2");
+}
+
+TEST_F(IniFiles, DuplicateKey)
+{
+    write("NavAndControl.ini", "[executive]\nrecord = 1\nrecord = 0\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: record: duplicate key in [executive]");
+}
+
+TEST_F(IniFiles, MalformedLine)
+{
+    write("NavAndControl.ini", "[executive]\njust words\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: line: malformed (not [section], key = value or a comment)");
+}
+
+TEST_F(IniFiles, MissingFile)
+{
+    std::remove((dir_ + "/sensors.ini").c_str());
+    EXPECT_EQ(error(), dir_ + "/sensors.ini:0: file: No such file or directory");
+}
+
+TEST_F(IniFiles, IrRangeOrder)
+{
+    write("sensors.ini", "[ir2]\nmin_mm = 500\nmax_mm = 400\n");
+    EXPECT_EQ(error(), dir_ + "/sensors.ini:3: max_mm: must be above min_mm in [ir2]");
+}

@@ -1,0 +1,185 @@
+// Navigation: planner low-level commands -> micro commands; teleop; DIO-only changes.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "navkit/navigation.hpp"
+
+using namespace navkit;
+
+static navkit_lisp_cmd_t lisp()
+{
+    navkit_lisp_cmd_t c;
+    navkit_lisp_cmd_defaults(&c);
+    return c;
+}
+
+TEST(Navigation, ForwardStartModifyStopPassThrough)
+{
+    for (int code : {1, 3, 5}) {
+        navkit_lisp_cmd_t c = lisp();
+        c.fwd_cmd = code;
+        c.accel = 400;
+        c.speed = 250;
+        c.distance = -200000000;
+        navkit_micro_cmd_t m;
+        ASSERT_EQ(Navigation::convert(c, 0, 0x5, &m), NAVKIT_NAV_RESULT_OK);
+        EXPECT_EQ(m.fwd_cmd, code);
+        EXPECT_EQ(m.accel, 400);
+        EXPECT_EQ(m.speed, 250);
+        EXPECT_EQ(m.distance, -200000000);
+        EXPECT_EQ(m.turn_cmd, 0);
+        EXPECT_EQ(m.dio_command, 0x5);
+    }
+}
+
+TEST(Navigation, TurnModesOneThreeFive)
+{
+    for (int code : {1, 3, 5}) {
+        navkit_lisp_cmd_t c = lisp();
+        c.turn_mode = code;
+        c.turn_accel = 900;
+        c.turn_rate = 300;
+        c.turn_distance = -450;
+        navkit_micro_cmd_t m;
+        ASSERT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_OK);
+        EXPECT_EQ(m.turn_cmd, code);
+        EXPECT_EQ(m.turn_accel, 900);
+        EXPECT_EQ(m.turn_rate, 300);
+        EXPECT_EQ(m.turn_distance, -450);
+        EXPECT_EQ(m.fwd_cmd, 0);
+    }
+}
+
+TEST(Navigation, HeadingSelectPassesZeroTo3600)
+{
+    navkit_lisp_cmd_t c = lisp();
+    c.turn_mode = 10;
+    navkit_micro_cmd_t m;
+    for (int h : {0, 900, 3600}) {
+        c.turn_distance = h;
+        ASSERT_EQ(Navigation::convert(c, 1234, 0, &m), NAVKIT_NAV_RESULT_OK);
+        EXPECT_EQ(m.turn_cmd, NAVKIT_TURN_CMD_HDG_SEL);
+        EXPECT_EQ(m.turn_distance, h);
+    }
+    c.turn_distance = 3601;
+    EXPECT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_REJECTED);
+    c.turn_distance = -1;
+    EXPECT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_REJECTED);
+}
+
+TEST(Navigation, HeadingHoldIsCurrentHeadingPlusWord9Wrapped)
+{
+    navkit_lisp_cmd_t c = lisp();
+    c.turn_mode = 11;
+    navkit_micro_cmd_t m;
+    const int cases[][3] = {{1000, 0, 1000}, {1000, 100, 1100}, {3500, 300, 200}, {100, -1800, 1900}, {0, -3600, 0}};
+    for (const auto &k : cases) {
+        c.turn_distance = k[1];
+        ASSERT_EQ(Navigation::convert(c, static_cast<uint16_t>(k[0]), 0, &m), NAVKIT_NAV_RESULT_OK);
+        EXPECT_EQ(m.turn_cmd, NAVKIT_TURN_CMD_HDG_SEL);
+        EXPECT_EQ(m.turn_distance, k[2]) << k[0] << " + " << k[1];
+    }
+}
+
+TEST(Navigation, ServoGoesToItsSlotOnly)
+{
+    navkit_lisp_cmd_t c = lisp();
+    c.rc_servo_num = 7;
+    c.rc_param0 = 300;
+    c.rc_param1 = 800;
+    c.rc_param2 = -900;
+    navkit_micro_cmd_t m;
+    ASSERT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_OK);
+    EXPECT_EQ(m.rc7_param0, 300);
+    EXPECT_EQ(m.rc7_param1, 800);
+    EXPECT_EQ(m.rc7_param2, -900);
+    EXPECT_EQ(m.rc0_param0, 0);
+    c.rc_servo_num = 2;
+    c.rc_param2 = NAVKIT_SERVO_GOTO_GOTO_FLAG;
+    ASSERT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_OK);
+    EXPECT_EQ(m.rc2_param0, 300);
+    EXPECT_EQ(m.rc2_param2, 9999);
+    EXPECT_EQ(m.rc7_param0, 0);
+}
+
+TEST(Navigation, ServoNumberOutsideZeroToSevenOrZeroRateHasNoEffect)
+{
+    navkit_micro_cmd_t none = Navigation::neutral(0);
+    for (int num : {-1, 8, 100}) {
+        navkit_lisp_cmd_t c = lisp();
+        c.rc_servo_num = num;
+        c.rc_param0 = 300;
+        navkit_micro_cmd_t m;
+        ASSERT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_OK);
+        EXPECT_EQ(std::memcmp(&m, &none, sizeof m), 0) << num;
+    }
+    navkit_lisp_cmd_t c = lisp();
+    c.rc_servo_num = 3;
+    c.rc_param0 = 0;
+    c.rc_param1 = 100;
+    navkit_micro_cmd_t m;
+    ASSERT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_OK);
+    EXPECT_EQ(m.rc3_param1, 0) << "param0 = 0: no servo command";
+}
+
+TEST(Navigation, HighLevelCodesAreNotImplemented)
+{
+    for (int code : {100, 101, 105}) {
+        navkit_lisp_cmd_t c = lisp();
+        c.fwd_cmd = code;
+        c.turn_mode = 5;
+        navkit_micro_cmd_t m;
+        EXPECT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_NOT_IMPLEMENTED);
+        EXPECT_EQ(m.fwd_cmd, 0) << "never sent to the micro";
+        EXPECT_EQ(m.turn_cmd, 5) << "the rest of the message still applies";
+    }
+}
+
+TEST(Navigation, ValuesThatDoNotFitTheMicroAreRejected)
+{
+    navkit_lisp_cmd_t c = lisp();
+    c.fwd_cmd = 1;
+    c.speed = 40000;
+    navkit_micro_cmd_t m;
+    EXPECT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_REJECTED);
+    c = lisp();
+    c.fwd_cmd = 2;
+    EXPECT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_REJECTED);
+}
+
+TEST(Navigation, UpdateDioOnlyChangeIsANeutralNewCommand)
+{
+    ConsoleCfg cc;
+    Navigation n(cc);
+    n.init();
+    Arbitration a;
+    a.dio = 0x3;
+    NavOutput o = n.update(a, 0);
+    ASSERT_TRUE(o.is_new);
+    EXPECT_EQ(o.cmd.fwd_cmd, 0);
+    EXPECT_EQ(o.cmd.dio_command, 0x3);
+    EXPECT_FALSE(n.update(a, 0).is_new) << "nothing changed: repeat";
+}
+
+TEST(Navigation, UpdateStopAndTeleop)
+{
+    ConsoleCfg cc;
+    cc.teleop_speed = 123;
+    Navigation n(cc);
+    n.init();
+    Arbitration a;
+    a.teleop_new = true;
+    a.teleop = Teleop::reverse;
+    NavOutput o = n.update(a, 0);
+    EXPECT_EQ(o.cmd.fwd_cmd, 1);
+    EXPECT_EQ(o.cmd.speed, 123);
+    EXPECT_LT(o.cmd.distance, 0);
+    Arbitration s;
+    s.stop = true;
+    s.timeout_started = true;
+    o = n.update(s, 0);
+    EXPECT_EQ(o.cmd.fwd_cmd, 5);
+    EXPECT_EQ(o.cmd.turn_cmd, 5);
+    EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_PLANNER_TIMEOUT);
+}
