@@ -4,6 +4,7 @@
 #include <csignal>
 #include <cstring>
 #include <ctime>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 extern "C" {
@@ -40,6 +41,7 @@ static int64_t mono_ns()
 RealClock::RealClock(double rate_hz, const std::string &timing_log)
 {
     sched_.period_ns = period_ns_of(rate_hz);
+    prctl(PR_SET_TIMERSLACK, 1000UL);  // wake within ~1 us of the deadline, not the 50 us default
     if (!timing_log.empty()) {
         timing_ = std::fopen(timing_log.c_str(), "w");
         if (!timing_) {
