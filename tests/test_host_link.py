@@ -113,6 +113,7 @@ def test_garbage_on_the_line_is_survived(host_factory):
     assert len(msgs) == 1 and msgs[0][0] == "micro_cmd" and flags == 0
     d = h.client.read_data()
     assert d["distance"] == 42 and d["link_errors"] >= 1
+    assert "bad CRC at stream byte offset" in h.output()
     for _ in range(3):
         assert len(h.step(m)[0]) == 1
 

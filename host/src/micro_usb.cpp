@@ -353,6 +353,16 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
     if (got > 1) {
         superseded_ += got - 1;
     }
+    const uint32_t errors = link_errors();
+    if (errors != reported_errors_ && (last_error_report_us_ < 0 || now_us_ - last_error_report_us_ >= 1000000)) {
+        // at most one line per second of frame time, naming the stream offset of the last reject
+        static const char *const why[] = {"ok", "bad CRC", "unknown type", "bad length", "range", "space", "no start"};
+        const int e = parser_.last_error;
+        con_.print("micro link: %u frames rejected so far (last: %s at stream byte offset %u)", errors,
+                   e >= 0 && e <= 6 ? why[e] : "?", static_cast<unsigned>(parser_.last_error_offset));
+        reported_errors_ = errors;
+        last_error_report_us_ = now_us_;
+    }
     if (got) {
         last_rx_us_ = now_us_;
         note_data(*out);

@@ -107,7 +107,8 @@ void RobotMain(Robot &r)
         r.sensors.update(r.data);
     }
     // 3. an unconfigured micro gets config messages: MicroUsb::send() picks them
-    // 4. read the planner's command
+    // 4. read the planner's command (and its emotion, kept for a face)
+    r.comm.read_emotion(&r.emotion);
     PlannerInput pin;
     pin.have = r.comm.read_lisp_cmd(&r.lisp_cmd);
     pin.cmd = r.lisp_cmd;

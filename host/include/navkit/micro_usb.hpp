@@ -110,6 +110,8 @@ private:
     uint64_t short_reads_ = 0;   // lockstep ticks whose rx_bytes did not all arrive in 1 s
     uint64_t tx_errors_ = 0;     // frames written only in part (output buffer full)
     uint32_t err_base_ = 0;      // link errors of parsers before the last reopen
+    uint32_t reported_errors_ = 0;
+    int64_t last_error_report_us_ = -1;
 };
 
 }  // namespace navkit

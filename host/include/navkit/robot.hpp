@@ -38,6 +38,7 @@ struct Robot {
     bool have_data = false;
     navkit_lisp_cmd_t lisp_cmd{};   // the planner's current command
     navkit_lisp_data_t lisp_data{}; // published every frame
+    navkit_emotion_t emotion{};     // the planner's emotion, for a face (not in this build)
     bool quit = false;              // 'Q': this frame sends the stop and the executive ends
     uint32_t frames = 0;
 };
