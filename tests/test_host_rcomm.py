@@ -1,0 +1,80 @@
+"""navkit.rcomm, the planner client, against the layout of docs/internals.md: it refuses
+what is not a navkit region of ours, and its seqlock never returns a torn message."""
+
+import os
+import struct
+
+import pytest
+
+from navkit import protocol, rcomm
+from test_host_util import Micro, host_factory  # noqa: F401  (fixture)
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def _region(name: str, magic=protocol.RCOMM_MAGIC, spec=protocol.SPEC_HASH) -> str:
+    path = "/dev/shm" + name
+    with open(path, "wb") as f:
+        f.write(struct.pack("<III", magic, protocol.RCOMM_VERSION, spec))
+        f.write(bytes(protocol.RCOMM_SIZE - 12))
+    return path
+
+
+@pytest.fixture
+def shm_name():
+    name = f"/nk-rcomm-{os.getpid()}"
+    yield name
+    try:
+        os.unlink("/dev/shm" + name)
+    except OSError:
+        pass
+
+
+def test_missing_region(shm_name):
+    with pytest.raises(rcomm.RcommError, match="rcomm"):
+        rcomm.Client(shm_name)
+
+
+def test_wrong_magic_or_spec_is_refused(shm_name):
+    _region(shm_name, magic=0x12345678)
+    with pytest.raises(rcomm.RcommError, match="magic"):
+        rcomm.Client(shm_name)
+    _region(shm_name, spec=protocol.SPEC_HASH ^ 1)
+    with pytest.raises(rcomm.RcommError, match="spec hash"):
+        rcomm.Client(shm_name)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to make another user's region")
+def test_another_users_region_is_refused(shm_name):
+    os.chown(_region(shm_name), 65534, 65534)
+    with pytest.raises(rcomm.RcommError, match="not us"):
+        rcomm.Client(shm_name)
+
+
+def test_seqlock_write_and_torn_read(shm_name):
+    _region(shm_name)
+    with rcomm.Client(shm_name) as c:
+        assert c.read_data() is None, "never written"
+        c.write_cmd({"time_tag": 9, "fwd_cmd": 1, "distance": -5})
+        assert c.read_cmd()["distance"] == -5
+        off = protocol.RCOMM_OFFSETS["lisp_cmd"]
+        with open("/dev/shm" + shm_name, "r+b") as f:
+            f.seek(off)
+            seq = struct.unpack("<I", f.read(4))[0]
+            assert seq == 2, "odd while writing, +2 per message"
+            f.seek(off)
+            f.write(struct.pack("<I", seq + 1))      # a writer stopped half way
+        assert c.read_cmd() is None, "a write in progress is never returned"
+        c.write_cmd({"time_tag": 10})
+        assert c.read_cmd()["time_tag"] == 10
+
+
+def test_heartbeats_both_ways(host_factory):
+    h, m = host_factory(), Micro()
+    c = h.client
+    c.heartbeat()
+    h.step(m)
+    h.step(m)
+    assert c.host_heartbeat() == 1, "the host's frame counter (frames 0, 1 run)"
+    c.write_emotion({"happiness": -100, "talking": 1})
+    assert h.client.read_data()["frame"] == 1
