@@ -101,6 +101,8 @@ def test_only_the_newest_of_several_micro_data_is_used(host_factory):
     h.write(m.data(distance=111) + m.data(distance=222) + m.data(distance=333))
     h.step(m, reply=False)
     assert h.client.read_data()["distance"] == 333
+    assert h.stop() == 0
+    assert "2 micro_data superseded" in h.output()
 
 
 def test_garbage_on_the_line_is_survived(host_factory):

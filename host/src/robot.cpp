@@ -223,6 +223,18 @@ void RobotShutdown(Robot &r)
     stop_recording(r);
     r.comm.shutdown();
     r.micro.shutdown();
+    r.console.print("link: %llu config downloads, %u frames rejected, %llu micro_data superseded by newer ones, "
+                    "%llu messages written in part, %llu lockstep reads short",
+                    static_cast<unsigned long long>(r.micro.config_downloads()),
+                    static_cast<unsigned>(r.micro.link_errors()),
+                    static_cast<unsigned long long>(r.micro.superseded()),
+                    static_cast<unsigned long long>(r.micro.tx_errors()),
+                    static_cast<unsigned long long>(r.micro.short_reads()));
+    if (r.clock) {
+        r.console.print("clock: %llu overruns, %llu frames skipped",
+                        static_cast<unsigned long long>(r.clock->overruns()),
+                        static_cast<unsigned long long>(r.clock->skipped()));
+    }
     r.console.print("shut down after %u frames (micro stopped, rcomm %s removed)", r.frames,
                     r.cfg.exec.shm_name.c_str());
     r.console.shutdown();

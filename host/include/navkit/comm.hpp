@@ -29,7 +29,6 @@ public:
     void send_lisp_data(const navkit_lisp_data_t &d);
     uint32_t planner_heartbeat() const;
     void set_host_heartbeat(uint32_t v);
-    const std::string &name() const { return name_; }
 
     // Seqlock on a mapped slot (seq word at slot_off, then nbytes): exposed for tests.
     static bool seqlock_read(const uint8_t *base, size_t slot_off, uint8_t *out, size_t nbytes);

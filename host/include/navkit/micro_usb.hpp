@@ -80,7 +80,6 @@ public:
     uint64_t tx_errors() const { return tx_errors_; }
     uint16_t last_tag() const { return last_.time_tag; }
     const navkit_micro_cmd_t &last_command() const { return last_; }
-    const std::string &port_path() const { return port_.path(); }
 
 private:
     void open_port();

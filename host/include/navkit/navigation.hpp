@@ -28,7 +28,6 @@ public:
     NavOutput update(const Arbitration &a, uint16_t heading);
     int nav_result() const { return result_; }
     int32_t ack_time_tag() const { return ack_; }
-    void set_result(int r) { result_ = r; }
 
     // Planner command -> micro command (time tag left 0); returns a nav_result:
     // ok, not_implemented (high-level codes: the rest still applies) or rejected (a

@@ -62,8 +62,6 @@ public:
     Arbitration update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s,
                        int64_t now_us);
     bool planner_timed_out() const { return timed_out_; }
-    bool safety_stopped() const { return safety_; }
-    int32_t last_planner_tag() const { return last_tag_; }
 
 private:
     double timeout_s_, idle_s_;
