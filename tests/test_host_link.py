@@ -102,7 +102,8 @@ def test_only_the_newest_of_several_micro_data_is_used(host_factory):
     h.step(m, reply=False)
     assert h.client.read_data()["distance"] == 333
     assert h.stop() == 0
-    assert "2 micro_data superseded" in h.output()
+    superseded = int(h.output().split(" micro_data superseded")[0].rsplit(" ", 1)[1])
+    assert superseded == 3, "the reply to the last configure frame and two of the three"
 
 
 def test_garbage_on_the_line_is_survived(host_factory):
