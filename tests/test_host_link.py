@@ -2,7 +2,8 @@
 lockstep mode: config download at start and after a micro reset, one message per frame,
 repeats keep their time tag, only the newest micro_data is used, garbage is survived,
 the port vanishes and returns, a micro of another spec is refused, planner commands
-reach the wire in the frame that reads them, a silent planner stops the robot."""
+reach the wire in the frame that reads them, a silent planner stops the robot, DIO
+masks, console teleop only while the planner is quiet, the battery safety stop."""
 
 import os
 import signal
@@ -33,9 +34,10 @@ def test_config_download_at_start_then_one_command_per_frame(host_factory):
 
 
 def test_config_values_come_from_the_ini(host_factory):
-    h, m = host_factory(ini={"NavAndControl.ini": ""}), Micro()
+    h, m = host_factory(ini={"NavAndControl.ini": {"wheel_diameter": 12000}}), Micro()
     geo = dict(h.configure(m)[:3])["micro_cfg_geometry"]
-    assert geo["wheel_diameter"] == protocol.defaults("micro_cfg_geometry")["wheel_diameter"]
+    assert geo["wheel_diameter"] == 12000
+    assert geo["counts_per_rev"] == protocol.defaults("micro_cfg_geometry")["counts_per_rev"]
 
 
 def test_micro_reset_config_again_and_no_old_command_rerun(host_factory):
@@ -171,7 +173,7 @@ def test_silent_planner_stops_the_robot_then_obeys_again(host_factory):
 
 
 def test_dio_masks(host_factory):
-    h, m = host_factory(ini={"NavAndControl.ini": ""}), Micro()
+    h, m = host_factory(), Micro()
     h.configure(m)
     h.client.write_cmd({"time_tag": 1, "dio_active": 0b1001, "dio_command": 0b0001})
     assert h.step(m)[0][0][1]["dio_command"] == 0b0001
@@ -199,3 +201,45 @@ def test_eof_on_the_lockstep_socket_is_a_clean_shutdown(host_factory):
     h.configure(m)
     assert h.stop() == 0
     assert not os.path.exists("/dev/shm" + h.shm)
+
+
+def test_console_teleop_only_while_the_planner_is_quiet(host_factory):
+    h, m = host_factory(ini={"NavAndControl.ini": {"console_idle": 1.0, "teleop_speed": 150}}), Micro()
+    h.configure(m)
+    h.proc.stdin.write(b"w")
+    h.proc.stdin.flush()
+    c = h.step(m)[0][0][1]
+    assert (c["fwd_cmd"], c["speed"], c["distance"]) == (1, 150, 2000000000), "no planner yet"
+    h.client.write_cmd({"time_tag": 1, "fwd_cmd": 5})
+    assert h.step(m)[0][0][1]["fwd_cmd"] == 5
+    h.proc.stdin.write(b"a")
+    h.proc.stdin.flush()
+    assert h.step(m)[0][0][1]["turn_cmd"] == 0, "the planner has priority"
+    for _ in range(10):
+        h.client.heartbeat()
+        h.step(m)
+    h.proc.stdin.write(b"a")
+    h.proc.stdin.flush()
+    c = h.step(m)[0][0][1]
+    assert c["turn_cmd"] == 1 and c["turn_distance"] < 0, "1 s after the planner's last command"
+
+
+def test_safety_stop_on_low_battery(host_factory):
+    h, m = host_factory(ini={"NavAndControl.ini": {"battery_min_v": 11.0, "planner_timeout": 0}}), Micro()
+    full, low = round(12.0 / 3 / 5 * 1023), round(10.0 / 3 / 5 * 1023)
+    m.fields["adc"] = [0, 0, 0, 0, full, 0, 0, 0]
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+    assert h.step(m)[0][0][1]["fwd_cmd"] == 1
+    m.fields["adc"] = [0, 0, 0, 0, low, 0, 0, 0]
+    h.step(m)                                   # the host reads the low battery in the next frame
+    c = h.step(m)[0][0][1]
+    assert c["fwd_cmd"] == 5 and "safety stop" in h.output()
+    h.client.write_cmd({"time_tag": 2, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+    assert h.step(m)[0][0][1]["time_tag"] == c["time_tag"], "motion ignored while it holds"
+    assert 9900 <= h.client.read_data()["battery"] <= 10100, "mV"
+    m.fields["adc"] = [0, 0, 0, 0, full, 0, 0, 0]
+    h.step(m)
+    h.step(m)
+    h.client.write_cmd({"time_tag": 3, "fwd_cmd": 1, "speed": 100, "distance": 100})
+    assert h.step(m)[0][0][1]["speed"] == 100, "cleared: the next new command runs"

@@ -5,6 +5,7 @@ codec, and the planner through navkit.rcomm. Frame k runs at simulated time k * 
 from __future__ import annotations
 
 import os
+import re
 import select
 import shutil
 import signal
@@ -84,14 +85,20 @@ class Host:
     unplug and replug it) with a unique rcomm name."""
 
     def __init__(self, tmp: Path, ini: dict | None = None, args: tuple = (), lockstep: bool = True):
+        """ini: {file name: {key: value}} replacing the first `key = ...` line of the
+        shipped file."""
         self.tmp = Path(tmp)
         self.cfg = self.tmp / "config"
         self.cfg.mkdir()
         for name in ("NavAndControl.ini", "sensors.ini"):
             shutil.copy(repo_root() / "config" / name, self.cfg / name)
-        for name, text in (ini or {}).items():
-            with open(self.cfg / name, "a") as f:
-                f.write("\n" + text + "\n")
+        for name, keys in (ini or {}).items():
+            path = self.cfg / name
+            text = path.read_text()
+            for key, value in keys.items():
+                text, n = re.subn(rf"^{key} = .*$", f"{key} = {value}", text, count=1, flags=re.M)
+                assert n == 1, f"{name} has no key {key}"
+            path.write_text(text)
         self.link = self.tmp / "ttyNK"
         self.master = self.slave = None
         self.plug()
