@@ -122,6 +122,9 @@ bool LockstepClock::wait_frame(FrameTick *tick)
 {
     uint8_t b[24];
     size_t have = 0;
+    if (g_quit_signal) {
+        return false;  // a signal that came during the last frame
+    }
     while (have < sizeof b) {
         const ssize_t n = ::read(fd_, b + have, sizeof b - have);
         if (n > 0) {
