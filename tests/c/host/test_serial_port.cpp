@@ -1,0 +1,49 @@
+// SerialPort on a pseudo-terminal: raw non-blocking I/O, and a vanished other end seen
+// as "gone" (the unplug path), never as an endless stream of empty reads.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fcntl.h>
+#include <pty.h>
+#include <unistd.h>
+
+#include "navkit/micro_usb.hpp"
+
+using namespace navkit;
+
+TEST(SerialPort, ReadsWritesAndSeesTheOtherEndVanish)
+{
+    int master = -1, slave = -1;
+    ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    MicroCfg cfg;
+    cfg.port = ttyname(slave);
+    SerialPort p;
+    ASSERT_EQ(p.open(cfg), "");
+    close(slave);  // the port keeps its own descriptor
+    uint8_t buf[16];
+    EXPECT_EQ(p.read_some(buf, sizeof buf), 0) << "nothing waiting: no wait, no error";
+    ASSERT_EQ(write(master, "\xa5\xff\x01", 3), 3);
+    EXPECT_EQ(p.read_some(buf, sizeof buf), 3);
+    EXPECT_EQ(buf[0], 0xa5) << "raw: bytes pass untouched";
+    const uint8_t out[4] = {1, 2, 3, 4};
+    EXPECT_EQ(p.write_all(out, 4), 4);
+    uint8_t got[4];
+    EXPECT_EQ(read(master, got, 4), 4);
+    close(master);
+    EXPECT_EQ(p.read_some(buf, sizeof buf), -1) << "hang-up: the port is gone";
+    EXPECT_FALSE(p.is_open());
+}
+
+TEST(SerialPort, MissingPathAndNotATty)
+{
+    MicroCfg cfg;
+    cfg.port = "/nonexistent/ttyUSB9";
+    SerialPort p;
+    EXPECT_EQ(p.open(cfg), "/nonexistent/ttyUSB9: No such file or directory");
+    cfg.port = "/dev/null";
+    EXPECT_NE(p.open(cfg).find("not a serial port"), std::string::npos);
+    cfg.port = "/dev/null";
+    cfg.baud = 12345;
+    EXPECT_EQ(p.open(cfg), "baud 12345 is not supported");
+    EXPECT_EQ(SerialPort::latency_timer_path("/dev/null"), "") << "not an FTDI device";
+}
