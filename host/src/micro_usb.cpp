@@ -218,7 +218,6 @@ long SerialPort::write_all(const uint8_t *buf, size_t len)
 MicroUsb::MicroUsb(const MicroCfg &cfg, Console &console) : cfg_(cfg), con_(console)
 {
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
-    last_ = stop_command(0);
 }
 
 navkit_micro_cmd_t MicroUsb::stop_command(uint16_t dio)
@@ -233,7 +232,7 @@ navkit_micro_cmd_t MicroUsb::stop_command(uint16_t dio)
 
 void MicroUsb::init()
 {
-    last_ = stop_command(0);
+    last_ = stop_command(0);  // the seed's Navigation Init: the current command is Stop
     last_.time_tag = 1;
     open_port();
 }
