@@ -4,7 +4,7 @@ BUILD ?= build
 PY    := .venv/bin/python
 CMAKE_PRESET ?= default
 
-.PHONY: setup build test test-c test-py fuzz-build fuzz-short fuzz-long bench clean
+.PHONY: setup build sim test test-c test-py fuzz-build fuzz-short fuzz-long bench clean
 
 setup:
 	@scripts/setup.sh
@@ -12,6 +12,11 @@ setup:
 build: setup
 	@cmake --preset $(CMAKE_PRESET) >/dev/null
 	@cmake --build --preset $(CMAKE_PRESET)
+
+# The main job: co-simulate the default mission (config/missions/demo.toml) with the real
+# host over a pty, the firmware FMU and the plant FMU; prints outputs, final pose, speed.
+sim: build
+	@$(PY) -m navkit sim --mission config/missions/demo.toml
 
 test-c: build
 	@ctest --preset $(CMAKE_PRESET)
@@ -40,6 +45,8 @@ fuzz-long: fuzz-build build
 
 bench: build
 	$(PY) -m navkit bench-proto
+	$(PY) -m navkit bench-host
+	$(PY) -m navkit bench-sim
 
 clean:
 	rm -rf $(BUILD)

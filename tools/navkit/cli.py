@@ -19,6 +19,7 @@ SUBCOMMANDS = {
     "fuzz-proto": ("navkit.proto_fuzz", "differential fuzz of the Python and C frame parsers"),
     "sim": ("navkit.sim.cli", "co-simulate a mission: the real host, the firmware FMU and the plant FMU"),
     "plot": ("navkit.plot", "plot an MCAP run or a seed-format datalog"),
+    "bench-host": ("navkit.host_bench", "benchmark the host's real-time frame loop (start error, drift, CPU)"),
     "bench-sim": ("navkit.sim_bench", "benchmark the co-simulation (real-time factor, time shares, memory)"),
 }
 
