@@ -241,7 +241,7 @@ def _c_message(m: Message) -> list[str]:
     else:
         out.append(f"void navkit_{m.name}_pack(const {t} *m, int32_t words[NAVKIT_{up}_WORDS])\n{{")
         for f in m.fields:
-            for k, (sfx, off) in enumerate(_elements(f)):
+            for sfx, off in _elements(f):
                 out.append(f"    words[{off // 4}] = (int32_t)m->{f.name}{sfx};")
         out.append("}\n")
         out.append(f"void navkit_{m.name}_unpack(const int32_t words[NAVKIT_{up}_WORDS], {t} *m)\n{{")
@@ -307,7 +307,6 @@ def emit_docs(spec: Spec) -> str:
             rows.append((0, "| 0 | *start* | uint16 | | | `0xFFA5` |"))
             rows.append((fr["length_word"], f"| {fr['length_word']} | *length* | uint16 | words | | {m.words} |"))
             rows.append((m.words - 1, f"| {m.words - 1} | *crc* | uint16 | | | {fr['crc']} of words 0..{m.words - 2} |"))
-        per = max(1, TYPES["int32"][0] * 8 // m.word_bits)
         for f in m.fields:
             nwords = f.size * 8 // m.word_bits
             last = f.word + nwords * f.count - 1
@@ -320,7 +319,6 @@ def emit_docs(spec: Spec) -> str:
                 extra.append(f"see {f.enum or f.flags}")
             doc = f.doc + (f" ({'; '.join(extra)})" if extra else "")
             rows.append((f.word, f"| {word} | `{f.name}` | {typ} | {_units(f)} | {_range(f)} | {doc} |"))
-        del per
         out += [r for _, r in sorted(rows)]
         out.append("")
     out.append("## Enums and flags\n")

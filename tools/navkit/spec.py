@@ -258,7 +258,7 @@ class _Builder:
         name = raw.get("name", "?")
         span = self.lines.message_span(name)
         line = span[0] + 1
-        self.unknown({k: v for k, v in raw.items()}, _MESSAGE_KEYS, f"message {name}", span)
+        self.unknown(raw, _MESSAGE_KEYS, f"message {name}", span)
         if not _NAME_RE.match(name):
             self.fail(line, name, "message name must be snake_case")
         link = raw.get("link")
