@@ -78,7 +78,8 @@ def run(args) -> int:
     fw, plant = s.get("fmu_split_s", (None, None))
     if fw is not None:
         print(f"  of the FMUs: firmware {fw:.3f} s, plant {plant:.3f} s")
+    mem = s.get("memory_peak_mib", {})
     me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    print(f"peak memory: harness {me:.0f} MiB, host {kids:.0f} MiB")
+    print(f"peak memory (resident): harness {me:.0f} MiB, log worker "
+          f"{mem.get('log_worker')} MiB, host {mem.get('host')} MiB")
     return 0

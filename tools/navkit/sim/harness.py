@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import resource
 import shutil
 import signal
 import subprocess
@@ -315,6 +316,18 @@ class _Planner:
 
 # ------------------------------------------------------------------ run
 
+def _vm_hwm_kib(pid: int) -> int | None:
+    """Peak resident memory (KiB) of a live process, from /proc; None if unknown."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1])
+    except (OSError, ValueError):
+        pass
+    return None
+
+
 class _Run:
     def __init__(self, opts: SimOptions):
         from navkit import protocol
@@ -449,6 +462,7 @@ class _Run:
                 os.sched_setaffinity(0, self._saved_affinity)
             except OSError:
                 pass
+        self.host_peak_kib = _vm_hwm_kib(self.proc.pid) if self.proc is not None else None
         if self.lock is not None:
             self.lock.close()
         if self.proc is not None:
@@ -731,6 +745,10 @@ class _Run:
                 "line_noise": dict(self.noise_stats),
                 "bytes_dropped_at_port": self.port.dropped if self.port else 0,
             },
+            "memory_peak_mib": {
+                "harness": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+                "log_worker": round(res["peak_rss_kib"] / 1024, 1) if res.get("peak_rss_kib") else None,
+                "host": round(self.host_peak_kib / 1024, 1) if getattr(self, "host_peak_kib", None) else None},
             "host": {"state": self.host_state, "exit_status": self.host_exit,
                      "overruns": lisp.get("overruns"),
                      "config_downloads": res.get("config_downloads"),

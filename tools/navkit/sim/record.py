@@ -9,6 +9,7 @@ keeps everything before its last second.
 from __future__ import annotations
 
 import json
+import resource
 from pathlib import Path
 
 __all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS"]
@@ -289,6 +290,7 @@ class _Decoder:
                 "last_lisp": self.last_lisp,
                 "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
                 "config_downloads": self.config_downloads,
+                "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                 "h2m": dict(self.h2m.stats), "m2h": dict(self.m2h.stats)}
 
 
