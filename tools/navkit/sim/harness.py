@@ -200,69 +200,9 @@ class _Fmus:
 
 # ------------------------------------------------------------------ planner
 
-class _ShmRegion:
-    """Direct access to the host's rcomm region (docs/internals.md), used only when the
-    planner client `navkit.rcomm` is not installed: seqlock writer of lisp_cmd, seqlock
-    reader of lisp_data, planner heartbeat."""
-
-    def __init__(self, name: str):
-        import mmap
-        import struct
-
-        from navkit import protocol
-
-        self._struct = struct
-        path = "/dev/shm/" + name.lstrip("/")
-        fd = os.open(path, os.O_RDWR)
-        try:
-            self.mm = mmap.mmap(fd, protocol.RCOMM_SIZE)
-        finally:
-            os.close(fd)
-        magic, version, spec = struct.unpack_from("<III", self.mm, 0)
-        if magic != protocol.RCOMM_MAGIC or version != protocol.RCOMM_VERSION:
-            self.mm.close()
-            raise ConnectionError(f"rcomm region {name}: magic 0x{magic:08X} version {version}")
-        if spec != protocol.SPEC_HASH:
-            self.mm.close()
-            raise ConnectionError(f"rcomm region {name}: spec hash 0x{spec:08X}, ours "
-                                  f"0x{protocol.SPEC_HASH:08X}")
-        self.cmd_off = protocol.RCOMM_OFFSETS["lisp_cmd"]
-        self.data_off = protocol.RCOMM_OFFSETS["lisp_data"]
-        self.protocol = protocol
-        self.beats = 0
-
-    def write_cmd(self, fields: dict) -> None:
-        st = self._struct
-        data = self.protocol.to_bytes("lisp_cmd", fields)
-        seq = st.unpack_from("<I", self.mm, self.cmd_off)[0]
-        seq = (seq | 1) if seq % 2 == 0 else seq + 2
-        st.pack_into("<I", self.mm, self.cmd_off, seq & 0xFFFFFFFF)
-        self.mm[self.cmd_off + 4:self.cmd_off + 4 + len(data)] = data
-        st.pack_into("<I", self.mm, self.cmd_off, (seq + 1) & 0xFFFFFFFF)
-
-    def beat(self) -> None:
-        self.beats = (self.beats + 1) & 0xFFFFFFFF
-        self._struct.pack_into("<I", self.mm, 12, self.beats)
-
-    def read_data(self) -> dict | None:
-        st = self._struct
-        size = self.protocol.SPEC.messages["lisp_data"].size
-        for _ in range(100):
-            s1 = st.unpack_from("<I", self.mm, self.data_off)[0]
-            if s1 % 2:
-                continue
-            data = bytes(self.mm[self.data_off + 4:self.data_off + 4 + size])
-            if st.unpack_from("<I", self.mm, self.data_off)[0] == s1:
-                return self.protocol.from_bytes("lisp_data", data) if s1 else None
-        return None
-
-    def close(self) -> None:
-        self.mm.close()
-
-
 class _Planner:
-    """The mission's planner on rcomm: writes lisp_cmd, bumps the heartbeat, reads
-    lisp_data. Uses the planner client navkit.rcomm."""
+    """The mission's planner on rcomm through the planner client navkit.rcomm: writes
+    whole lisp_cmds, bumps the heartbeat, reads lisp_data."""
 
     def __init__(self, shm_name: str):
         self.shm_name = shm_name
@@ -270,10 +210,8 @@ class _Planner:
         self.time_tag = 0
 
     def _open(self):
-        try:
-            from navkit import rcomm
-        except ImportError:
-            return _ShmRegion(self.shm_name)
+        from navkit import rcomm
+
         return rcomm.Client(self.shm_name)
 
     def attach(self, timeout_s: float, alive=lambda: True) -> bool:
@@ -284,7 +222,7 @@ class _Planner:
             try:
                 self.client = self._open()
                 return True
-            except (OSError, ConnectionError, ValueError):
+            except ConnectionError:          # navkit.rcomm.RcommError: not there (yet)
                 if time.monotonic() >= deadline or not alive():
                     return False
                 time.sleep(0.005)
@@ -303,7 +241,7 @@ class _Planner:
 
     def beat(self) -> None:
         if self.client is not None:
-            self.client.beat()
+            self.client.heartbeat()
 
     def read(self) -> dict | None:
         return self.client.read_data() if self.client is not None else None
@@ -586,13 +524,7 @@ class _Run:
 
     def _lisp_raw(self):
         c = self.planner.client
-        if c is None:
-            return None
-        raw = getattr(c, "read_data_raw", None)
-        if raw is not None:
-            return raw()
-        d = c.read_data()
-        return None if d is None else self.protocol.to_bytes("lisp_data", d)
+        return None if c is None else c.read_data_raw()
 
     # -------------------------------------------------------------- loops
     def lockstep(self) -> None:
