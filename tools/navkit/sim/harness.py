@@ -76,29 +76,17 @@ def fmu_paths(build: Path) -> tuple[Path, Path]:
 
 
 def frame_period(config_dir: Path) -> float:
-    """The host frame period (s) set in `config_dir`/NavAndControl.ini: a key whose name
-    says frame and ms/period/rate (e.g. FrameMs = 100, frame_rate_hz = 10); 0.1 s (the
-    seed's 100 ms frame) if none."""
-    import re
+    """The host frame period (s): 1 / `[executive] frame_rate_hz` of
+    `config_dir`/NavAndControl.ini, else 0.1 s (the seed's 100 ms frame, the host's default)."""
+    import configparser
 
-    ini = Path(config_dir) / "NavAndControl.ini"
+    ini = configparser.ConfigParser(inline_comment_prefixes=(";", "#"), strict=False)
     try:
-        text = ini.read_text(errors="replace")
-    except OSError:
-        return 0.1
-    for line in text.splitlines():
-        line = line.split(";")[0].split("#")[0].strip()
-        m = re.match(r"([A-Za-z_]*frame[A-Za-z_]*)\s*=\s*([0-9.]+)", line, re.I)
-        if not m:
-            continue
-        key, val = m.group(1).lower(), float(m.group(2))
-        if val <= 0:
-            continue
-        if "hz" in key or "rate" in key:
-            return 1.0 / val
-        if "ms" in key or "period" in key:
-            return val / 1000.0
-    return 0.1
+        ini.read(Path(config_dir) / "NavAndControl.ini")
+        rate = ini.getfloat("executive", "frame_rate_hz", fallback=10.0)
+    except (configparser.Error, ValueError):
+        rate = 10.0
+    return 1.0 / rate if rate > 0 else 0.1
 
 
 def _git_revision() -> str:
