@@ -692,12 +692,18 @@ def run(opts: SimOptions) -> dict:
 
     r = _Run(opts)
     wall0 = time.perf_counter()
+    from navkit.sim.coupler import CouplerError
+    from navkit.sim.links import LinkError
+
     try:
         r.start()
         if opts.realtime:
             r.realtime()
         else:
             r.lockstep()
+    except (LinkError, CouplerError) as e:
+        r.stop()
+        raise SimError(f"{e} (host log: {r.out / 'host.log'})") from e
     except BaseException:
         r.stop()
         raise
