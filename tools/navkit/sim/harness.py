@@ -294,6 +294,10 @@ class _Run:
         from navkit.sim.record import RunLog
 
         fw_fmu, plant_fmu = fmu_paths(self.build)
+        for path, name in ((fw_fmu, "firmware"), (plant_fmu, "plant")):
+            if not path.exists():
+                raise SimError(f"{path} not found: build the {name} FMU first "
+                               f"(cmake --build <build>)")
         plant_params = {"seed": self.opts.seed}
         if self.m.world is not None:
             plant_params["world_file"] = str(self.m.world)
