@@ -152,6 +152,8 @@ distance = 200
 """, realtime=True)
     s = r.summary
     assert s["mode"] == "realtime"
+    assert not r.messages("/host/frame"), "no lockstep frames in real time"
+    assert r.messages("/planner/data")
     assert 0.7 < s["realtime_factor"] <= 1.1, s["wall_time_s"]
     assert abs(r.truth[-1]["distance_mm"] - 200) <= 15, "the command reached the micro"
     assert s["host"]["config_downloads"] >= 1
@@ -199,3 +201,15 @@ def test_a_killed_run_keeps_what_came_before(tmp_path):
     assert times, "messages of the first seconds survived"
     assert 0.9 <= max(times) < 10.0, max(times)
     assert not (out / "summary.json").exists()
+
+
+def test_bench_sim_prints_its_figures(capsys):
+    from navkit import sim_bench
+
+    require_build()
+    parser = argparse.ArgumentParser()
+    sim_bench.add_arguments(parser)
+    assert sim_bench.run(parser.parse_args(["--minutes", "0.5"])) == 0
+    out = capsys.readouterr().out
+    assert "real-time factor" in out and "FMUs" in out and "host frame" in out
+    assert "peak memory" in out

@@ -202,6 +202,10 @@ class _Decoder:
                 rec.write_raw("/planner/data", t_ns, self.dumps(d).encode())
             if host_bytes:
                 self.host_bytes(t_ns, host_bytes)
+        elif kind == "L":        # lisp_data outside a lockstep frame (real time)
+            d = self.p.from_bytes("lisp_data", item[2])
+            self.last_lisp = d
+            rec.write_raw("/planner/data", item[1], self.dumps(d).encode())
         elif kind == "H":        # host bytes outside a lockstep frame (real time)
             self.host_bytes(item[1], item[2])
         elif kind == "M":        # micro bytes: (M, t_ns, bytes)
@@ -372,7 +376,8 @@ class RunLog:
 
     def lisp(self, t_ns, lisp_raw) -> None:
         """A lisp_data read outside a lockstep frame (real-time mode)."""
-        self._items.append(("F", -1, t_ns, 0, 0, 0, b"", lisp_raw))
+        if lisp_raw is not None:
+            self._items.append(("L", t_ns, lisp_raw))
 
     def micro(self, t_ns, data) -> None:
         """Bytes the micro sent in the FMU chunk ending at t_ns."""
