@@ -82,6 +82,13 @@ def test_mcap_topics_schemas_metadata_and_chunks(tmp_path_factory):
             assert schema["type"] == "object" and schema["properties"]
         for ch in summ.channels.values():
             assert ch.message_encoding == "json"
+        # every message fits its channel's schema (a sample of each topic)
+        jsonschema = pytest.importorskip("jsonschema")
+        per_topic = {}
+        for schema, channel, message in reader.iter_messages():
+            if per_topic.get(channel.topic, 0) < 20:
+                per_topic[channel.topic] = per_topic.get(channel.topic, 0) + 1
+                jsonschema.validate(json.loads(message.data), json.loads(schema.data))
         # closed at least every simulated second
         assert len(summ.chunk_indexes) >= 6
         assert all(c.message_end_time - c.message_start_time <= 1_000_000_000
