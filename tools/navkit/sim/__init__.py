@@ -2,8 +2,9 @@
 `navkit-host` on a pseudo-terminal, a scripted planner on rcomm, MCAP logs and a summary.
 
 Modules: `mission` (load and check mission TOML files), `coupler` (ctypes binding of the
-native `navkit_cosim` library), `harness` (one run), `record` (MCAP writer), `cli`
-(`navkit sim`).
+native `navkit_cosim` library), `links` (the pty port, the lockstep channel, line noise),
+`harness` (one run), `record` (the MCAP log and its worker process), `results` (reading a
+run back), `cli` (`navkit sim`). See docs/cosim.md.
 """
 
-__all__ = ["mission", "coupler", "harness", "links", "record", "results", "cli"]
+__all__ = ["mission", "coupler", "links", "harness", "record", "results", "cli"]
