@@ -24,6 +24,10 @@ void fw_init(fw_t *fw, hal_t *hal)
     watchdog_reset(&fw->wd);
     fw->sp_l = 0.0f;
     fw->sp_r = 0.0f;
+    fw->v_fwd = 0.0f;
+    fw->w_turn = 0.0f;
+    fw->duty_l = 0;
+    fw->duty_r = 0;
     for (i = 0u; i < 8u; i++) {
         fw->adc[i] = 0u;
     }
@@ -39,6 +43,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->wd_stop = 0u;
     fw->limited = 0u;
     fw->servo_next = 0u;
+    fw->phase = 0u;
 }
 
 uint32_t fw_tick_period_us(const fw_t *fw)
@@ -102,8 +107,8 @@ void fw_watchdog_stop(fw_t *fw)
     uint8_t i;
     /* the same wheel deceleration for the turn: mm/s^2 at the wheel -> deg/s^2 */
     float turn_decel = fw->cfg.watchdog_decel * fw->cfg.wheel_deg_per_mm;
-    motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt);
-    turn_stop(&fw->turn, turn_decel, fw->cfg.dt);
+    motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt_axis);
+    turn_stop(&fw->turn, turn_decel, fw->cfg.dt_axis);
     for (i = 0u; i < SERVO_COUNT; i++) {
         servo_hold(&fw->servo[i]);
     }
@@ -137,20 +142,21 @@ static void fw_sample(fw_t *fw, int32_t *enc_l, int32_t *enc_r)
     fw->dio.in = (uint16_t)(hal_dio_in(fw->hal) & DIO_MASK);
 }
 
+/* duty (-1..1) -> hal_motor units with the motor sign, rounded half away from zero */
 static int16_t fw_duty_e4(float duty, int8_t sign)
 {
-    float d = duty * (float)sign * FW_DUTY_SCALE;
-    return (int16_t)((d >= 0.0f) ? d + 0.5f : d - 0.5f);
+    float d = duty * FW_DUTY_SCALE;
+    int16_t k = (int16_t)((d >= 0.0f) ? d + 0.5f : d - 0.5f);
+    return (sign < 0) ? (int16_t)-k : k;
 }
 
 void fw_tick(fw_t *fw)
 {
     const config_t *c = &fw->cfg;
     float dt = c->dt;
-    float v_fwd, w_turn, half;
+    float half;
     int32_t raw_l, raw_r;
     uint8_t still, i;
-    int16_t duty_l = 0, duty_r = 0;
 
     fw_sample(fw, &raw_l, &raw_r);
 
@@ -168,25 +174,37 @@ void fw_tick(fw_t *fw)
         fw_watchdog_stop(fw);
     }
 
-    /* motion: forward + turn -> wheel setpoints -> wheel loops */
-    v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM,
-                        CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
-    w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * 0.5f * c->wheel_deg_per_mm,
-                       heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol,
-                       c->turn_vtol, dt);
+    /* motion: forward + turn -> wheel setpoints -> wheel loops. Above 500 Hz the forward
+       axis with the wheel loops and the turn axis run on alternate ticks (dt_axis each). */
+    if (fw->phase == 0u) {
+        fw->v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r),
+                                CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance,
+                                CONFIG_DONE_VTOL_MM_S, c->dt_axis);
+    }
+    if (fw->phase == 1u || c->axis_ticks == 1u) {
+        fw->w_turn = turn_tick(&fw->turn, fw_turn_angle(fw),
+                               (fw->odom.v_l - fw->odom.v_r) * 0.5f * c->wheel_deg_per_mm, heading_deg(&fw->hdg),
+                               c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
+                               c->dt_axis);
+    }
     fw->driven = (uint8_t)(motion_active(&fw->fwd) || turn_active(&fw->turn));
-    if (fw->driven) {
-        half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
-        fw->sp_l = v_fwd + half;
-        fw->sp_r = v_fwd - half;
-        duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, dt), c->motor_left_sign);
-        duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, dt), c->motor_right_sign);
-    } else {
+    if (!fw->driven) {
         fw->sp_l = 0.0f;
         fw->sp_r = 0.0f;
+        fw->duty_l = 0;
+        fw->duty_r = 0;
         wheel_reset(&fw->wheel_l);
         wheel_reset(&fw->wheel_r);
+    } else if (fw->phase == 0u) {
+        half = fw->w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
+        fw->sp_l = fw->v_fwd + half;
+        fw->sp_r = fw->v_fwd - half;
+        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, c->dt_axis),
+                                c->motor_left_sign);
+        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, c->dt_axis),
+                                c->motor_right_sign);
     }
+    fw->phase = (uint8_t)((fw->phase + 1u < c->axis_ticks) ? fw->phase + 1u : 0u);
     fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated ||
                             fw->wheel_r.saturated);
 
@@ -208,7 +226,7 @@ void fw_tick(fw_t *fw)
     }
 
     /* outputs, once each, at the end of the tick */
-    hal_motor(fw->hal, duty_l, duty_r);
+    hal_motor(fw->hal, fw->duty_l, fw->duty_r);
     for (i = 0u; i < SERVO_COUNT; i++) {
         hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i]));
     }

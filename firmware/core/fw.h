@@ -41,6 +41,10 @@ typedef struct fw {
     watchdog_t wd;
     float sp_l;          /* mm/s: left wheel speed setpoint of the last tick */
     float sp_r;          /* mm/s: right wheel speed setpoint */
+    float v_fwd;         /* mm/s: forward reference speed of the last forward-axis step */
+    float w_turn;        /* deg/s: turn reference rate of the last turn-axis step */
+    int16_t duty_l;      /* duty*1e4, motor sign applied: left output, held between loop steps */
+    int16_t duty_r;      /* duty*1e4, motor sign applied: right output */
     uint16_t adc[8];     /* counts: ADC sample of the last tick (0 if disabled) */
     uint16_t sonar[4];   /* us: sonar echoes of the last tick (0 if disabled) */
     uint16_t compass;    /* deg*10: compass of the last tick (0 if disabled) */
@@ -52,6 +56,7 @@ typedef struct fw {
     uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;  /* servo whose pulse width is refreshed next */
+    uint8_t phase;       /* tick within the axis period: 0 = forward axis + wheel loops, 1 = turn axis */
 } fw_t;
 
 /* Power-on reset: unconfigured, spec defaults loaded, all outputs off/safe. */

@@ -53,7 +53,7 @@ static void link_fwd(fw_t *fw, const navkit_micro_cmd_t *c)
         }
         break;
     case NAVKIT_FWD_CMD_STOP:
-        motion_stop(&fw->fwd, accel, cfg->dt);
+        motion_stop(&fw->fwd, accel, cfg->dt_axis);
         break;
     default: /* NAVKIT_FWD_CMD_NONE */
         break;
@@ -77,7 +77,7 @@ static void link_turn(fw_t *fw, const navkit_micro_cmd_t *c)
         }
         break;
     case NAVKIT_TURN_CMD_STOP:
-        turn_stop(&fw->turn, accel, cfg->dt);
+        turn_stop(&fw->turn, accel, cfg->dt_axis);
         break;
     case NAVKIT_TURN_CMD_HDG_SEL:
         turn_hdg_select(&fw->turn, fw->odom.enc_l, fw->odom.enc_r, fw_turn_angle(fw), target, heading_deg(&fw->hdg),

@@ -36,6 +36,24 @@ static void odom_accumulate(int32_t *whole, float *frac, float step)
     *frac = f - (float)k;
 }
 
+/* Sine and cosine of deg (-180..180): one library call for the component nearer zero,
+   the other from sqrt(1 - x^2) (>= 0.707 there, so as exact as the library's). */
+static void odom_sincos(float deg, float *sn, float *c)
+{
+    float a = fabsf(deg);
+    if (a <= 45.0f || a >= 135.0f) {
+        float s1 = sinf(deg * ODOM_DEG_TO_RAD);
+        float c1 = sqrtf(1.0f - s1 * s1);
+        *sn = s1;
+        *c = (a <= 90.0f) ? c1 : -c1;
+    } else {
+        float c1 = cosf(deg * ODOM_DEG_TO_RAD);
+        float s1 = sqrtf(1.0f - c1 * c1);
+        *c = c1;
+        *sn = (deg >= 0.0f) ? s1 : -s1;
+    }
+}
+
 void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
 {
     int32_t dl = 0, dr = 0;
@@ -66,9 +84,11 @@ void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, 
     }
     if (o->xy_n >= g->xy_ticks) {
         /* one X/Y step along the heading at its middle */
-        float h = (o->xy_h0 + 0.5f * heading_wrap180(heading_deg - o->xy_h0)) * ODOM_DEG_TO_RAD;
-        odom_accumulate(&o->x, &o->x_frac, o->xy_ds * cosf(h));
-        odom_accumulate(&o->y, &o->y_frac, -o->xy_ds * sinf(h));
+        float hd = heading_wrap180(o->xy_h0 + 0.5f * heading_wrap180(heading_deg - o->xy_h0));
+        float c, sn;
+        odom_sincos(hd, &sn, &c);
+        odom_accumulate(&o->x, &o->x_frac, o->xy_ds * c);
+        odom_accumulate(&o->y, &o->y_frac, -o->xy_ds * sn);
         o->xy_ds = 0.0f;
         o->xy_n = 0u;
     }
