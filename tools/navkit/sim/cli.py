@@ -1,6 +1,7 @@
 """`navkit sim`: run a mission through the real host, the firmware FMU and the plant FMU.
 
     navkit sim --mission config/missions/demo.toml --out build/sim/demo [--seed N] [--realtime]
+    navkit sim --plant my_robot.fmu ...     # a plant FMU of your own (FMI 3.0 co-simulation)
 
 Writes run.mcap, summary.json, plot.png (and the host's datalogs and host.log) into the
 output folder and prints where they are, the final pose and the speed of the run.
@@ -29,6 +30,9 @@ def add_arguments(parser) -> None:
                         help="host config folder (default: <repo>/config)")
     parser.add_argument("--build", type=Path, default=None,
                         help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+    parser.add_argument("--plant", type=Path, default=None, metavar="FMU",
+                        help="plant FMU to use instead of <build>/fmus/navkit_plant.fmu: FMI 3.0 "
+                        "co-simulation with the variable names of docs/internals.md")
     parser.add_argument("--frame-ms", type=float, default=None,
                         help="host frame period in ms (default: from NavAndControl.ini)")
     parser.add_argument("--no-plot", action="store_true", help="skip plot.png")
@@ -50,7 +54,7 @@ def run(args) -> int:
     build = args.build or build_dir()
     out = args.out or build / "sim" / mission.name
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
-                      config_dir=args.config, build=build,
+                      config_dir=args.config, build=build, plant_fmu=args.plant,
                       frame_s=args.frame_ms / 1000 if args.frame_ms else None,
                       plot=not args.no_plot)
     try:
@@ -60,6 +64,8 @@ def run(args) -> int:
         return 1
     t = s.get("truth") or {}
     print(f"mission   {mission.path}  (seed {args.seed}, {s['mode']})")
+    if args.plant:
+        print(f"plant     {s['plant_fmu']}")
     print(f"outputs   {out}/  run.mcap  summary.json" + ("  plot.png" if opts.plot else ""))
     print(f"final     x {t.get('x_mm', 0):.0f} mm  y {t.get('y_mm', 0):.0f} mm  "
           f"heading {t.get('heading_deg', 0):.1f} deg  v {t.get('v_mm_s', 0):.0f} mm/s")

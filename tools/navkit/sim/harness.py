@@ -50,6 +50,7 @@ class SimOptions:
     realtime: bool = False
     config_dir: Path | None = None     # default: <repo>/config
     build: Path | None = None          # default: navkit.paths.build_dir()
+    plant_fmu: Path | None = None      # default: <build>/fmus/navkit_plant.fmu; see plant.check
     frame_s: float | None = None       # host frame period; default: from the config
     truth_hz: float = 50.0
     plot: bool = True
@@ -102,13 +103,14 @@ def _git_revision() -> str:
 
 # ------------------------------------------------------------------ FMUs
 
-def _set_start(slave, md, name: str, value, where: str) -> None:
-    """Set variable `name` of an FMU before initialisation, converting `value` to its type."""
+def _set_start(slave, md, name: str, value, where: str, fmu: Path) -> None:
+    """Set variable `name` of FMU file `fmu` (model description `md`) before initialisation,
+    converting `value` to its type."""
     var = {v.name: v for v in md.modelVariables}.get(name)
     if var is None:
-        raise MissionError(f"{where}: key {name!r}: the plant FMU has no such variable")
+        raise MissionError(f"{where}: key {name!r}: the plant FMU ({fmu}) has no such variable")
     if var.causality not in ("parameter", "structuralParameter"):
-        raise MissionError(f"{where}: key {name!r}: not a parameter of the plant FMU "
+        raise MissionError(f"{where}: key {name!r}: not a parameter of the plant FMU ({fmu}) "
                            f"(causality {var.causality})")
     vr = [var.valueReference]
     t = var.type
@@ -162,7 +164,8 @@ class _Fmus:
         self.plant.instantiate()
         self.slaves.append(self.plant)
         for name, value in plant_params.items():
-            _set_start(self.plant, self.plant_md, name, value, f"{mission_path}: [plant]")
+            _set_start(self.plant, self.plant_md, name, value, f"{mission_path}: [plant]",
+                       plant_path)
         for s in (self.fw, self.plant):
             s.enterInitializationMode(startTime=0.0)
             s.exitInitializationMode()
@@ -264,6 +267,7 @@ class _Run:
         self.build = _build(opts)
         self.config_dir = Path(opts.config_dir) if opts.config_dir else repo_root() / "config"
         self.out = Path(opts.out)
+        self.plant_fmu = Path(opts.plant_fmu) if opts.plant_fmu else fmu_paths(self.build)[1]
         self.frame_s = opts.frame_s or frame_period(self.config_dir)
         self.steps_per_frame = max(1, round(self.frame_s / STEP_S))
         self.frame_s = self.steps_per_frame * STEP_S
@@ -293,16 +297,25 @@ class _Run:
         from navkit.sim.links import Lockstep, Port
         from navkit.sim.record import RunLog
 
-        fw_fmu, plant_fmu = fmu_paths(self.build)
-        for path, name in ((fw_fmu, "firmware"), (plant_fmu, "plant")):
+        from navkit.sim.plant import PlantFmuError, check
+
+        fw_fmu, plant_fmu = fmu_paths(self.build)[0], self.plant_fmu
+        built = [(fw_fmu, "firmware")]
+        if self.opts.plant_fmu is None:         # a user's plant: check() names a missing file
+            built.append((plant_fmu, "plant"))
+        for path, name in built:
             if not path.exists():
                 raise SimError(f"{path} not found: build the {name} FMU first "
                                f"(cmake --build <build>)")
+        try:
+            plant_md = check(plant_fmu, fw_fmu)     # FMI 3.0 co-simulation, the contract
+        except PlantFmuError as e:
+            raise SimError(str(e)) from None
         plant_params = {"seed": self.opts.seed}
         if self.m.world is not None:
             plant_params["world_file"] = str(self.m.world)
         plant_params.update(self.m.plant)
-        self.fmus = _Fmus(fw_fmu, plant_fmu, self.tmp, self._known_plant(plant_fmu, plant_params),
+        self.fmus = _Fmus(fw_fmu, plant_fmu, self.tmp, self._known_plant(plant_md, plant_params),
                           self.m.path)
         every = max(1, round(1.0 / (self.opts.truth_hz * STEP_S)))
         self.coupler = Coupler(self.fmus.fw, self.fmus.fw_md, self.fmus.plant,
@@ -371,12 +384,10 @@ class _Run:
         except (OSError, AttributeError):
             pass
 
-    def _known_plant(self, plant_fmu: Path, params: dict) -> dict:
-        """Drop harness defaults (seed, world_file) the plant FMU does not have; mission
-        [plant] keys stay and are checked when set."""
-        from fmpy import read_model_description
-
-        names = {v.name for v in read_model_description(str(plant_fmu)).modelVariables}
+    def _known_plant(self, plant_md, params: dict) -> dict:
+        """Drop harness defaults (seed, world_file) the plant FMU (model description
+        `plant_md`) does not have; mission [plant] keys stay and are checked when set."""
+        names = {v.name for v in plant_md.modelVariables}
         return {k: v for k, v in params.items() if k in names or k in self.m.plant}
 
     def _host_died_check(self) -> None:
@@ -645,6 +656,7 @@ class _Run:
         out = {
             "mission": str(self.m.path),
             "seed": self.opts.seed,
+            "plant_fmu": str(self.plant_fmu),
             "mode": "realtime" if self.opts.realtime else "lockstep",
             "sim_time_s": round(self.sim_time_s, 6),
             "wall_time_s": round(wall_s, 3),
@@ -689,7 +701,7 @@ class _Run:
 def run(opts: SimOptions) -> dict:
     """Do one run; write run.mcap, summary.json (and plot.png) into opts.out; return the
     summary. Raises MissionError for a mission that does not fit the FMUs, SimError if a
-    part is missing or fails."""
+    part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant)."""
     # module imports are not part of a run's wall time
     import fmpy.fmi3  # noqa: F401
     import mcap.writer  # noqa: F401

@@ -1,0 +1,97 @@
+"""Checking a plant FMU before a run (`navkit sim --plant FILE`): the native coupler needs
+an FMI 3.0 co-simulation FMU with a binary for this platform and the variable contract of
+docs/internals.md ("Firmware FMU <-> plant FMU").
+
+The contract is read from the firmware FMU itself: every Float64 / Int32 input of the
+firmware must be a plant output of the same name and type, every firmware output a plant
+input. Optional, but checked when present: the truth outputs (Float64 outputs, the
+`/truth` columns) and the parameters `seed` (Int32) and `world_file` (String).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["PlantFmuError", "check", "contract", "FMI2_UNSUPPORTED"]
+
+FMI2_UNSUPPORTED = "FMI 2.0 plant FMUs are not supported by the native coupler"
+
+_LINKED_TYPES = ("Float64", "Int32")
+_OPPOSITE = {"input": "output", "output": "input"}
+# optional variables: name -> (type, causality)
+_OPTIONAL = {"seed": ("Int32", "parameter"), "world_file": ("String", "parameter")}
+
+
+class PlantFmuError(ValueError):
+    """A plant FMU the harness cannot couple; the text names the file and every problem."""
+
+
+def contract(fw_md) -> dict:
+    """{name: (type, causality)} every plant FMU must have, from the firmware FMU's model
+    description `fw_md`: the firmware's Float64 / Int32 inputs and outputs with the
+    plant-side (opposite) causality."""
+    return {v.name: (v.type, _OPPOSITE[v.causality]) for v in fw_md.modelVariables
+            if v.type in _LINKED_TYPES and v.causality in _OPPOSITE}
+
+
+def _read(path: Path, what: str):
+    from fmpy import read_model_description
+
+    if not path.is_file():
+        raise PlantFmuError(f"{path}: no such file ({what})")
+    try:
+        return read_model_description(str(path))
+    except Exception as e:  # noqa: BLE001 - fmpy raises plain Exception for bad FMUs
+        raise PlantFmuError(f"{path}: not a readable FMU: {e}") from None
+
+
+def _binary(path: Path, model_identifier: str) -> str | None:
+    """The FMU's shared library for this platform inside the zip, or None."""
+    import zipfile
+
+    from fmpy import platform_tuple, sharedLibraryExtension
+
+    name = f"binaries/{platform_tuple}/{model_identifier}{sharedLibraryExtension}"
+    with zipfile.ZipFile(path) as z:
+        return name if name in z.namelist() else None
+
+
+def check(plant_fmu: str | Path, fw_fmu: str | Path):
+    """Check the plant FMU file `plant_fmu` against the firmware FMU file `fw_fmu`; return
+    the plant's fmpy model description. Raises PlantFmuError naming `plant_fmu` and, for a
+    variable mismatch, each missing or mistyped variable."""
+    from navkit.sim.coupler import TRUTH_PLANT
+
+    plant_fmu, fw_fmu = Path(plant_fmu), Path(fw_fmu)
+    md = _read(plant_fmu, "the plant FMU")
+    if md.fmiVersion.startswith("2."):
+        raise PlantFmuError(f"{plant_fmu}: {FMI2_UNSUPPORTED} (it calls the fmi3 functions): "
+                            f"export the plant as an FMI 3.0 co-simulation FMU")
+    if not md.fmiVersion.startswith("3."):
+        raise PlantFmuError(f"{plant_fmu}: FMI {md.fmiVersion} is not supported: the native "
+                            f"coupler needs an FMI 3.0 co-simulation FMU")
+    if md.coSimulation is None:
+        raise PlantFmuError(f"{plant_fmu}: not a co-simulation FMU (no <CoSimulation>): the "
+                            f"native coupler needs an FMI 3.0 co-simulation FMU")
+    ident = md.coSimulation.modelIdentifier
+    if _binary(plant_fmu, ident) is None:
+        from fmpy import platform_tuple, sharedLibraryExtension
+
+        raise PlantFmuError(f"{plant_fmu}: no binary for this platform "
+                            f"(binaries/{platform_tuple}/{ident}{sharedLibraryExtension})")
+    have = {v.name: v for v in md.modelVariables}
+    wanted = contract(_read(fw_fmu, "the firmware FMU"))
+    optional = dict(_OPTIONAL, **{n: ("Float64", "output") for n in TRUTH_PLANT})
+    problems = []
+    for name, (typ, caus) in list(wanted.items()) + list(optional.items()):
+        v = have.get(name)
+        if v is None:
+            if name in wanted:
+                problems.append(f"missing {name} ({typ} {caus})")
+        elif (v.type, v.causality) != (typ, caus):
+            problems.append(f"{name} is {v.type} {v.causality}, expected {typ} {caus}")
+    if problems:
+        lines = "\n".join(f"  {p}" for p in problems)
+        raise PlantFmuError(f"{plant_fmu}: does not fit the firmware FMU's variables "
+                            f"(docs/internals.md, \"Firmware FMU <-> plant FMU\"):\n{lines}")
+    return md
