@@ -45,21 +45,14 @@ def _read(path: Path, what: str):
         raise PlantFmuError(f"{path}: not a readable FMU: {e}") from None
 
 
-def _binary(path: Path, model_identifier: str) -> str | None:
-    """The FMU's shared library for this platform inside the zip, or None."""
-    import zipfile
-
-    from fmpy import platform_tuple, sharedLibraryExtension
-
-    name = f"binaries/{platform_tuple}/{model_identifier}{sharedLibraryExtension}"
-    with zipfile.ZipFile(path) as z:
-        return name if name in z.namelist() else None
-
-
 def check(plant_fmu: str | Path, fw_fmu: str | Path):
     """Check the plant FMU file `plant_fmu` against the firmware FMU file `fw_fmu`; return
     the plant's fmpy model description. Raises PlantFmuError naming `plant_fmu` and, for a
     variable mismatch, each missing or mistyped variable."""
+    import zipfile
+
+    from fmpy import platform_tuple, sharedLibraryExtension
+
     from navkit.sim.coupler import TRUTH_PLANT
 
     plant_fmu, fw_fmu = Path(plant_fmu), Path(fw_fmu)
@@ -73,12 +66,11 @@ def check(plant_fmu: str | Path, fw_fmu: str | Path):
     if md.coSimulation is None:
         raise PlantFmuError(f"{plant_fmu}: not a co-simulation FMU (no <CoSimulation>): the "
                             f"native coupler needs an FMI 3.0 co-simulation FMU")
-    ident = md.coSimulation.modelIdentifier
-    if _binary(plant_fmu, ident) is None:
-        from fmpy import platform_tuple, sharedLibraryExtension
-
-        raise PlantFmuError(f"{plant_fmu}: no binary for this platform "
-                            f"(binaries/{platform_tuple}/{ident}{sharedLibraryExtension})")
+    binary = f"binaries/{platform_tuple}/{md.coSimulation.modelIdentifier}" \
+             f"{sharedLibraryExtension}"
+    with zipfile.ZipFile(plant_fmu) as z:
+        if binary not in z.namelist():
+            raise PlantFmuError(f"{plant_fmu}: no binary for this platform ({binary})")
     have = {v.name: v for v in md.modelVariables}
     wanted = contract(_read(fw_fmu, "the firmware FMU"))
     optional = dict(_OPTIONAL, **{n: ("Float64", "output") for n in TRUTH_PLANT})
