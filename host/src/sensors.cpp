@@ -4,7 +4,7 @@
 
 namespace navkit {
 
-static const double kAdcFull = 1023.0;  // 10-bit ADC
+static const double kAdcFull = 1024.0;  // 10-bit ADC: counts = V * 1024 / vref (AVR ADC transfer)
 
 double Battery::value() const
 {

@@ -61,7 +61,7 @@ struct SafetyCfg {
 
 struct BatteryCal {
     int channel = 4;                 // ADC channel
-    double vref = 5.0;               // V at ADC full scale (1023)
+    double vref = 5.0;               // V: ADC reference (counts = V * 1024 / vref)
     double divider = 3.0;            // board divider ratio
     double offset_v = 0.0;           // V added after scaling
 };

@@ -10,7 +10,7 @@ using namespace navkit;
 // ADC counts of a voltage (10 bit, 5 V).
 static uint16_t adc_of(double v)
 {
-    return static_cast<uint16_t>(std::lround(v / 5.0 * 1023.0));
+    return static_cast<uint16_t>(std::lround(v / 5.0 * 1024.0));
 }
 
 TEST(Sensors, BatteryThroughTheDivider)
@@ -21,14 +21,15 @@ TEST(Sensors, BatteryThroughTheDivider)
     BatteryCal c;
     c.offset_v = 0.5;
     Battery b2{c};
-    b2.set(1023);
-    EXPECT_NEAR(b2.value(), 15.5, 1e-9);
+    b2.set(1023);  // full scale: 1023 counts = 5 V * 1023 / 1024 at the pin
+    EXPECT_NEAR(b2.value(), 5.0 * 1023.0 / 1024.0 * 3.0 + 0.5, 1e-9);
 }
 
 TEST(Sensors, Gp2d12CurveInverted)
 {
     const Gp2d12Cal c;
-    for (int d : {100, 200, 400, 800}) {
+    // inside the valid 100..800 mm band: at its very edges one ADC count decides
+    for (int d : {105, 200, 400, 795}) {
         const double v = c.a_v_mm / (d + c.b_mm) + c.c_v;  // the sensor's curve
         Gp2d12 s{c};
         s.set(adc_of(v));
@@ -79,7 +80,7 @@ TEST(Sensors, UpdateUsesTheConfiguredChannels)
     d.sonar_echo[2] = 1166;
     d.servo_pos[7] = -450;
     s.update(d);
-    EXPECT_NEAR(s.battery.value(), 15.0, 1e-9);
+    EXPECT_NEAR(s.battery.value(), 5.0 * 1023.0 / 1024.0 * 3.0, 1e-9);  // full scale of ch 6
     EXPECT_NEAR(s.sonar[2].value(), 200, 1);
     EXPECT_EQ(s.servo[7].value(), -450);
 }
