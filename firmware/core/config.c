@@ -4,7 +4,7 @@
 #define CONFIG_PI 3.14159265f
 #define CONFIG_RAD_TO_DEG 57.29577951f
 #define CONFIG_STILL_S 0.25f /* s: quiet encoders for this long = standing still */
-#define CONFIG_AXIS_RATE_MAX 500u /* Hz: above this the axes and wheel loops run every other tick */
+#define CONFIG_AXIS_RATE_MAX 500u /* Hz: above this the axes, wheel loops and X/Y run every 4th tick */
 
 static uint8_t config_sign_ok(int16_t s)
 {
@@ -57,7 +57,7 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     c->compass_gain = 0.001f * (float)m->compass_weight;
     c->control_rate = m->control_rate;
     c->dt = 1.0f / (float)m->control_rate;
-    c->axis_ticks = (uint8_t)((m->control_rate > CONFIG_AXIS_RATE_MAX) ? 2u : 1u);
+    c->axis_ticks = (uint8_t)((m->control_rate > CONFIG_AXIS_RATE_MAX) ? 4u : 1u);
     c->dt_axis = c->dt * (float)c->axis_ticks;
     c->tick_us = (uint32_t)((1000000ul + m->control_rate / 2u) / m->control_rate);
     c->tick_ms = (uint16_t)(c->tick_us / 1000u);

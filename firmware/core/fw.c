@@ -4,6 +4,11 @@
 #include <math.h>
 
 #define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
+/* the ticks of one axis period above 500 Hz (config_t.axis_ticks) */
+#define FW_PHASE_FWD 0u
+#define FW_PHASE_TURN 1u
+#define FW_PHASE_WHEELS 2u
+#define FW_PHASE_XY 3u
 
 void fw_init(fw_t *fw, hal_t *hal)
 {
@@ -156,12 +161,12 @@ void fw_tick(fw_t *fw)
     float dt = c->dt;
     float half;
     int32_t raw_l, raw_r;
-    uint8_t still, i;
+    uint8_t still, i, all;
 
     fw_sample(fw, &raw_l, &raw_r);
 
     /* estimation */
-    odom_update(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
+    odom_count(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
     still = (uint8_t)(!fw->driven && fw->odom.still_ticks > 0u &&
                       (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks));
     heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
@@ -174,14 +179,16 @@ void fw_tick(fw_t *fw)
         fw_watchdog_stop(fw);
     }
 
-    /* motion: forward + turn -> wheel setpoints -> wheel loops. Above 500 Hz the forward
-       axis with the wheel loops and the turn axis run on alternate ticks (dt_axis each). */
-    if (fw->phase == 0u) {
+    /* motion: forward + turn -> wheel setpoints -> wheel loops. Above 500 Hz the work is
+       spread over FW_PHASES ticks: forward axis, turn axis, wheel loops, X/Y step, one per
+       tick (dt_axis each); else all of it runs every tick. */
+    all = (uint8_t)(c->axis_ticks == 1u);
+    if (all || fw->phase == FW_PHASE_FWD) {
         fw->v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r),
                                 CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance,
                                 CONFIG_DONE_VTOL_MM_S, c->dt_axis);
     }
-    if (fw->phase == 1u || c->axis_ticks == 1u) {
+    if (all || fw->phase == FW_PHASE_TURN) {
         fw->w_turn = turn_tick(&fw->turn, fw_turn_angle(fw),
                                (fw->odom.v_l - fw->odom.v_r) * 0.5f * c->wheel_deg_per_mm, heading_deg(&fw->hdg),
                                c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
@@ -195,7 +202,7 @@ void fw_tick(fw_t *fw)
         fw->duty_r = 0;
         wheel_reset(&fw->wheel_l);
         wheel_reset(&fw->wheel_r);
-    } else if (fw->phase == 0u) {
+    } else if (all || fw->phase == FW_PHASE_WHEELS) {
         half = fw->w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
         fw->sp_l = fw->v_fwd + half;
         fw->sp_r = fw->v_fwd - half;
@@ -203,6 +210,9 @@ void fw_tick(fw_t *fw)
                                 c->motor_left_sign);
         fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, c->dt_axis),
                                 c->motor_right_sign);
+    }
+    if ((all || fw->phase == FW_PHASE_XY) && odom_xy_due(&fw->odom, &c->odom)) {
+        odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
     fw->phase = (uint8_t)((fw->phase + 1u < c->axis_ticks) ? fw->phase + 1u : 0u);
     fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated ||

@@ -9,6 +9,7 @@ void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r)
     m->ref_l = enc_l;
     m->ref_r = enc_r;
     m->target = 0.0f;
+    m->meas = 0.0f;
     m->started = 0u;
     m->latched = 0u;
     m->done = 0u;
@@ -22,6 +23,7 @@ void motion_start(motion_t *m, int32_t enc_l, int32_t enc_r, float meas, float t
     m->ref_l = enc_l;
     m->ref_r = enc_r;
     m->target = target;
+    m->meas = 0.0f; /* the robot is at the new reference */
     m->prof.togo = 0.0f;
     profile_retarget(&m->prof, target - lead, vmax, amax);
     m->started = 1u;
@@ -49,10 +51,9 @@ void motion_stop(motion_t *m, float amax, float dt)
     if (!m->started) {
         return;
     }
-    /* the new target is where the reference comes to rest */
-    m->target -= m->prof.togo;
+    /* the new target is where the reference comes to rest, counted from the robot */
     profile_stop(&m->prof, amax, dt);
-    m->target += m->prof.togo;
+    m->target = m->meas + m->prof.togo;
     m->done = 0u;
 }
 
@@ -69,6 +70,7 @@ float motion_tick(motion_t *m, float meas, float vel_meas, float window, float v
         m->limited = 0u;
         return 0.0f;
     }
+    m->meas = meas;
     m->limited = profile_track(&m->prof, m->target - meas, vel_meas, window, vwindow);
     if (!m->prof.moving && fabsf(m->target - meas) > tol && fabsf(vel_meas) <= vtol) {
         /* the reference is on the target but the robot came to rest short of it (or

@@ -30,6 +30,7 @@ typedef struct {
     int32_t ref_l;    /* counts: left encoder at the reference (cmd 1) */
     int32_t ref_r;    /* counts: right encoder at the reference */
     float target;     /* u: target measured from the reference */
+    float meas;       /* u: measured position from the reference, as of the last tick */
     uint8_t started;  /* a start since reset */
     uint8_t latched;  /* stop latch */
     uint8_t done;     /* at rest within tolerance of the target */
@@ -44,7 +45,9 @@ void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r);
 void motion_start(motion_t *m, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax);
 /* Modify (cmd 3): new target (u from the original reference), vmax (u/s), amax (u/s^2). */
 motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax);
-/* Stop (cmd 5, or the watchdog): decelerate at amax (u/s^2, > 0) with tick dt (s); latch. */
+/* Stop (cmd 5, or the watchdog): decelerate at amax (u/s^2, > 0) with tick dt (s); latch.
+ * The stop is planned from the last measured position (exact even when a far target has
+ * made target - togo coarse in single precision). */
 void motion_stop(motion_t *m, float amax, float dt);
 /* 1 while the axis wants the wheels driven (moving, or not yet settled on its target). */
 uint8_t motion_active(const motion_t *m);

@@ -3,8 +3,6 @@
 
 #include <math.h>
 
-#include "heading.h"
-
 #define ODOM_DEG_TO_RAD 0.01745329252f
 
 void odom_reset(odom_t *o)
@@ -36,6 +34,28 @@ static void odom_accumulate(int32_t *whole, float *frac, float step)
     *frac = f - (float)k;
 }
 
+/* Wheel-speed low-pass (mm/s) after d counts this tick; quiet ticks only decay. */
+static float odom_lowpass(float v, int32_t d, const odom_geom_t *g)
+{
+    if (d == 0) {
+        return v - v * g->speed_alpha;
+    }
+    return v + ((float)d * g->speed_per_count - v) * g->speed_alpha;
+}
+
+/* deg (-540..540, as between two headings of 0..360 and their midpoint) wrapped into
+   -180..180 by whole turns, without the floor of heading_wrap180(). */
+static float odom_wrap180(float deg)
+{
+    if (deg >= 180.0f) {
+        return deg - 360.0f;
+    }
+    if (deg < -180.0f) {
+        return deg + 360.0f;
+    }
+    return deg;
+}
+
 /* Sine and cosine of deg (-180..180): one library call for the component nearer zero,
    the other from sqrt(1 - x^2) (>= 0.707 there, so as exact as the library's). */
 static void odom_sincos(float deg, float *sn, float *c)
@@ -54,7 +74,7 @@ static void odom_sincos(float deg, float *sn, float *c)
     }
 }
 
-void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
+void odom_count(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
 {
     int32_t dl = 0, dr = 0;
     if (o->primed) {
@@ -66,8 +86,8 @@ void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, 
     o->primed = 1u;
     o->enc_l = (int32_t)((uint32_t)o->enc_l + (uint32_t)dl);
     o->enc_r = (int32_t)((uint32_t)o->enc_r + (uint32_t)dr);
-    o->v_l += ((float)dl * g->speed_per_count - o->v_l) * g->speed_alpha;
-    o->v_r += ((float)dr * g->speed_per_count - o->v_r) * g->speed_alpha;
+    o->v_l = odom_lowpass(o->v_l, dl, g);
+    o->v_r = odom_lowpass(o->v_r, dr, g);
     if (dl == 0 && dr == 0) {
         if (o->still_ticks < 0xFFFFu) {
             o->still_ticks++;
@@ -77,20 +97,35 @@ void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, 
         if (o->xy_n == 0u) {
             o->xy_h0 = heading_deg;
         }
-        o->xy_ds += 0.5f * (float)(dl + dr) * g->mm_per_count;
+        o->xy_sum += dl + dr;
     }
-    if (o->xy_n > 0u || dl != 0 || dr != 0) {
+    if ((o->xy_n > 0u || dl != 0 || dr != 0) && o->xy_n < 0xFFu) {
         o->xy_n++;
     }
-    if (o->xy_n >= g->xy_ticks) {
-        /* one X/Y step along the heading at its middle */
-        float hd = heading_wrap180(o->xy_h0 + 0.5f * heading_wrap180(heading_deg - o->xy_h0));
-        float c, sn;
-        odom_sincos(hd, &sn, &c);
-        odom_accumulate(&o->x, &o->x_frac, o->xy_ds * c);
-        odom_accumulate(&o->y, &o->y_frac, -o->xy_ds * sn);
-        o->xy_ds = 0.0f;
-        o->xy_n = 0u;
+}
+
+uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g)
+{
+    return (uint8_t)(o->xy_n >= g->xy_ticks);
+}
+
+void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg)
+{
+    /* one X/Y step along the heading at its middle */
+    float ds = (float)o->xy_sum * (0.5f * g->mm_per_count); /* mm */
+    float c, sn;
+    odom_sincos(odom_wrap180(o->xy_h0 + 0.5f * odom_wrap180(heading_deg - o->xy_h0)), &sn, &c);
+    odom_accumulate(&o->x, &o->x_frac, ds * c);
+    odom_accumulate(&o->y, &o->y_frac, -ds * sn);
+    o->xy_sum = 0;
+    o->xy_n = 0u;
+}
+
+void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
+{
+    odom_count(o, g, raw_l, raw_r, heading_deg);
+    if (odom_xy_due(o, g)) {
+        odom_xy_step(o, g, heading_deg);
     }
 }
 
@@ -114,7 +149,7 @@ void odom_set_xy(odom_t *o, int32_t x, int32_t y)
     o->y = y;
     o->x_frac = 0.0f;
     o->y_frac = 0.0f;
-    o->xy_ds = 0.0f;
+    o->xy_sum = 0;
     o->xy_h0 = 0.0f;
     o->xy_n = 0u;
 }

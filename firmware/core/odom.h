@@ -32,7 +32,7 @@ typedef struct {
     int32_t y;       /* mm: Y, whole part */
     float x_frac;    /* mm: X residual, -0.5..0.5 */
     float y_frac;    /* mm: Y residual, -0.5..0.5 */
-    float xy_ds;     /* mm: path of the X/Y step in progress */
+    int32_t xy_sum;  /* counts: left + right counts of the X/Y step in progress */
     float xy_h0;     /* deg: heading at its start */
     uint16_t still_ticks; /* ticks since an encoder last changed (capped) */
     uint8_t xy_n;    /* ticks in the X/Y step in progress (0 = none) */
@@ -44,8 +44,15 @@ typedef struct {
 
 /* Counts and X/Y zero, not primed (the first update only takes the raw readings). */
 void odom_reset(odom_t *o);
-/* One tick: raw_l/raw_r (counts, raw sign), heading_deg (deg, clockwise) for X/Y. */
+/* One tick: raw_l/raw_r (counts, raw sign), heading_deg (deg, clockwise, 0..360) for X/Y. */
 void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
+/* The counting half of odom_update(): counts, wheel speeds, standstill, the X/Y step in
+ * progress; raw_l/raw_r (counts, raw sign), heading_deg (deg, clockwise, 0..360). */
+void odom_count(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
+/* 1 when the X/Y step in progress has xy_ticks ticks or more (it may wait a few ticks). */
+uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g);
+/* The X/Y half: finish the step in progress at heading_deg (deg, clockwise, 0..360). */
+void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg);
 /* Counts moved since the reference count ref (counts), wrap-safe. */
 int32_t odom_counts_since(int32_t now, int32_t ref);
 /* Distance (mm) moved since the reference counts ref_l/ref_r: mean of the wheels. */
