@@ -19,7 +19,7 @@
 #define NP_MODEL_NAME "navkit_plant"
 #define NP_MODEL_DESCRIPTION "navkit reference robot: differential drive, DC motors, encoders, gyro, compass, battery, RC servos, DIO loopback, GP2D12 IR and SRF04 sonar in a 2D world"
 /* Change the token whenever the table changes (the importer checks it). */
-#define NP_INSTANTIATION_TOKEN "{6f1c2a54-7a43-4d1e-9b1e-navkit-plant-v1}"
+#define NP_INSTANTIATION_TOKEN "{6f1c2a54-7a43-4d1e-9b1e-navkit-plant-v2}"
 
 #define NP_STR_MAX 4096          /* bytes, longest String value incl. the terminator */
 #define NP_MAX_SUBSTEP_S 0.001   /* s, internal integration step bound */
@@ -94,7 +94,7 @@ F64(battery_r_ohm, PARAMETER, 0.1, "Ohm", "Battery internal resistance (sag unde
 F64(battery_idle_a, PARAMETER, 0.5, "A", "Current drawn by the electronics besides the motors") \
 F64(gyro_lsb_per_dps, PARAMETER, 131.0, "1/(deg/s)", "Gyro sensitivity, LSB per deg/s") \
 F64(gyro_bias_dps, PARAMETER, 0.5, "deg/s", "Gyro bias at the start") \
-F64(gyro_bias_walk_dps_rt_s, PARAMETER, 0.002, "", "Gyro bias random walk, deg/s per square root of s") \
+F64(gyro_bias_walk_dps_rt_s, PARAMETER, 0.002, "deg/s/sqrt(s)", "Gyro bias random walk: deg/s per square root of s") \
 F64(gyro_noise_dps, PARAMETER, 0.05, "deg/s", "Gyro white noise, RMS per sample") \
 F64(compass_start_deg, PARAMETER, 0.0, "deg", "Compass bearing of the start heading, clockwise from north") \
 F64(compass_noise_deg, PARAMETER, 1.0, "deg", "Compass noise, RMS per sample") \
@@ -103,7 +103,7 @@ F64(servo_us_per_deg, PARAMETER, 10.0, "us/deg", "Servo pulse width change per d
 F64(servo_rate_dps, PARAMETER, 300.0, "deg/s", "Servo travel rate limit") \
 F64(servo_travel_deg, PARAMETER, 90.0, "deg", "Servo mechanical travel either side of 0") \
 I32(dio_input_pattern, PARAMETER, 0, "", "bitmask: levels external circuits drive on the input pins") \
-F64(ir_a_v_mm, PARAMETER, 331.4, "", "GP2D12 curve V = a/(d + b) + c above ir_peak_mm: a in V*mm") \
+F64(ir_a_v_mm, PARAMETER, 331.4, "V.mm", "GP2D12 curve V = a/(d + b) + c above ir_peak_mm: a") \
 F64(ir_b_mm, PARAMETER, 40.0, "mm", "GP2D12 curve offset b") \
 F64(ir_c_v, PARAMETER, 0.015, "V", "GP2D12 curve offset c") \
 F64(ir_peak_mm, PARAMETER, 80.0, "mm", "GP2D12 output peaks here and falls linearly to 0 V at contact") \
