@@ -29,7 +29,7 @@ typedef enum {
 
 typedef struct {
     /* geometry */
-    odom_geom_t odom;         /* encoder geometry for odom_update() */
+    odom_geom_t odom;         /* encoder geometry for odom_count() / odom_xy_step() */
     float mm_per_count;       /* mm per encoder count */
     float wheel_deg_per_mm;   /* deg of turn per mm one wheel runs ahead of the centre */
     float wheel_mm_per_deg;   /* its inverse, mm per deg */

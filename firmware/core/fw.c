@@ -4,6 +4,8 @@
 #include <math.h>
 
 #define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
+/* mm/s: wheel setpoints below this (both together) count as "commanded to stand" */
+#define FW_STILL_SP_MM_S 0.5f
 /* the ticks of one axis period above 500 Hz (config_t.axis_ticks) */
 #define FW_PHASE_FWD 0u
 #define FW_PHASE_TURN 1u
@@ -33,7 +35,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->w_turn = 0.0f;
     fw->duty_l = 0;
     fw->duty_r = 0;
-    for (i = 0u; i < 8u; i++) {
+    for (i = 0u; i < FW_ADC_CHANNELS; i++) {
         fw->adc[i] = 0u;
     }
     for (i = 0u; i < 4u; i++) {
@@ -44,7 +46,6 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->watchdog_stops = 0u;
     fw->ms = 0u;
     fw->us_frac = 0u;
-    fw->driven = 0u;
     fw->wd_stop = 0u;
     fw->limited = 0u;
     fw->servo_next = 0u;
@@ -133,11 +134,10 @@ static void fw_sample(fw_t *fw, int32_t *enc_l, int32_t *enc_r)
     fw->gyro_raw = hal_gyro_raw(fw->hal);
     compass = hal_compass(fw->hal);
     fw->compass = (en & NAVKIT_SENSOR_ENABLE_COMPASS) ? compass : 0u;
-    for (i = 0u; i < 8u; i++) {
+    for (i = 0u; i < FW_ADC_CHANNELS; i++) {
         uint16_t v = hal_adc(fw->hal, i);
-        /* ch0-3 IR (enable bits 0-3), ch4 battery, ch5-7 spare (always sampled) */
-        uint8_t on = (i < 4u) ? (uint8_t)((en >> i) & 1u)
-                              : (i == 4u) ? (uint8_t)((en & NAVKIT_SENSOR_ENABLE_BATTERY) != 0u) : 1u;
+        /* ch0-3 IR (enable bits 0-3), ch4 battery */
+        uint8_t on = (i < 4u) ? (uint8_t)((en >> i) & 1u) : (uint8_t)((en & NAVKIT_SENSOR_ENABLE_BATTERY) != 0u);
         fw->adc[i] = on ? v : 0u;
     }
     for (i = 0u; i < 4u; i++) {
@@ -161,13 +161,15 @@ void fw_tick(fw_t *fw)
     float dt = c->dt;
     float half;
     int32_t raw_l, raw_r;
-    uint8_t still, i, all;
+    uint8_t still, i, all, driven;
 
     fw_sample(fw, &raw_l, &raw_r);
 
     /* estimation */
     odom_count(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
-    still = (uint8_t)(!fw->driven && fw->odom.still_ticks > 0u &&
+    /* standing still: judged from the wheels (encoders quiet, setpoints ~0), not from
+       whether a mode is active, so a held HdgSel or a finished move keeps the bias fresh */
+    still = (uint8_t)(fabsf(fw->sp_l) + fabsf(fw->sp_r) < FW_STILL_SP_MM_S && fw->odom.still_ticks > 0u &&
                       (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks));
     heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
     if ((c->sensor_enable & NAVKIT_SENSOR_ENABLE_COMPASS) && c->compass_gain > 0.0f && !fw->hdg.calibrating) {
@@ -194,8 +196,8 @@ void fw_tick(fw_t *fw)
                                c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
                                c->dt_axis);
     }
-    fw->driven = (uint8_t)(motion_active(&fw->fwd) || turn_active(&fw->turn));
-    if (!fw->driven) {
+    driven = (uint8_t)(motion_active(&fw->fwd) || turn_active(&fw->turn));
+    if (!driven) {
         fw->sp_l = 0.0f;
         fw->sp_r = 0.0f;
         fw->duty_l = 0;

@@ -25,6 +25,9 @@
 #include "wheel.h"
 
 #define FW_VERSION 0x0100u /* major*256 + minor, reported in micro_data.fw_version */
+/* ADC channels the board has: ch0-3 IR rangers, ch4 battery. micro_data.adc[5..7] (spare
+   in the spec) report 0. */
+#define FW_ADC_CHANNELS 5u
 
 typedef struct fw {
     hal_t *hal;          /* the target's wires */
@@ -45,14 +48,13 @@ typedef struct fw {
     float w_turn;        /* deg/s: turn reference rate of the last turn-axis step */
     int16_t duty_l;      /* duty*1e4, motor sign applied: left output, held between loop steps */
     int16_t duty_r;      /* duty*1e4, motor sign applied: right output */
-    uint16_t adc[8];     /* counts: ADC sample of the last tick (0 if disabled) */
+    uint16_t adc[FW_ADC_CHANNELS]; /* counts: ADC sample of the last tick (0 if disabled) */
     uint16_t sonar[4];   /* us: sonar echoes of the last tick (0 if disabled) */
     uint16_t compass;    /* deg*10: compass of the last tick (0 if disabled) */
     int16_t gyro_raw;    /* LSB: gyro of the last tick */
     uint16_t watchdog_stops; /* watchdog stops since reset */
     uint32_t ms;         /* ms: uptime */
     uint16_t us_frac;    /* us: uptime below one ms */
-    uint8_t driven;      /* 1 if the wheel loops drove the motors on the last tick */
     uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;  /* servo whose pulse width is refreshed next */

@@ -37,7 +37,8 @@ int32_t hal_enc_right(hal_t *hal);
 int16_t hal_gyro_raw(hal_t *hal);
 /* Compass bearing, deg*10, 0..3599, clockwise from north. */
 uint16_t hal_compass(hal_t *hal);
-/* ADC channel ch (0..7), counts 0..1023 (10 bit, 5.0 V reference). */
+/* ADC channel ch (0..FW_ADC_CHANNELS-1 = 0..4: IR 0-3, battery), counts 0..1023 (10 bit,
+ * 5.0 V reference). The firmware reads no other channel. */
 uint16_t hal_adc(hal_t *hal, uint8_t ch);
 /* SRF04 sonar i (0..3): last echo pulse width, us; 0 = no echo. */
 uint16_t hal_sonar_echo(hal_t *hal, uint8_t i);

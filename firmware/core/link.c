@@ -16,6 +16,7 @@ void link_reset(link_t *l)
     l->last_reject = 0u;
     l->mc_datalog = NAVKIT_MC_DATALOG_NONE;
     l->have_tag = 0u;
+    l->tag_pending = 0u;
 }
 
 static void link_reject(link_t *l, uint16_t code)
@@ -37,6 +38,21 @@ static float link_limit(float word_abs, float dflt, float max)
     return (v > max) ? max : v;
 }
 
+/* A modify (code 3) that found nothing to modify is refused; one after a stop latch is
+   ignored without counting (the latch shows in micro_data.status). */
+static void link_modify_result(link_t *l, motion_result_t r, uint16_t code)
+{
+    switch (r) {
+    case MOTION_NOT_STARTED:
+        link_reject(l, code);
+        break;
+    case MOTION_LATCHED: /* ignored: fwd/turn_stop_latched says why */
+    case MOTION_OK:
+    default:
+        break;
+    }
+}
+
 static void link_fwd(fw_t *fw, const navkit_micro_cmd_t *c)
 {
     const config_t *cfg = &fw->cfg;
@@ -48,9 +64,7 @@ static void link_fwd(fw_t *fw, const navkit_micro_cmd_t *c)
         fw->wd_stop = 0u;
         break;
     case NAVKIT_FWD_CMD_MODIFY:
-        if (motion_modify(&fw->fwd, (float)c->distance, speed, accel) == MOTION_NOT_STARTED) {
-            link_reject(&fw->link, c->fwd_cmd);
-        }
+        link_modify_result(&fw->link, motion_modify(&fw->fwd, (float)c->distance, speed, accel), c->fwd_cmd);
         break;
     case NAVKIT_FWD_CMD_STOP:
         motion_stop(&fw->fwd, accel, cfg->dt_axis);
@@ -72,9 +86,7 @@ static void link_turn(fw_t *fw, const navkit_micro_cmd_t *c)
         fw->wd_stop = 0u;
         break;
     case NAVKIT_TURN_CMD_MODIFY:
-        if (turn_modify(&fw->turn, target, rate, accel) == MOTION_NOT_STARTED) {
-            link_reject(&fw->link, c->turn_cmd);
-        }
+        link_modify_result(&fw->link, turn_modify(&fw->turn, target, rate, accel), c->turn_cmd);
         break;
     case NAVKIT_TURN_CMD_STOP:
         turn_stop(&fw->turn, accel, cfg->dt_axis);
@@ -102,7 +114,26 @@ static uint8_t link_turn_code_ok(uint16_t code)
                      code == NAVKIT_TURN_CMD_HDG_SEL);
 }
 
-static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
+/* Reject code for a micro_cmd whose content is refused, or 0 if it may run. */
+static uint16_t link_cmd_check(const navkit_micro_cmd_t *c)
+{
+    if (!link_fwd_code_ok(c->fwd_cmd)) {
+        return c->fwd_cmd;
+    }
+    if (!link_turn_code_ok(c->turn_cmd)) {
+        return c->turn_cmd;
+    }
+    if (c->turn_cmd == NAVKIT_TURN_CMD_HDG_SEL && (c->turn_distance < -3600 || c->turn_distance > 3600)) {
+        return c->turn_cmd; /* HdgSel takes a heading of -360..360 deg */
+    }
+    if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK) {
+        return (uint16_t)(LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD);
+    }
+    return 0u;
+}
+
+/* Execute a checked micro_cmd on a configured micro. */
+static void link_cmd_run(fw_t *fw, const navkit_micro_cmd_t *c)
 {
     link_t *l = &fw->link;
     uint8_t i;
@@ -114,32 +145,6 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
         {c->rc6_param0, c->rc6_param1, c->rc6_param2}, {c->rc7_param0, c->rc7_param1, c->rc7_param2},
     };
 
-    if (l->have_tag && c->time_tag == l->last_tag) {
-        return; /* a repeat: already handled */
-    }
-    l->have_tag = 1u;
-    l->last_tag = c->time_tag;
-
-    if (!link_fwd_code_ok(c->fwd_cmd)) {
-        link_reject(l, c->fwd_cmd);
-        return;
-    }
-    if (!link_turn_code_ok(c->turn_cmd)) {
-        link_reject(l, c->turn_cmd);
-        return;
-    }
-    if (c->turn_cmd == NAVKIT_TURN_CMD_HDG_SEL && (c->turn_distance < -3600 || c->turn_distance > 3600)) {
-        link_reject(l, c->turn_cmd); /* HdgSel takes a heading of -360..360 deg */
-        return;
-    }
-    if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK) {
-        link_reject(l, (uint16_t)(LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD));
-        return;
-    }
-    if (!config_complete(&fw->cfg)) {
-        link_reject(l, (c->fwd_cmd != NAVKIT_FWD_CMD_NONE) ? c->fwd_cmd : c->turn_cmd);
-        return;
-    }
 
     l->ack_tag = c->time_tag;
     if (c->dg_control & NAVKIT_DG_CONTROL_SET_HEADING) {
@@ -152,9 +157,42 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
     link_turn(fw, c);
     dio_command(&fw->dio, c->dio_command);
     for (i = 0u; i < SERVO_COUNT; i++) {
-        (void)servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[i][0], rc[i][1], rc[i][2], fw->cfg.control_rate);
+        servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[i][0], rc[i][1], rc[i][2], fw->cfg.control_rate);
     }
     l->mc_datalog = c->mc_datalog_cmd;
+}
+
+/* One decoded micro_cmd: the time-tag rules (docs/firmware.md "Time tags"), then run,
+   refuse, or keep pending. */
+static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
+{
+    link_t *l = &fw->link;
+    uint16_t code;
+    uint8_t first = (uint8_t)!l->have_tag;
+    if (!first && c->time_tag == l->last_tag) {
+        /* a repeat: handled already, unless it waited only for the configs */
+        if (l->tag_pending && config_complete(&fw->cfg)) {
+            l->tag_pending = 0u;
+            link_cmd_run(fw, c);
+        }
+        return;
+    }
+    l->have_tag = 1u;
+    l->last_tag = c->time_tag;
+    l->tag_pending = 0u;
+    code = link_cmd_check(c);
+    if (code == 0u && !config_complete(&fw->cfg)) {
+        code = (c->fwd_cmd != NAVKIT_FWD_CMD_NONE) ? c->fwd_cmd : c->turn_cmd;
+        /* refused only for want of the configs: its repeat runs once they are in, except
+           the first command after a reset, which may be the host repeating what the micro
+           ran before it reset (a stale command must never move the robot) */
+        l->tag_pending = (uint8_t)!first;
+    }
+    if (code != 0u) {
+        link_reject(l, code);
+        return;
+    }
+    link_cmd_run(fw, c);
 }
 
 /* Count a refused config. */
@@ -307,8 +345,10 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     d->yaw_rate = link_clamp16(fw->hdg.rate * 10.0f);
     d->x = fw->odom.x;
     d->y = fw->odom.y;
-    for (i = 0u; i < 8u; i++) {
-        d->adc[i] = fw->adc[i];
+    for (i = 0u; i < FW_ADC_CHANNELS; i++) {
+        d->adc[i] = fw->adc[i]; /* the spare ch5-7 stay 0 (defaults) */
+    }
+    for (i = 0u; i < SERVO_COUNT; i++) {
         d->servo_pos[i] = servo_pos10(&fw->servo[i]);
     }
     d->gyro_raw = fw->gyro_raw;

@@ -2,10 +2,13 @@
  *
  * Bytes from hal_uart_read() go through the generated frame parser. Per valid frame:
  *   - micro_cmd: feeds the watchdog; a new time tag is handled once (executed, or
- *     refused and counted), a repeated one is not re-executed;
+ *     refused and counted), a repeated one is not re-executed; one refused only because
+ *     the micro is unconfigured runs when repeated after the configs, unless it was the
+ *     first micro_cmd since reset (maybe a stale repeat of what ran before the reset);
  *   - micro_cfg_*: feeds the watchdog; applied, or refused (wrong spec_hash: counted in
  *     rx_schema_mismatch; out of range: counted in cmd_rejected);
- *   - then one micro_data goes back (if the TX FIFO has room for the whole frame).
+ *   - then one micro_data goes back (if the TX FIFO has room for the whole frame): there
+ *     is no other request mechanism, a received frame is the request for telemetry.
  * A micro_cmd is executed whole or not at all: it is refused (cmd_rejected + 1,
  * last_reject = the code) for an unknown or unimplemented fwd_cmd or turn_cmd, for a
  * HdgSel heading outside -3600..3600 (last_reject = 10), for a field out of its spec
@@ -36,6 +39,7 @@ typedef struct {
     uint16_t last_reject;    /* code of the last refused command */
     uint16_t mc_datalog;     /* NAVKIT_MC_DATALOG_* selection */
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
+    uint8_t tag_pending;     /* last_tag was refused only for want of the configs: its repeat runs */
 } link_t;
 
 /* Empty parser, zero counters, no time tag seen. */

@@ -19,13 +19,14 @@ void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r)
 void motion_start(motion_t *m, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax)
 {
     /* u: reference position minus measured position, in the old reference's frame */
-    float lead = m->prof.moving ? (m->target - m->prof.togo) - meas : 0.0f;
+    float lead = m->prof.moving ? profile_ref_pos(&m->prof, m->target) - meas : 0.0f;
     m->ref_l = enc_l;
     m->ref_r = enc_r;
     m->target = target;
     m->meas = 0.0f; /* the robot is at the new reference */
-    m->prof.togo = 0.0f;
-    profile_retarget(&m->prof, target - lead, vmax, amax);
+    profile_set_togo(&m->prof, target, lead);
+    m->prof.vmax = vmax;
+    m->prof.amax = amax;
     m->started = 1u;
     m->latched = 0u;
     m->done = 0u;
@@ -39,7 +40,11 @@ motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax)
     if (m->latched) {
         return MOTION_LATCHED;
     }
-    profile_retarget(&m->prof, target - m->target, vmax, amax);
+    /* from the reference's position, not by adding target - m->target: near a far target
+       ("forever") that difference is coarse in single precision */
+    profile_set_togo(&m->prof, target, profile_ref_pos(&m->prof, m->target));
+    m->prof.vmax = vmax;
+    m->prof.amax = amax;
     m->target = target;
     m->done = 0u;
     return MOTION_OK;
@@ -47,13 +52,16 @@ motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax)
 
 void motion_stop(motion_t *m, float amax, float dt)
 {
+    float ref; /* u: the reference's position */
     m->latched = 1u;
     if (!m->started) {
         return;
     }
-    /* the new target is where the reference comes to rest, counted from the robot */
+    /* the new target is where the reference comes to rest, counted from its position
+       (exact also after a far target) */
+    ref = profile_ref_pos(&m->prof, m->target);
     profile_stop(&m->prof, amax, dt);
-    m->target = m->meas + m->prof.togo;
+    m->target = ref + m->prof.togo;
     m->done = 0u;
 }
 
@@ -65,19 +73,28 @@ uint8_t motion_active(const motion_t *m)
 float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol,
                   float dt)
 {
-    float vel;
+    float vel, lead; /* u/s: reference velocity; u: reference - measured position */
     if (!motion_active(m)) {
         m->limited = 0u;
         return 0.0f;
     }
     m->meas = meas;
-    m->limited = profile_track(&m->prof, m->target - meas, vel_meas, window, vwindow);
+    lead = profile_ref_pos(&m->prof, m->target) - meas;
+    if (m->latched && lead * m->prof.vel <= 0.0f) {
+        /* stopping, and the robot is ahead of the reference: no pull forward, which
+           would leave the reference too little room to stop and make it turn back */
+        lead = 0.0f;
+    }
+    m->limited = profile_track(&m->prof, lead, vel_meas, window, vwindow);
     if (!m->prof.moving && fabsf(m->target - meas) > tol && fabsf(vel_meas) <= vtol) {
-        /* the reference is on the target but the robot came to rest short of it (or
-           beyond): plan a new short move from where the robot is */
-        m->prof.togo = m->target - meas;
-        m->prof.togo_c = 0.0f;
-        m->prof.moving = 1u;
+        if (m->latched) {
+            /* a stop ends where the robot came to rest: never back to the stop point */
+            m->target = meas;
+        } else {
+            /* the reference is on the target but the robot came to rest short of it (or
+               beyond): plan a new short move from where the robot is */
+            profile_set_togo(&m->prof, m->target, meas);
+        }
     }
     vel = profile_step(&m->prof, dt);
     if (!m->prof.moving && fabsf(m->target - meas) <= tol && fabsf(vel_meas) <= vtol) {

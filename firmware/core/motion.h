@@ -7,7 +7,8 @@
  *   modify (cmd 3) : new limits and/or target, same reference; speeds up, slows down,
  *                    reverses if the target is now behind, restarts after completion;
  *                    no effect while the stop latch is set (or before any start).
- *   stop (cmd 5)   : decelerate at the given rate to rest; sets the stop latch.
+ *   stop (cmd 5)   : decelerate at the given rate to rest; sets the stop latch. A stop
+ *                    never turns back: it ends where the robot comes to rest.
  * Each tick re-plans from the measured state (profile_track) so a plant that cannot
  * reach the speed still stops at the target.
  */
@@ -43,11 +44,13 @@ void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r);
  * measured position relative to the old reference, so the reference keeps its lead and
  * velocity (no jump). target (u, signed), vmax (u/s, > 0), amax (u/s^2, > 0). */
 void motion_start(motion_t *m, int32_t enc_l, int32_t enc_r, float meas, float target, float vmax, float amax);
-/* Modify (cmd 3): new target (u from the original reference), vmax (u/s), amax (u/s^2). */
+/* Modify (cmd 3): new target (u from the original reference), vmax (u/s), amax (u/s^2).
+ * The distance to go is recomputed from the reference's position (exact even after a far
+ * "forever" target). */
 motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax);
 /* Stop (cmd 5, or the watchdog): decelerate at amax (u/s^2, > 0) with tick dt (s); latch.
- * The stop is planned from the last measured position (exact even when a far target has
- * made target - togo coarse in single precision). */
+ * The stop is planned from the reference's position and speed (exact even after a far
+ * target); the reference never passes the stop point nor reverses. */
 void motion_stop(motion_t *m, float amax, float dt);
 /* 1 while the axis wants the wheels driven (moving, or not yet settled on its target). */
 uint8_t motion_active(const motion_t *m);

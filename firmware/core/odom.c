@@ -121,14 +121,6 @@ void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg)
     o->xy_n = 0u;
 }
 
-void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
-{
-    odom_count(o, g, raw_l, raw_r, heading_deg);
-    if (odom_xy_due(o, g)) {
-        odom_xy_step(o, g, heading_deg);
-    }
-}
-
 float odom_distance(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_count)
 {
     float cl = (float)odom_counts_since(o->enc_l, ref_l);

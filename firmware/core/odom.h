@@ -44,10 +44,8 @@ typedef struct {
 
 /* Counts and X/Y zero, not primed (the first update only takes the raw readings). */
 void odom_reset(odom_t *o);
-/* One tick: raw_l/raw_r (counts, raw sign), heading_deg (deg, clockwise, 0..360) for X/Y. */
-void odom_update(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
-/* The counting half of odom_update(): counts, wheel speeds, standstill, the X/Y step in
- * progress; raw_l/raw_r (counts, raw sign), heading_deg (deg, clockwise, 0..360). */
+/* Every tick: counts, wheel speeds, standstill, the X/Y step in progress; raw_l/raw_r
+ * (counts, raw sign), heading_deg (deg, clockwise, 0..360). */
 void odom_count(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
 /* 1 when the X/Y step in progress has xy_ticks ticks or more (it may wait a few ticks). */
 uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g);

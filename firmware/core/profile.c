@@ -69,9 +69,34 @@ void profile_init(profile_t *p, float vmax, float amax)
     p->moving = 0u;
 }
 
+/* Set the distance to go to a - b exactly: togo is the rounded value and togo_c the
+   (negated) rounding error, the same convention as the compensated step (true = togo -
+   togo_c). Two-sum: no precision is lost however far a is. */
+static void profile_set_diff(profile_t *p, float a, float b)
+{
+    float s = a - b;
+    float bb = s - a;  /* the part of -b that made it into s */
+    float aa = s - bb; /* the part of a */
+    p->togo = s;
+    p->togo_c = -((a - aa) + (-b - bb));
+}
+
+void profile_set_togo(profile_t *p, float target, float pos)
+{
+    profile_set_diff(p, target, pos);
+    p->moving = 1u;
+}
+
+float profile_ref_pos(const profile_t *p, float target)
+{
+    /* target - togo is exact while togo is within a factor 2 of target (Sterbenz), which
+       is where a far target would otherwise lose the reference's position */
+    return (target - p->togo) + p->togo_c;
+}
+
 void profile_retarget(profile_t *p, float delta, float vmax, float amax)
 {
-    p->togo += delta;
+    profile_set_diff(p, p->togo, p->togo_c - delta);
     p->vmax = vmax;
     p->amax = amax;
     p->moving = 1u;
@@ -92,24 +117,26 @@ float profile_stop_distance(float v, float amax, float dt)
 
 void profile_stop(profile_t *p, float amax, float dt)
 {
-    float d = profile_stop_distance(p->vel, amax, dt);
+    /* at the braking curve's own rate: the curve then asks for exactly this deceleration
+       every tick, so rounding cannot carry the reference past the stop point */
+    float d = profile_stop_distance(p->vel, amax * (1.0f - PROFILE_BRAKE_MARGIN), dt);
     p->amax = amax;
     p->togo = (p->vel < 0.0f) ? -d : d;
     p->togo_c = 0.0f;
     p->moving = 1u;
 }
 
-uint8_t profile_track(profile_t *p, float togo_meas, float vel_meas, float window, float vwindow)
+uint8_t profile_track(profile_t *p, float lead, float vel_meas, float window, float vwindow)
 {
-    float lead = togo_meas - p->togo; /* u: how far the reference is ahead of the robot */
+    float pull; /* u: how far the reference moves back toward the robot */
     if (lead > window) {
-        p->togo = togo_meas - window;
+        pull = lead - window;
     } else if (lead < -window) {
-        p->togo = togo_meas + window;
+        pull = lead + window;
     } else {
         return 0u;
     }
-    p->togo_c = 0.0f;
+    profile_set_diff(p, p->togo, p->togo_c - pull);
     if (p->vel > vel_meas + vwindow) {
         p->vel = vel_meas + vwindow;
     } else if (p->vel < vel_meas - vwindow) {

@@ -17,7 +17,7 @@
 
 typedef struct {
     float togo;  /* u: reference distance still to go, + toward the target */
-    float togo_c; /* u: compensation of togo's rounding (Kahan summation) */
+    float togo_c; /* u: compensation of togo's rounding (Kahan): the exact distance to go is togo - togo_c */
     float vel;   /* u/s: reference velocity (+ = toward larger positions) */
     float vmax;  /* u/s: cruise limit, > 0 */
     float amax;  /* u/s^2: acceleration and deceleration limit, > 0 */
@@ -37,17 +37,25 @@ void profile_init(profile_t *p, float vmax, float amax);
 /* Move the target by delta (u) and set new limits vmax (u/s) and amax (u/s^2), both > 0;
  * the reference position and velocity are kept (no jump). */
 void profile_retarget(profile_t *p, float delta, float vmax, float amax);
-/* Stop: decelerate at amax (u/s^2, > 0) and put the target exactly where that stop
- * ends for tick dt (s). */
+/* Stop: decelerate at amax (u/s^2, > 0; the braking curve's 0.2 % margin less) and put
+ * the target exactly where that stop ends for tick dt (s): the reference never passes it
+ * and never reverses. */
 void profile_stop(profile_t *p, float amax, float dt);
 /* Distance (u, >= 0) the profile covers while stopping from speed v (u/s) at amax
  * (u/s^2, > 0) with tick dt (s): the exact discrete sum, not truncated. */
 float profile_stop_distance(float v, float amax, float dt);
-/* Re-plan from the measured state: togo_meas (u) is the measured distance to go and
- * vel_meas (u/s) the measured velocity. If the reference is more than window (u) away
- * from the measurement it is pulled to the window edge and its velocity to within
- * vwindow (u/s) of vel_meas. Returns 1 if it had to pull (the plant lags). */
-uint8_t profile_track(profile_t *p, float togo_meas, float vel_meas, float window, float vwindow);
+/* Re-plan from the measured state: lead (u) is how far the reference is ahead of the
+ * measured position (reference - measured, + toward larger positions) and vel_meas (u/s)
+ * the measured velocity. If |lead| > window (u) the reference is pulled back to the window
+ * edge and its velocity to within vwindow (u/s) of vel_meas. Returns 1 if it had to pull
+ * (the plant lags). */
+uint8_t profile_track(profile_t *p, float lead, float vel_meas, float window, float vwindow);
+/* Set the distance to go to target - pos (u, both from the same origin), exactly however
+ * large target is; the velocity is kept. */
+void profile_set_togo(profile_t *p, float target, float pos);
+/* Reference position (u, from the origin target is counted from): target - togo, exact
+ * with togo's compensation even for a far target (a "forever" move). */
+float profile_ref_pos(const profile_t *p, float target);
 /* Advance one tick of dt (s); returns the new reference velocity (u/s). */
 float profile_step(profile_t *p, float dt);
 

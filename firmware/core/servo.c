@@ -33,10 +33,10 @@ void servo_retime(servo_t *s, uint16_t rate_hz)
     }
 }
 
-uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz)
+void servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz)
 {
     if (p0 <= 0) {
-        return 0u;
+        return;
     }
     s->rate = (uint16_t)p0;
     servo_retime(s, rate_hz);
@@ -50,7 +50,6 @@ uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1
         s->mode = SERVO_SCAN;
     }
     servo_update_pulse(s, cal);
-    return 1u;
 }
 
 void servo_hold(servo_t *s)

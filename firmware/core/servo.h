@@ -46,10 +46,10 @@ typedef struct {
 
 /* Not driven, at 0 deg. */
 void servo_reset(servo_t *s);
-/* Apply one command: p0 rate (deg*10/s, 0 = no command), p1 and p2 as in the seed;
- * rate_hz (Hz) is the control tick rate. Returns 1 if a command was taken, 0 for "no
- * command". */
-uint8_t servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz);
+/* Apply one command: p0 rate (deg*10/s; 0 or less = no command, nothing changes);
+ * p1 (deg*10): the GoTo goal, or the Scan right limit; p2 (deg*10): the Scan left limit,
+ * or SERVO_GOTO_FLAG (9999) for GoTo; rate_hz (Hz) is the control tick rate. */
+void servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz);
 /* The control tick rate changed to rate_hz (Hz): keep the speed in deg/s. */
 void servo_retime(servo_t *s, uint16_t rate_hz);
 /* Stop where it is (watchdog); a servo not yet driven stays off. */

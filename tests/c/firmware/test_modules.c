@@ -76,6 +76,15 @@ static void test_heading_moving_calibration(void)
     CHECK_NEAR(h.bias, 40.0, 1e-4);
 }
 
+/* One firmware tick of odometry at the full rate: counts, then the X/Y step when due. */
+static void odom_tick(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg)
+{
+    odom_count(o, g, raw_l, raw_r, heading_deg);
+    if (odom_xy_due(o, g)) {
+        odom_xy_step(o, g, heading_deg);
+    }
+}
+
 static odom_geom_t geom(float mpc, int8_t sl, int8_t sr, uint8_t xy_ticks)
 {
     odom_geom_t g;
@@ -95,11 +104,11 @@ static void test_odom(void)
     odom_geom_t g = geom(0.5f, 1, -1, 10);
     int i;
     odom_reset(&o);
-    odom_update(&o, &g, 1000, -1000, 0.0f); /* primes only */
+    odom_tick(&o, &g, 1000, -1000, 0.0f); /* primes only */
     CHECK(o.enc_l == 0 && o.enc_r == 0);
     /* straight at heading 0: +X */
     for (i = 1; i <= 100; i++) {
-        odom_update(&o, &g, 1000 + i * 2, -1000 - i * 2, 0.0f);
+        odom_tick(&o, &g, 1000 + i * 2, -1000 - i * 2, 0.0f);
     }
     CHECK(o.enc_l == 200 && o.enc_r == 200);
     CHECK_NEAR(odom_distance(&o, 0, 0, g.mm_per_count), 100.0, 1e-4);
@@ -107,13 +116,13 @@ static void test_odom(void)
     CHECK_NEAR(o.v_l, 1000.0, 1.0); /* 2 counts * 0.5 mm per ms */
     /* heading 90 (clockwise = right): -Y */
     for (i = 101; i <= 200; i++) {
-        odom_update(&o, &g, 1000 + i * 2, -1000 - i * 2, 90.0f);
+        odom_tick(&o, &g, 1000 + i * 2, -1000 - i * 2, 90.0f);
     }
     CHECK(o.x == 100 && o.y == -100);
     /* X/Y steps use the mid-step heading, across 0/360 too: 350 -> 10 is along 0 */
     odom_set_xy(&o, 0, 0);
     for (i = 1; i <= 10; i++) {
-        odom_update(&o, &g, 1400 + i * 2, -1400 - i * 2, (i <= 5) ? 350.0f : 10.0f);
+        odom_tick(&o, &g, 1400 + i * 2, -1400 - i * 2, (i <= 5) ? 350.0f : 10.0f);
     }
     CHECK(o.xy_n == 0u);
     CHECK(o.x == 10 && o.y == 0);
@@ -123,8 +132,8 @@ static void test_odom(void)
     /* turn angle: left +471 mm, right -471 mm on a 300 mm track */
     g = geom(1.0f, 1, 1, 10);
     odom_reset(&o);
-    odom_update(&o, &g, 0, 0, 0.0f);
-    odom_update(&o, &g, 471, -471, 0.0f);
+    odom_tick(&o, &g, 0, 0, 0.0f);
+    odom_tick(&o, &g, 471, -471, 0.0f);
     CHECK_NEAR(odom_turn(&o, 0, 0, g.turn_deg_per_count), 471.0 * 2.0 / 300.0 * 57.2957795, 1e-3);
     /* X/Y set */
     odom_set_xy(&o, -5000, 7000);
@@ -138,9 +147,9 @@ static void test_odom_long_run_precision(void)
     odom_geom_t g = geom(0.1f, 1, 1, 10);
     long i;
     odom_reset(&o);
-    odom_update(&o, &g, 0, 0, 0.0f);
+    odom_tick(&o, &g, 0, 0, 0.0f);
     for (i = 1; i <= 333330; i++) {
-        odom_update(&o, &g, (int32_t)(i * 3), (int32_t)(i * 3), 0.0f);
+        odom_tick(&o, &g, (int32_t)(i * 3), (int32_t)(i * 3), 0.0f);
     }
     CHECK_NEAR((double)o.x + o.x_frac, 333330 * 0.3, 1.0);
 }
@@ -187,10 +196,11 @@ static void test_servo_goto(void)
     int i;
     servo_reset(&s);
     CHECK(servo_pulse_us(&s) == 0u); /* not driven before a command */
-    CHECK(servo_command(&s, &cal, 0, 300, 9999, 1000u) == 0u); /* param0 = 0: no command */
-    CHECK(s.mode == SERVO_OFF);
+    servo_command(&s, &cal, 0, 300, 9999, 1000u); /* param0 = 0: no command */
+    CHECK(s.mode == SERVO_OFF && s.goal == 0);
     /* seed example: servo 2 to 30 deg at 100 deg/s */
-    CHECK(servo_command(&s, &cal, 1000, 300, 9999, 1000u) == 1u);
+    servo_command(&s, &cal, 1000, 300, 9999, 1000u);
+    CHECK(s.mode == SERVO_GOTO && s.goal == 300);
     for (i = 0; i < 150; i++) {
         servo_step(&s, &cal);
     }

@@ -6,11 +6,15 @@
  * target it could reach without overshoot, and come to rest on the target in bounded
  * time. A second run drives a motion_ axis (profile + re-planning from the measured state)
  * against a plant that lags and may not reach the speed: it must settle within the stop
- * tolerance in bounded time. Seed and count: argv[1], argv[2], or NAVKIT_PROP_SEED /
- * NAVKIT_PROP_COUNT (the second run does a tenth of the count). */
+ * tolerance in bounded time, with stops (which must never reverse), the stop latch, and
+ * "forever" targets modified to near ones. Seed and count: --seed N --count MOVES (the
+ * second run does a tenth of the count); ctest runs the short default, a long run is
+ * the binary run by hand (docs/firmware.md). */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <time.h>
 
 #include "check.h"
 #include "motion.h"
@@ -110,7 +114,76 @@ static void test_stop(void)
         travelled += v * 0.001;
         prev = v;
     }
-    CHECK_NEAR(travelled, 400.0 * 400.0 / 400.0, 0.5); /* v^2 / 2a = 400 mm */
+    /* v^2 / 2a = 400 mm at the braking curve's rate (0.2 % less), less v dt / 2 */
+    CHECK_NEAR(travelled, 400.0 * 400.0 / (400.0 * 0.998) - 0.2, 0.05);
+}
+
+static void test_stop_never_reverses(void)
+{
+    /* the audit's case: 906 mm/s stopped at 28.6 mm/s^2 with a 2 ms tick went 2.24 mm past
+       its stop point and backed up for 280 ticks */
+    profile_t p;
+    double pos = 0.0, stop_at;
+    long k, back = 0;
+    profile_init(&p, 1082.95f, 2603.18f);
+    profile_retarget(&p, 20000.0f, 1082.95f, 2603.18f);
+    p.vel = 905.907f;
+    profile_stop(&p, 28.6037f, 0.002f);
+    stop_at = p.togo;
+    CHECK_NEAR(stop_at, 905.907 * 905.907 / (2.0 * 28.6037 * 0.998), 2.0);
+    for (k = 0; k < 100000 && p.moving; k++) {
+        double v = profile_step(&p, 0.002f);
+        pos += v * 0.002;
+        back += (v < 0.0);
+        CHECK(p.togo >= -1e-3);
+    }
+    CHECK(!p.moving && back == 0);
+    CHECK_NEAR(pos, stop_at, 1e-3);
+}
+
+/* A "forever" move (2e9) modified to a near target mid-move: the axis reaches exactly
+ * that target, no overshoot and no backing up (single precision coarse near 2e9). */
+static double forever_then_modify(double forever, double cruise_s, double near, double vmax, double amax,
+                                  double dt, double *maxpos, long *back)
+{
+    motion_t m;
+    double pos = 0.0, vel = 0.0;
+    long k;
+    *maxpos = 0.0;
+    *back = 0;
+    motion_reset(&m, 0, 0);
+    motion_start(&m, 0, 0, 0.0f, (float)forever, (float)vmax, (float)amax);
+    for (k = 0; k < (long)(cruise_s / dt); k++) {
+        double sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, 1.0f, 10.0f, (float)dt);
+        vel += (sp - vel) * dt / (0.03 + dt);
+        pos += vel * dt;
+    }
+    CHECK(motion_modify(&m, (float)near, (float)vmax, (float)amax) == MOTION_OK);
+    for (k = 0; k < (long)(20.0 / dt) && !m.done; k++) {
+        double sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, 1.0f, 10.0f, (float)dt);
+        *back += (sp < 0.0);
+        vel += (sp - vel) * dt / (0.03 + dt);
+        pos += vel * dt;
+        if (pos > *maxpos) {
+            *maxpos = pos;
+        }
+    }
+    CHECK(m.done);
+    return pos;
+}
+
+static void test_forever_then_modify(void)
+{
+    double maxpos, pos;
+    long back;
+    /* forward: 2e9 mm, then 1000 mm (used to reach 1024 and back up) */
+    pos = forever_then_modify(2e9, 3.0, 1000.0, 300.0, 300.0, 0.004, &maxpos, &back);
+    CHECK_NEAR(pos, 1000.0, 1.0);
+    CHECK(maxpos < 1001.0 && back == 0);
+    /* turn: 2e8 deg (turn_distance 2e9 deg*10), then 90 deg (used to reach 96 and back) */
+    pos = forever_then_modify(2e8, 1.0, 90.0, 45.0, 90.0, 0.004, &maxpos, &back);
+    CHECK_NEAR(pos, 90.0, 0.4);
+    CHECK(maxpos < 90.4 && back == 0);
 }
 
 static void test_reverse(void)
@@ -142,12 +215,18 @@ static void test_track(void)
     profile_retarget(&p, 1000.0f, 200.0f, 300.0f);
     p.vel = 200.0f;
     /* the robot is 100 mm behind the reference and slower: pulled back */
-    CHECK(profile_track(&p, 1100.0f, 100.0f, 25.0f, 50.0f) == 1u);
+    CHECK(profile_track(&p, 100.0f, 100.0f, 25.0f, 50.0f) == 1u);
     CHECK_NEAR(p.togo, 1075.0, 1e-3);
     CHECK_NEAR(p.vel, 150.0, 1e-3);
     /* within the window: untouched */
-    CHECK(profile_track(&p, 1080.0f, 150.0f, 25.0f, 50.0f) == 0u);
+    CHECK(profile_track(&p, 5.0f, 150.0f, 25.0f, 50.0f) == 0u);
     CHECK_NEAR(p.togo, 1075.0, 1e-3);
+    /* far target: the pull and the reference position stay exact */
+    profile_init(&p, 200.0f, 300.0f);
+    profile_set_togo(&p, 2e9f, 3.25f); /* reference at 3.25 */
+    CHECK_NEAR(profile_ref_pos(&p, 2e9f), 3.25, 1e-6);
+    CHECK(profile_track(&p, 30.0f, 0.0f, 25.0f, 50.0f) == 1u); /* robot at -26.75 */
+    CHECK_NEAR(profile_ref_pos(&p, 2e9f), -1.75, 1e-6);
 }
 
 /* ---- properties ---- */
@@ -166,46 +245,74 @@ static double rng_uniform(double lo, double hi)
     return lo + (hi - lo) * (double)(rng_next() >> 11) * (1.0 / 9007199254740992.0);
 }
 
+/* Figures of the whole run, reported at the end. */
+static struct {
+    double accel_excess; /* largest (|dv| - amax dt) / (amax dt) */
+    double speed_excess; /* largest (|v| - vmax) / vmax while speeding up */
+    double final_err;    /* u: largest |position - target| at rest */
+    double tracked_err;  /* u: the same for the tracked run */
+} prop_stats;
+
+static void prop_note_final(double err)
+{
+    if (err > prop_stats.final_err) {
+        prop_stats.final_err = err;
+    }
+}
+
+static void prop_note_tracked(double err)
+{
+    if (err > prop_stats.tracked_err) {
+        prop_stats.tracked_err = err;
+    }
+}
+
 /* One random move; returns 0 when every property held. */
 static int prop_case(unsigned long idx)
 {
-    static const double dts[] = {0.001, 0.0005, 0.002, 0.01};
+    /* s: 0.004 is the firmware's axis period at its default 1 kHz tick (axis_ticks 4) */
+    static const double dts[] = {0.001, 0.0005, 0.002, 0.004, 0.01};
     profile_t p;
-    double dt = dts[rng_next() % 4u];
+    double dt = dts[rng_next() % 5u];
     double amax = rng_uniform(20.0, 3000.0);
     double vmax = rng_uniform(5.0, 1500.0);
     double pos = 0.0, target = rng_uniform(-3000.0, 3000.0);
     int mods = (int)(rng_next() % 4u);
-    long k = 0, limit;
-    int bad = 0, feasible = 1;
-    double dir0 = 1.0;
+    long k = 0, limit = 0;
+    int bad = 0, feasible = 1, stopped = 0;
+    double dir0 = 1.0, stop_dir = 0.0;
 
     profile_init(&p, (float)vmax, (float)amax);
     profile_retarget(&p, (float)target, (float)vmax, (float)amax);
     for (;;) {
         double prev = p.vel, v, D;
-        /* maybe modify mid-move */
+        /* maybe modify or stop mid-move */
         if (mods > 0 && p.moving && (rng_next() % 400u) == 0u) {
             mods--;
-            vmax = rng_uniform(5.0, 1500.0);
             amax = rng_uniform(20.0, 3000.0);
             if (rng_next() % 5u == 0u) {
+                /* a stop changes only the deceleration: vmax stays the profile's */
                 profile_stop(&p, (float)amax, (float)dt);
                 target = pos + p.togo;
+                stopped = 1;
+                stop_dir = (p.vel > 0.0f) ? 1.0 : (p.vel < 0.0f) ? -1.0 : 0.0;
+                feasible = 1; /* a stop must never overshoot */
             } else {
                 double nt = (rng_next() % 3u == 0u) ? pos + rng_uniform(-50.0, 50.0) : rng_uniform(-3000.0, 3000.0);
+                vmax = rng_uniform(5.0, 1500.0);
                 profile_retarget(&p, (float)(nt - target), (float)vmax, (float)amax);
                 target = nt;
+                stopped = 0;
+                /* reachable without overshoot? (moving toward it and able to stop in time
+                   at the planner's braking rate, amax less its 0.2 % margin) */
+                dir0 = (p.togo >= 0.0f) ? 1.0 : -1.0;
+                feasible = (p.vel * dir0 >= 0.0) &&
+                           profile_stop_distance(p.vel, (float)(amax * 0.998), (float)dt) <= fabs(p.togo);
             }
-            /* reachable without overshoot? (moving toward it and able to stop in time at
-               the planner's braking rate, amax less its 0.2 % margin) */
-            dir0 = (p.togo >= 0.0f) ? 1.0 : -1.0;
-            feasible = (p.vel * dir0 >= 0.0) &&
-                       profile_stop_distance(p.vel, (float)(amax * 0.998), (float)dt) <= fabs(p.togo);
             k = 0;
         }
         if (k == 0) {
-            dir0 = (p.togo >= 0.0f) ? 1.0 : -1.0;
+            dir0 = (p.togo > 0.0f) ? 1.0 : (p.togo < 0.0f) ? -1.0 : (p.vel >= 0.0f ? 1.0 : -1.0);
             /* time bound for the rest of the move, generous but finite */
             D = fabs(p.togo) + (double)p.vel * p.vel / (2.0 * amax);
             limit = (long)((fabs(p.vel) / amax + D / vmax + 2.0 * vmax / amax + 2.0 * sqrt(D / amax) + 0.05) / dt) +
@@ -221,11 +328,20 @@ static int prop_case(unsigned long idx)
         if (fabs(v - prev) > amax * dt * (1.0 + 1e-4) + 4e-7 * fabs(v) + 1e-6) {
             bad |= 2; /* acceleration limit */
         }
-        if (fabs(v) > vmax * (1.0 + 1e-5) + 1e-5 && fabs(v) > fabs(prev)) {
+        if ((fabs(v - prev) - amax * dt) / (amax * dt) > prop_stats.accel_excess) {
+            prop_stats.accel_excess = (fabs(v - prev) - amax * dt) / (amax * dt);
+        }
+        if (fabs(v) > fabs(prev) && (fabs(v) - p.vmax) / p.vmax > prop_stats.speed_excess) {
+            prop_stats.speed_excess = (fabs(v) - p.vmax) / p.vmax;
+        }
+        if (fabs(v) > p.vmax * (1.0 + 1e-5) + 1e-5 && fabs(v) > fabs(prev)) {
             bad |= 4; /* speed limit (decelerating to a lowered limit is allowed) */
         }
         if (feasible && p.togo * dir0 < -(1e-2 + 1e-6 * fabs(target))) { /* 10 um: far below one encoder count */
             bad |= 8; /* overshoot */
+        }
+        if (stopped && v * stop_dir < 0.0) {
+            bad |= 64; /* a stop reversed */
         }
         if (!p.moving) {
             if (fabs(pos - target) > 1e-2 + 1e-5 * fabs(target)) {
@@ -238,6 +354,7 @@ static int prop_case(unsigned long idx)
             break;
         }
     }
+    prop_note_final(fabs(pos - target));
     if (bad) {
         fprintf(stderr, "property case %lu failed: mask %d (dt %g amax %g vmax %g target %g pos %g)\n", idx, bad,
                 dt, amax, vmax, target, pos);
@@ -245,38 +362,73 @@ static int prop_case(unsigned long idx)
     return bad;
 }
 
-/* One random move of a motion_ axis against a lagging, speed-capped plant; 0 when it
- * settled within tolerance in time. */
+/* One random move of a motion_ axis against a lagging, speed-capped plant, with random
+ * modifications, stops (and modifications after them, which the stop latch ignores) and
+ * sometimes a "forever" start modified to a near target; 0 when it settled within
+ * tolerance in time and a stop never reversed. */
 static int prop_tracked_case(unsigned long idx)
 {
-    const double dt = 0.001, tol = 5.0;
+    static const double dts[] = {0.001, 0.002, 0.004};
+    const double tol = 5.0;
     motion_t m;
+    double dt = dts[rng_next() % 3u];
     double amax = rng_uniform(50.0, 2000.0);
     double vmax = rng_uniform(20.0, 800.0);
     double cap = vmax * rng_uniform(0.3, 1.5);     /* the plant's top speed */
     double tau = rng_uniform(0.0, 0.08);           /* s: the plant's lag */
-    double target = rng_uniform(-3000.0, 3000.0);
-    double pos = 0.0, vel = 0.0, bound;
+    int forever = (rng_next() % 4u) == 0u;
+    double target = forever ? ((rng_next() & 1u) ? 2e9 : -2e9) : rng_uniform(-3000.0, 3000.0);
+    double pos = 0.0, vel = 0.0, bound, vc = (vmax < cap ? vmax : cap);
+    double stop_dir = 0.0;
     long k, limit;
-    int mods = (int)(rng_next() % 3u), bad = 0;
+    int mods = (int)(rng_next() % 3u) + forever, bad = 0, latched = 0;
 
     motion_reset(&m, 0, 0);
     motion_start(&m, 0, 0, 0.0f, (float)target, (float)vmax, (float)amax);
-    bound = fabs(target) / (vmax < cap ? vmax : cap) + 2.0 * vmax / amax + 10.0 * tau + 2.0;
+    bound = forever ? 1e9 : fabs(target) / vc + 2.0 * vmax / amax + 10.0 * tau + 2.0;
     limit = (long)(bound / dt);
     for (k = 0; k < limit; k++) {
         double sp;
         if (mods > 0 && (rng_next() % 2000u) == 0u) {
             mods--;
-            target = rng_uniform(-3000.0, 3000.0);
+            if (!latched && (rng_next() % 4u) == 0u) {
+                /* stop: decelerate to rest and latch */
+                amax = rng_uniform(50.0, 2000.0);
+                motion_stop(&m, (float)amax, (float)dt);
+                latched = 1;
+                forever = 0;
+                target = m.target;
+                stop_dir = (m.prof.vel > 0.0f) ? 1.0 : (m.prof.vel < 0.0f) ? -1.0 : 0.0;
+                limit = k + (long)((fabs(vel) / amax * 2.0 + 10.0 * tau + 2.0) / dt);
+            } else {
+                double nt = rng_uniform(-3000.0, 3000.0);
+                motion_result_t r = motion_modify(&m, (float)nt, (float)vmax, (float)amax);
+                if (r != (latched ? MOTION_LATCHED : MOTION_OK)) {
+                    bad |= 8; /* the stop latch rule */
+                }
+                if (!latched) {
+                    target = nt;
+                    forever = 0;
+                    limit = k + (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau +
+                                        fabs(vel) / amax + 2.0) / dt);
+                }
+            }
+        }
+        if (forever && k * dt > 2.0) {
+            /* a "forever" move always ends in a modify to a near target */
+            target = pos + rng_uniform(-500.0, 500.0);
             motion_modify(&m, (float)target, (float)vmax, (float)amax);
-            limit = k + (long)((fabs(target - pos) / (vmax < cap ? vmax : cap) + 2.0 * vmax / amax + 10.0 * tau +
-                                fabs(vel) / amax + 2.0) / dt);
+            forever = 0;
+            limit = k + (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau + fabs(vel) / amax + 2.0) /
+                               dt);
         }
         sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, (float)tol, 10.0f, (float)dt);
         if (sp != sp) {
             bad |= 1;
             break;
+        }
+        if (latched && sp * stop_dir < 0.0) {
+            bad |= 16; /* a stop sent the robot back */
         }
         if (sp > cap) {
             sp = cap;
@@ -289,39 +441,67 @@ static int prop_tracked_case(unsigned long idx)
             break;
         }
     }
+    if (latched) {
+        target = m.target; /* a stop ends where the robot comes to rest */
+    }
     if (!m.done) {
         bad |= 2; /* never settled */
     } else if (fabs(pos - target) > tol + 0.5) {
         bad |= 4; /* settled outside the tolerance */
     }
+    prop_note_tracked(fabs(pos - target));
     if (bad) {
-        fprintf(stderr, "tracked case %lu failed: mask %d (amax %g vmax %g cap %g tau %g target %g pos %g)\n", idx,
-                bad, amax, vmax, cap, tau, target, pos);
+        fprintf(stderr, "tracked case %lu failed: mask %d (dt %g amax %g vmax %g cap %g tau %g target %g pos %g)\n",
+                idx, bad, dt, amax, vmax, cap, tau, target, pos);
     }
     return bad;
 }
 
+/* Parse "--seed N" / "--count N"; returns 0, or prints what is wrong and returns 1. */
+static int parse_args(int argc, char **argv, unsigned long long *seed, unsigned long *count)
+{
+    int i;
+    for (i = 1; i < argc; i++) {
+        char *end = 0;
+        if (i + 1 >= argc || (strcmp(argv[i], "--seed") != 0 && strcmp(argv[i], "--count") != 0)) {
+            fprintf(stderr, "%s: argument %d '%s': usage: %s [--seed N] [--count MOVES]\n", argv[0], i, argv[i],
+                    argv[0]);
+            return 1;
+        }
+        if (strcmp(argv[i], "--seed") == 0) {
+            *seed = strtoull(argv[i + 1], &end, 0);
+        } else {
+            *count = strtoul(argv[i + 1], &end, 0);
+        }
+        if (end == argv[i + 1] || *end != '\0') {
+            fprintf(stderr, "%s: argument %d '%s %s': not a whole number\n", argv[0], i + 1, argv[i], argv[i + 1]);
+            return 1;
+        }
+        i++;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
-    const char *es = getenv("NAVKIT_PROP_SEED");
-    const char *ec = getenv("NAVKIT_PROP_COUNT");
-    unsigned long long seed = es ? strtoull(es, 0, 0) : 20051018ull;
-    unsigned long count = ec ? strtoul(ec, 0, 0) : 20000ul;
+    unsigned long long seed = 20051018ull;
+    unsigned long count = 20000ul;
     unsigned long i, failed = 0;
-    if (argc > 1) {
-        seed = strtoull(argv[1], 0, 0);
-    }
-    if (argc > 2) {
-        count = strtoul(argv[2], 0, 0);
+    clock_t t0;
+    if (parse_args(argc, argv, &seed, &count)) {
+        return 2;
     }
 
     test_trapezoid();
     test_triangle();
     test_stop_distance();
     test_stop();
+    test_stop_never_reverses();
     test_reverse();
     test_track();
+    test_forever_then_modify();
 
+    t0 = clock();
     rng_state = seed;
     for (i = 0; i < count; i++) {
         if (prop_case(i)) {
@@ -331,7 +511,9 @@ int main(int argc, char **argv)
             }
         }
     }
-    printf("property: seed %llu, %lu moves, %lu failed\n", seed, i, failed);
+    printf("property: seed %llu, %lu moves, %lu failed; max |accel| excess %.3g of amax, max speed excess %.3g "
+           "of vmax, max final error %.3g u\n",
+           seed, i, failed, prop_stats.accel_excess, prop_stats.speed_excess, prop_stats.final_err);
     CHECK(failed == 0);
     failed = 0;
     for (i = 0; i < count / 10u; i++) {
@@ -342,7 +524,8 @@ int main(int argc, char **argv)
             }
         }
     }
-    printf("tracked property: %lu moves, %lu failed\n", i, failed);
+    printf("tracked property: %lu moves, %lu failed; max final error %.3g u (tolerance 5); %.1f s in all\n", i,
+           failed, prop_stats.tracked_err, (double)(clock() - t0) / CLOCKS_PER_SEC);
     CHECK(failed == 0);
     CHECK_DONE();
 }
