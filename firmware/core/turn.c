@@ -51,7 +51,9 @@ void turn_hdg_select(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float 
 
 uint8_t turn_active(const turn_t *t)
 {
-    return (uint8_t)(t->hdg || motion_active(&t->ax));
+    /* a held heading whose reference has arrived, with the robot within tolerance and at
+       rest, releases the wheels until the heading drifts out of tolerance */
+    return (uint8_t)(t->hdg ? !(t->hdg_reached && !t->ax.prof.moving) : motion_active(&t->ax));
 }
 
 float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, float window, float vwindow,

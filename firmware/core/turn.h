@@ -37,7 +37,7 @@ void turn_stop(turn_t *t, float amax, float dt);
  * heading_now (deg); vmax (deg/s), amax (deg/s^2). */
 void turn_hdg_select(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float hdg, float heading_now, float vmax,
                      float amax);
-/* 1 while the turn wants the wheels driven. */
+/* 1 while the turn wants the wheels driven (HdgSel: while off its heading or moving). */
 uint8_t turn_active(const turn_t *t);
 /* One tick: meas (deg) turn angle from the reference, vel_meas (deg/s) measured turn
  * rate, heading_now (deg) gyro heading, kp ((deg/s)/deg) HdgSel gain, window (deg) and

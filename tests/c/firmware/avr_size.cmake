@@ -1,7 +1,8 @@
 # Compile every source with avr-gcc for the ATmega2560 (-Os, warnings are errors) and link.
 # MODE=size: check flash (text+data) and static RAM (data+bss) against FLASH_MAX/RAM_MAX.
 # MODE=cycles: run the program in SIMAVR (16 MHz) and check the max fw_tick cycles it
-# prints against CYCLES_MAX.
+# prints against CYCLES_MAX, and its static RAM (data+bss) plus the deepest stack it
+# measured against RAM_MAX.
 # Arguments (-D): MODE AVR_GCC AVR_SIZE SIMAVR OUT INCLUDES SOURCES (|-separated) CORE_DIR
 #                 FLASH_MAX RAM_MAX CYCLES_MAX
 string(REPLACE "|" ";" incs "${INCLUDES}")
@@ -41,6 +42,38 @@ if(MODE STREQUAL "cycles")
   endif()
   set(mean ${CMAKE_MATCH_1})
   set(max ${CMAKE_MATCH_2})
+  string(REGEX MATCH "stack bytes: ([0-9]+)" m "${out}${err}")
+  if(NOT m)
+    message(FATAL_ERROR "no stack depth from simavr: ${out}${err}")
+  endif()
+  set(stack ${CMAKE_MATCH_1})
+  string(REGEX MATCH "configured: 1 moved: [1-9]" m "${out}${err}")
+  if(NOT m)
+    message(FATAL_ERROR "the frames did not configure and move the firmware: ${out}${err}")
+  endif()
+  # static RAM of the core: the program's data+bss less what the stub program itself
+  # holds (its UART buffer, strings, FILE; everything of avr_cycles_main.o but fw_t)
+  execute_process(COMMAND ${AVR_SIZE} -A ${OUT}/fw.elf OUTPUT_VARIABLE sz)
+  set(ram 0)
+  foreach(sec data bss)
+    string(REGEX MATCH "\\.${sec} +([0-9]+)" m "${sz}")
+    if(m)
+      math(EXPR ram "${ram} + ${CMAKE_MATCH_1}")
+    endif()
+  endforeach()
+  execute_process(COMMAND ${AVR_SIZE} -A ${OUT}/avr_cycles_main.o OUTPUT_VARIABLE sz)
+  string(REGEX MATCHALL "\n\\.(data|bss|rodata)[^ ]* +[0-9]+" stub_secs "${sz}")
+  foreach(sec ${stub_secs})
+    string(REGEX MATCH "^\n?([^ ]+) +([0-9]+)" m "${sec}")
+    if(NOT CMAKE_MATCH_1 STREQUAL ".bss.fw")
+      math(EXPR ram "${ram} - ${CMAKE_MATCH_2}")
+    endif()
+  endforeach()
+  math(EXPR total "${ram} + ${stack}")
+  message(STATUS "RAM in use: core static ${ram} bytes (data+bss) + deepest stack ${stack} bytes = ${total} bytes")
+  if(total GREATER RAM_MAX)
+    message(FATAL_ERROR "static RAM + stack ${total} > ${RAM_MAX}")
+  endif()
   math(EXPR mean_us "${mean} / 16")
   math(EXPR max_us "${max} / 16")
   message(STATUS "fw_tick on atmega2560 at 16 MHz, forward move and turn at once: mean ${mean} cycles (${mean_us} us), max ${max} cycles (${max_us} us)")

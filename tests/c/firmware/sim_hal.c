@@ -64,23 +64,29 @@ void sim_send(struct hal *h, const uint8_t *data, size_t len)
     h->rx_len += len;
 }
 
-void sim_configure(fw_t *fw, struct hal *h)
+void sim_configure_with(fw_t *fw, struct hal *h, navkit_micro_cfg_geometry_t *g, navkit_micro_cfg_motion_t *m,
+                        navkit_micro_cfg_io_t *io)
 {
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    h->tx_len = 0;
+    g->time_tag = 1;
+    m->time_tag = 2;
+    io->time_tag = 3;
+    sim_send(h, buf, navkit_micro_cfg_geometry_encode(g, buf, sizeof buf));
+    sim_send(h, buf, navkit_micro_cfg_motion_encode(m, buf, sizeof buf));
+    sim_send(h, buf, navkit_micro_cfg_io_encode(io, buf, sizeof buf));
+    fw_link_poll(fw);
+}
+
+void sim_configure(fw_t *fw, struct hal *h)
+{
     navkit_micro_cfg_geometry_t g;
     navkit_micro_cfg_motion_t m;
     navkit_micro_cfg_io_t io;
     navkit_micro_cfg_geometry_defaults(&g);
     navkit_micro_cfg_motion_defaults(&m);
     navkit_micro_cfg_io_defaults(&io);
-    h->tx_len = 0;
-    g.time_tag = 1;
-    m.time_tag = 2;
-    io.time_tag = 3;
-    sim_send(h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
-    sim_send(h, buf, navkit_micro_cfg_motion_encode(&m, buf, sizeof buf));
-    sim_send(h, buf, navkit_micro_cfg_io_encode(&io, buf, sizeof buf));
-    fw_link_poll(fw);
+    sim_configure_with(fw, h, &g, &m, &io);
 }
 
 void sim_cmd_init(navkit_micro_cmd_t *c, uint16_t tag)

@@ -1,5 +1,6 @@
 /* Whole-firmware tests through the link: frames in through the UART wires, a simple
  * wheel plant (sim_hal) closing the loop, micro_data out. */
+#include <math.h>
 #include <string.h>
 
 #include "check.h"
@@ -434,6 +435,458 @@ static void test_servo_dio_sensors(void)
     CHECK(d.adc[0] == 512 && d.adc[4] == 800 && d.sonar_echo[2] == 5800 && d.compass == 1234);
 }
 
+
+/* Ticks of the host frame loop while watching the plant: max distance, min wheel speed. */
+typedef struct {
+    double max_dist, min_v, max_yaw, min_w; /* mm, mm/s, deg, mm/s (left - right) */
+    double min_ref_v, min_ref_w;            /* mm/s, deg/s: the references' lowest */
+} watch_t;
+
+static void host_watch(const navkit_micro_cmd_t *c, double seconds, watch_t *w)
+{
+    long frames = (long)(seconds * 10.0 + 0.5), f, k;
+    for (f = 0; f < frames; f++) {
+        sim_cmd(&fw, &h, c);
+        for (k = 0; k < 100; k++) {
+            sim_run(&fw, &h, 1);
+            if (h.dist_mm > w->max_dist) {
+                w->max_dist = h.dist_mm;
+            }
+            if (0.5 * (h.v_l + h.v_r) < w->min_v) {
+                w->min_v = 0.5 * (h.v_l + h.v_r);
+            }
+            if (h.yaw_deg > w->max_yaw) {
+                w->max_yaw = h.yaw_deg;
+            }
+            if (h.v_l - h.v_r < w->min_w) {
+                w->min_w = h.v_l - h.v_r;
+            }
+            if (fw.fwd.prof.vel < w->min_ref_v) {
+                w->min_ref_v = fw.fwd.prof.vel;
+            }
+            if (fw.turn.ax.prof.vel < w->min_ref_w) {
+                w->min_ref_w = fw.turn.ax.prof.vel;
+            }
+        }
+    }
+}
+
+static void test_forever_then_modify(void)
+{
+    /* fwd 1 to 2e9 mm, then fwd 3 to 1000 mm: no overshoot (used to reach 1024), no backing */
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    watch_t w = {0, 0, 0, 0, 0, 0};
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 300;
+    c.distance = 2000000000;
+    host_run(&c, 3.0);
+    CHECK(h.dist_mm > 700.0 && h.dist_mm < 900.0);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    c.speed = 300;
+    c.distance = 1000;
+    host_watch(&c, 4.0, &w);
+    d = data();
+    CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_DONE);
+    CHECK_NEAR(h.dist_mm, 1000.0, 3.0);
+    CHECK(w.max_dist < 1003.0);
+    CHECK(w.min_ref_v >= 0.0);            /* never planned back */
+    CHECK(w.max_dist - h.dist_mm < 0.5); /* nor backed up */
+    /* turn 1 to 2e9 deg*10, then turn 3 to 90 deg (used to reach 96 and come back) */
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 450;
+    c.turn_distance = 2000000000;
+    host_run(&c, 1.0);
+    CHECK(h.yaw_deg > 20.0 && h.yaw_deg < 50.0);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    c.turn_rate = 450;
+    c.turn_distance = 900;
+    memset(&w, 0, sizeof w);
+    host_watch(&c, 4.0, &w);
+    d = data();
+    CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_DONE);
+    CHECK_NEAR(h.yaw_deg, 90.0, 1.0);
+    CHECK(w.max_yaw < 91.0);
+    CHECK(w.min_ref_w >= 0.0);           /* never planned back */
+    CHECK(w.max_yaw - h.yaw_deg < 0.2); /* nor turned back */
+}
+
+/* The reference speed's slope (u/s^2) between t0 and t1 (s, whole 0.1 s) after the
+ * command, the host repeating it every 100 ms. */
+static double ramp_slope(const navkit_micro_cmd_t *c, const float *vel, double t0, double t1)
+{
+    double v0;
+    host_run(c, t0);
+    v0 = *vel;
+    host_run(c, t1 - t0);
+    return (*vel - v0) / (t1 - t0);
+}
+
+static void test_limits_and_signs(void)
+{
+    navkit_micro_cmd_t c;
+    double t0;
+    boot();
+    sim_configure(&fw, &h);
+    /* accel 0 = 300 mm/s^2: the reference ramps at that slope */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 400;
+    c.distance = 5000;
+    CHECK_NEAR(ramp_slope(&c, &fw.fwd.prof.vel, 0.1, 0.6), 300.0, 6.0);
+    /* accel sign ignored: -500 ramps at 500 */
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.accel = -500;
+    c.speed = -400; /* sign ignored too: forward, distance gives the direction */
+    c.distance = 5000;
+    CHECK_NEAR(ramp_slope(&c, &fw.fwd.prof.vel, 0.1, 0.5), 500.0, 10.0);
+    host_run(&c, 1.0);
+    CHECK_NEAR(fw.fwd.prof.vel, 400.0, 1.0);
+    /* fwd 3 speeds up with a new accel: 100 -> 300 mm/s at 600 mm/s^2 */
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.accel = 200;
+    c.speed = 100;
+    c.distance = 5000;
+    host_run(&c, 1.5);
+    CHECK_NEAR(fw.fwd.prof.vel, 100.0, 0.5);
+    CHECK_NEAR(data().fwd_speed, 100.0, 5.0);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    c.accel = 600;
+    c.speed = 300;
+    c.distance = 5000;
+    CHECK_NEAR(ramp_slope(&c, &fw.fwd.prof.vel, 0.05, 0.25), 600.0, 12.0);
+    host_run(&c, 1.0);
+    CHECK_NEAR(data().fwd_speed, 300.0, 10.0);
+    /* turn_accel and turn_rate signs ignored: -90 deg/s^2 and -45 deg/s turn clockwise */
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_accel = -900;
+    c.turn_rate = -450;
+    c.turn_distance = 900;
+    t0 = ramp_slope(&c, &fw.turn.ax.prof.vel, 0.1, 0.4);
+    CHECK_NEAR(t0, 90.0, 2.0);
+    host_run(&c, 3.0);
+    CHECK(fw.turn.ax.prof.vmax == 45.0f);
+    CHECK_NEAR(h.yaw_deg, 90.0, 1.0);
+}
+
+static void test_turn_modify_stop_latch(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    watch_t w = {0, 0, 0, 0, 0, 0};
+    double at_stop;
+    boot();
+    sim_configure(&fw, &h);
+    /* turn 1 to 360 deg at 45 deg/s, then turn 3: 90 deg/s to 180 deg from the same reference */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 450;
+    c.turn_distance = 3600;
+    host_run(&c, 1.5);
+    CHECK_NEAR(data().yaw_rate, 450.0, 30.0);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    c.turn_rate = 900;
+    c.turn_distance = 1800;
+    host_watch(&c, 4.0, &w);
+    d = data();
+    CHECK(w.max_yaw < 181.0);
+    CHECK_NEAR(h.yaw_deg, 180.0, 1.0);
+    CHECK_NEAR(d.turn_progress, 1800.0, 10.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_DONE);
+    /* turn 1 again, then turn 5 at 180 deg/s^2: stops short, latched */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 900;
+    c.turn_distance = -3600;
+    host_run(&c, 1.5);
+    CHECK_NEAR(data().yaw_rate, -900.0, 40.0);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_STOP;
+    c.turn_accel = 1800;
+    memset(&w, 0, sizeof w);
+    w.min_w = 0.0;
+    at_stop = h.yaw_deg;
+    host_run(&c, 1.5);
+    d = data();
+    /* 90 deg/s at 180 deg/s^2: 22.5 deg */
+    CHECK_NEAR(at_stop - h.yaw_deg, 22.5, 4.0);
+    CHECK(d.yaw_rate == 0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_STOP_LATCHED);
+    at_stop = h.yaw_deg;
+    /* a turn 3 after the stop: nothing */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    c.turn_rate = 900;
+    c.turn_distance = 0;
+    host_run(&c, 1.0);
+    CHECK_NEAR(h.yaw_deg, at_stop, 0.2);
+    CHECK(data().cmd_rejected == 0);
+    /* a turn 1 clears the latch */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_distance = 300;
+    host_run(&c, 2.0);
+    d = data();
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_TURN_STOP_LATCHED));
+    CHECK_NEAR(h.yaw_deg, at_stop + 30.0, 1.0);
+}
+
+static void test_watchdog_turn_and_safe_state(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    navkit_micro_data_t d;
+    double at_trip;
+    boot();
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    navkit_micro_cfg_io_defaults(&io);
+    io.dio_safe_state = 0x0A5; /* bit 8 and up are inputs: only 0xA5 can show */
+    sim_configure_with(&fw, &h, &g, &m, &io);
+    sim_run(&fw, &h, 1);
+    CHECK(h.dio_dir == 0x00FF);
+    CHECK(h.dio_out == 0x00A5); /* safe state once configured */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 900;
+    c.turn_distance = 36000;
+    c.dio_command = 0x0F0F;
+    host_run(&c, 1.5);
+    CHECK(h.dio_out == 0x000F);
+    CHECK_NEAR(data().yaw_rate, 900.0, 40.0);
+    /* silence: the turn stops at the watchdog deceleration (500 mm/s^2 at the wheel) */
+    sim_run(&fw, &h, 200);
+    CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    CHECK(h.dio_out == 0x00A5);
+    at_trip = h.yaw_deg;
+    sim_run(&fw, &h, 2000);
+    CHECK(fabs(h.v_l - h.v_r) < 0.5);
+    /* 90 deg/s = 235.6 mm/s at the wheel, 500 mm/s^2: 55.5 mm = 21.2 deg */
+    CHECK_NEAR(h.yaw_deg - at_trip, 21.2, 5.0);
+    CHECK(fw.turn.ax.latched);
+    sim_cmd(&fw, &h, &c); /* the same tag again: no resume */
+    sim_run(&fw, &h, 500);
+    d = data();
+    CHECK(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    CHECK(fabs(h.v_l - h.v_r) < 0.5);
+}
+
+static void test_hdg_hold_keeps_bias_fresh(void)
+{
+    /* HdgSel holds its heading; the gyro bias drifts 25 -> 45 LSB: the standstill estimate
+       follows (the wheels are at rest although HdgSel is active) and the robot stays put */
+    navkit_micro_cmd_t c;
+    double yaw0;
+    boot();
+    h.gyro_bias = 25;
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100);
+    sim_configure(&fw, &h);
+    CHECK_NEAR(fw.hdg.bias, 25.0, 0.5);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_rate = 450;
+    c.turn_distance = 900;
+    host_run(&c, 5.0);
+    CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_HDG_HOLD);
+    yaw0 = h.yaw_deg;
+    h.gyro_bias = 45;
+    host_run(&c, 12.0);
+    CHECK_NEAR(fw.hdg.bias, 45.0, 1.5);
+    CHECK_NEAR(h.yaw_deg, yaw0, 0.3);
+    CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_HDG_ACTIVE);
+}
+
+static void test_compass_fusion_closed_loop(void)
+{
+    /* the heading starts 10 deg off (dg_set 350 while the robot faces north); HdgSel 0
+       with compass fusion: the robot ends facing true north, heading and compass agree */
+    navkit_micro_cmd_t c;
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    long f;
+    boot();
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    navkit_micro_cfg_io_defaults(&io);
+    g.compass_weight = 500; /* 0.5 per s */
+    sim_configure_with(&fw, &h, &g, &m, &io);
+    c = cmd();
+    c.dg_control = NAVKIT_DG_CONTROL_SET_HEADING;
+    c.dg_set = 3500;
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_rate = 300;
+    c.turn_distance = 0;
+    for (f = 0; f < 200; f++) {
+        double yaw = fmod(fmod(h.yaw_deg, 360.0) + 360.0, 360.0);
+        h.compass = (uint16_t)((long)(yaw * 10.0 + 0.5) % 3600);
+        sim_cmd(&fw, &h, &c);
+        sim_run(&fw, &h, 100);
+    }
+    CHECK_NEAR(h.yaw_deg, 0.0, 0.7);
+    CHECK(heading_deg10(&fw.hdg) <= 7u || heading_deg10(&fw.hdg) >= 3593u);
+    /* without fusion the same start leaves it 10 deg off */
+    boot();
+    sim_configure(&fw, &h);
+    for (f = 0; f < 50; f++) {
+        sim_cmd(&fw, &h, &c);
+        sim_run(&fw, &h, 100);
+    }
+    CHECK_NEAR(h.yaw_deg, 10.0, 0.7);
+}
+
+static void test_datalog_selections(void)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    boot();
+    h.gyro_bias = 12;
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100);
+    sim_configure(&fw, &h);
+    /* forward at 200 mm/s while turning at 20 deg/s: wheels differ */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 5000;
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_rate = 200;
+    c.turn_distance = 3600;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_WHEEL_LEFT;
+    host_run(&c, 2.0);
+    d = data();
+    /* left = v + w*track/2 = 200 + 20 deg/s * 2.618 mm/deg = 252 mm/s */
+    CHECK_NEAR(d.mc_datalog[0], 252.0, 3.0);
+    CHECK_NEAR(d.mc_datalog[1], 252.0, 10.0);
+    CHECK_NEAR(d.mc_datalog[2], 252.0 * 0.0018 * 10000.0, 400.0); /* duty: mostly feed-forward */
+    CHECK_NEAR(d.mc_datalog[2], h.duty_l, 600.0);
+    h.compass = 100; /* sampled by the ticks before the heading selection's reply */
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_WHEEL_RIGHT;
+    c.time_tag = ++tag;
+    c.fwd_cmd = NAVKIT_FWD_CMD_NONE;
+    c.turn_cmd = NAVKIT_TURN_CMD_NONE;
+    host_run(&c, 0.1);
+    d = data();
+    CHECK_NEAR(d.mc_datalog[0], 148.0, 3.0);
+    CHECK_NEAR(d.mc_datalog[1], 148.0, 10.0);
+    CHECK_NEAR(d.mc_datalog[2], h.duty_r, 600.0);
+    CHECK(d.mc_datalog[2] < h.duty_l - 1000);
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_TURN_PROFILE;
+    c.time_tag = ++tag;
+    host_run(&c, 0.1);
+    d = data();
+    CHECK_NEAR(d.mc_datalog[0], 200.0, 1.0); /* reference deg*10/s */
+    CHECK(d.mc_datalog[1] > 2500 && d.mc_datalog[1] < 3300); /* to go, deg*10 */
+    CHECK_NEAR(d.mc_datalog[2], d.mc_datalog[1], 60.0);
+    CHECK((d.mc_datalog[3] & 0x11) == 0x01); /* moving, not HdgSel */
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    c.time_tag = ++tag;
+    host_run(&c, 0.1);
+    d = data();
+    CHECK(d.mc_datalog[0] == (int16_t)d.heading);
+    CHECK_NEAR(d.mc_datalog[1], 200.0, 15.0); /* rate deg*10/s */
+    CHECK_NEAR(d.mc_datalog[2], 120.0, 5.0);  /* bias LSB*10 */
+    CHECK_NEAR(d.mc_datalog[3], 100 - (int)d.heading + ((int)d.heading > 1900 ? 3600 : 0), 2.0);
+    /* HdgSel shows in the turn profile flags */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_distance = 0;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_TURN_PROFILE;
+    host_run(&c, 0.1);
+    CHECK(data().mc_datalog[3] & 0x10);
+}
+
+static void test_servo_slot_without_command(void)
+{
+    /* a slot whose param0 is 0 is no command: servo 2 keeps going where it was sent */
+    navkit_micro_cmd_t c;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.rc2_param0 = 100;
+    c.rc2_param1 = 300;
+    c.rc2_param2 = 9999;
+    host_run(&c, 0.5);
+    c = cmd();
+    c.rc2_param0 = 0;
+    c.rc2_param1 = -600;
+    c.rc2_param2 = 9999;
+    host_run(&c, 3.0);
+    CHECK(data().servo_pos[2] == 300);
+    CHECK(fw.servo[2].goal == 300);
+}
+
+static void test_time_tags_across_reset(void)
+{
+    navkit_micro_cmd_t c, stale;
+    navkit_micro_data_t d;
+    boot();
+    sim_configure(&fw, &h);
+    stale = cmd();
+    stale.fwd_cmd = NAVKIT_FWD_CMD_START;
+    stale.speed = 200;
+    stale.distance = 300;
+    host_run(&stale, 3.0);
+    CHECK_NEAR(h.dist_mm, 300.0, 5.0);
+    /* the micro resets; the host repeats its last command, then configures, and repeats
+       it again: the stale fwd 1 must not run a second time */
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100);
+    host_run(&stale, 0.3);
+    d = data();
+    CHECK(d.cmd_rejected == 1 && d.last_reject == 1);
+    sim_configure(&fw, &h);
+    host_run(&stale, 3.0);
+    d = data();
+    CHECK_NEAR(h.dist_mm, 300.0, 5.0);
+    CHECK(d.ack_time_tag == 0 && d.cmd_rejected == 1);
+    /* a new command sent while the micro is unconfigured keeps its tag: its repeat runs
+       once the configs are in (and runs once) */
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100);
+    host_run(&stale, 0.2);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 200;
+    host_run(&c, 0.3);
+    d = data();
+    CHECK(d.cmd_rejected == 2 && d.last_reject == 1);
+    CHECK_NEAR(h.dist_mm, 300.0, 5.0);
+    sim_configure(&fw, &h);
+    host_run(&c, 3.0);
+    d = data();
+    CHECK(d.ack_time_tag == c.time_tag && d.cmd_rejected == 2);
+    CHECK_NEAR(h.dist_mm, 500.0, 5.0);
+    /* a content refusal uses up its tag: the repeat is neither run nor counted again */
+    c = cmd();
+    c.fwd_cmd = 2;
+    host_run(&c, 0.5);
+    CHECK(data().cmd_rejected == 3);
+}
+
 int main(void)
 {
     test_unconfigured();
@@ -444,5 +897,14 @@ int main(void)
     test_turns();
     test_watchdog_stop();
     test_servo_dio_sensors();
+    test_forever_then_modify();
+    test_limits_and_signs();
+    test_turn_modify_stop_latch();
+    test_watchdog_turn_and_safe_state();
+    test_hdg_hold_keeps_bias_fresh();
+    test_compass_fusion_closed_loop();
+    test_datalog_selections();
+    test_servo_slot_without_command();
+    test_time_tags_across_reset();
     CHECK_DONE();
 }
