@@ -124,3 +124,100 @@ def test_plant_overrides_checked_against_the_plant_fmu(tmp_path: Path, plant, ke
     msg = str(e.value)
     assert "p.toml: [plant]" in msg and key in msg and what in msg, msg
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("key", ["seed", "world_file"])
+def test_plant_table_refuses_the_harness_keys(key):
+    """seed and world_file come from --seed and `world` (and the metadata records them):
+    [plant] may not override them."""
+    with pytest.raises(MissionError) as e:
+        loads(f"duration_s = 5\n[plant]\n{key} = 3\n", "bad.toml")
+    msg = str(e.value)
+    assert msg.startswith(f"bad.toml: [plant]: key {key!r} is set by the harness"), msg
+    assert ("--seed" if key == "seed" else "`world = ") in msg, msg
+
+
+def test_planner_silent_may_not_outlast_the_mission():
+    with pytest.raises(MissionError, match=r"\[\[fault\]\] #1: key 'duration_s': the fault "
+                                           r"ends at 6.0 s, past duration_s = 5.0 s"):
+        loads("duration_s = 5\n[[fault]]\nt = 4\nkind = 'planner_silent'\nduration_s = 2\n",
+              "bad.toml")
+    loads("duration_s = 5\n[[fault]]\nt = 4\nkind = 'planner_silent'\nduration_s = 1\n")
+
+
+def _run(tmp_path, text, name="p.toml"):
+    from navkit.sim.harness import SimOptions, run
+
+    from test_sim_util import require_build
+
+    require_build()
+    m = loads(text, tmp_path / name)
+    return run(SimOptions(mission=m, out=tmp_path / "out", plot=False))
+
+
+@pytest.mark.parametrize("plant, key, fmu_text", [
+    ("mass_kg = -1.0", "'mass_kg'", "parameter mass_kg = -1 is out of range"),
+    ("sonar_beam_deg = 200.0", "'sonar_beam_deg'", "parameter sonar_beam_deg = 200"),
+])
+def test_bad_plant_value_names_mission_key_and_the_fmu_message(tmp_path: Path, plant, key,
+                                                               fmu_text):
+    with pytest.raises(MissionError) as e:
+        _run(tmp_path, f"duration_s = 1.0\n[plant]\n{plant}\n")
+    msg = str(e.value)
+    assert msg.startswith(f"{tmp_path / 'p.toml'}: [plant]: key {key}"), msg
+    assert fmu_text in msg and "fmi3ExitInitializationMode" in msg, msg
+    assert not (tmp_path / "out").exists()
+
+
+def test_malformed_world_file_names_mission_world_file_and_line(tmp_path: Path):
+    (tmp_path / "bent.txt").write_text("# a world\nwall 0 0 1000 0\nwall 1 2 3\n")
+    with pytest.raises(MissionError) as e:
+        _run(tmp_path, 'duration_s = 1.0\nworld = "bent.txt"\n')
+    msg = str(e.value)
+    assert msg.startswith(f"{tmp_path / 'p.toml'}: key 'world': "), msg
+    assert f"{tmp_path / 'bent.txt'}:3: 'wall' takes 4 numbers" in msg, msg
+
+
+def test_sim_cli_reports_a_plant_refusal_without_a_traceback(tmp_path: Path, capsys):
+    import argparse
+
+    from navkit.sim import cli
+    from test_sim_util import require_build
+
+    require_build()
+    p = tmp_path / "heavy.toml"
+    p.write_text("duration_s = 1.0\n[plant]\nmass_kg = -1.0\n")
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    rc = cli.run(parser.parse_args(["--mission", str(p), "--out", str(tmp_path / "o")]))
+    out = capsys.readouterr().out
+    assert rc == 1
+    assert out.startswith(f"navkit sim: {p}: [plant]: key 'mass_kg'"), out
+    assert "Traceback" not in out
+
+
+@pytest.mark.parametrize("what, entry", [
+    ("[[command]]\nt = 0.95\nfwd_cmd = 1", "[[command]] #1"),
+    ("[[key]]\nt = 1.0\nkey = 'R'", "[[key]] #1"),
+    ("[[fault]]\nt = 0.91\nkind = 'micro_reset'", "[[fault]] #1"),
+])
+def test_event_after_the_last_frame_start_is_refused(tmp_path: Path, what, entry):
+    """duration 1.0 s with 100 ms frames: the last frame starts at 0.9 s; an event after
+    it would never happen, so the run refuses it before starting anything."""
+    with pytest.raises(MissionError) as e:
+        _run(tmp_path, f"duration_s = 1.0\n{what}\n")
+    msg = str(e.value)
+    assert msg.startswith(f"{tmp_path / 'p.toml'}: {entry}: key 't': "), msg
+    assert "last frame of the run starts at 0.9 s" in msg, msg
+    assert not (tmp_path / "out").exists()
+
+
+def test_events_take_effect_at_the_first_frame_at_or_after_t(tmp_path: Path):
+    from navkit.sim.results import load as load_run
+
+    _run(tmp_path, "duration_s = 1.0\n[[command]]\nt = 0.25\nspeed = 5\n"
+                   "[[command]]\nt = 0.9\nspeed = 7\n[[key]]\nt = 0.81\nkey = 'x'\n")
+    r = load_run(tmp_path / "out")
+    assert [(round(t, 3), m["speed"]) for t, m in r.messages("/planner/cmd")] == \
+        [(0.3, 5), (0.9, 7)]
+    assert [round(t, 3) for t, m in r.messages("/events") if m["kind"] == "key"] == [0.9]

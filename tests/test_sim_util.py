@@ -1,8 +1,5 @@
-"""Helpers of the co-simulation tests (no tests here) (tests/test_sim_*.py): run a mission text once per
-session through the real host and FMUs, and read its outputs back."""
-
-import os
-from pathlib import Path
+"""Helpers of the co-simulation tests (tests/test_sim_*.py; no tests here): run a mission
+text once per session through the real host and FMUs, and read its outputs back."""
 
 import pytest
 

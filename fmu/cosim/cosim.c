@@ -59,7 +59,7 @@ struct cosim {
     int rx_pending_clear;          /* serial_rx still holds bytes of an earlier step */
     int timing;
     uint64_t ns[2];
-    uint64_t dropped;
+    uint64_t dropped;              /* bytes / rows lost to full buffers (reported in the error) */
     char err[256];
 };
 
@@ -426,11 +426,6 @@ void cosim_timing(cosim_t *c, int on)
 {
     if (c)
         c->timing = on != 0;
-}
-
-uint64_t cosim_dropped(const cosim_t *c)
-{
-    return c ? c->dropped : 0;
 }
 
 const char *cosim_error(const cosim_t *c)

@@ -96,7 +96,7 @@ COSIM_API int cosim_exchange(cosim_t *c);
  * appended to `tx` (capacity `tx_cap`), their count stored in *tx_len; truth rows are
  * appended to `rows` (room for `rows_cap` rows), their count stored in *n_rows.
  * Returns COSIM_OK, or an error after the step that failed (outputs up to it are kept;
- * COSIM_ERR_FULL if tx or rows had no room, the excess is dropped and counted). */
+ * COSIM_ERR_FULL if tx or rows had no room: the excess is dropped, the error says how much). */
 COSIM_API int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len,
                         uint8_t *tx, size_t tx_cap, size_t *tx_len,
                         double *rows, size_t rows_cap, size_t *n_rows);
@@ -118,9 +118,6 @@ COSIM_API uint64_t cosim_fmu_ns(const cosim_t *c, int which);
 
 /* Turns timing of each FMU's calls on (1) or off (0, the default: no clock reads). */
 COSIM_API void cosim_timing(cosim_t *c, int on);
-
-/* Bytes or rows dropped because a buffer passed to cosim_run() was full. */
-COSIM_API uint64_t cosim_dropped(const cosim_t *c);
 
 /* The text of the last error ("" if none). Valid until the next call. */
 COSIM_API const char *cosim_error(const cosim_t *c);

@@ -3,8 +3,9 @@
 Runs a generated mission (default 10 simulated minutes: out-and-back legs, heading
 selects, servo scans, DIO) through the real host over the pty, and prints the real-time
 factor (simulated s per wall s), the share of wall time in the FMUs (native coupler),
-the pty, the host (tick to done) and the harness's own Python (decoding, MCAP), and the
-peak memory of the harness and of the host.
+the pty, the host (tick to done) and the harness's own Python (mission events, queuing log
+items for the worker that decodes and writes MCAP on the other CPU), and the peak memory
+of the harness, the log worker and the host.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ def run(args) -> int:
     """Run the benchmark and print its figures; 0 on success."""
     from navkit.sim.harness import SimError, SimOptions
     from navkit.sim.harness import run as run_sim
-    from navkit.sim.mission import loads
+    from navkit.sim.mission import MissionError, loads
 
     with tempfile.TemporaryDirectory(prefix="navkit-bench-") as tmp:
         out = args.out or Path(tmp) / "out"
@@ -60,7 +61,7 @@ def run(args) -> int:
                           plot=False, timing=True)
         try:
             s = run_sim(opts)
-        except SimError as e:
+        except (MissionError, SimError) as e:
             print(f"navkit bench-sim: {e}")
             return 1
     wall = s["wall_time_s"]
@@ -71,7 +72,8 @@ def run(args) -> int:
     rest = wall - sum(share.values())
     parts = dict(share, startup_and_shutdown=rest)
     names = {"fmus": "FMUs (native coupler)", "pty": "pty reads/writes",
-             "host": "host frame (tick -> done)", "record": "harness Python (decode, MCAP)",
+             "host": "host frame (tick -> done)",
+             "harness": "harness Python (events, log items)",
              "startup_and_shutdown": "start-up, shutdown, summary"}
     for k, v in parts.items():
         print(f"  {names.get(k, k):32s} {v:7.3f} s  {100 * v / wall:5.1f} %")

@@ -3,8 +3,9 @@
     navkit sim --mission config/missions/demo.toml --out build/sim/demo [--seed N] [--realtime]
     navkit sim --plant my_robot.fmu ...     # a plant FMU of your own (FMI 3.0 co-simulation)
 
-Writes run.mcap, summary.json, plot.png (and the host's datalogs and host.log) into the
-output folder and prints where they are, the final pose and the speed of the run.
+Writes run.mcap, summary.json, host.log, plot.png and the host's datalogs (when recording
+was on) into the output folder and prints where they are, the final pose and the speed of
+the run.
 """
 
 from __future__ import annotations
@@ -66,7 +67,9 @@ def run(args) -> int:
     print(f"mission   {mission.path}  (seed {args.seed}, {s['mode']})")
     if args.plant:
         print(f"plant     {s['plant_fmu']}")
-    print(f"outputs   {out}/  run.mcap  summary.json" + ("  plot.png" if opts.plot else ""))
+    print(f"outputs   {out}/  run.mcap  summary.json  host.log" + ("  plot.png" if opts.plot else ""))
+    for log in sorted(Path(out).glob("Data *.txt")):
+        print(f"datalog   {log}")
     print(f"final     x {t.get('x_mm', 0):.0f} mm  y {t.get('y_mm', 0):.0f} mm  "
           f"heading {t.get('heading_deg', 0):.1f} deg  v {t.get('v_mm_s', 0):.0f} mm/s")
     print(f"speed     {s['sim_time_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall "

@@ -17,8 +17,10 @@ runs the host on its own clock and paces the FMUs to the wall clock instead.
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
+import re
 import resource
 import shutil
 import signal
@@ -28,7 +30,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from navkit.sim.mission import Mission, MissionError
+from navkit.sim.mission import COMMAND_FIELDS, Mission, MissionError
 
 __all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period"]
 
@@ -137,18 +139,21 @@ def _set_start(slave, md, name: str, value, where: str, fmu: Path) -> None:
         raise MissionError(f"{where}: key {name!r}: {value!r} does not fit its type {t}") from None
 
 
+_PARAM_MSG = re.compile(r"\bparameter (\w+)\b")
+
+
 class _Fmus:
-    """Both FMUs extracted, instantiated and initialised."""
+    """Both FMUs (files checked to exist by the caller) extracted, instantiated and
+    initialised. Their log messages are kept (`log`, newest last, at most 50) and name the
+    cause when a call fails."""
 
     def __init__(self, fw_path: Path, plant_path: Path, tmp: Path, plant_params: dict,
-                 mission_path: Path):
+                 mission: Mission):
         from fmpy import extract, read_model_description
         from fmpy.fmi3 import FMU3Slave
 
         self.slaves = []
-        for path, name in ((fw_path, "firmware"), (plant_path, "plant")):
-            if not path.exists():
-                raise SimError(f"{path} not found: build the {name} FMU first")
+        self.log = []
         self.fw_md = read_model_description(str(fw_path))
         self.plant_md = read_model_description(str(plant_path))
         fw_dir = extract(str(fw_path), unzipdir=str(tmp / "fw"))
@@ -159,22 +164,68 @@ class _Fmus:
         self.plant = FMU3Slave(guid=self.plant_md.guid, unzipDirectory=plant_dir,
                                modelIdentifier=self.plant_md.coSimulation.modelIdentifier,
                                instanceName="plant")
-        self.fw.instantiate()
-        self.slaves.append(self.fw)
-        self.plant.instantiate()
-        self.slaves.append(self.plant)
-        for name, value in plant_params.items():
-            _set_start(self.plant, self.plant_md, name, value, f"{mission_path}: [plant]",
-                       plant_path)
-        for s in (self.fw, self.plant):
-            s.enterInitializationMode(startTime=0.0)
-            s.exitInitializationMode()
+        try:
+            self.fw.instantiate(logMessage=self._logger("firmware"))
+            self.slaves.append(self.fw)
+            self.plant.instantiate(logMessage=self._logger("plant"))
+            self.slaves.append(self.plant)
+            for name, value in plant_params.items():
+                _set_start(self.plant, self.plant_md, name, value, f"{mission.path}: [plant]",
+                           plant_path)
+            self._init(self.fw, "firmware", fw_path, 0.0)
+            self._init_plant(plant_path, mission, plant_params)
+        except BaseException:
+            self.close()
+            raise
+
+    def _logger(self, who: str):
+        """An fmi3LogMessageCallback that keeps the FMU `who`'s messages."""
+        def log(_env, _status, _category, message) -> None:
+            self.log.append((who, message.decode(errors="replace") if message else ""))
+            del self.log[:-50]
+        return log
+
+    def _messages(self, who: str) -> str:
+        return "; ".join(m for w, m in self.log if w == who) or "(the FMU logged nothing)"
+
+    def _init(self, slave, who: str, path: Path, t: float) -> None:
+        """Enter and exit initialisation mode at `t` (s); SimError with the FMU's log."""
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            slave.enterInitializationMode(startTime=t)
+            slave.exitInitializationMode()
+        except FMICallException as e:
+            raise SimError(f"the {who} FMU ({path}) failed to initialise: {e} "
+                           f"{self._messages(who)}") from None
+
+    def _init_plant(self, path: Path, mission, params: dict) -> None:
+        """Initialise the plant; a refusal is the mission's: MissionError naming the mission
+        file and the [plant] key (from the FMU's message) or the world file and line."""
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            self.plant.enterInitializationMode(startTime=0.0)
+            self.plant.exitInitializationMode()
+        except FMICallException as e:
+            text = self._messages("plant")
+            keys = [k for k in _PARAM_MSG.findall(text) if k in mission.plant]
+            world = params.get("world_file")
+            if keys:
+                where = f"{mission.path}: [plant]: key {keys[0]!r}"
+            elif world and world in text:
+                where = f"{mission.path}: key 'world'"
+            elif mission.plant:
+                where = f"{mission.path}: [plant] ({', '.join(mission.plant)})"
+            else:
+                where = f"{mission.path}"
+            raise MissionError(f"{where}: the plant FMU ({path}) refused it: {text} "
+                               f"({e.function} failed)") from None
 
     def reset_firmware(self, t: float) -> None:
         """fmi3Reset of the firmware, then initialise it again starting at `t` (s)."""
         self.fw.reset()
-        self.fw.enterInitializationMode(startTime=t)
-        self.fw.exitInitializationMode()
+        self._init(self.fw, "firmware", Path(self.fw_md.modelName), t)
 
     def close(self) -> None:
         for s in self.slaves:
@@ -221,10 +272,7 @@ class _Planner:
     def command(self, fields: dict, t_ms: int) -> dict:
         """Write a whole lisp_cmd (unset fields 0) with a new time tag; returns it."""
         self.time_tag = max(self.time_tag + 1, t_ms)
-        msg = dict.fromkeys(("fwd_cmd", "accel", "speed", "distance", "turn_mode",
-                             "turn_accel", "turn_rate", "turn_distance", "rc_servo_num",
-                             "rc_param0", "rc_param1", "rc_param2", "dio_active",
-                             "dio_command"), 0)
+        msg = dict.fromkeys(COMMAND_FIELDS, 0)
         msg.update(fields, time_tag=self.time_tag, msg_type=0)
         if self.client is not None:
             self.client.write_cmd(msg)
@@ -299,6 +347,7 @@ class _Run:
 
         from navkit.sim.plant import PlantFmuError, check
 
+        self._check_timeline()
         fw_fmu, plant_fmu = fmu_paths(self.build)[0], self.plant_fmu
         built = [(fw_fmu, "firmware")]
         if self.opts.plant_fmu is None:         # a user's plant: check() names a missing file
@@ -316,7 +365,7 @@ class _Run:
             plant_params["world_file"] = str(self.m.world)
         plant_params.update(self.m.plant)
         self.fmus = _Fmus(fw_fmu, plant_fmu, self.tmp, self._known_plant(plant_md, plant_params),
-                          self.m.path)
+                          self.m)
         every = max(1, round(1.0 / (self.opts.truth_hz * STEP_S)))
         self.coupler = Coupler(self.fmus.fw, self.fmus.fw_md, self.fmus.plant,
                                self.fmus.plant_md, step_s=STEP_S, record_every=every,
@@ -441,6 +490,25 @@ class _Run:
         shutil.rmtree(self.tmp, ignore_errors=True)
 
     # -------------------------------------------------------------- events
+    def n_frames(self) -> int:
+        """Host frames in the run: round(duration_s / frame); frame k starts at k * frame."""
+        return int(round(self.m.duration_s / self.frame_s))
+
+    def _check_timeline(self) -> None:
+        """Every event takes effect at the first host frame that starts at or after its t
+        (lockstep; in real time at the first 5 ms chunk, which is never later): MissionError
+        naming the entry if that frame is not in the run."""
+        n, frame = self.n_frames(), self.frame_s
+        last = (n - 1) * frame
+        for _t, _order, _what, e in self._timeline():
+            k = math.ceil(e.t / frame - 1e-9)
+            if k >= n:
+                raise MissionError(
+                    f"{e.where}: key 't': {e.t:g} s would take effect at the first host frame "
+                    f"at or after it ({k * frame:g} s), but the last frame of the run starts "
+                    f"at {last:g} s (duration_s = {self.m.duration_s:g} s, "
+                    f"{frame * 1000:g} ms frames): use t <= {last:g} or a longer duration_s")
+
     def _timeline(self):
         ev = [(c.t, 0, "command", c) for c in self.m.commands]
         ev += [(k.t, 1, "key", k) for k in self.m.keys]
@@ -482,6 +550,7 @@ class _Run:
             self.fmus.reset_firmware(t)
             self.coupler.firmware_restart(t)
             self.coupler.exchange()
+            self.log.receiver_restart("h2m")     # the micro's frame parser starts afresh
         elif f.kind == "unplug":
             self.port.unplug()
             self.rx_count = 0       # bytes still in the pty are gone with it
@@ -505,6 +574,7 @@ class _Run:
         t = t_ns / 1e9
         if self.unplug_until is not None and t >= self.unplug_until - 1e-9:
             self.port.plug()
+            self.log.receiver_restart("m2h")     # the host opens a new port
             self._event(t_ns, "plug", {})
             self.unplug_until = None
         if self.noise is not None and t >= self.noise_until - 1e-9:
@@ -515,7 +585,9 @@ class _Run:
             self._event(t_ns, "planner_resumes", {})
 
     def _to_host(self, tx: bytes) -> int:
-        """The micro's bytes (after line noise) to the host's port; returns how many went."""
+        """The micro's bytes (after line noise) to the host's port; returns how many went.
+        What the host receives goes to the log's receiver count ("m2h")."""
+        sent = tx
         if self.noise is not None:
             tx = self.noise.apply(tx)
         if not tx or self.host_state != "running" or not self.port.plugged:
@@ -523,7 +595,19 @@ class _Run:
         t1 = time.perf_counter()
         n = self.port.write(tx)
         self.times["pty"] += time.perf_counter() - t1
+        self.log.received("m2h", None if tx is sent and n == len(tx) else tx[:n])
         return n
+
+    def _to_micro(self, host_bytes: bytes) -> bytes:
+        """The host's bytes after line noise, as the micro receives them ("h2m")."""
+        if not host_bytes:
+            return host_bytes
+        if self.noise is None:
+            self.log.received("h2m", None)
+            return host_bytes
+        rx = self.noise.apply(host_bytes)
+        self.log.received("h2m", rx)
+        return rx
 
     def _lisp_raw(self):
         c = self.planner.client
@@ -534,7 +618,7 @@ class _Run:
         pc = time.perf_counter
         timeline = self._timeline()
         ei, n_ev = 0, len(timeline)
-        n_frames = int(round(self.m.duration_s / self.frame_s))
+        n_frames = self.n_frames()
         frame_ns = self.steps_per_frame * 1_000_000
         self.rx_count = 0
         log, coupler, port = self.log, self.coupler, self.port
@@ -575,28 +659,26 @@ class _Run:
                     if flags & 1:
                         self.host_state = "exited"
                 self.frames += 1
-            else:
-                log.host(t_ns, host_bytes)
-            if self.noise is not None:
-                host_bytes = self.noise.apply(host_bytes)
+            host_bytes = self._to_micro(host_bytes)
             # The frame's FMU chunk runs in two calls: the micro answers within the first
             # tens of ms, so its bytes go to the pty while the rest of the chunk computes
             # and the kernel moves them meanwhile. All are written before the next tick
-            # either way, so the split changes nothing the host or the log sees.
+            # either way, so the split changes nothing the host sees; /micro/data is
+            # stamped with the end of the call that completed each frame.
             t1 = pc()
             tx, rows = coupler.run_raw(split, host_bytes)
             times["fmus"] += pc() - t1
+            log.micro(t_ns + split * 1_000_000, tx)
             self.rx_count = self._to_host(tx)
             if split < spf:
                 t1 = pc()
                 tx2, rows2 = coupler.run_raw(spf - split)
                 times["fmus"] += pc() - t1
+                log.micro(t_ns + frame_ns, tx2)
                 self.rx_count += self._to_host(tx2)
-                tx += tx2
                 rows += rows2
             t_end_ns = t_ns + frame_ns
             log.truth(rows)
-            log.micro(t_end_ns, tx)
             log.end_frame(t_end_ns)
             if self.opts.progress and k % max(1, int(10 / self.frame_s)) == 0:
                 print(f"  t = {t_ns / 1e9:7.1f} s", flush=True)
@@ -624,22 +706,20 @@ class _Run:
                 self.host_state = "exited"
             host_bytes = self.port.read_available()
             self.log.host(t_ns, host_bytes)
-            if self.noise is not None:
-                host_bytes = self.noise.apply(host_bytes)
+            host_bytes = self._to_micro(host_bytes)
             tx, rows = self.coupler.run_raw(chunk_steps, host_bytes)
             self.log.truth(rows)
             self.log.micro(t_ns + chunk_ns, tx)
-            if self.noise is not None:
-                tx = self.noise.apply(tx)
-            if self.host_state == "running":
-                self.port.write(tx)
+            self._to_host(tx)
             if t_ns >= next_frame_ns:
                 if self.host_state == "running":
                     if self.silent_until is None:
                         self.planner.beat()
-                    self.log.lisp(t_ns, self._lisp_raw())
+                    raw = self._lisp_raw()
+                    self.log.lisp(t_ns, raw)
+                    if raw is not None:      # the host's own frame counter
+                        self.frames = self.protocol.from_bytes("lisp_data", raw)["frame"] + 1
                 next_frame_ns += round(self.frame_s * 1e9)
-                self.frames += 1
                 self.log.end_frame(t_ns + chunk_ns)
             sleep = wall0 + (t_ns + chunk_ns) / 1e9 - time.monotonic()
             if sleep > 0:
@@ -651,7 +731,8 @@ class _Run:
         res = self.results or {}
         micro = res.get("last_micro") or {}
         lisp = res.get("last_lisp") or {}
-        h2m, m2h = res.get("h2m", {}), res.get("m2h", {})
+        link = res.get("link", {})
+        h2m, m2h = link.get("h2m", {}), link.get("m2h", {})
         self._end_noise()
         out = {
             "mission": str(self.m.path),
@@ -667,17 +748,11 @@ class _Run:
             "micro": micro,
             "planner_data": lisp,
             "link": {
-                "host_to_micro": {"frames_sent": h2m.get("good"),
-                                  "micro_rx_good": micro.get("rx_good"),
-                                  "crc_errors": micro.get("rx_bad_crc"),
-                                  "bad_length": micro.get("rx_bad_length"),
-                                  "unknown_type": micro.get("rx_unknown_type"),
-                                  "dropped_bytes": micro.get("rx_dropped_bytes")},
-                "micro_to_host": {"frames_sent": m2h.get("good"),
-                                  "host_link_errors": lisp.get("link_errors")},
-                "crc_errors": micro.get("rx_bad_crc", 0),
-                "resyncs": (micro.get("rx_bad_crc", 0) + micro.get("rx_bad_length", 0)
-                            + micro.get("rx_unknown_type", 0)),
+                "host_to_micro": dict(h2m, micro_counters={
+                    k: micro.get(k) for k in micro if k.startswith("rx_")}),
+                "micro_to_host": dict(m2h, host_link_errors=lisp.get("link_errors")),
+                "crc_errors": h2m.get("crc_errors", 0) + m2h.get("crc_errors", 0),
+                "resyncs": h2m.get("resyncs", 0) + m2h.get("resyncs", 0),
                 "line_noise": dict(self.noise_stats),
                 "bytes_dropped_at_port": self.port.dropped if self.port else 0,
             },
@@ -689,7 +764,7 @@ class _Run:
                      "overruns": lisp.get("overruns"),
                      "config_downloads": res.get("config_downloads"),
                      "host_status": lisp.get("host_status")},
-            "watchdog_stops": micro.get("watchdog_stops"),
+            "watchdog_stops": res.get("watchdog_stops"),
             "messages": res.get("counts", {}),
             "time_share_s": {k: round(v, 3) for k, v in self.times.items()},
         }

@@ -140,7 +140,6 @@ class Lockstep:
 
     def __init__(self):
         self.sock, self.host_end = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
-        self.wait_s = 0.0          # wall time spent waiting for done (benchmark)
 
     def host_fd(self) -> int:
         """The fd to pass to the host (--lockstep-fd)."""
@@ -155,7 +154,6 @@ class Lockstep:
         """Tick one frame and wait for its done: (tx_bytes, flags), or None at EOF (the
         host went away). LinkError if the done is malformed or late."""
         self.sock.sendall(_TICK.pack(TICK_MAGIC, frame & 0xFFFFFFFF, sim_time_us, rx_bytes, 0))
-        t0 = time.perf_counter()
         buf = b""
         self.sock.settimeout(timeout_s)
         try:
@@ -168,8 +166,6 @@ class Lockstep:
             raise LinkError(f"no done from the host for frame {frame} within {timeout_s} s") from None
         except ConnectionResetError:
             return None
-        finally:
-            self.wait_s += time.perf_counter() - t0
         magic, done_frame, tx_bytes, flags = _DONE.unpack(buf)
         if magic != DONE_MAGIC:
             raise LinkError(f"bad done magic 0x{magic:08X} for frame {frame}")

@@ -3,9 +3,9 @@
 A mission is a TOML file::
 
     duration_s = 12.0              # simulated seconds
-    world = "room.toml"            # optional, in config/worlds/ or beside the mission
+    world = "room.txt"             # optional, in config/worlds/ or beside the mission
     [plant]                        # optional plant FMU parameter overrides (by FMU name)
-    battery_full_v = 12.6
+    battery_ocv_v = 12.6           # (not seed or world_file: --seed and `world` set those)
     [[command]]                    # the planner writes this whole lisp_cmd at t
     t = 1.0                        # s of simulated time
     fwd_cmd = 1                    # any lisp_cmd field by its spec name; unset fields 0
@@ -20,8 +20,9 @@ A mission is a TOML file::
     duration_s = 1.0               # unplug, line_noise, planner_silent (optional)
     ber = 1e-3                     # line_noise: bit error rate per bit
 
-Every error (unknown key, bad value, time past the duration) is a MissionError naming the
-file, the entry and the key.
+Every error (unknown key, bad value, a time or a fault's end past the duration) is a
+MissionError naming the file, the entry and the key. Events take effect at the first host
+frame that starts at or after their t (the harness checks that this frame is in the run).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["MissionError", "Command", "Key", "Fault", "Mission", "load", "loads",
-           "FAULT_KINDS", "COMMAND_FIELDS"]
+           "FAULT_KINDS", "COMMAND_FIELDS", "RESERVED_PLANT_KEYS"]
 
 # lisp_cmd fields a mission may set (time_tag and msg_type are the planner's own).
 COMMAND_FIELDS = ("fwd_cmd", "accel", "speed", "distance", "turn_mode", "turn_accel",
@@ -49,34 +50,47 @@ FAULT_KINDS = {
 }
 
 
+# plant parameters the harness sets itself: [plant] key -> where a mission sets it instead
+RESERVED_PLANT_KEYS = {
+    "seed": "the run's seed: `navkit sim --seed N` (SimOptions.seed), recorded in the metadata",
+    "world_file": "the mission's top-level `world = \"NAME.txt\"` key (config/worlds/ or "
+                  "beside the mission)",
+}
+
+
 class MissionError(ValueError):
     """A mission file that cannot be run; the text names file, entry and key."""
 
 
 @dataclass(frozen=True)
 class Command:
-    """A lisp_cmd written at simulated time `t` (s); `fields` by spec name, raw values."""
+    """A lisp_cmd written at simulated time `t` (s); `fields` by spec name, raw values;
+    `where` names the entry in errors ("file: [[command]] #2")."""
 
     t: float
     fields: dict
+    where: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True)
 class Key:
-    """Characters typed at the host console at simulated time `t` (s)."""
+    """Characters typed at the host console at simulated time `t` (s); `where` as in
+    Command."""
 
     t: float
     key: str
+    where: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True)
 class Fault:
     """A fault injected at simulated time `t` (s): `kind` with its `params`
-    (duration_s in s, ber in errors per bit)."""
+    (duration_s in s, ber in errors per bit); `where` as in Command."""
 
     t: float
     kind: str
     params: dict
+    where: str = field(default="", compare=False)
 
     @property
     def duration_s(self) -> float | None:
@@ -153,7 +167,7 @@ def _command(where: str, entry: dict, duration: float) -> Command:
     except protocol.ProtocolError as e:
         key = next((k for k in fields if f".{k}:" in str(e)), "?")
         raise MissionError(f"{where}: key {key!r}: {e}") from None
-    return Command(t, fields)
+    return Command(t, fields, where)
 
 
 def _key(where: str, entry: dict, duration: float) -> Key:
@@ -166,7 +180,7 @@ def _key(where: str, entry: dict, duration: float) -> Key:
     v = entry["key"]
     if not isinstance(v, str) or not v or not v.isprintable():
         raise MissionError(f"{where}: key 'key': {v!r} must be printable text, e.g. \"R\"")
-    return Key(t, v)
+    return Key(t, v, where)
 
 
 def _fault(where: str, entry: dict, duration: float) -> Fault:
@@ -187,7 +201,7 @@ def _fault(where: str, entry: dict, duration: float) -> Fault:
             raise MissionError(f"{where}: unknown key {k!r} for kind {kind!r} (takes {allowed})")
         if k == "duration_s":
             params[k] = _num(where, k, v, positive=True)
-            if t + params[k] > duration + 1e-9 and kind != "planner_silent":
+            if t + params[k] > duration + 1e-9:
                 raise MissionError(f"{where}: key 'duration_s': the fault ends at "
                                    f"{t + params[k]} s, past duration_s = {duration} s")
         elif k == "ber":
@@ -196,7 +210,7 @@ def _fault(where: str, entry: dict, duration: float) -> Fault:
         if k not in params:
             raise MissionError(f"{where}: key {k!r} is missing (kind {kind!r} needs "
                                f"{', '.join(required)})")
-    return Fault(t, kind, params)
+    return Fault(t, kind, params, where)
 
 
 def _world(path: Path, name) -> Path:
@@ -233,6 +247,9 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
     if not isinstance(plant, dict):
         raise MissionError(f"{path}: key 'plant' must be a table of FMU parameters")
     for k, v in plant.items():
+        if k in RESERVED_PLANT_KEYS:
+            raise MissionError(f"{path}: [plant]: key {k!r} is set by the harness, not here: "
+                               f"use {RESERVED_PLANT_KEYS[k]}")
         if isinstance(v, (dict, list)):
             raise MissionError(f"{path}: [plant]: key {k!r}: {v!r} must be a number, "
                                f"boolean or string")

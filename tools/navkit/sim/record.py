@@ -143,6 +143,60 @@ class Recorder:
             self._file = None
 
 
+class _Receiver:
+    """What one end's frame parser accepts of the bytes that reached it (after line noise,
+    without what an unplugged port or a dead host lost): the codec's Parser, counted across
+    restarts of that end (micro_reset, a re-opened port), so the totals cover the whole run.
+    A chunk identical to what the sender sent, arriving while this parser is between
+    frames, is counted from the sender's decoding (`same`) instead of parsed again."""
+
+    def __init__(self, protocol, direction):
+        self.p, self.direction = protocol, direction
+        self.parser = protocol.Parser(direction)
+        self.done = dict.fromkeys(("good", "bad_crc", "unknown_type", "bad_length",
+                                   "dropped_bytes"), 0)
+        self.resyncs = 0          # rejected stretches (Reject events)
+        self.fed = 0              # bytes fed to the current parser
+        self.between = True       # the current parser holds no bytes and no open reject
+
+    def same(self, n_frames) -> bool:
+        """The chunk was the sender's, `n_frames` whole frames back to back (None: not
+        whole): count them if this parser is between frames; False: feed() it instead."""
+        if self.between and n_frames is not None:
+            self.done["good"] += n_frames
+            return True
+        return False
+
+    def feed(self, data: bytes) -> None:
+        events = self.parser.feed(data)
+        self.fed += len(data)
+        frame_cls = self.p.Frame
+        for ev in events:
+            if ev.__class__ is not frame_cls:
+                self.resyncs += 1
+        last = events[-1] if events else None
+        self.between = (last.__class__ is frame_cls
+                        and last.offset + len(last.raw) == self.fed) or (not data and self.between)
+
+    def restart(self) -> None:
+        """The receiving end starts a new parser (what the old one held is lost)."""
+        for k, v in self.parser.stats.items():
+            if k in self.done:
+                self.done[k] += v
+        self.parser = self.p.Parser(self.direction)
+        self.fed = 0
+        self.between = True
+
+    def totals(self) -> dict:
+        st = dict(self.done)
+        for k, v in self.parser.stats.items():
+            if k in st:
+                st[k] += v
+        return {"frames_received": st["good"], "crc_errors": st["bad_crc"],
+                "resyncs": self.resyncs, "bad_length": st["bad_length"],
+                "unknown_type": st["unknown_type"], "dropped_bytes": st["dropped_bytes"]}
+
+
 class _Decoder:
     """Turns the harness's raw items into MCAP messages (runs in the log worker)."""
 
@@ -153,6 +207,15 @@ class _Decoder:
         self.rec = Recorder(path, metadata)
         self.h2m = protocol.Parser(protocol.DIR_TO_MICRO)
         self.m2h = protocol.Parser(protocol.DIR_TO_HOST)
+        # what each end received, and the sender's last chunk with its whole-frame count
+        self.rx = {"h2m": _Receiver(protocol, protocol.DIR_TO_MICRO),
+                   "m2h": _Receiver(protocol, protocol.DIR_TO_HOST)}
+        self.last_sent = {"h2m": (b"", None), "m2h": (b"", None)}
+        self.whole = None
+        status = protocol.SPEC.messages["micro_data"].field("status")
+        self.wd_mask = 1 << protocol.SPEC.enums[status.flags].values["watchdog_stop"]
+        self.wd_on = False
+        self.watchdog_stops = 0     # rising edges of micro_data.status watchdog_stop
         self.frame_cls = protocol.Frame
         self.dumps = json.JSONEncoder(separators=(",", ":")).encode
         self.cache = {}
@@ -210,10 +273,27 @@ class _Decoder:
             self.host_bytes(item[1], item[2])
         elif kind == "M":        # micro bytes: (M, t_ns, bytes)
             t_ns = item[1]
+            wd_mask = self.wd_mask
             for name, fields, js in self.frames(self.m2h_buf, self.m2h, item[2]):
                 if name == "micro_data":
                     self.last_micro = fields
                     rec.write_raw("/micro/data", t_ns, js)
+                    wd = bool(fields["status"] & wd_mask)
+                    if wd and not self.wd_on:
+                        self.watchdog_stops += 1
+                    self.wd_on = wd
+            self.last_sent["m2h"] = (item[2], self.whole)
+        elif kind == "R":        # bytes an end received: (R, "h2m"|"m2h", bytes | None = as sent)
+            rx = self.rx[item[1]]
+            data = item[2]
+            if data is None:
+                sent, n_frames = self.last_sent[item[1]]
+                if not rx.same(n_frames):
+                    rx.feed(sent)
+            else:
+                rx.feed(data)
+        elif kind == "X":        # an end's parser restarts: (X, "h2m"|"m2h")
+            self.rx[item[1]].restart()
         elif kind == "T":        # truth rows: (T, raw doubles)
             fmt, get, dio_col = self.truth_fmt, self.truth_get, self.dio_col
             pad = (0.0,)
@@ -239,6 +319,7 @@ class _Decoder:
         the last one, like the host's repeated command, reuses its decoding). Anything
         else goes through the codec's resyncing Parser."""
         p = self.p
+        self.whole = None       # set below when `data` is whole frames, back to back
         if parser.stats["dropped_bytes"] or buf:
             buf += data
             data = bytes(buf)
@@ -246,6 +327,10 @@ class _Decoder:
             if parser.stats["dropped_bytes"]:
                 yield from self._parse(parser, data)
                 return
+            prefixed = True
+        else:
+            prefixed = False
+        count = 0
         at, n = 0, len(data)
         while at < n:
             if n - at < 8 or data[at] != 0xA5 or data[at + 1] != 0xFF:
@@ -264,8 +349,11 @@ class _Decoder:
                 if name == "micro_cmd":
                     self.cache = {frame: hit}
             parser.stats["good"] += 1
+            count += 1
             yield hit
             at += size
+        if at == n and not prefixed:
+            self.whole = count
         if at < n:
             rest = data[at:]
             if len(rest) < 8 or (rest[0] == 0xA5 and rest[1] == 0xFF and
@@ -287,6 +375,7 @@ class _Decoder:
                 if name == "micro_cfg_geometry":
                     self.config_downloads += 1
                 self.rec.write("/micro/config", t_ns, {"message": name, "fields": fields})
+        self.last_sent["h2m"] = (data, self.whole)
 
     def finish(self) -> dict:
         self.rec.close()
@@ -295,7 +384,9 @@ class _Decoder:
                 "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
                 "config_downloads": self.config_downloads,
                 "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
-                "h2m": dict(self.h2m.stats), "m2h": dict(self.m2h.stats)}
+                "watchdog_stops": self.watchdog_stops,
+                "link": {d: dict({"frames_sent": sender.stats["good"]}, **self.rx[d].totals())
+                         for d, sender in (("h2m", self.h2m), ("m2h", self.m2h))}}
 
 
 def _worker(conn, path, metadata, columns, width, spin) -> None:
@@ -330,16 +421,17 @@ class RunLog:
     them with the Python codec and writes run.mcap, so decoding and MCAP writing run on
     the other core, off the lockstep loop. `inline=True` does it all in this process.
 
-    Items: frame(), micro(), truth(), command(), event(), end_frame(); close() returns
-    the worker's results (message counts, last decoded micro_data / lisp_data / truth,
-    config downloads, parser statistics)."""
+    Items: frame(), host(), micro(), received(), receiver_restart(), truth(), command(),
+    event(), end_frame(); close() returns the worker's results (message counts, last
+    decoded micro_data / lisp_data / truth, config downloads, watchdog stops, and `link`:
+    per direction frames sent, and frames received, CRC errors, resyncs as the receiving
+    end's parser counts them over the whole run)."""
 
     def __init__(self, path: Path, metadata: dict, columns: list, width: int,
                  inline: bool = False, batch_frames: int = 10):
         self._items: list = []
         self._batch = batch_frames
         self._frames = 0
-        self.send_s = 0.0
         if inline:
             self._dec = _Decoder(path, metadata, columns, width)
             self._conn = self._proc = None
@@ -389,6 +481,17 @@ class RunLog:
         if raw:
             self._items.append(("T", raw))
 
+    def received(self, direction, data) -> None:
+        """Bytes the receiving end of `direction` ("h2m": the micro, "m2h": the host) got
+        from the sender's last chunk: `data`, or None when they were that chunk unchanged.
+        Call after the chunk's frame() / host() / micro() item."""
+        self._items.append(("R", direction, data))
+
+    def receiver_restart(self, direction) -> None:
+        """The receiving end of `direction` starts a new frame parser (a reset micro, a
+        port the host opens again)."""
+        self._items.append(("X", direction))
+
     def command(self, t_ns, msg) -> None:
         self._items.append(("C", t_ns, msg))
 
@@ -403,16 +506,12 @@ class RunLog:
             self._send()
 
     def _send(self) -> None:
-        import time
-
-        t0 = time.perf_counter()
         items, self._items, self._frames = self._items, [], 0
         if self._dec is not None:
             for it in items:
                 self._dec.handle(it)
         elif items:
             self._conn.send(items)
-        self.send_s += time.perf_counter() - t0
 
     def close(self) -> dict:
         """Send what is left, stop the worker, return its results."""
