@@ -159,17 +159,47 @@ def test_passes_fmpy_validation():
     assert validate_fmu(str(FMU)) == []
 
 
-def test_description_matches_the_c_table(md):
-    """Every variable of the C table (fw_fmu_model.h) is in modelDescription.xml with the
-    same value reference, type and causality, and nothing else is."""
+def _c_table():
+    """{name: (vr, type, causality, unit, start)} from fw_fmu_model.h; unit None for the
+    integer and Binary rows (no unit attribute), start None for outputs (not described)."""
     text = MODEL_H.read_text()
+    macros = dict(re.findall(r"#define (FWFMU_\w+) (\S+)", text))
     table = {}
     for block, typ in (("FLOAT64", "Float64"), ("INT32", "Int32"), ("UINT32", "UInt32"), ("BINARY", "Binary")):
         body = re.search(rf"#define FWFMU_{block}_VARS\(X\)(.*?)\n\n", text, re.S).group(1)
-        for vr, name, caus in re.findall(r"X\((\d+), (\w+), (\w+)", body):
-            table[name] = (int(vr), typ, caus)
-    described = {v.name: (v.valueReference, v.type, v.causality) for v in md.modelVariables}
-    assert described == table
+        if typ == "Binary":
+            for vr, name, caus in re.findall(r"X\((\d+), (\w+), (\w+)", body):
+                table[name] = (int(vr), typ, caus, None, "" if caus == "input" else None)
+            continue
+        rows = re.findall(r'X\((\d+), (\w+), (\w+), \w+, "([^"]*)", ([^,]+),', body)
+        assert rows, block
+        for vr, name, caus, unit, start in rows:
+            start = macros.get(start, start).rstrip("u")
+            has_start = caus in ("input", "parameter")
+            table[name] = (int(vr), typ, caus, unit if typ == "Float64" else None,
+                           float(start) if has_start else None)
+    return table
+
+
+def test_description_matches_the_c_table(md):
+    """Every variable of the C table (fw_fmu_model.h) is in modelDescription.xml with the
+    same value reference, type, causality, unit and start value, and nothing else is."""
+    def start(v):
+        if v.start is None or v.type == "Binary":
+            return v.start if v.start is None else ""
+        return float(v.start)
+    described = {v.name: (v.valueReference, v.type, v.causality, v.unit if v.type == "Float64" else None, start(v))
+                 for v in md.modelVariables}
+    assert described == _c_table()
+    assert described["battery_voltage"][3:] == ("V", 12.0) and described["baud"][4] == 115200.0
+
+
+def test_step_size_is_the_default_control_tick(md):
+    """fixedInternalStepSize is one tick at the spec's default control_rate (the FMU after
+    reset); test_control_rate_from_config shows it stepping at a configured rate."""
+    rate = protocol.defaults("micro_cfg_geometry")["control_rate"]
+    assert float(md.coSimulation.fixedInternalStepSize) == pytest.approx(1.0 / rate)
+    assert float(md.defaultExperiment.stepSize) == pytest.approx(1.0 / rate)
 
 
 def test_description_has_the_internals_contract(md):
@@ -413,6 +443,10 @@ def test_servo_dio_and_sensors(unzipped, md):
         assert d["servo_pos"][2] == 300
         assert d["dio_state"] == 0x0AF9
         assert d["adc"][0] == 512 and d["adc"][4] == 819  # 12 V / 3 on a 5 V, 10-bit ADC
+        # the board has ch0-4 only: the spare words are 0, and no FMU input feeds them
+        assert d["adc"][5:] == [0, 0, 0]
+        adc_inputs = [v.name for v in md.modelVariables if v.causality == "input" and "ADC ch" in v.description]
+        assert sorted(adc_inputs) == ["battery_voltage"] + [f"ir_voltage_{i}" for i in range(4)]
         assert d["sonar_echo"][1] == 5800 and d["compass"] == 1234
     finally:
         m.free()

@@ -147,13 +147,11 @@ uint16_t hal_compass(hal_t *h)
 }
 uint16_t hal_adc(hal_t *h, uint8_t ch)
 {
+    /* the firmware reads ch0..FW_ADC_CHANNELS-1 only: ch0-3 IR, ch4 the battery divider */
     if (ch < 4u) {
         return fwfmu_adc_counts(h->ir_voltage[ch]);
     }
-    if (ch == 4u) {
-        return fwfmu_adc_counts(h->battery_voltage / FWFMU_BATTERY_DIVIDER);
-    }
-    return 0u; /* ch5-7: nothing connected */
+    return fwfmu_adc_counts(h->battery_voltage / FWFMU_BATTERY_DIVIDER);
 }
 uint16_t hal_sonar_echo(hal_t *h, uint8_t i)
 {

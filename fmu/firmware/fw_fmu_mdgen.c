@@ -1,8 +1,12 @@
 /* fw_fmu_mdgen: writes the firmware FMU's modelDescription.xml from fw_fmu_model.h, so
- * the description and the code share one variable table. Usage: fw_fmu_mdgen OUT.xml */
+ * the description and the code share one variable table. Usage: fw_fmu_mdgen OUT.xml
+ * fixedInternalStepSize (and the default experiment's step) is the control tick of the
+ * firmware's reset configuration (config_reset(): the spec's default control_rate); a
+ * micro_cfg_geometry with another control_rate changes the tick the FMU steps at. */
 #include <stdio.h>
 #include <string.h>
 
+#include "config.h"
 #include "fw_fmu_model.h"
 
 /* Causality and variability as attribute text; `initial` for outputs. */
@@ -17,6 +21,10 @@ static void var_attrs(FILE *f, const char *caus, const char *var)
 int main(int argc, char **argv)
 {
     FILE *f;
+    config_t cfg;
+    double step;
+    config_reset(&cfg);
+    step = (double)cfg.tick_us * 1e-6; /* s: one control tick at the default control_rate */
     if (argc != 2) {
         fprintf(stderr, "usage: %s modelDescription.xml\n", argv[0]);
         return 2;
@@ -36,7 +44,7 @@ int main(int argc, char **argv)
             "  <CoSimulation modelIdentifier=\"%s\" canHandleVariableCommunicationStepSize=\"true\"\n"
             "    fixedInternalStepSize=\"%g\" canBeInstantiatedOnlyOncePerProcess=\"false\"\n"
             "    canGetAndSetFMUState=\"false\" canSerializeFMUState=\"false\" hasEventMode=\"false\"/>\n",
-            FWFMU_MODEL_IDENTIFIER, FWFMU_DEFAULT_STEP);
+            FWFMU_MODEL_IDENTIFIER, step);
     fprintf(f, "  <UnitDefinitions>\n");
 #define UNIT(u) fprintf(f, "    <Unit name=\"%s\"/>\n", u);
     FWFMU_UNITS(UNIT)
@@ -46,7 +54,7 @@ int main(int argc, char **argv)
                "    <Category name=\"logEvents\" description=\"UART overruns and other events\"/>\n"
                "    <Category name=\"logStatusError\" description=\"Calls that failed, and why\"/>\n"
                "  </LogCategories>\n");
-    fprintf(f, "  <DefaultExperiment startTime=\"0\" stopTime=\"1\" stepSize=\"%g\"/>\n", FWFMU_DEFAULT_STEP);
+    fprintf(f, "  <DefaultExperiment startTime=\"0\" stopTime=\"1\" stepSize=\"%g\"/>\n", step);
     fprintf(f, "  <ModelVariables>\n");
 #define F64(vr, name, caus, var, unit, start, field, desc)                                         \
     fprintf(f, "    <Float64 name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc); \

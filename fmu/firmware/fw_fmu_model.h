@@ -15,7 +15,6 @@
 #define FWFMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6974}"
 #define FWFMU_DESCRIPTION \
     "navkit reference firmware (firmware/core) on a simulated micro: control ticks at the configured rate, UART at the baud parameter"
-#define FWFMU_DEFAULT_STEP 0.001 /* s: one control tick at the default 1 kHz */
 #define FWFMU_DEFAULT_BAUD 115200u
 
 /* X(vr, name, causality, variability, unit, start, field, description)
