@@ -4,7 +4,7 @@ BUILD ?= build
 PY    := .venv/bin/python
 CMAKE_PRESET ?= default
 
-.PHONY: setup build sim test test-c test-py fuzz-build fuzz-short fuzz-long bench clean
+.PHONY: setup build sim test test-c test-py fuzz-build fuzz-corpus fuzz-short fuzz-long bench clean
 
 setup:
 	@scripts/setup.sh
@@ -31,16 +31,24 @@ test: build fuzz-short
 # libFuzzer on the C frame parser (clang, ASan+UBSan, its own build folder).
 FUZZER := $(BUILD)/fuzz/tests/c/protocol/fuzz_proto_parser
 fuzz-build: setup
-	@cmake --preset fuzz >/dev/null
-	@cmake --build --preset fuzz --target fuzz_proto_parser
+	@cmake --preset fuzz -B $(BUILD)/fuzz >/dev/null
+	@cmake --build $(BUILD)/fuzz --target fuzz_proto_parser
 
-fuzz-short: fuzz-build
-	@mkdir -p $(BUILD)/fuzz/corpus
-	@$(FUZZER) -seed=1 -runs=200000 $(BUILD)/fuzz/corpus 2>&1 | tail -1
+# The corpus is seeded from the golden streams (tests/vectors). The log goes to a file and
+# only its last line is shown; the fuzzer's exit status is kept (a crash fails the target).
+FUZZ_CORPUS := $(BUILD)/fuzz/corpus
+fuzz-corpus: setup
+	@PYTHONPATH=tools $(PY) -m navkit.vectors --fuzz-corpus $(FUZZ_CORPUS) >/dev/null
+
+fuzz-short: fuzz-build fuzz-corpus
+	@$(FUZZER) -seed=1 -runs=200000 $(FUZZ_CORPUS) >$(BUILD)/fuzz/fuzz-short.log 2>&1; \
+	  status=$$?; tail -1 $(BUILD)/fuzz/fuzz-short.log; \
+	  if [ $$status -ne 0 ]; then echo "fuzz-short: libFuzzer failed ($$status); see $(BUILD)/fuzz/fuzz-short.log"; \
+	    tail -30 $(BUILD)/fuzz/fuzz-short.log; fi; exit $$status
 
 # Opt-in long runs: 10 minutes of libFuzzer, then 10 minutes of differential fuzz.
-fuzz-long: fuzz-build build
-	$(FUZZER) -max_total_time=600 $(BUILD)/fuzz/corpus
+fuzz-long: fuzz-build fuzz-corpus build
+	$(FUZZER) -max_total_time=600 $(FUZZ_CORPUS)
 	$(PY) -m navkit fuzz-proto --seconds 600
 
 bench: build

@@ -4,14 +4,47 @@
 
 #include <string.h>
 
+#if defined(__AVR__)
+#include <util/crc16.h>
+#endif
+
+const char *navkit_error_text(int code)
+{
+    switch (code) {
+    case NAVKIT_OK:
+        return "ok";
+    case NAVKIT_ERR_CRC:
+        return "bad CRC";
+    case NAVKIT_ERR_TYPE:
+        return "unknown type";
+    case NAVKIT_ERR_LENGTH:
+        return "bad length";
+    case NAVKIT_ERR_RANGE:
+        return "out of range";
+    case NAVKIT_ERR_START:
+        return "no start word";
+    case NAVKIT_ERR_SCHEMA:
+        return "schema mismatch";
+    default:
+        return "?";
+    }
+}
+
+#if defined(__AVR__)
 uint16_t navkit_crc16_update(uint16_t crc, uint8_t byte)
 {
-    /* Byte-wise form of the reflected 0x1021 polynomial (as avr-libc's
-     * _crc_ccitt_update): no table, so it costs no RAM on the AVR. */
+    return _crc_ccitt_update(crc, byte); /* avr-libc: same polynomial, hand-written asm */
+}
+#else
+uint16_t navkit_crc16_update(uint16_t crc, uint8_t byte)
+{
+    /* Byte-wise form of the reflected 0x1021 polynomial (the C equivalent of avr-libc's
+     * _crc_ccitt_update): no table. */
     uint8_t x = (uint8_t)(byte ^ (uint8_t)(crc & 0xFFu));
     x = (uint8_t)(x ^ (uint8_t)(x << 4));
     return (uint16_t)(((uint16_t)x << 8 | (crc >> 8)) ^ (uint8_t)(x >> 4) ^ ((uint16_t)x << 3));
 }
+#endif
 
 #if defined(__AVR__)
 uint16_t navkit_crc16(const uint8_t *data, size_t len)
@@ -116,14 +149,14 @@ static void parser_drop(navkit_parser_t *p, uint16_t n)
     p->offset += n;
 }
 
-/* Reject the candidate at buf[0]: count its reason, skip its first byte. */
-static void parser_reject(navkit_parser_t *p, int reason, uint32_t *counter)
+/* Reject the candidate at buf[0]: count its reason, skip its first `skip` bytes. */
+static void parser_reject(navkit_parser_t *p, int reason, uint32_t *counter, uint16_t skip)
 {
     (*counter)++;
     p->last_error = reason;
     p->last_error_offset = p->offset;
-    p->stats.dropped_bytes++;
-    parser_drop(p, 1u);
+    p->stats.dropped_bytes += skip;
+    parser_drop(p, skip);
 }
 
 size_t navkit_parser_feed(navkit_parser_t *p, const uint8_t *data, size_t len)
@@ -151,7 +184,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
         p->consume = 0;
     }
     for (;;) {
-        uint16_t i = 0, words, n;
+        uint16_t i = 0, type, words, claimed, n;
         /* Skip to the first possible start word. */
         while (i < p->have && p->buf[i] != start_lo) {
             i++;
@@ -171,13 +204,31 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
         if (p->have < 2u * (NAVKIT_LENGTH_WORD + 1u)) {
             return 0;
         }
-        words = navkit_frame_words(navkit_frame_type(p->buf), p->dir);
+        type = navkit_frame_type(p->buf);
+        words = navkit_frame_words(type, p->dir);
         if (words == 0u) {
-            parser_reject(p, NAVKIT_ERR_TYPE, &p->stats.unknown_type);
+            parser_reject(p, NAVKIT_ERR_TYPE, &p->stats.unknown_type, 1u);
             continue;
         }
-        if (navkit_get_u16(p->buf + 2u * NAVKIT_LENGTH_WORD) != words) {
-            parser_reject(p, NAVKIT_ERR_LENGTH, &p->stats.bad_length);
+        claimed = navkit_get_u16(p->buf + 2u * NAVKIT_LENGTH_WORD);
+        if (claimed != words) {
+            /* contract 5: maybe a whole frame of another spec version */
+            if (!navkit_frame_hashed(type, p->dir) || claimed < NAVKIT_HASH_WORD + 3u ||
+                claimed > NAVKIT_MAX_FRAME_WORDS) {
+                parser_reject(p, NAVKIT_ERR_LENGTH, &p->stats.bad_length, 1u);
+                continue;
+            }
+            n = (uint16_t)(2u * claimed);
+            if (p->have < n) {
+                return 0;
+            }
+            if (navkit_get_u16(p->buf + n - 2u) != navkit_crc16(p->buf, n - 2u)) {
+                parser_reject(p, NAVKIT_ERR_LENGTH, &p->stats.bad_length, 1u);
+                continue;
+            }
+            p->foreign_hash = navkit_get_u32(p->buf + 2u * NAVKIT_HASH_WORD);
+            p->foreign_offset = p->offset;
+            parser_reject(p, NAVKIT_ERR_SCHEMA, &p->stats.schema_mismatch, n);
             continue;
         }
         n = (uint16_t)(2u * words);
@@ -185,7 +236,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
             return 0;
         }
         if (navkit_get_u16(p->buf + n - 2u) != navkit_crc16(p->buf, n - 2u)) {
-            parser_reject(p, NAVKIT_ERR_CRC, &p->stats.bad_crc);
+            parser_reject(p, NAVKIT_ERR_CRC, &p->stats.bad_crc, 1u);
             continue;
         }
         p->stats.good++;

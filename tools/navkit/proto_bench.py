@@ -6,15 +6,27 @@ figures come from the `navkit-proto-bench` binary in the build folder."""
 
 from __future__ import annotations
 
+import argparse
 import subprocess
+import sys
 import time
 
 __all__ = ["add_arguments", "run"]
 
 
+def _positive(text: str) -> int:
+    try:
+        n = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {n}")
+    return n
+
+
 def add_arguments(parser) -> None:
-    parser.add_argument("--frames", type=int, default=50000,
-                        help="frames per Python measurement (default %(default)s; C runs 40x that)")
+    parser.add_argument("--frames", type=_positive, default=50000,
+                        help="frames per Python measurement, >= 1 (default %(default)s; C runs 40x that)")
 
 
 def _report(what: str, n: int, dt: float) -> None:
@@ -36,7 +48,10 @@ def run(args) -> int:
         for event in parser.feed(frame):
             p.check(event.name, event.fields)
     _report("micro_cmd parse+decode+check", n, time.perf_counter() - t0)
-    assert parser.stats["good"] == n
+    if parser.stats["good"] != n:
+        print(f"navkit bench-proto: the parser returned {parser.stats['good']} of {n} frames "
+              f"({parser.stats})", file=sys.stderr)
+        return 1
     t0 = time.perf_counter()
     for _ in range(n):
         p.crc16(bytes(bytearray(frame)))

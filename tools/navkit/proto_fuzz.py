@@ -1,10 +1,12 @@
 """`navkit fuzz-proto`: differential fuzzing of the Python and C frame parsers.
 
-Each case mutates a stream of valid frames (bit flips, byte inserts, deletes,
-duplicated and truncated frames, start-word-rich garbage), feeds it to both parsers in
-random chunkings, and requires the same frames at the same offsets and the same
-counters; every frame accepted must decode. The C parser is reached through the
-test shim library `libnavkit_proto_shim.so` in the build folder.
+Each case mutates a stream of valid frames and frames of another spec version
+(hash-carrying types at other lengths: schema mismatch), with bit flips, byte inserts,
+deletes, duplicated and truncated frames and start-word-rich garbage; feeds it to both
+parsers in random chunkings, and requires the same frames at the same offsets, the same
+counters and the same foreign hash and offset; every frame accepted must decode. The C
+parser is reached through the test shim library `libnavkit_proto_shim.so` in the build
+folder (`cmake --build <build> --target navkit_proto_shim`).
 
     navkit fuzz-proto --seed 1 --count 2000      # a fixed number of cases
     navkit fuzz-proto --seconds 600              # a long run
@@ -17,7 +19,18 @@ import random
 import sys
 import time
 
-__all__ = ["add_arguments", "run", "CParser", "mutated_stream", "check_case"]
+__all__ = ["add_arguments", "run", "CParser", "ShimMissing", "shim_path", "mutated_stream",
+           "check_case"]
+
+
+class ShimMissing(RuntimeError):
+    """The C parser's test shim is not built (or does not load); the text says how."""
+
+
+def shim_path():
+    """Where the shim library is: `<build>/tests/c/protocol/libnavkit_proto_shim.so`."""
+    from navkit.paths import build_dir
+    return build_dir() / "tests" / "c" / "protocol" / "libnavkit_proto_shim.so"
 
 
 class CParser:
@@ -28,9 +41,16 @@ class CParser:
     def __init__(self, direction: str):
         from navkit import protocol as p
         if CParser._lib is None:
-            from navkit.paths import build_dir
-            path = build_dir() / "tests" / "c" / "protocol" / "libnavkit_proto_shim.so"
-            lib = ctypes.CDLL(str(path))
+            path = shim_path()
+            if not path.exists():
+                raise ShimMissing(f"{path} is missing: build it with `cmake --build {path.parents[3]} "
+                                  "--target navkit_proto_shim` (or `make build`; NAVKIT_BUILD_DIR picks "
+                                  "the build folder)")
+            try:
+                lib = ctypes.CDLL(str(path))
+            except OSError as e:
+                raise ShimMissing(f"{path} does not load: {e}: rebuild it with `cmake --build "
+                                  f"{path.parents[3]} --target navkit_proto_shim`") from None
             lib.shim_new.restype = ctypes.c_void_p
             lib.shim_new.argtypes = [ctypes.c_int]
             lib.shim_feed.restype = ctypes.c_int
@@ -48,9 +68,16 @@ class CParser:
         return list(offsets[:n])
 
     def stats(self) -> dict:
-        out = (ctypes.c_uint32 * 5)()
+        """The counters (protocol.STATS) and `foreign_hash`, `foreign_offset` (None
+        while there was no schema mismatch, as in the Python Parser)."""
+        from navkit import protocol as p
+        out = (ctypes.c_uint32 * 8)()
         CParser._lib.shim_stats(self._h, out)
-        return dict(zip(("good", "bad_crc", "unknown_type", "bad_length", "dropped_bytes"), out))
+        stats = dict(zip(p.STATS, out))
+        seen = stats["schema_mismatch"] > 0
+        stats["foreign_hash"] = out[6] if seen else None
+        stats["foreign_offset"] = out[7] if seen else None
+        return stats
 
     def __del__(self):
         if self._lib is not None and getattr(self, "_h", None):
@@ -62,13 +89,20 @@ def mutated_stream(rng: random.Random) -> bytes:
     from navkit import protocol as p
     from navkit.spec import TYPES
     out = bytearray()
+    hashed = [m for m in p.SPEC.serial_messages() if any(f.name == "spec_hash" for f in m.fields)]
+    lo, hi = p.SPEC.framing["hash_word"] + 3, p.SPEC.framing["max_frame_words"]
     for _ in range(rng.randint(1, 12)):
-        m = rng.choice(p.SPEC.serial_messages())
-        fields = {}
-        for f in m.fields:
-            vals = [rng.randint(TYPES[f.type][2], TYPES[f.type][3]) for _ in range(f.count)]
-            fields[f.name] = vals if f.count > 1 else vals[0]
-        frame = p.encode_frame(m.name, fields, strict=False)
+        if rng.random() < 0.15:  # a frame of another spec version
+            frame = p.foreign_frame(rng.choice(hashed).name, rng.randint(lo, hi), rng.getrandbits(32),
+                                    rng.getrandbits(16))
+        else:
+            m = rng.choice(p.SPEC.serial_messages())
+            fields = {}
+            for f in m.fields:
+                vals = [rng.randint(TYPES[f.type][2], TYPES[f.type][3]) for _ in range(f.count)]
+                fields[f.name] = vals if f.count > 1 else vals[0]
+            fields["msg_type"] = m.id
+            frame = p.encode_frame(m.name, fields, strict=False)
         if rng.random() < 0.2:
             frame = frame[:rng.randrange(len(frame))]
         out += frame
@@ -105,8 +139,9 @@ def check_case(rng: random.Random) -> str | None:
     c_offsets = c.feed(data, chunk)
     if [f.offset for f in frames] != c_offsets:
         return f"frame offsets differ: python {[f.offset for f in frames]} c {c_offsets} on {data.hex()}"
-    if py.stats != c.stats():
-        return f"counters differ: python {py.stats} c {c.stats()} on {data.hex()}"
+    py_stats = {**py.stats, "foreign_hash": py.foreign_hash, "foreign_offset": py.foreign_offset}
+    if py_stats != c.stats():
+        return f"counters differ: python {py_stats} c {c.stats()} on {data.hex()}"
     for f in frames:
         p.decode_frame(f.raw, direction)
     return None
@@ -121,6 +156,11 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     rng = random.Random(args.seed)
     t0, n = time.monotonic(), 0
+    try:
+        CParser("host_to_micro")
+    except ShimMissing as e:
+        print(f"navkit fuzz-proto: {e}", file=sys.stderr)
+        return 2
     while (time.monotonic() - t0 < args.seconds) if args.seconds else (n < args.count):
         problem = check_case(rng)
         n += 1

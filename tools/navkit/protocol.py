@@ -3,7 +3,9 @@
 Same semantics as the generated C code (checked byte for byte by the golden vectors in
 `tests/vectors/`): little-endian words, frames of start word / time tag / type / length
 / payload / CRC-16/MCRF4XX, and a streaming parser that resyncs on the next start word,
-never accepts a bad frame and counts each rejected candidate once.
+never accepts a bad frame, counts each rejected candidate once, and recognizes a
+CRC-good frame of another spec version (spec hash at the frozen words 4-5) as a schema
+mismatch (the ordering contract in protocol/runtime/navkit/navkit_wire.h).
 
 Values are raw integers as on the wire (units apply to raw x scale, see
 docs/protocol.md); `count` fields are lists.
@@ -27,7 +29,8 @@ __all__ = [
     "SPEC", "SPEC_HASH", "ProtocolError", "crc16", "defaults", "check", "encode_frame",
     "decode_frame", "pack_words", "unpack_words", "to_bytes", "from_bytes", "Parser",
     "Frame", "Reject", "DIR_TO_MICRO", "DIR_TO_HOST", "RCOMM_MAGIC", "RCOMM_VERSION",
-    "RCOMM_OFFSETS", "RCOMM_SIZE", "ERR_CRC", "ERR_TYPE", "ERR_LENGTH",
+    "RCOMM_OFFSETS", "RCOMM_SIZE", "ERR_CRC", "ERR_TYPE", "ERR_LENGTH", "ERR_SCHEMA",
+    "STATS", "foreign_frame",
 ]
 
 SPEC = load(spec_path())
@@ -37,16 +40,27 @@ RCOMM_OFFSETS, RCOMM_SIZE = rcomm_layout(SPEC)
 DIR_TO_MICRO = "host_to_micro"
 DIR_TO_HOST = "micro_to_host"
 ERR_CRC, ERR_TYPE, ERR_LENGTH = "bad CRC", "unknown message type", "bad length"
+ERR_SCHEMA = "schema mismatch"
+# The Parser's counters, in the order of the C navkit_link_stats_t.
+STATS = ("good", "bad_crc", "unknown_type", "bad_length", "schema_mismatch", "dropped_bytes")
 
 _START = SPEC.framing["start_word"]
 _LEN_WORD = SPEC.framing["length_word"]
+_HASH_WORD = SPEC.framing["hash_word"]
+_MAX_WORDS = SPEC.framing["max_frame_words"]
 _HEADER = 2 * (_LEN_WORD + 1)
 _CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
 _BY_ID = {m.id: m for m in SPEC.serial_messages()}
+_HASHED = {m.id for m in SPEC.serial_messages() if any(f.name == "spec_hash" for f in m.fields)}
 
 
 class ProtocolError(ValueError):
-    """A value, name or frame that the spec does not allow; the text says which."""
+    """A value, name or frame that the spec does not allow; the text says which.
+    `field` is the name of the offending field when there is one (else None)."""
+
+    def __init__(self, text: str, field: str | None = None):
+        super().__init__(text)
+        self.field = field
 
 
 def _reverse_bits(x: int, width: int) -> int:
@@ -132,32 +146,34 @@ def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
     for k, v in fields.items():
         lim = lay.limits.get(k)
         if lim is None:
-            raise ProtocolError(f"{m.name}: unknown field {k!r}")
+            raise ProtocolError(f"{m.name}: unknown field {k!r}", k)
         count, fmin, fmax, tmin, tmax = lim
         lo, hi = (fmin, fmax) if strict else (tmin, tmax)
         if count > 1:
             if not isinstance(v, (list, tuple)) or len(v) != count:
-                raise ProtocolError(f"{m.name}.{k}: needs a list of {count} values")
+                raise ProtocolError(f"{m.name}.{k}: needs a list of {count} values", k)
             elems = v
         else:
             elems = (v,)
         for e in elems:
             if e.__class__ is not int:
-                raise ProtocolError(f"{m.name}.{k}: {e!r} is not an integer")
+                raise ProtocolError(f"{m.name}.{k}: {e!r} is not an integer", k)
             if not lo <= e <= hi:
-                raise ProtocolError(f"{m.name}.{k}: {e} is outside {lo}..{hi}")
+                raise ProtocolError(f"{m.name}.{k}: {e} is outside {lo}..{hi}", k)
         full[k] = v
     if strict:
         for k in lay.zero_bad:
             if k not in fields:
                 lim = lay.limits[k]
-                raise ProtocolError(f"{m.name}.{k}: 0 (unset) is outside {lim[1]}..{lim[2]}")
+                raise ProtocolError(f"{m.name}.{k}: 0 (unset) is outside {lim[1]}..{lim[2]}", k)
     return full
 
 
 def check(name: str, fields: dict) -> None:
-    """Raise ProtocolError naming the field if any value of `fields` is outside its
-    spec range (or unknown, or not an integer)."""
+    """Raise ProtocolError naming the field (also as its `field`) if any value of
+    `fields` is outside its spec range (or unknown, or not an integer); fields are
+    checked in the order given, so for a whole message in spec order the field named is
+    the one the C navkit_<msg>_check() reports."""
     _values(_message(name), fields, strict=True)
 
 
@@ -171,20 +187,43 @@ def _pack(lay: _Layout, full: dict, extra: dict) -> bytes:
 
 def encode_frame(name: str, fields: dict | None = None, *, time_tag: int | None = None,
                  strict: bool = True) -> bytes:
-    """The whole serial frame of message `name`: unset fields 0, msg_type forced,
-    `time_tag` (if given) overriding fields['time_tag']. With strict=False, values
-    only need to fit their type (to build out-of-range test frames)."""
+    """The whole serial frame of message `name`: unset fields 0, msg_type set (giving
+    another msg_type is an error), `time_tag` (if given) overriding fields['time_tag']
+    (so `encode_frame(n, defaults(n), time_tag=k)` works; the CLI refuses both).
+
+    Range checks: by default (strict=True) every value must be within its spec
+    min..max, as navkit_<msg>_check() would require. With strict=False values only need
+    to fit their type: that is what the C navkit_<msg>_encode() does, which never
+    range-checks (to build out-of-range test frames)."""
     lay = _message(name)
     m = lay.message
     if not m.framed:
         raise ProtocolError(f"{name} is an rcomm message: use pack_words/to_bytes")
     fields = dict(fields or {})
+    if fields.get("msg_type", m.id) != m.id:
+        raise ProtocolError(f"{name}.msg_type: is always {m.id}, not {fields['msg_type']!r}", "msg_type")
     if time_tag is not None:
         fields["time_tag"] = time_tag
     fields["msg_type"] = m.id
     full = _values(lay, fields, strict)
     body = _pack(lay, full, {"#start": _START, "#length": m.words})
     return body + struct.pack("<H", crc16(body))
+
+
+def foreign_frame(name: str, words: int, spec_hash: int, time_tag: int = 0) -> bytes:
+    """A frame as a peer built from another spec version would send message `name`:
+    its type, `words` words long (start, time tag, type, length, the uint32 `spec_hash`
+    at the frozen words 4-5, zero payload, then a good CRC). For tests of the parser's
+    schema-mismatch rule; `words` must be within hash_word + 3 .. max_frame_words."""
+    m = _message(name).message
+    if m.id not in _HASHED:
+        raise ProtocolError(f"{name} carries no spec_hash")
+    if not _HASH_WORD + 3 <= words <= _MAX_WORDS:
+        raise ProtocolError(f"{name}: {words} words is outside {_HASH_WORD + 3}..{_MAX_WORDS}")
+    body = bytearray(2 * words - 2)
+    struct.pack_into("<HHHH", body, 0, _START, time_tag, m.id, words)
+    struct.pack_into("<I", body, 2 * _HASH_WORD, spec_hash)
+    return bytes(body) + struct.pack("<H", crc16(body))
 
 
 def _frame_reason(frame: bytes, direction: str | None) -> tuple[str | None, Message | None]:
@@ -266,7 +305,8 @@ class Frame:
 @dataclass
 class Reject:
     """A stretch of `length` rejected bytes at stream byte `offset`; `reason` is why its
-    first candidate failed ("garbage" when no start word was there)."""
+    first candidate failed ("garbage" when no start word was there). A frame of another
+    spec version is a stretch of its own, reason "schema mismatch: spec hash 0x..."."""
 
     offset: int
     length: int
@@ -278,13 +318,16 @@ class Parser:
     """Streaming frame parser: feed() bytes in any chunking, get Frame and Reject events.
 
     `direction` (DIR_TO_MICRO, DIR_TO_HOST or None for both) selects the types accepted;
-    frames of other types count as unknown type. Memory is bounded by the largest frame.
-    `stats` counts as the C parser does: good, bad_crc, unknown_type, bad_length,
-    dropped_bytes."""
+    frames of other types count as unknown type. Memory is bounded by the longest frame
+    of any spec version (max_frame_words). `stats` counts as the C parser does (STATS:
+    good, bad_crc, unknown_type, bad_length, schema_mismatch, dropped_bytes), with the
+    same ordering contract (navkit_wire.h); `foreign_hash` and `foreign_offset` are the
+    spec hash and stream offset of the last schema-mismatch frame (None before one)."""
 
     direction: str | None = None
-    stats: dict = field(default_factory=lambda: dict.fromkeys(
-        ("good", "bad_crc", "unknown_type", "bad_length", "dropped_bytes"), 0))
+    stats: dict = field(default_factory=lambda: dict.fromkeys(STATS, 0))
+    foreign_hash: int | None = None
+    foreign_offset: int | None = None
     _buf: bytearray = field(default_factory=bytearray)
     _offset: int = 0            # stream offset of _buf[0]
     _reject: Reject | None = None
@@ -303,6 +346,16 @@ class Parser:
         if self._reject:
             events.append(self._reject)
             self._reject = None
+
+    def settle(self) -> list:
+        """The rejected stretch still open, as a Reject event now, if the parser has
+        resynced (its buffer is empty or begins with a start word); else []. For live
+        sniffing: feed() keeps a stretch open across calls (so its events do not depend
+        on the chunking), which would otherwise delay reporting it until the next frame."""
+        events: list = []
+        if not self._buf or self._buf[:2] == _START.to_bytes(2, "little"):
+            self._flush_reject(events)
+        return events
 
     def feed(self, data: bytes) -> list:
         """Add bytes; return the events they complete, in stream order."""
@@ -331,8 +384,24 @@ class Parser:
                 self._drop(1, ERR_TYPE, events)
                 continue
             if words != m.words:
-                self.stats["bad_length"] += 1
-                self._drop(1, ERR_LENGTH, events)
+                # contract 5: maybe a whole frame of another spec version
+                if msg_type not in _HASHED or not _HASH_WORD + 3 <= words <= _MAX_WORDS:
+                    self.stats["bad_length"] += 1
+                    self._drop(1, ERR_LENGTH, events)
+                    continue
+                if len(buf) < 2 * words:
+                    break
+                if struct.unpack_from("<H", buf, 2 * words - 2)[0] != crc16(buf[:2 * words - 2]):
+                    self.stats["bad_length"] += 1
+                    self._drop(1, ERR_LENGTH, events)
+                    continue
+                self.stats["schema_mismatch"] += 1
+                self.foreign_hash = struct.unpack_from("<I", buf, 2 * _HASH_WORD)[0]
+                self.foreign_offset = self._offset
+                self._flush_reject(events)
+                self._drop(2 * words, f"{ERR_SCHEMA}: spec hash 0x{self.foreign_hash:08x} "
+                           f"(this spec 0x{SPEC_HASH:08x})", events)
+                self._flush_reject(events)
                 continue
             if len(buf) < m.size:
                 break

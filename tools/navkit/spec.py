@@ -31,9 +31,12 @@ TYPES = {
 _TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip"}
 _MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field"}
 _FIELD_KEYS = {"name", "word", "type", "count", "units", "scale", "min", "max",
-               "default", "enum", "flags", "doc"}
+               "default", "enum", "flags", "special", "doc"}
 _ENUM_KEYS = {"doc", "values"}
-_FRAMING_KEYS = {"doc", "start_word", "length_word", "crc", "crc_doc", "max_frame_words"}
+_FRAMING_KEYS = {"doc", "start_word", "length_word", "crc", "crc_doc", "max_frame_words",
+                 "hash_word", "hash_doc"}
+_FRAMING_REQUIRED = ("start_word", "length_word", "max_frame_words", "hash_word")
+_SLIP_KEYS = {"slip", "resolution"}
 _LINK_KEYS = {"doc", "word_bits", "framing"}
 _DIRECTIONS = {"host_to_micro", "micro_to_host", "planner_to_host", "host_to_planner"}
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
@@ -42,6 +45,11 @@ _CRCS = {"CRC-16/MCRF4XX"}
 
 class SpecError(ValueError):
     """A spec that cannot be used; the message starts with file:line."""
+
+
+def _is_int(v) -> bool:
+    """An integer TOML value (TOML booleans are Python ints: they are not)."""
+    return isinstance(v, int) and not isinstance(v, bool)
 
 
 @dataclass(frozen=True)
@@ -60,6 +68,7 @@ class Field:
     default: int | None
     enum: str | None
     flags: str | None
+    special: str | None     # enum of special values within min..max (e.g. servo_goto)
     doc: str
     line: int
     byte_offset: int  # from the start of the frame (serial) or message (rcomm)
@@ -171,6 +180,16 @@ class _Lines:
                 return s, stop
         return 0, len(self.lines)
 
+    def block_span(self, header: str, k: int) -> tuple[int, int]:
+        """0-based [start, stop) line span of the k-th (0-based) table `header`, e.g.
+        '[[seed_slip]]', up to the next table header."""
+        starts = [i for i, ln in enumerate(self.lines) if ln.strip() == header]
+        if k >= len(starts):
+            return 0, len(self.lines)
+        s = starts[k]
+        nxt = [i for i in range(s + 1, len(self.lines)) if self.lines[i].startswith("[")]
+        return s, nxt[0] if nxt else len(self.lines)
+
 
 def load(path: str | Path) -> Spec:
     """Parse, validate and model the spec at `path`; raise SpecError naming file:line."""
@@ -206,19 +225,27 @@ class _Builder:
         self.unknown(d, _TOP_KEYS, "spec")
         head = d.get("spec", {})
         self.unknown(head, {"name", "version", "doc"}, "[spec]")
-        framing = d.get("framing", {}).get("serial")
-        if framing is None:
-            self.fail(1, "[framing.serial]", "missing")
-        self.unknown(framing, _FRAMING_KEYS, "[framing.serial]")
-        if framing.get("crc") not in _CRCS:
-            self.fail(self.lines.find(r"^crc\s*="), "framing.serial.crc",
-                      f"unsupported {framing.get('crc')!r} (supported: {', '.join(sorted(_CRCS))})")
+        version = head.get("version", 1)
+        if not _is_int(version) or version < 1:
+            self.fail(self.lines.find(r"^version\s*=") or self.lines.find(r"^\[spec\]"), "spec.version",
+                      f"must be a positive integer, not {version!r}")
+        framing = self.framing(d.get("framing", {}))
         links = d.get("links", {})
         for lname, link in links.items():
-            self.unknown(link, _LINK_KEYS, f"[links.{lname}]")
-            if link.get("word_bits") not in (16, 32):
-                self.fail(self.lines.find(rf"^\[links\.{lname}\]"), f"links.{lname}.word_bits",
-                          "must be 16 or 32")
+            lline = self.lines.find(rf"^\[links\.{re.escape(lname)}\]")
+            self.unknown(link, _LINK_KEYS, f"[links.{lname}]", (lline - 1 if lline else 0, None))
+            if link.get("word_bits") not in (16, 32) or isinstance(link.get("word_bits"), bool):
+                self.fail(lline, f"links.{lname}.word_bits", "must be 16 or 32")
+            if "framing" in link and link["framing"] != "serial":
+                self.fail(self.lines.find(r"^framing\s*=", lline) or lline, f"links.{lname}.framing",
+                          f"unknown framing {link['framing']!r} (known: serial; omit the key for an "
+                          "unframed link)")
+        for k, slip in enumerate(d.get("seed_slip", [])):
+            span = self.lines.block_span("[[seed_slip]]", k)
+            self.unknown(slip, _SLIP_KEYS, f"seed_slip {k + 1}", span)
+            for key in sorted(_SLIP_KEYS):
+                if not isinstance(slip.get(key), str) or not slip[key]:
+                    self.fail(span[0] + 1, f"seed_slip {k + 1}.{key}", "missing (a non-empty string)")
         enums = {}
         for kind, table in (("enum", d.get("enums", {})), ("flags", d.get("flags", {}))):
             for ename, e in table.items():
@@ -235,24 +262,62 @@ class _Builder:
                 if len(set(values.values())) != len(values):
                     self.fail(line, ename, "two names share a value")
                 enums[ename] = Enum(ename, kind, e.get("doc", ""), dict(values), line)
-        messages = {}
+        messages, ids = {}, {}
         for raw in d.get("message", []):
             m = self.message(raw, links, framing, enums)
             if m.name in messages:
                 self.fail(m.line, m.name, "message defined twice")
             messages[m.name] = m
-        ids = [m.id for m in messages.values() if m.framed]
-        if len(set(ids)) != len(ids):
-            self.fail(1, "message ids", "two serial messages share an id")
+            if m.framed:
+                if m.id in ids:
+                    self.fail(self.lines.find(r"^id\s*=", m.line - 1) or m.line, f"{m.name}.id",
+                              f"id {m.id} is already the id of {ids[m.id]}")
+                ids[m.id] = m.name
         msg_type = enums.get("msg_type")
         for m in messages.values():
             if m.framed and (msg_type is None or msg_type.values.get(m.name) != m.id):
                 self.fail(m.line, m.name, f"enum msg_type must map {m.name} = {m.id}")
-        spec = Spec(self.path, head.get("name", "navkit"), int(head.get("version", 1)),
+        spec = Spec(self.path, head.get("name", "navkit"), version,
                     head.get("doc", ""), dict(framing), dict(links), enums, messages,
                     list(d.get("seed_slip", [])))
         _seal(spec)
         return spec
+
+    def framing(self, tables: dict) -> dict:
+        """The validated [framing.serial] table (the only framing there is)."""
+        for fname in tables:
+            if fname != "serial":
+                self.fail(self.lines.find(rf"^\[framing\.{re.escape(fname)}\]"), f"[framing.{fname}]",
+                          "unknown framing (known: serial)")
+        framing = tables.get("serial")
+        if framing is None:
+            self.fail(1, "[framing.serial]", "missing")
+        fline = self.lines.find(r"^\[framing\.serial\]")
+        self.unknown(framing, _FRAMING_KEYS, "[framing.serial]", (fline - 1, None))
+
+        def at(key):
+            return self.lines.find(rf"^{key}\s*=", fline) or fline
+        for key in _FRAMING_REQUIRED:
+            if key not in framing:
+                self.fail(fline, f"framing.serial.{key}", "missing (an integer)")
+            if not _is_int(framing[key]):
+                self.fail(at(key), f"framing.serial.{key}", f"must be an integer, not {framing[key]!r}")
+        if not 0 < framing["start_word"] <= 0xFFFF or framing["start_word"] & 0xFF == framing["start_word"] >> 8:
+            self.fail(at("start_word"), "framing.serial.start_word",
+                      f"0x{framing['start_word']:X} must be a 16-bit word of two different bytes")
+        if framing["length_word"] != 3:
+            self.fail(at("length_word"), "framing.serial.length_word",
+                      "must be 3 (words 0-3: start, time tag, msg type, length are frozen)")
+        if framing["hash_word"] != framing["length_word"] + 1:
+            self.fail(at("hash_word"), "framing.serial.hash_word",
+                      f"must be {framing['length_word'] + 1}, right after the header (words 0-5 are frozen)")
+        if not framing["hash_word"] + 3 <= framing["max_frame_words"] <= 0x7FFF:
+            self.fail(at("max_frame_words"), "framing.serial.max_frame_words",
+                      f"must be {framing['hash_word'] + 3}..32767")
+        if framing.get("crc") not in _CRCS:
+            self.fail(at("crc"), "framing.serial.crc",
+                      f"unsupported {framing.get('crc')!r} (supported: {', '.join(sorted(_CRCS))})")
+        return framing
 
     def message(self, raw: dict, links: dict, framing: dict, enums: dict) -> Message:
         name = raw.get("name", "?")
@@ -274,13 +339,21 @@ class _Builder:
         if framed:
             used[0] = "start word"
             used[framing["length_word"]] = "length word"
-        fields = []
+        fields, seen = [], {}
         for f in raw.get("field", []):
-            fields.append(self.field(name, f, span, word_bits, used, enums))
+            fld = self.field(name, f, span, word_bits, used, enums, seen)
+            seen[fld.name] = fld.line
+            fields.append(fld)
         if framed:
             for must, word in (("time_tag", 1), ("msg_type", 2)):
                 if not any(f.name == must and f.word == word for f in fields):
                     self.fail(line, name, f"serial messages need {must} at word {word}")
+            for f in fields:
+                if f.name == "spec_hash" and (f.word != framing["hash_word"] or f.type != "uint32"
+                                              or f.count != 1):
+                    self.fail(f.line, f"{name}.spec_hash",
+                              f"must be one uint32 at word {framing['hash_word']} (framing.serial.hash_word: "
+                              "words 0-5 of every frame carrying the hash are frozen across spec versions)")
         last = max(used) if used else -1
         words = last + 1 + (1 if framed else 0)  # + CRC word
         if framed and words > framing["max_frame_words"]:
@@ -292,13 +365,17 @@ class _Builder:
         return Message(name, link, raw["direction"], raw.get("id"), raw.get("doc", ""),
                        tuple(fields), word_bits, words, line)
 
-    def field(self, mname, f, span, word_bits, used, enums) -> Field:
+    def field(self, mname, f, span, word_bits, used, enums, seen) -> Field:
         fname = f.get("name", "?")
         line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', *span) or span[0] + 1
+        if fname in seen:  # the second definition's line
+            line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', seen[fname], span[1]) or line
         what = f"{mname}.{fname}"
         self.unknown(f, _FIELD_KEYS, what, (line - 1, line))
-        if not _NAME_RE.match(fname):
+        if not isinstance(fname, str) or not _NAME_RE.match(fname):
             self.fail(line, what, "field name must be snake_case")
+        if fname in seen:
+            self.fail(line, what, f"field defined twice (first at line {seen[fname]})")
         ftype = f.get("type")
         if ftype not in TYPES:
             self.fail(line, what, f"type must be one of {', '.join(TYPES)}")
@@ -306,9 +383,9 @@ class _Builder:
         if word_bits == 32 and size != 4:
             self.fail(line, what, "rcomm fields are 32-bit (int32 or uint32)")
         word, count = f.get("word"), f.get("count", 1)
-        if not isinstance(word, int) or word < 0:
+        if not _is_int(word) or word < 0:
             self.fail(line, what, "word must be a non-negative integer")
-        if not isinstance(count, int) or count < 1:
+        if not _is_int(count) or count < 1:
             self.fail(line, what, "count must be a positive integer")
         span_words = size * 8 // word_bits * count
         for w in range(word, word + span_words):
@@ -317,34 +394,43 @@ class _Builder:
             used[w] = fname
         fmin, fmax = f.get("min", tmin), f.get("max", tmax)
         for key, v in (("min", fmin), ("max", fmax)):
-            if not isinstance(v, int) or not tmin <= v <= tmax:
+            if not _is_int(v) or not tmin <= v <= tmax:
                 self.fail(line, what, f"{key} {v!r} is outside {ftype} ({tmin}..{tmax})")
         if fmin > fmax:
             self.fail(line, what, f"min {fmin} > max {fmax}")
         default = f.get("default")
-        if default is not None and (not isinstance(default, int) or not fmin <= default <= fmax):
+        if default is not None and (not _is_int(default) or not fmin <= default <= fmax):
             self.fail(line, what, f"default {default!r} is outside {fmin}..{fmax}")
         scale = f.get("scale", 1)
-        if not isinstance(scale, (int, float)) or scale <= 0:
-            self.fail(line, what, "scale must be a positive number")
-        for key in ("enum", "flags"):
+        if not isinstance(scale, (int, float)) or isinstance(scale, bool) or scale <= 0:
+            self.fail(line, what, f"scale must be a positive number, not {scale!r}")
+        units = f.get("units")
+        if not isinstance(units, str) or not units.strip():
+            self.fail(line, what, f"units must be a non-empty string ('1' for a dimensionless value, "
+                                  f"'count', 'bits' for a mask), not {units!r}")
+        for key in ("enum", "flags", "special"):
             ref = f.get(key)
             if ref is not None:
                 e = enums.get(ref)
-                if e is None or e.kind != ("enum" if key == "enum" else "flags"):
-                    self.fail(line, what, f"unknown {key} {ref!r}")
+                if e is None or e.kind != ("flags" if key == "flags" else "enum"):
+                    self.fail(line, what, f"unknown {'enum' if key == 'special' else key} {ref!r}")
                 if key == "enum" and any(not tmin <= v <= tmax for v in e.values.values()):
                     self.fail(line, what, f"enum {ref} has values outside {ftype}")
-        if not f.get("doc"):
+                if key == "special" and any(not fmin <= v <= fmax for v in e.values.values()):
+                    self.fail(line, what, f"special values of {ref} must lie within {fmin}..{fmax}")
+        if f.get("enum") is not None and f.get("special") is not None:
+            self.fail(line, what, "a field has enum or special, not both")
+        if not isinstance(f.get("doc"), str) or not f["doc"]:
             self.fail(line, what, "every field needs doc text")
-        return Field(fname, word, ftype, count, f.get("units", ""), float(scale), fmin, fmax,
-                     default, f.get("enum"), f.get("flags"), f["doc"], line,
+        return Field(fname, word, ftype, count, units, float(scale), fmin, fmax,
+                     default, f.get("enum"), f.get("flags"), f.get("special"), f["doc"], line,
                      word * word_bits // 8)
 
 
 def _seal(spec: Spec) -> None:
-    """Compute the spec hash over everything that reaches the wire (not doc text), so
-    that two ends built from wire-compatible specs agree and any layout change differs."""
+    """Compute the spec hash over everything that reaches the wire, and deliberately not
+    doc text (docs/protocol.md says so): two ends built from wire-compatible specs agree,
+    and any change of layout, type, unit, scale, range, default or enum differs."""
     model = {
         "name": spec.name, "version": spec.version,
         "framing": {k: v for k, v in spec.framing.items() if not k.endswith("doc")},
@@ -353,7 +439,7 @@ def _seal(spec: Spec) -> None:
         "messages": [
             [m.name, m.link, m.direction, m.id, m.words,
              [[f.name, f.word, f.type, f.count, f.units, f.scale, f.min, f.max, f.default,
-               f.enum, f.flags] for f in m.fields]]
+               f.enum, f.flags, f.special] for f in m.fields]]
             for m in spec.messages.values()
         ],
     }

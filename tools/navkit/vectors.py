@@ -1,13 +1,19 @@
 """Golden test vectors shared by the C tests (ctest) and the Python tests (pytest).
 
-`tests/vectors/frames.txt`: one message per line, `message | hex | field=value ...`
-(arrays as comma lists); serial messages as whole frames, rcomm messages as their
-little-endian bytes. `tests/vectors/streams.txt`: `direction | good,bad_crc,
-unknown_type,bad_length,dropped_bytes | hex`: a byte stream and the parser counters
-it must produce. Both files name the spec hash they were made from.
+`tests/vectors/frames.txt`: one message per line, `message | case | check | hex |
+field=value ...` (arrays as comma lists); serial messages as whole frames, rcomm
+messages as their little-endian bytes. `case` is `defaults` for the spec defaults
+(both codecs' defaults() must give these values), else min, max, random, below or
+above (one field just outside its range); `check` is what range validation says:
+`ok`, or the name of the first field out of range (C: its index).
+`tests/vectors/streams.txt`: `direction | good,bad_crc,unknown_type,bad_length,
+schema_mismatch,dropped_bytes | foreign hash | hex`: a byte stream, the parser counters
+it must produce and the spec hash of the last frame of another spec version in it
+(`none` if there is none). Both files name the spec and the hash they were made from.
 
-    python -m navkit.vectors --write      # (re)make the golden files (review the diff!)
-    python -m navkit.vectors --emit-c F   # C test source checking them (build step)
+    python -m navkit.vectors --write          # (re)make the golden files (review the diff!)
+    python -m navkit.vectors --emit-c F       # C test source checking them (build step)
+    python -m navkit.vectors --fuzz-corpus D  # the streams as libFuzzer seed files in D
 """
 
 from __future__ import annotations
@@ -16,20 +22,24 @@ import argparse
 import random
 from pathlib import Path
 
+import struct
+
 from navkit import protocol as p
+from navkit.gen import spec_label
 from navkit.paths import repo_root
 from navkit.spec import TYPES
 
 __all__ = ["FRAMES", "STREAMS", "read_frames", "read_streams", "make_frames", "make_streams",
-           "emit_c", "main"]
+           "emit_c", "write_corpus", "main"]
 
 FRAMES = repo_root() / "tests" / "vectors" / "frames.txt"
 STREAMS = repo_root() / "tests" / "vectors" / "streams.txt"
-_STATS = ("good", "bad_crc", "unknown_type", "bad_length", "dropped_bytes")
+_STATS = p.STATS
+FOREIGN_HASH = 0xDEADBEEF  # the spec hash of the other spec version in the streams
 
 
 def _header(what: str) -> str:
-    return (f"# navkit golden vectors ({what}) for protocol/navkit.toml\n"
+    return (f"# navkit golden vectors ({what}) for {spec_label(p.SPEC)}\n"
             f"# spec-hash 0x{p.SPEC_HASH:08x}\n")
 
 
@@ -50,12 +60,22 @@ def _encode(name: str, fields: dict) -> bytes:
     return p.to_bytes(name, fields)
 
 
+def _check_result(name: str, fields: dict) -> str:
+    """`ok`, or the name of the first field outside its range (spec order)."""
+    try:
+        p.check(name, fields)
+    except p.ProtocolError as e:
+        return e.field
+    return "ok"
+
+
 def make_frames(seed: int = 1) -> str:
-    """Golden frames: for every message its defaults, all-minimum, all-maximum and
-    three seeded random value sets (values within the type, not the spec range, so
-    the codec is exercised at the edges)."""
+    """Golden frames: for every message its defaults, all-minimum, all-maximum, three
+    seeded random value sets (values within the type, not the spec range, so the codec
+    is exercised at the edges), and the defaults with the first ranged field just below
+    its min and the last just above its max; each with its range-check verdict."""
     rng = random.Random(seed)
-    lines = [_header("frames"), "# message | hex | fields\n"]
+    lines = [_header("frames"), "# message | case | check | hex | fields\n"]
     for m in p.SPEC.messages.values():
         def fill(pick):
             out = {}
@@ -65,19 +85,39 @@ def make_frames(seed: int = 1) -> str:
             if m.framed:
                 out["msg_type"] = m.id
             return out
-        cases = [p.defaults(m.name),
-                 fill(lambda f: TYPES[f.type][2]),
-                 fill(lambda f: TYPES[f.type][3])]
-        cases += [fill(lambda f: rng.randint(TYPES[f.type][2], TYPES[f.type][3])) for _ in range(3)]
-        for fields in cases:
-            lines.append(f"{m.name} | {_encode(m.name, fields).hex()} | {_fmt(fields)}\n")
+        cases = [("defaults", p.defaults(m.name)),
+                 ("min", fill(lambda f: TYPES[f.type][2])),
+                 ("max", fill(lambda f: TYPES[f.type][3]))]
+        cases += [("random", fill(lambda f: rng.randint(TYPES[f.type][2], TYPES[f.type][3])))
+                  for _ in range(3)]
+        below = [f for f in m.fields if f.min > TYPES[f.type][2]]
+        above = [f for f in m.fields if f.max < TYPES[f.type][3]]
+        edges = [("below", f, f.min - 1) for f in below[:1]] + [("above", f, f.max + 1) for f in above[-1:]]
+        for case, f, v in edges:
+            fields = p.defaults(m.name)
+            fields[f.name] = [v] * f.count if f.count > 1 else v
+            cases.append((case, fields))
+        for case, fields in cases:
+            lines.append(f"{m.name} | {case} | {_check_result(m.name, fields)} | "
+                         f"{_encode(m.name, fields).hex()} | {_fmt(fields)}\n")
     return "".join(lines)
+
+
+def _sealed(msg_type: int, words: int, payload: bytes = b"") -> bytes:
+    """A CRC-good frame of `words` words with any type (payload after word 3, zeros)."""
+    body = bytearray(2 * words - 2)
+    struct.pack_into("<HHHH", body, 0, p.SPEC.framing["start_word"], 0, msg_type, words)
+    body[8:8 + len(payload)] = payload
+    return bytes(body) + struct.pack("<H", p.crc16(body))
 
 
 def make_streams(seed: int = 2) -> str:
     """Golden parser streams: clean frames, garbage around and between them, a bad
     CRC, a truncated frame, a false start word, the other direction's type, a wrong
-    length word; the counters come from the Python parser and are checked by both."""
+    length word, and frames of another spec version (schema mismatch: a config and a
+    micro_data of other lengths; not when the CRC is bad, the type carries no spec hash
+    or the length is beyond max_frame_words); the counters come from the Python parser
+    and are checked by both."""
     rng = random.Random(seed)
     cmd = p.encode_frame("micro_cmd", {"fwd_cmd": 1, "speed": 200, "distance": 1000}, time_tag=1)
     cfg = p.encode_frame("micro_cfg_motion", p.defaults("micro_cfg_motion"), time_tag=2)
@@ -85,6 +125,15 @@ def make_streams(seed: int = 2) -> str:
     bad_crc = cmd[:-1] + bytes([cmd[-1] ^ 0x01])
     bad_len = cmd[:6] + b"\x30\x00" + cmd[8:]
     garbage = bytes(rng.randrange(256) for _ in range(40))
+    max_words = p.SPEC.framing["max_frame_words"]
+    cfg_id, data_id = p.SPEC.messages["micro_cfg_motion"].id, p.SPEC.messages["micro_data"].id
+    foreign_cfg = p.foreign_frame("micro_cfg_motion", 30, FOREIGN_HASH, time_tag=5)
+    foreign_data = p.foreign_frame("micro_data", 70, FOREIGN_HASH, time_tag=6)
+    foreign_short = p.foreign_frame("micro_data", p.SPEC.framing["hash_word"] + 3, FOREIGN_HASH)
+    foreign_bad_crc = foreign_cfg[:-1] + bytes([foreign_cfg[-1] ^ 0x80])
+    cmd_other_len = _sealed(p.SPEC.messages["micro_cmd"].id, 60)   # micro_cmd carries no hash
+    too_long = _sealed(cfg_id, max_words + 1)
+    too_short = _sealed(data_id, p.SPEC.framing["hash_word"] + 2)
     cases = [
         ("to_micro", cmd + cfg + cmd),
         ("to_micro", garbage + cmd + garbage[:7] + cfg),
@@ -95,13 +144,24 @@ def make_streams(seed: int = 2) -> str:
         ("to_micro", bad_len + cfg),
         ("to_host", cmd + data + b"\xa5" + data),
         ("to_host", data[: len(data) - 1]),
+        ("to_micro", foreign_cfg + cmd),
+        ("to_micro", garbage[:9] + foreign_cfg + garbage[:5] + cfg),
+        ("to_host", foreign_data + data + foreign_short + data),
+        ("to_micro", foreign_bad_crc + cmd),
+        ("to_micro", cmd_other_len + cmd),
+        ("to_micro", too_long + cmd),
+        ("to_host", too_short + data),
+        ("to_micro", foreign_data + cmd),
+        ("to_host", foreign_data[:-10]),
     ]
-    lines = [_header("streams"), "# direction | good,bad_crc,unknown_type,bad_length,dropped_bytes | hex\n"]
+    lines = [_header("streams"),
+             "# direction | " + ",".join(_STATS) + " | foreign hash | hex\n"]
     for direction, stream in cases:
         parser = p.Parser(p.DIR_TO_MICRO if direction == "to_micro" else p.DIR_TO_HOST)
         parser.feed(stream)
         counts = ",".join(str(parser.stats[k]) for k in _STATS)
-        lines.append(f"{direction} | {counts} | {stream.hex()}\n")
+        foreign = "none" if parser.foreign_hash is None else f"0x{parser.foreign_hash:08x}"
+        lines.append(f"{direction} | {counts} | {foreign} | {stream.hex()}\n")
     return "".join(lines)
 
 
@@ -111,29 +171,60 @@ def _data_lines(path: Path):
             yield n, [part.strip() for part in line.split("|")]
 
 
-def read_frames(path: Path = FRAMES) -> list[tuple[str, bytes, dict]]:
-    """(message, bytes, fields) of every golden frame; ValueError naming path:line."""
+def _same_spec(path: Path) -> None:
     if _spec_hash_of(path) != p.SPEC_HASH:
         raise ValueError(f"{path}: made for spec 0x{_spec_hash_of(path):08x}, the spec is "
                          f"0x{p.SPEC_HASH:08x}: review and rerun `python -m navkit.vectors --write`")
+
+
+def read_frames(path: Path = FRAMES) -> list[tuple[str, str, str, bytes, dict]]:
+    """(message, case, check verdict, bytes, fields) of every golden frame; ValueError
+    naming path:line."""
+    _same_spec(path)
     out = []
-    for n, (name, hexs, fields_text) in _data_lines(path):
+    for n, parts in _data_lines(path):
+        if len(parts) != 5:
+            raise ValueError(f"{path}:{n}: needs 5 columns (message | case | check | hex | fields)")
+        name, case, verdict, hexs, fields_text = parts
         fields = {}
         for item in fields_text.split():
             k, _, v = item.partition("=")
             fields[k] = [int(x) for x in v.split(",")] if "," in v else int(v)
         if name not in p.SPEC.messages:
             raise ValueError(f"{path}:{n}: unknown message {name!r}")
-        out.append((name, bytes.fromhex(hexs), fields))
+        if verdict != "ok" and verdict not in fields:
+            raise ValueError(f"{path}:{n}: check verdict {verdict!r} is neither ok nor a field")
+        out.append((name, case, verdict, bytes.fromhex(hexs), fields))
     return out
 
 
-def read_streams(path: Path = STREAMS) -> list[tuple[str, dict, bytes]]:
-    """(direction, expected counters, stream bytes) of every golden stream."""
+def read_streams(path: Path = STREAMS) -> list[tuple[str, dict, int | None, bytes]]:
+    """(direction, expected counters, expected foreign hash or None, stream bytes) of
+    every golden stream; ValueError naming path:line."""
+    _same_spec(path)
     out = []
-    for _, (direction, counts, hexs) in _data_lines(path):
-        out.append((direction, dict(zip(_STATS, map(int, counts.split(",")))), bytes.fromhex(hexs)))
+    for n, parts in _data_lines(path):
+        if len(parts) != 4:
+            raise ValueError(f"{path}:{n}: needs 4 columns (direction | counters | foreign hash | hex)")
+        direction, counts, foreign, hexs = parts
+        out.append((direction, dict(zip(_STATS, map(int, counts.split(",")))),
+                    None if foreign == "none" else int(foreign, 16), bytes.fromhex(hexs)))
     return out
+
+
+def write_corpus(folder: Path) -> list[Path]:
+    """Each golden stream as libFuzzer seed files in `folder` (byte 0: bit 0 the
+    direction, 1 = to host; the rest the feed chunk - 1, as fuzz_proto_parser.c reads
+    it): chunks of 1, 33 and 128 bytes. Returns the files written."""
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for i, (direction, _, _, data) in enumerate(read_streams()):
+        for chunk in (1, 33, 128):
+            head = (1 if direction == "to_host" else 0) | ((chunk - 1) << 1)
+            path = folder / f"vector-stream-{i:02d}-chunk{chunk}"
+            path.write_bytes(bytes([head]) + data)
+            written.append(path)
+    return written
 
 
 def _c_bytes(b: bytes) -> str:
@@ -150,24 +241,34 @@ def emit_c(frames, streams) -> str:
     """A C test source: encode each golden struct and compare bytes; decode the golden
     bytes and compare the struct; run each golden stream through the C parser (in
     every chunking from 1 byte to whole) and compare the counters."""
-    out = [f"/* GENERATED by navkit.vectors from tests/vectors (frames.txt, streams.txt); spec hash 0x{p.SPEC_HASH:08x}. */",
+    out = [f"/* GENERATED by navkit.vectors from tests/vectors (frames.txt, streams.txt) for spec "
+           f"{spec_label(p.SPEC)}.\n * spec hash: 0x{p.SPEC_HASH:08x} (sha256 {p.SPEC.hash_hex}) */",
            '#include "navkit/navkit_proto.h"', "#include <stdio.h>", "#include <string.h>", "",
            "static int failures;",
            "#define CHECK(cond, what) do { if (!(cond)) { failures++; "
            "printf(\"FAIL %s: %s\\n\", what, #cond); } } while (0)", ""]
     calls = []
-    for i, (name, data, fields) in enumerate(frames):
+    for i, (name, case, verdict, data, fields) in enumerate(frames):
         m = p.SPEC.messages[name]
         t = f"navkit_{name}_t"
         body = [f"static void frame_{i}(void)", "{",
                 f"    static const uint8_t want[] = {_c_bytes(data)};",
-                f"    {t} m, d;", "    memset(&m, 0, sizeof m);", "    memset(&d, 0, sizeof d);"]
+                f"    {t} m, d;", "    int bad = -2;", "    memset(&m, 0, sizeof m);", "    memset(&d, 0, sizeof d);"]
         for f in m.fields:
             vals = fields[f.name] if f.count > 1 else [fields[f.name]]
             for k, v in enumerate(vals):
                 sfx = f"[{k}]" if f.count > 1 else ""
                 body.append(f"    m.{f.name}{sfx} = ({'u' if not f.signed else ''}int{f.size * 8}_t){_c_int(v, f.type)};")
-        what = f'"{name} vector {i}"'
+        what = f'"{name} vector {i} ({case})"'
+        if case == "defaults":
+            body += [f"    navkit_{name}_defaults(&d);",
+                     f"    CHECK(memcmp(&d, &m, sizeof m) == 0, {what} \": defaults\");",
+                     "    memset(&d, 0, sizeof d);"]
+        if verdict == "ok":
+            body.append(f"    CHECK(navkit_{name}_check(&m, &bad) == NAVKIT_OK && bad == -1, {what} \": check ok\");")
+        else:
+            body.append(f"    CHECK(navkit_{name}_check(&m, &bad) == NAVKIT_ERR_RANGE && "
+                        f"bad == NAVKIT_{name.upper()}_FIELD_{verdict.upper()}, {what} \": check {verdict}\");")
         if m.framed:
             body += ["    uint8_t got[sizeof want];",
                      f"    CHECK(navkit_{name}_encode(&m, got, sizeof got) == sizeof want, {what});",
@@ -188,7 +289,7 @@ def emit_c(frames, streams) -> str:
         out += body + [""]
         calls.append(f"    frame_{i}();")
     out.append("static void run_stream(const char *what, navkit_dir_t dir, const uint8_t *s, size_t n,")
-    out.append("                       const uint32_t want[5])")
+    out.append(f"                       const uint32_t want[{len(_STATS)}], uint32_t foreign_hash)")
     out.append("{\n    size_t chunk;\n    for (chunk = 1; chunk <= n; chunk = chunk < 8 ? chunk + 1 : chunk * 2) {")
     out.append("        navkit_parser_t parser;\n        size_t at = 0, frame_len;\n        const uint8_t *frame;")
     out.append("        navkit_parser_init(&parser, dir);")
@@ -203,14 +304,16 @@ def emit_c(frames, streams) -> str:
     out.append("        CHECK(parser.stats.bad_crc == want[1], what);")
     out.append("        CHECK(parser.stats.unknown_type == want[2], what);")
     out.append("        CHECK(parser.stats.bad_length == want[3], what);")
-    out.append("        CHECK(parser.stats.dropped_bytes == want[4], what);")
+    out.append("        CHECK(parser.stats.schema_mismatch == want[4], what);")
+    out.append("        CHECK(parser.stats.dropped_bytes == want[5], what);")
+    out.append("        CHECK(parser.foreign_hash == foreign_hash, what);")
     out.append("    }\n}\n")
-    for i, (direction, counts, data) in enumerate(streams):
+    for i, (direction, counts, foreign, data) in enumerate(streams):
         d = "NAVKIT_DIR_TO_MICRO" if direction == "to_micro" else "NAVKIT_DIR_TO_HOST"
         out.append(f"static void stream_{i}(void)\n{{")
         out.append(f"    static const uint8_t s[] = {_c_bytes(data)};")
-        out.append("    static const uint32_t want[5] = {" + ", ".join(f"{counts[k]}u" for k in _STATS) + "};")
-        out.append(f'    run_stream("stream {i}", {d}, s, sizeof s, want);\n}}\n')
+        out.append(f"    static const uint32_t want[{len(_STATS)}] = {{" + ", ".join(f"{counts[k]}u" for k in _STATS) + "};")
+        out.append(f'    run_stream("stream {i}", {d}, s, sizeof s, want, 0x{foreign or 0:08x}UL);\n}}\n')
         calls.append(f"    stream_{i}();")
     out.append("int main(void)\n{")
     out += calls
@@ -224,6 +327,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m navkit.vectors", description=__doc__.splitlines()[0])
     ap.add_argument("--write", action="store_true", help="rewrite tests/vectors/*.txt")
     ap.add_argument("--emit-c", type=Path, metavar="FILE", help="write the C test source to FILE")
+    ap.add_argument("--fuzz-corpus", type=Path, metavar="DIR",
+                    help="write the golden streams as libFuzzer seed files into DIR")
     args = ap.parse_args(argv)
     if args.write:
         FRAMES.write_text(make_frames())
@@ -233,7 +338,9 @@ def main(argv=None) -> int:
         if not args.emit_c.exists() or args.emit_c.read_text() != text:
             args.emit_c.parent.mkdir(parents=True, exist_ok=True)
             args.emit_c.write_text(text)
-    if not (args.write or args.emit_c):
+    if args.fuzz_corpus:
+        print(f"navkit.vectors: {len(write_corpus(args.fuzz_corpus))} seed files in {args.fuzz_corpus}")
+    if not (args.write or args.emit_c or args.fuzz_corpus):
         ap.print_help()
         return 2
     return 0

@@ -10,8 +10,9 @@ navkit_parser_t *shim_new(int dir);
 /* Feed len bytes in chunks of `chunk`; write the byte offset of each frame returned to
  * offsets (at most max) and return how many frames there were. */
 int shim_feed(navkit_parser_t *p, const uint8_t *data, size_t len, size_t chunk, uint32_t *offsets, int max);
-/* Copy the counters: good, bad_crc, unknown_type, bad_length, dropped_bytes. */
-void shim_stats(const navkit_parser_t *p, uint32_t out[5]);
+/* Copy the counters (good, bad_crc, unknown_type, bad_length, schema_mismatch,
+ * dropped_bytes), then foreign_hash and foreign_offset. */
+void shim_stats(const navkit_parser_t *p, uint32_t out[8]);
 /* Free a parser from shim_new. */
 void shim_free(navkit_parser_t *p);
 
@@ -42,13 +43,16 @@ int shim_feed(navkit_parser_t *p, const uint8_t *data, size_t len, size_t chunk,
     return n;
 }
 
-void shim_stats(const navkit_parser_t *p, uint32_t out[5])
+void shim_stats(const navkit_parser_t *p, uint32_t out[8])
 {
     out[0] = p->stats.good;
     out[1] = p->stats.bad_crc;
     out[2] = p->stats.unknown_type;
     out[3] = p->stats.bad_length;
-    out[4] = p->stats.dropped_bytes;
+    out[4] = p->stats.schema_mismatch;
+    out[5] = p->stats.dropped_bytes;
+    out[6] = p->foreign_hash;
+    out[7] = p->foreign_offset;
 }
 
 void shim_free(navkit_parser_t *p)

@@ -6,8 +6,14 @@
  *  - every single-bit flip of the frame is rejected, and a good frame after it is found;
  *  - every truncation is rejected (never returned as a frame);
  *  - the byte-wise CRC equals the table CRC;
- *  - random garbage between good frames: every good frame is recovered, and every
- *    byte is accounted for (frame bytes + dropped + still buffered = bytes fed).
+ *  - random garbage between good frames: every good frame is recovered at its stream
+ *    offset with its bytes, and every byte is accounted for (frame bytes + dropped +
+ *    still buffered = bytes fed);
+ *  - a frame of another spec version (hash-carrying type, other length, good CRC) is
+ *    counted as schema_mismatch with its hash and offset, consumed whole, and the good
+ *    frame after it is found;
+ *  - rcomm messages (lisp_cmd, lisp_data, emotion): load/store and pack/unpack of
+ *    random bytes give the same bytes and the same struct.
  */
 #include "navkit/navkit_proto.h"
 
@@ -111,21 +117,33 @@ static void check_round_trip(size_t k, const uint8_t *f)
     CHECK(memcmp(again, f, MSGS[k].bytes) == 0, "round trip of type %u", MSGS[k].type);
 }
 
+#define MAX_FRAMES 64
+
 typedef struct {
     uint32_t frames, frame_bytes;
+    uint32_t offset[MAX_FRAMES]; /* stream offset of each frame returned (the first MAX_FRAMES) */
 } feed_result_t;
 
-/* Feed n bytes in chunks of `chunk`; count frames returned (each checked valid). */
+/* Feed n bytes in chunks of `chunk`; count frames returned (each checked valid and
+ * compared with the stream bytes at its offset). */
 static feed_result_t feed_all(navkit_parser_t *p, const uint8_t *d, size_t n, size_t chunk)
 {
-    feed_result_t r = {0, 0};
+    feed_result_t r;
     const uint8_t *frame;
     size_t len, at = 0;
+    uint32_t base = p->offset + p->have; /* stream offset of d[0] */
+    memset(&r, 0, sizeof r);
     while (at < n) {
         size_t c = n - at < chunk ? n - at : chunk;
         at += navkit_parser_feed(p, d + at, c);
         while (navkit_parser_next(p, &frame, &len)) {
             CHECK(navkit_frame_check(frame, len, p->dir) == NAVKIT_OK, "returned frame invalid");
+            if (p->offset >= base) {
+                CHECK(memcmp(frame, d + (p->offset - base), len) == 0, "frame bytes differ from the stream's");
+            }
+            if (r.frames < MAX_FRAMES) {
+                r.offset[r.frames] = p->offset;
+            }
             r.frames++;
             r.frame_bytes += (uint32_t)len;
         }
@@ -135,7 +153,7 @@ static feed_result_t feed_all(navkit_parser_t *p, const uint8_t *d, size_t n, si
 
 static void check_bit_flips(size_t k, const uint8_t *f)
 {
-    uint8_t buf[2 * NAVKIT_MAX_FRAME_BYTES];
+    uint8_t buf[2 * NAVKIT_MAX_FRAME_BYTES + 2 * NAVKIT_MAX_FRAME_WORDS];
     size_t n = MSGS[k].bytes, bit;
     for (bit = 0; bit < 8 * n; bit++) {
         navkit_parser_t p;
@@ -146,7 +164,10 @@ static void check_bit_flips(size_t k, const uint8_t *f)
         navkit_parser_init(&p, MSGS[k].dir);
         r = feed_all(&p, buf, n, n);
         CHECK(r.frames == 0, "type %u bit %u flipped was accepted", MSGS[k].type, (unsigned)bit);
-        r = feed_all(&p, buf + n, n, 7);
+        /* a flip in the length word of a hash-carrying type may hold the parser until
+         * the claimed length has arrived (contract 5): zeros (no start byte) follow */
+        memset(buf + 2 * n, 0, sizeof buf - 2 * n);
+        r = feed_all(&p, buf + n, sizeof buf - n, 7);
         CHECK(r.frames == 1, "type %u: good frame after bit %u flip lost", MSGS[k].type, (unsigned)bit);
     }
 }
@@ -165,12 +186,12 @@ static void check_truncations(size_t k, const uint8_t *f)
 static void check_garbage(uint64_t *s)
 {
     uint8_t stream[4096];
-    size_t n = 0, k, chunk = 1 + (size_t)(rnd(s) % 64);
-    uint32_t want = 0;
+    size_t n = 0, k, chunk = 1 + (size_t)(rnd(s) % 64), j;
+    uint32_t want = 0, sent[MAX_FRAMES];
     navkit_parser_t p;
     feed_result_t r;
     navkit_dir_t dir = (rnd(s) & 1) ? NAVKIT_DIR_TO_MICRO : NAVKIT_DIR_TO_HOST;
-    while (n < sizeof stream - 2 * NAVKIT_MAX_FRAME_BYTES) {
+    while (n < sizeof stream - 2 * NAVKIT_MAX_FRAME_BYTES && want < MAX_FRAMES) {
         size_t g = (size_t)(rnd(s) % 40), i;
         for (i = 0; i < g; i++) {
             /* garbage rich in start-word bytes, the hard case for resync */
@@ -179,17 +200,79 @@ static void check_garbage(uint64_t *s)
         }
         k = (size_t)(rnd(s) % NMSGS);
         random_frame(s, k, stream + n);
-        n += MSGS[k].bytes;
         if (MSGS[k].dir == dir) {
-            want++;
+            sent[want++] = (uint32_t)n;
         }
+        n += MSGS[k].bytes;
     }
     navkit_parser_init(&p, dir);
     r = feed_all(&p, stream, n, chunk);
-    /* garbage could form a valid frame only by a 1 in 65536 CRC match; allow that */
-    CHECK(r.frames >= want, "garbage: %u of %u good frames recovered", r.frames, want);
+    /* Every frame sent is returned at its offset (feed_all compared its bytes). Garbage
+     * could form an extra valid frame only by a 1 in 65536 CRC match; allow that. */
+    CHECK(r.frames >= want && r.frames <= MAX_FRAMES, "garbage: %u frames for %u sent", r.frames, want);
+    for (j = 0, k = 0; j < want; j++) {
+        while (k < r.frames && k < MAX_FRAMES && r.offset[k] < sent[j]) {
+            k++;
+        }
+        CHECK(k < r.frames && k < MAX_FRAMES && r.offset[k] == sent[j], "garbage: frame at offset %u lost",
+              (unsigned)sent[j]);
+    }
     CHECK(r.frame_bytes + p.stats.dropped_bytes + p.have == n,
           "byte accounting: %u + %u + %u != %u", r.frame_bytes, p.stats.dropped_bytes, p.have, (unsigned)n);
+}
+
+/* A frame of another spec version: hash-carrying type k, `words` long, hash h. */
+static size_t foreign_frame(uint64_t *s, size_t k, uint16_t words, uint32_t h, uint8_t *f)
+{
+    size_t i, n = 2u * words;
+    for (i = 0; i < n; i++) {
+        f[i] = (uint8_t)rnd(s);
+    }
+    navkit_put_u32(f + 2u * NAVKIT_HASH_WORD, h);
+    navkit_frame_seal(f, n, MSGS[k].type);
+    return n;
+}
+
+static void check_schema_mismatch(uint64_t *s, size_t k, const uint8_t *good)
+{
+    uint8_t buf[2u * NAVKIT_MAX_FRAME_WORDS + NAVKIT_MAX_FRAME_BYTES];
+    uint16_t words;
+    uint32_t h = (uint32_t)rnd(s);
+    size_t n, chunk = 1 + (size_t)(rnd(s) % 40);
+    navkit_parser_t p;
+    feed_result_t r;
+    if (!navkit_frame_hashed(MSGS[k].type, MSGS[k].dir)) {
+        return;
+    }
+    do {
+        words = (uint16_t)(NAVKIT_HASH_WORD + 3u + rnd(s) % (NAVKIT_MAX_FRAME_WORDS - NAVKIT_HASH_WORD - 2u));
+    } while (2u * words == MSGS[k].bytes);
+    n = foreign_frame(s, k, words, h, buf);
+    memcpy(buf + n, good, MSGS[k].bytes);
+    navkit_parser_init(&p, MSGS[k].dir);
+    r = feed_all(&p, buf, n + MSGS[k].bytes, chunk);
+    CHECK(r.frames == 1 && r.offset[0] == n, "type %u: good frame after a %u-word foreign frame", MSGS[k].type,
+          (unsigned)words);
+    CHECK(p.stats.schema_mismatch == 1 && p.stats.bad_length == 0 && p.stats.dropped_bytes == n,
+          "type %u: %u-word foreign frame: mismatch %u, bad length %u, dropped %u", MSGS[k].type, (unsigned)words,
+          p.stats.schema_mismatch, p.stats.bad_length, p.stats.dropped_bytes);
+    CHECK(p.foreign_hash == h && p.foreign_offset == 0 && p.last_error == NAVKIT_ERR_SCHEMA, "foreign hash");
+    /* the same frame with one bit of its CRC flipped is a bad length, skipped byte-wise */
+    buf[n - 1] ^= 0x01u;
+    navkit_parser_init(&p, MSGS[k].dir);
+    r = feed_all(&p, buf, n + MSGS[k].bytes, chunk);
+    CHECK(r.frames >= 1 && p.stats.schema_mismatch == 0 && p.stats.bad_length >= 1, "foreign frame, bad CRC");
+}
+
+/* rcomm messages: random bytes -> load -> store gives the same bytes; pack -> unpack
+ * gives the same struct, and the words are the little-endian bytes. */
+#define RCOMM_ROUND_TRIP(name, NAME)                                                        do {                                                                                        uint8_t b[NAVKIT_##NAME##_BYTES], again[NAVKIT_##NAME##_BYTES];                         int32_t w[NAVKIT_##NAME##_WORDS];                                                       navkit_##name##_t m, d;                                                                 size_t j;                                                                               for (j = 0; j < sizeof b; j++) {                                                            b[j] = (uint8_t)rnd(s);                                                             }                                                                                       memset(&m, 0, sizeof m);                                                                memset(&d, 0, sizeof d);                                                                navkit_##name##_load(b, &m);                                                            navkit_##name##_store(&m, again);                                                       CHECK(memcmp(b, again, sizeof b) == 0, #name " load/store");                            navkit_##name##_pack(&m, w);                                                            for (j = 0; j < NAVKIT_##NAME##_WORDS; j++) {                                               CHECK((uint32_t)w[j] == navkit_get_u32(b + 4 * j), #name " word %u", (unsigned)j);         }                                                                                       navkit_##name##_unpack(w, &d);                                                          CHECK(memcmp(&m, &d, sizeof m) == 0, #name " pack/unpack");                         } while (0)
+
+static void check_rcomm(uint64_t *s)
+{
+    RCOMM_ROUND_TRIP(lisp_cmd, LISP_CMD);
+    RCOMM_ROUND_TRIP(lisp_data, LISP_DATA);
+    RCOMM_ROUND_TRIP(emotion, EMOTION);
 }
 
 int main(int argc, char **argv)
@@ -229,6 +312,8 @@ int main(int argc, char **argv)
         size_t k = (size_t)(i % (long)NMSGS);
         random_frame(&s, k, f);
         check_round_trip(k, f);
+        check_rcomm(&s);
+        check_schema_mismatch(&s, k, f);
         if (i < (long)(4 * NMSGS)) { /* exhaustive flips and cuts: a few frames each */
             check_bit_flips(k, f);
             check_truncations(k, f);
