@@ -65,6 +65,14 @@ distance = 300
     assert abs(still[0]["distance_mm"] - d_rest) < 2
     assert r.micro_between(4.5, 8.0)[-1]["status"] & 1, "configured again"
     assert abs(r.truth[-1]["distance_mm"] - (d_rest + 300)) <= 15, "the new command runs"
+    # the link counts are the harness's, over the whole run: a clean line delivers every
+    # frame both ways, while the micro's own counter restarted at the reset
+    link = r.summary["link"]
+    h2m, m2h = link["host_to_micro"], link["micro_to_host"]
+    assert h2m["frames_received"] == h2m["frames_sent"] == r.summary["frames"]
+    assert m2h["frames_received"] == m2h["frames_sent"] == len(r.messages("/micro/data"))
+    assert link["crc_errors"] == link["resyncs"] == 0
+    assert r.summary["micro"]["rx_good"] < h2m["frames_received"] - 25, "reset at 3 s of 11"
 
 
 def test_line_noise_causes_no_wrong_motion(tmp_path_factory):
@@ -90,6 +98,20 @@ rc_param2 = 9999
     s = r.summary
     noise = s["link"]["line_noise"]
     assert noise["flips"] + noise["drops"] + noise["inserts"] > 10
+    # counted by the harness from the receiving ends' parsers: frames lost each way, every
+    # lost frame shows as a rejected stretch, and the totals add up
+    link = s["link"]
+    h2m, m2h = link["host_to_micro"], link["micro_to_host"]
+    for d in (h2m, m2h):
+        assert d["frames_received"] <= d["frames_sent"]
+        assert d["resyncs"] >= 1 and d["dropped_bytes"] > 0
+    assert h2m["frames_received"] < h2m["frames_sent"]
+    assert link["crc_errors"] == h2m["crc_errors"] + m2h["crc_errors"] > 0
+    assert link["resyncs"] == h2m["resyncs"] + m2h["resyncs"]
+    assert m2h["frames_sent"] == len(r.messages("/micro/data"))
+    assert m2h["host_link_errors"] is not None
+    # no micro_reset here: the micro's own counter agrees with the harness's
+    assert s["micro"]["rx_good"] == h2m["frames_received"]
     errs = (s["micro"]["rx_bad_crc"] + s["micro"]["rx_bad_length"] + s["micro"]["rx_dropped_bytes"]
             + (s["planner_data"].get("link_errors") or 0))
     assert errs > 0, "the noise was seen and rejected"
@@ -149,3 +171,42 @@ kind = "planner_silent"
     assert stopped is not None and stopped < 7.0, stopped
     data = [m for t, m in r.messages("/planner/data") if t > stopped]
     assert data and data[-1]["host_status"] & (1 << 3), "planner_timeout_stop"
+
+
+def test_planner_silent_for_a_while_then_the_planner_resumes(tmp_path_factory):
+    """A silent planner (no heartbeat, no commands) stops the robot; when it resumes, its
+    next command is obeyed; a command due while silent is never written."""
+    r = run_mission(tmp_path_factory, "silent-resume", f"""
+duration_s = 9.0
+[[command]]
+t = {T0}
+fwd_cmd = 1
+speed = 250
+distance = 5000
+[[fault]]
+t = 2.5
+kind = "planner_silent"
+duration_s = 3.0
+[[command]]
+t = 4.0
+fwd_cmd = 1
+speed = 250
+distance = 3000
+[[command]]
+t = 6.0
+fwd_cmd = 1
+speed = 200
+distance = 400
+""")
+    assert [round(t, 3) for t, m in r.messages("/planner/cmd")] == [T0, 6.0], \
+        "the command at 4.0 s fell in the silence"
+    kinds = [(round(t, 3), m["kind"]) for t, m in r.messages("/events")]
+    assert (2.5, "planner_silent") in kinds and (5.5, "planner_resumes") in kinds
+    stopped = [m for m in r.truth_between(4.5, 6.0)]
+    assert all(abs(m["v_mm_s"]) < 2 for m in stopped), "planner timeout stop"
+    timeout_bit = 1 << 3            # host_status planner_timeout_stop
+    data = r.messages("/planner/data")
+    assert any(m["host_status"] & timeout_bit for t, m in data if 4.5 <= t <= 5.5)
+    assert not data[-1][1]["host_status"] & timeout_bit, "cleared once the planner is back"
+    d6 = r.truth_at(6.0)["distance_mm"]
+    assert abs(r.truth[-1]["distance_mm"] - (d6 + 400)) <= 15, "the resumed planner drives"

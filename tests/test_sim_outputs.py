@@ -3,6 +3,8 @@ plot.png, the host's datalog and `navkit plot`; determinism; the demo mission.""
 
 import argparse
 import json
+import os
+from pathlib import Path
 
 import pytest
 
@@ -129,24 +131,43 @@ def test_datalog_and_plots(tmp_path_factory, tmp_path):
     assert (tmp_path / "run.png").stat().st_size > 10_000
 
 
-def test_demo_mission_through_the_cli(tmp_path, capsys):
+def _make_sim_command() -> list:
+    """The command line of the Makefile's `sim` target ($(PY) = .venv/bin/python)."""
     from navkit.paths import repo_root
-    from navkit.sim import cli
+
+    text = (repo_root() / "Makefile").read_text()
+    recipe = text.split("\nsim:", 1)[1].split("\n")[1].strip().lstrip("@")
+    return recipe.replace("$(PY)", ".venv/bin/python").split()
+
+
+def test_make_sim_command_line(tmp_path):
+    """What `make sim` runs after the build (the Makefile's recipe, verbatim): the demo
+    mission into <build>/sim/demo; it prints the outputs (datalog included), the final pose
+    and the speed."""
+    import subprocess
+
+    from navkit.paths import build_dir, repo_root
 
     require_build()
-    parser = argparse.ArgumentParser()
-    cli.add_arguments(parser)
-    out = tmp_path / "demo"
-    rc = cli.run(parser.parse_args(["--mission", str(repo_root() / "config/missions/demo.toml"),
-                                    "--out", str(out)]))
-    text = capsys.readouterr().out
-    assert rc == 0, text
-    assert "real time" in text and str(out) in text
+    cmd = _make_sim_command()
+    assert "config/missions/demo.toml" in cmd
+    env = dict(os.environ, NAVKIT_BUILD_DIR=str(build_dir()))
+    p = subprocess.run(cmd, cwd=repo_root(), env=env, capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stdout + p.stderr
+    out = build_dir() / "sim" / "demo"
+    lines = {line.split()[0]: line for line in p.stdout.splitlines() if line.strip()}
+    assert str(out) in lines["outputs"] and "run.mcap" in lines["outputs"], p.stdout
+    assert "final" in lines and "heading" in lines["final"], p.stdout
+    assert "real time" in lines["speed"], p.stdout
+    logs = [line.split(None, 1)[1] for line in p.stdout.splitlines() if line.startswith("datalog")]
+    assert logs and all(Path(f).parent == out and Path(f).exists() for f in logs), p.stdout
     for f in ("run.mcap", "summary.json", "plot.png"):
         assert (out / f).exists(), f
     s = json.loads((out / "summary.json").read_text())
     t = s["truth"]
     assert (t["x_mm"] ** 2 + t["y_mm"] ** 2) ** 0.5 > 500, "the demo goes somewhere"
+    assert s["sim_time_s"] == pytest.approx(24.0)
 
 
 def test_realtime_mode_paces_to_the_wall_clock(tmp_path_factory):
@@ -168,46 +189,80 @@ distance = 200
 
 
 def test_a_killed_run_keeps_what_came_before(tmp_path):
-    """SIGKILL to the whole run (harness, log worker, host) in real-time mode after ~2.5 s:
-    run.mcap still holds the chunks of the simulated seconds before."""
-    import glob
-    import os
-    import signal
-    import subprocess
+    """SIGKILL to the whole run (harness, log worker, host) in real-time mode once the
+    first chunks are on disk (a few wall seconds): run.mcap still holds the simulated
+    seconds before."""
     import sys
-    import time
-
-    from mcap.stream_reader import StreamReader
-    from mcap.records import Message
 
     require_build()
     mission = tmp_path / "long.toml"
     mission.write_text("duration_s = 30.0\n[[command]]\nt = 1.2\nfwd_cmd = 1\nspeed = 100\n"
                        "distance = 5000\n")
-    code = ("import sys; from pathlib import Path; from navkit.sim.harness import SimOptions, run;"
-            "from navkit.sim.mission import load;"
-            "run(SimOptions(mission=load(sys.argv[1]), out=Path(sys.argv[2]), realtime=True,"
-            " plot=False))")
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-c", code, str(mission), str(out)],
-                         start_new_session=True)
+    times = _kill_when_chunks_on_disk([sys.executable, "-c", _RUN_CODE, str(mission), str(out),
+                                       "realtime"], out, min_bytes=12_000, timeout_s=20.0)
+    assert times, "messages of the first seconds survived"
+    assert 0.9 <= max(times) < 10.0, max(times)
+    assert not (out / "summary.json").exists()
+
+
+def _kill_when_chunks_on_disk(cmd, out, min_bytes, timeout_s=60.0):
+    """Run `cmd` in its own session; SIGKILL the whole session (harness, log worker, host)
+    once `out`/run.mcap holds `min_bytes` bytes (at most `timeout_s` s of wall time).
+    Returns the message log times (s) the file kept."""
+    import glob
+    import signal
+    import subprocess
+    import time
+
+    from mcap.records import Message
+    from mcap.stream_reader import StreamReader
+
+    p = subprocess.Popen(cmd, start_new_session=True)
     try:
-        time.sleep(3.0)
+        deadline = time.monotonic() + timeout_s
+        f = out / "run.mcap"
+        while time.monotonic() < deadline and p.poll() is None:
+            if f.exists() and f.stat().st_size >= min_bytes:
+                break
+            time.sleep(0.005)
+        assert p.poll() is None, "the run ended before it was killed"
     finally:
         os.killpg(p.pid, signal.SIGKILL)
         p.wait()
-        for f in glob.glob(f"/dev/shm/navkit-sim-{p.pid}-*"):
-            os.unlink(f)
+        for shm in glob.glob(f"/dev/shm/navkit-sim-{p.pid}-*"):
+            os.unlink(shm)
     times = []
-    with open(out / "run.mcap", "rb") as f:
+    with open(out / "run.mcap", "rb") as fh:
         try:
-            for rec in StreamReader(f, skip_magic=False).records:
+            for rec in StreamReader(fh, skip_magic=False).records:
                 if isinstance(rec, Message):
                     times.append(rec.log_time / 1e9)
         except Exception:  # noqa: BLE001 - the file ends mid-record: expected
             pass
+    return times
+
+
+_RUN_CODE = ("import sys; from pathlib import Path; from navkit.sim.harness import SimOptions, run;"
+             "from navkit.sim.mission import load;"
+             "run(SimOptions(mission=load(sys.argv[1]), out=Path(sys.argv[2]),"
+             " realtime=sys.argv[3] == 'realtime', plot=False))")
+
+
+def test_a_killed_lockstep_run_keeps_what_came_before(tmp_path):
+    """The same in lockstep, hundreds of times faster than real time: killed once a few
+    chunks are on disk, the file still holds whole simulated seconds from 0."""
+    import sys
+
+    require_build()
+    mission = tmp_path / "long.toml"
+    mission.write_text("duration_s = 3000.0\n[[command]]\nt = 1.2\nfwd_cmd = 1\nspeed = 100\n"
+                       "distance = 50000\n")
+    out = tmp_path / "out"
+    times = _kill_when_chunks_on_disk([sys.executable, "-c", _RUN_CODE, str(mission), str(out),
+                                       "lockstep"], out, 150_000)
     assert times, "messages of the first seconds survived"
-    assert 0.9 <= max(times) < 10.0, max(times)
+    assert min(times) == 0.0 and 2.0 <= max(times) < 2900.0, (min(times), max(times))
     assert not (out / "summary.json").exists()
 
 
