@@ -57,6 +57,7 @@ def _line_of(path: Path, needle: str) -> int:
     ('start_word = 0xFFA5\n', '', "[framing.serial]", "framing.serial.start_word: missing"),
     ('start_word = 0xFFA5\n', 'start_word = 0x1FFA5\n', "start_word = 0x1FFA5", "must be a 16-bit word"),
     ('hash_word = 4\n', 'hash_word = 6\n', "hash_word = 6", "must be 4, right after the header"),
+    ('hash_doc = "Every', 'hash_doc = "" # "Every', "[framing.serial]", "framing.serial.hash_doc: missing"),
     ('version = 1\n', 'version = "x"\n', 'version = "x"', "must be a positive integer"),
     ('{ name = "speed", word = 7, type = "int16", units = "mm/s"', '{ name = "speed", word = 7, type = "int16", units = 5',
      '"speed", word = 7', "units must be a non-empty string"),

@@ -234,6 +234,8 @@ class _Builder:
         for lname, link in links.items():
             lline = self.lines.find(rf"^\[links\.{re.escape(lname)}\]")
             self.unknown(link, _LINK_KEYS, f"[links.{lname}]", (lline - 1 if lline else 0, None))
+            if not isinstance(link.get("doc"), str) or not link["doc"]:
+                self.fail(lline, f"links.{lname}.doc", "missing (a non-empty string)")
             if link.get("word_bits") not in (16, 32) or isinstance(link.get("word_bits"), bool):
                 self.fail(lline, f"links.{lname}.word_bits", "must be 16 or 32")
             if "framing" in link and link["framing"] != "serial":
@@ -314,6 +316,9 @@ class _Builder:
         if not framing["hash_word"] + 3 <= framing["max_frame_words"] <= 0x7FFF:
             self.fail(at("max_frame_words"), "framing.serial.max_frame_words",
                       f"must be {framing['hash_word'] + 3}..32767")
+        for key in ("doc", "crc_doc", "hash_doc"):  # the docs print them
+            if not isinstance(framing.get(key), str) or not framing[key]:
+                self.fail(fline, f"framing.serial.{key}", "missing (a non-empty string)")
         if framing.get("crc") not in _CRCS:
             self.fail(at("crc"), "framing.serial.crc",
                       f"unsupported {framing.get('crc')!r} (supported: {', '.join(sorted(_CRCS))})")
