@@ -57,10 +57,7 @@ void Console::print(const char *fmt, ...)
     va_start(ap, fmt);
     std::vsnprintf(line, sizeof line, fmt, ap);
     va_end(ap);
-    if (status_shown_ && out_tty_) {
-        std::fputs("\r\033[K", out_);  // the status line moves below the new line
-        status_shown_ = false;
-    }
+    erase_block();  // the face and status line move below the new line (next status())
     std::fprintf(out_, "[%9.3f] %s\n", static_cast<double>(t_us_) / 1e6, line);
     std::fflush(out_);
 }
@@ -68,7 +65,19 @@ void Console::print(const char *fmt, ...)
 void Console::status(const std::string &line)
 {
     if (out_tty_) {
-        std::fprintf(out_, "\r\033[K%s", line.c_str());
+        if (face_dirty_) {
+            erase_block();
+        }
+        if (status_shown_) {
+            std::fprintf(out_, "\r\033[K%s", line.c_str());
+        } else {
+            for (const std::string &f : face_) {
+                std::fprintf(out_, "%s\n", f.c_str());
+            }
+            face_shown_ = face_.size();
+            face_dirty_ = false;
+            std::fputs(line.c_str(), out_);
+        }
         status_shown_ = true;
         std::fflush(out_);
         return;
@@ -80,6 +89,28 @@ void Console::status(const std::string &line)
     last_status_us_ = t_us_;
     std::fprintf(out_, "[%9.3f] status: %s\n", static_cast<double>(t_us_) / 1e6, line.c_str());
     std::fflush(out_);
+}
+
+void Console::set_face(const std::vector<std::string> &lines)
+{
+    if (out_tty_ && lines != face_) {
+        face_ = lines;
+        face_dirty_ = true;
+    }
+}
+
+void Console::erase_block()
+{
+    if (!status_shown_ || !out_tty_) {
+        return;
+    }
+    std::fputs("\r", out_);
+    if (face_shown_ > 0) {
+        std::fprintf(out_, "\033[%zuA", face_shown_);
+    }
+    std::fputs("\033[J", out_);
+    status_shown_ = false;
+    face_shown_ = 0;
 }
 
 std::string Console::keys()

@@ -196,6 +196,12 @@ Table nav_table(Config &c)
         {"battery_min_v", dbl_key(&sa.battery_min_v, 0, 100)},
         {"ir_stop_mm", int_key(&sa.ir_stop_mm, 0, 800)},
     };
+    AnimationCfg &an = c.animation;
+    t["animation"] = {
+        {"on", bool_key(&an.on)},
+        {"file", str_key(&an.file, false)},
+        {"log", bool_key(&an.log)},
+    };
     return t;
 }
 
@@ -393,6 +399,9 @@ Config Ini::load(const std::string &dir)
             throw ConfigError(p + ":" + std::to_string(line_of(p, sec, "max_mm")) +
                               ": max_mm: must be above min_mm in [" + sec + "]");
         }
+    }
+    if (c.animation.file[0] != '/') {
+        c.animation.file = dir + "/" + c.animation.file;  // read by Animation::start when on
     }
     return c;
 }

@@ -79,8 +79,26 @@ static ConsoleInput handle_keys(Robot &r)
     return in;
 }
 
+// Step 1: the face moves one step toward the planner's emotion; on a terminal it is
+// drawn above the status line, else ([animation] log = 1) a "face:" line says each change.
+static void update_face(Robot &r, bool micro_active)
+{
+    const FaceUpdate u = r.animation.update(r.emotion, micro_active);
+    if (u.rejected) {
+        r.console.print("planner emotion %d rejected: %s out of the spec's range (face keeps the last one)",
+                        static_cast<int>(r.emotion.time_tag), navkit_emotion_field_name(u.rejected_field));
+    }
+    r.console.set_face(r.animation.lines());
+    if (u.changed && r.cfg.animation.log && !r.console.out_tty()) {
+        r.console.print("face: %s", r.animation.state().c_str());
+    }
+}
+
 void RobotInit(Robot &r)
 {
+    if (r.cfg.animation.on) {
+        r.animation.start(r.cfg.animation.file);  // a bad Animation.ini stops start-up (ConfigError)
+    }
     r.console.init();
     r.console.print("navkit-host: spec hash 0x%08X, %.3g Hz frames, rcomm %s",
                     static_cast<unsigned>(NAVKIT_SPEC_HASH), r.cfg.exec.frame_rate_hz, r.cfg.exec.shm_name.c_str());
@@ -100,15 +118,19 @@ void RobotMain(Robot &r)
     r.micro.begin_frame(now);
     const ConsoleInput keys = handle_keys(r);
 
-    // 1. face: not in this build ([animation] is a later part)
+    // 1. face, when on: the planner's emotion, then one ramp step (micro active = online
+    // as of the last frame's data)
+    r.comm.read_emotion(&r.emotion);
+    if (r.cfg.animation.on) {
+        update_face(r, r.micro.online(now));
+    }
     // 2. receive the micro's data (the newest whole micro_data)
     if (r.micro.receive(r.tick.rx_bytes, &r.data)) {
         r.have_data = true;
         r.sensors.update(r.data);
     }
     // 3. an unconfigured micro gets config messages: MicroUsb::send() picks them
-    // 4. read the planner's command (and its emotion, kept for a face)
-    r.comm.read_emotion(&r.emotion);
+    // 4. read the planner's command
     PlannerInput pin;
     pin.have = r.comm.read_lisp_cmd(&r.lisp_cmd);
     pin.cmd = r.lisp_cmd;
@@ -217,6 +239,10 @@ void RobotMain(Robot &r)
 
 void RobotShutdown(Robot &r)
 {
+    if (r.animation.started()) {
+        r.animation.end();
+        r.console.set_face({});  // the closing lines scroll without the face
+    }
     if (!r.quit) {
         r.micro.send_stop(r.micro.last_command().dio_command);
     }

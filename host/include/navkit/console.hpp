@@ -2,11 +2,14 @@
 // lines; status() keeps one status line (redrawn in place on a terminal, printed every
 // status_period_s otherwise); keys() reads the keys waiting on stdin without blocking
 // (raw mode on a terminal, a pipe or file works too; EOF just ends key input).
+// set_face() keeps the face (Animation) in a fixed block of lines just above the status
+// line on a terminal; scrolling lines appear above the block.
 #pragma once
 
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 namespace navkit {
 
@@ -20,10 +23,17 @@ public:
     void print(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
     void set_time_us(int64_t t_us) { t_us_ = t_us; }
     void status(const std::string &line);
+    // The face's lines: on a terminal drawn above the status line from the next status()
+    // on (only redrawn when they change); an empty list removes the face. Nothing when
+    // stdout is not a terminal.
+    void set_face(const std::vector<std::string> &lines);
+    bool out_tty() const { return out_tty_; }  // stdout is a terminal (known after init())
     // Keys typed since the last call (bytes), never blocks.
     std::string keys();
 
 private:
+    void erase_block();  // terminal: cursor to the face block's first line, clear below
+
     std::FILE *out_;
     int in_fd_;
     bool in_eof_ = false;
@@ -33,6 +43,9 @@ private:
     double status_period_s_;
     int64_t t_us_ = 0;
     int64_t last_status_us_ = -1;
+    std::vector<std::string> face_;  // lines of the face block
+    size_t face_shown_ = 0;          // face lines on screen above the status line
+    bool face_dirty_ = false;        // face_ differs from what is on screen
     unsigned char saved_termios_[64];  // struct termios of stdin before raw mode
 };
 

@@ -100,12 +100,20 @@ struct SensorsCfg {
     ServoCal servo[8];
 };
 
+// [animation]: the seed's face (Animation.cpp), drawn above the console's status line.
+struct AnimationCfg {
+    bool on = false;                 // the seed's [Animation] On
+    std::string file = "Animation.ini";  // the face; Ini::load makes it relative to the config dir
+    bool log = false;                // stdout not a terminal: a "face:" line when the face changes
+};
+
 struct Config {
     ExecutiveCfg exec;
     MicroCfg micro;
     ConsoleCfg console;
     SafetyCfg safety;
     SensorsCfg sensors;
+    AnimationCfg animation;
 };
 
 class Ini {

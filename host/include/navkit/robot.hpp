@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "navkit/animation.hpp"
 #include "navkit/clock.hpp"
 #include "navkit/comm.hpp"
 #include "navkit/console.hpp"
@@ -31,6 +32,7 @@ struct Robot {
     Navigation nav;
     Sensors sensors;
     Datalog datalog;
+    Animation animation;            // the face, when [animation] on
     Clock *clock = nullptr;
 
     FrameTick tick;                 // the frame being run
@@ -38,7 +40,7 @@ struct Robot {
     bool have_data = false;
     navkit_lisp_cmd_t lisp_cmd{};   // the planner's current command
     navkit_lisp_data_t lisp_data{}; // published every frame
-    navkit_emotion_t emotion{};     // the planner's emotion, for a face (not in this build)
+    navkit_emotion_t emotion{};     // the planner's emotion (the face's targets)
     bool quit = false;              // 'Q': this frame sends the stop and the executive ends
     uint32_t frames = 0;
 };
