@@ -68,6 +68,9 @@ void Console::status(const std::string &line)
         if (face_dirty_) {
             erase_block();
         }
+        // autowrap off while the block is drawn: a line wider than the terminal is cut at
+        // its edge instead of taking a second row, so erase_block() knows the rows used
+        std::fputs("\033[?7l", out_);
         if (status_shown_) {
             std::fprintf(out_, "\r\033[K%s", line.c_str());
         } else {
@@ -78,6 +81,7 @@ void Console::status(const std::string &line)
             face_dirty_ = false;
             std::fputs(line.c_str(), out_);
         }
+        std::fputs("\033[?7h", out_);
         status_shown_ = true;
         std::fflush(out_);
         return;

@@ -329,23 +329,23 @@ TEST(ConsoleFace, DrawnAboveTheStatusLineOnATerminal)
         ASSERT_TRUE(c.out_tty());
         c.set_face({"<o o>", " --- "});
         c.status("s1");
-        EXPECT_EQ(drain(master), "<o o>\r\n --- \r\ns1");
+        EXPECT_EQ(drain(master), "\033[?7l<o o>\r\n --- \r\ns1\033[?7h") << "autowrap off while drawn";
         c.set_face({"<o o>", " --- "});
         c.status("s2");
-        EXPECT_EQ(drain(master), "\r\033[Ks2") << "an unchanged face is not redrawn";
+        EXPECT_EQ(drain(master), "\033[?7l\r\033[Ks2\033[?7h") << "an unchanged face is not redrawn";
         c.set_face({"<- ->", " --- "});
         c.status("s3");
-        EXPECT_EQ(drain(master), "\r\033[2A\033[J<- ->\r\n --- \r\ns3") << "a changed face is redrawn in place";
+        EXPECT_EQ(drain(master), "\r\033[2A\033[J\033[?7l<- ->\r\n --- \r\ns3\033[?7h") << "a changed face is redrawn in place";
         c.set_time_us(1500000);
         c.print("hello");
         EXPECT_EQ(drain(master), "\r\033[2A\033[J[    1.500] hello\r\n") << "a message scrolls above the face";
         c.status("s4");
-        EXPECT_EQ(drain(master), "<- ->\r\n --- \r\ns4");
+        EXPECT_EQ(drain(master), "\033[?7l<- ->\r\n --- \r\ns4\033[?7h");
         c.set_face({});
         c.print("bye");
         EXPECT_EQ(drain(master), "\r\033[2A\033[J[    1.500] bye\r\n");
         c.status("s5");
-        EXPECT_EQ(drain(master), "s5") << "no face after an empty set_face";
+        EXPECT_EQ(drain(master), "\033[?7ls5\033[?7h") << "no face after an empty set_face";
     }
     std::fclose(out);
     close(master);
