@@ -2,8 +2,13 @@
 (the real binary; no timing assertions: speed belongs to `navkit bench-host`)."""
 
 import os
+import select
 import signal
+import socket
+import struct
 import subprocess
+import time
+import tty
 
 import pytest
 
@@ -55,6 +60,7 @@ def test_keys_record_a_datalog_and_quit(host_factory):
     h.configure(m)
     h.proc.stdin.write(b"R")
     h.proc.stdin.flush()
+    m.fields["servo_pos"] = [0, 0, 0, -455, 0, 0, 0, 0]
     for k in range(6):
         m.fields["distance"] = 10 * k
         h.step(m)
@@ -73,6 +79,10 @@ def test_keys_record_a_datalog_and_quit(host_factory):
     params, rows = plot.read_datalog(logs[0])
     assert params[0][0] == "time_s" and len(rows) == 6, "one row per frame while recording"
     assert [r[2] for r in rows][-1] == 40
+    names = [p[0] for p in params]
+    assert names[names.index("battery_v") + 1:][:8] == [f"servo{i}_deg" for i in range(8)]
+    assert rows[-1][names.index("servo3_deg")] == -45.5, "calibrated servo position, deg"
+    assert names[-1] == "owner" and all(len(r) == len(names) for r in rows)
 
 
 def test_record_option_starts_the_datalog(host_factory):
@@ -91,3 +101,224 @@ def test_real_time_mode_sends_config_and_stops_on_sigint(host_factory):
     assert h.proc.wait(timeout=10) == 0
     assert not os.path.exists("/dev/shm" + h.shm)
     assert "signal 2" in h.output()
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--port", "--record"], "--port: needs a value (got the option --record)"),
+    (["--clock", "lockstep"], "--clock lockstep needs --lockstep-fd N"),
+    (["--clock", "lockstep", "--lockstep-fd", "0", "--rate", "20"], "--rate has no effect with --clock lockstep"),
+    (["--clock", "lockstep", "--lockstep-fd", "0", "--timing-log", "t.txt"],
+     "--timing-log has no effect with --clock lockstep"),
+    (["--rate", "0.05"], "not a rate in 0.1..1000 Hz"),
+    (["--lockstep-fd", "3"], "--lockstep-fd needs --clock lockstep"),
+])
+def test_options_without_effect_or_value_are_refused(args, said):
+    r = _run(args)
+    assert r.returncode == 2 and said in r.stderr, r.stderr
+
+
+def test_unsupported_baud_is_a_config_error(tmp_path):
+    from navkit.paths import repo_root
+
+    for name in ("sensors.ini", "NavAndControl.ini"):
+        (tmp_path / name).write_text((repo_root() / "config" / name).read_text())
+    p = tmp_path / "NavAndControl.ini"
+    p.write_text(p.read_text().replace("baud = 115200", "baud = 250000"))
+    r = _run(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", f"/nk-cfg-{os.getpid()}"])
+    assert r.returncode == 1 and "NavAndControl.ini:" in r.stderr
+    assert "baud: 250000 is not a supported rate (9600, " in r.stderr, r.stderr
+
+
+def test_a_second_host_on_the_same_region_is_refused(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    r = _run(["--config", str(h.cfg), "--port", "/nonexistent", "--shm", h.shm])
+    assert r.returncode == 1
+    assert f"rcomm {h.shm}: in use by a running navkit-host" in r.stderr and "--shm NAME" in r.stderr
+    assert len(h.step(m)[0]) == 1, "the first host runs on"
+    assert h.client.read_data()["frame"] == h.frame - 1, "its region untouched"
+    h.proc.kill()                                   # dies without removing the region
+    h.proc.wait()
+    stale = os.stat("/dev/shm" + h.shm).st_ino
+    second = subprocess.Popen([str(require_host()), "--config", str(h.cfg), "--port", "/nonexistent",
+                               "--shm", h.shm], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT)
+    try:
+        from navkit import rcomm
+        for _ in range(200):                         # the stale region is replaced
+            try:
+                if os.stat("/dev/shm" + h.shm).st_ino != stale:
+                    with rcomm.Client(h.shm):
+                        break
+            except (OSError, rcomm.RcommError):
+                pass
+            time.sleep(0.02)
+        else:
+            second.kill()
+            raise AssertionError(f"the second host did not take over the stale region: "
+                                 f"{second.communicate()[0].decode(errors='replace')}")
+    finally:
+        second.send_signal(signal.SIGTERM)
+    assert second.wait(timeout=10) == 0, second.communicate()[0].decode(errors="replace")
+
+
+def test_quit_while_the_micro_is_unconfigured_sends_no_command(host_factory):
+    h, m = host_factory(), Micro()
+    h.step(m)
+    h.proc.stdin.write(b"Q")
+    h.proc.stdin.flush()
+    msgs, flags = h.tick()
+    assert flags & 1
+    assert h.proc.wait(timeout=10) == 0
+    tail = msgs + h.decode(h.read_available(wait_s=0.5))
+    assert tail and all(n != "micro_cmd" for n, _ in tail), "an unconfigured micro is not moving"
+    assert "micro not configured by us: not moving, no stop sent" in h.output()
+
+
+def test_quit_ends_with_one_stop_going_out(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+    assert h.step(m)[0][0][1]["fwd_cmd"] == 1
+    h.proc.stdin.write(b"Q")
+    h.proc.stdin.flush()
+    msgs, flags = h.tick()
+    assert flags & 1 and len(msgs) == 1 and msgs[0][1]["fwd_cmd"] == 5 and msgs[0][1]["turn_cmd"] == 5
+    assert h.proc.wait(timeout=10) == 0
+    assert h.decode(h.read_available(wait_s=0.3)) == [], "the frame's stop was the last message"
+    assert "stop sent" in h.output()
+
+
+def test_status_line_is_drawn_in_place_on_a_terminal(host_factory):
+    """The host on a pty as its stdin and stdout: the status line is redrawn in place
+    (carriage return, erase line), keys work without Enter (raw mode), and the terminal
+    is given back as it was."""
+    import pty
+    import termios
+
+    h, m = host_factory(), Micro()
+    h.close()                                       # this test starts its own host on a pty
+    master, slave = pty.openpty()
+    before = termios.tcgetattr(slave)
+    sock, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+    link = h.tmp / "ttyNK2"
+    pm, ps = os.openpty()
+    tty.setraw(pm)
+    os.symlink(os.ttyname(ps), link)
+    shm = h.shm + "-tty"
+    proc = subprocess.Popen([str(require_host()), "--clock", "lockstep", "--lockstep-fd", str(theirs.fileno()),
+                             "--port", str(link), "--shm", shm, "--config", str(h.cfg), "--log-dir", str(h.tmp)],
+                            stdin=slave, stdout=slave, stderr=slave, pass_fds=(theirs.fileno(),))
+    theirs.close()
+    screen = b""
+    try:
+        def tick(k):
+            nonlocal screen
+            sock.sendall(struct.pack("<IIQII", 0x4B544B4E, k, k * 100_000, 0, 0))
+            assert len(sock.recv(16)) == 16
+            while select.select([master], [], [], 0.2)[0]:
+                screen += os.read(master, 65536)
+        for k in range(3):
+            tick(k)
+        assert b"\r\x1b[Kframe 2  micro offline  owner none" in screen, screen
+        assert b"status:" not in screen, "not the pipe form"
+        os.write(master, b"Q")                        # no Enter: raw mode
+        tick(3)
+        assert proc.wait(timeout=10) == 0
+        assert termios.tcgetattr(slave)[3] == before[3], "local modes (ICANON, ECHO) restored"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        sock.close()
+        for fd in (master, slave, pm, ps):
+            os.close(fd)
+        try:
+            os.unlink("/dev/shm" + shm)
+        except OSError:
+            pass
+
+
+def _responder(master, stop, micro_state):
+    """A real-time micro on the pty: answers every host frame with one micro_data,
+    accepts configs, and records every frame the host sent."""
+    from navkit import protocol
+
+    parser = protocol.Parser(protocol.DIR_TO_MICRO)
+    tag = 0
+    while not stop.is_set():
+        if not select.select([master], [], [], 0.02)[0]:
+            continue
+        try:
+            data = os.read(master, 4096)
+        except (BlockingIOError, OSError):
+            continue
+        for ev in parser.feed(data):
+            if not isinstance(ev, protocol.Frame):
+                continue
+            micro_state["sent"].append((ev.name, ev.fields))
+            if ev.name.startswith("micro_cfg"):
+                micro_state["cfg"].add(ev.name)
+            tag = (tag + 1) & 0xFFFF
+            status = 1 | (7 << 9) if len(micro_state["cfg"]) == 3 else 0
+            try:
+                os.write(master, protocol.encode_frame("micro_data", {
+                    "status": status, "spec_hash": protocol.SPEC_HASH}, time_tag=tag))
+            except OSError:
+                return
+
+
+def test_real_time_sigint_sends_a_stop_last(host_factory):
+    import threading
+
+    h = host_factory(lockstep=False, args=("--rate", "50"))
+    state = {"sent": [], "cfg": set()}
+    stop = threading.Event()
+    t = threading.Thread(target=_responder, args=(h.master, stop, state), daemon=True)
+    t.start()
+    try:
+        deadline = time.monotonic() + 5
+        while not any(n == "micro_cmd" for n, _ in state["sent"]):
+            assert time.monotonic() < deadline, "never configured"
+            time.sleep(0.02)
+        h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+        while not any(n == "micro_cmd" and f["fwd_cmd"] == 1 for n, f in state["sent"]):
+            assert time.monotonic() < deadline, "the command never went out"
+            time.sleep(0.02)
+        h.client.heartbeat()
+        h.proc.send_signal(signal.SIGINT)
+        assert h.proc.wait(timeout=10) == 0
+        time.sleep(0.2)
+    finally:
+        stop.set()
+        t.join(timeout=2)
+    last = state["sent"][-1]
+    assert last[0] == "micro_cmd" and last[1]["fwd_cmd"] == 5 and last[1]["turn_cmd"] == 5, last
+    assert "signal 2" in h.output() and "stop sent" in h.output()
+
+
+def test_real_time_stall_skips_frames_instead_of_bunching_them(host_factory, tmp_path):
+    """The real binary at 100 Hz is stopped (SIGSTOP) for 0.3 s: the frames whose start
+    passed meanwhile are skipped, counted, and the schedule goes on from the latest one."""
+    timing = tmp_path / "timing.txt"
+    h = host_factory(lockstep=False, args=("--rate", "100", "--timing-log", str(timing)))
+    time.sleep(0.3)
+    h.proc.send_signal(signal.SIGSTOP)
+    time.sleep(0.3)
+    h.proc.send_signal(signal.SIGCONT)
+    time.sleep(0.2)
+    h.proc.send_signal(signal.SIGINT)
+    assert h.proc.wait(timeout=10) == 0
+    from navkit import host_bench
+
+    rows = [tuple(int(x) for x in line.split()) for line in timing.read_text().splitlines()
+            if not line.startswith("#")]
+    gaps = [b[0] - a[0] for a, b in zip(rows, rows[1:])]
+    assert max(gaps) >= 20, f"about 30 frames passed while stopped: {max(gaps)}"
+    s = host_bench.summarize(timing)
+    said = h.output().split("clock: ")[1].split("\n")[0]
+    overruns, skipped = int(said.split(" overruns")[0]), int(said.split(", ")[1].split(" frames")[0])
+    assert skipped == s["skipped"] >= 20, (said, s)
+    assert overruns >= 1
+    late = [(start - sched) for _, sched, start, _ in rows]
+    i = gaps.index(max(gaps)) + 1
+    assert late[i] < 10_000_000, "the frame run after the stall is the latest one due, not an old one"

@@ -243,3 +243,60 @@ def test_safety_stop_on_low_battery(host_factory):
     h.step(m)
     h.client.write_cmd({"time_tag": 3, "fwd_cmd": 1, "speed": 100, "distance": 100})
     assert h.step(m)[0][0][1]["speed"] == 100, "cleared: the next new command runs"
+
+
+def test_spec_mismatch_gets_only_a_probe_a_second_and_recovers_when_reflashed(host_factory):
+    h = host_factory()
+    m = Micro(spec_hash=0xDEADBEEF)
+    m.cfg.update(CONFIGS)
+    per_frame = [h.step(m)[0] for _ in range(25)]            # 2.5 s
+    sent = [msg for msgs in per_frame[1:] for msg in msgs]   # after the first reply
+    assert all(n == "micro_cfg_geometry" for n, _ in sent), "never a command, no config stream"
+    assert 2 <= len(sent) <= 3, f"one probe a second, not one a frame: {len(sent)} in 2.4 s"
+    assert h.output().count("0xDEADBEEF differs") >= 2, "both hashes said again every second"
+    assert f"0x{protocol.SPEC_HASH:08X}" in h.output()
+    # the micro is reflashed with our spec (it answers the next probe, unconfigured)
+    m.spec_hash = protocol.SPEC_HASH
+    m.reset()
+    for _ in range(12):
+        msgs, _ = h.step(m)
+        if msgs and msgs[-1][0] == "micro_cmd":
+            break
+    assert msgs and msgs[-1][0] == "micro_cmd", "configured and driven after the reflash"
+    assert msgs[-1][1]["fwd_cmd"] == 5, "starting from a stop"
+    assert "matches the host's" in h.output()
+    assert not h.client.read_data()["host_status"] & (1 << 2)
+
+
+def test_heading_hold_before_any_micro_data_is_rejected(host_factory):
+    h, m = host_factory(), Micro()
+    h.client.write_cmd({"time_tag": 5, "turn_mode": 11, "turn_rate": 200, "turn_distance": 300})
+    msgs, _ = h.step(m, reply=False)
+    assert all(n != "micro_cmd" for n, _ in msgs)
+    h.step(m, reply=False)
+    assert h.client.read_data()["nav_result"] == 2, "rejected"
+    assert "heading hold (turn mode 11) needs the micro's current heading" in h.output()
+    m.fields["heading"] = 1000
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 6, "turn_mode": 11, "turn_rate": 200, "turn_distance": 300})
+    c = h.step(m)[0][0][1]
+    assert c["turn_cmd"] == 10 and c["turn_distance"] == 1300, "with fresh data it holds"
+
+
+def test_link_counters_are_kept_apart(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    bad = bytearray(m.data(distance=7))
+    bad[20] ^= 0xFF                                   # a CRC error
+    h.write(b"\x00\x01\x02" + bytes(bad) + m.data(heading=3600) + m.data(distance=42, rx_bad_length=4))
+    h.step(m, reply=False)
+    d = h.client.read_data()
+    assert d["distance"] == 42
+    assert d["link_errors"] == 2, "lisp_data.link_errors: the sum of rejected frames (CRC + decode)"
+    assert h.stop() == 0
+    out = h.output()
+    assert "1 bad CRC, 0 unknown type, 0 bad length, 1 decode failures" in out, out
+    assert "micro's receive counters (its last micro_data): 0 good, 0 bad CRC, 0 unknown type, " \
+        "4 bad length" in out, "the micro's own counters, each apart"
+    dropped = int(out.split(" bytes dropped")[0].rsplit(" ", 1)[1])
+    assert dropped >= 3 + len(bad)

@@ -78,3 +78,45 @@ def test_heartbeats_both_ways(host_factory):
     assert c.host_heartbeat() == 1, "the host's frame counter (frames 0, 1 run)"
     c.write_emotion({"happiness": -100, "talking": 1})
     assert h.client.read_data()["frame"] == 1
+
+
+def test_heartbeat_is_read_modify_write_of_the_shared_word(shm_name):
+    _region(shm_name)
+    with rcomm.Client(shm_name) as a, rcomm.Client(shm_name) as b:
+        a.heartbeat()
+        b.heartbeat()
+        a.heartbeat()
+        assert a.planner_heartbeat() == b.planner_heartbeat() == 3, "no beat lost to a cached copy"
+    with rcomm.Client(shm_name) as c:
+        c.heartbeat()
+        assert c.planner_heartbeat() == 4
+    with pytest.raises(rcomm.RcommError, match="closed"):
+        c.heartbeat()
+
+
+def test_world_writable_region_is_refused(shm_name):
+    os.chmod(_region(shm_name), 0o666)
+    with pytest.raises(rcomm.RcommError, match="world-writable"):
+        rcomm.Client(shm_name)
+
+
+def test_owner_rule():
+    me, mine = os.geteuid(), os.getegid()
+    assert rcomm.owner_refusal(me, mine + 4321, 0o100600) == ""
+    assert "world-writable" in rcomm.owner_refusal(me, mine, 0o100666)
+    assert rcomm.owner_refusal(me + 1, mine, 0o100660) == "", "shared with our group"
+    assert "not ours" in rcomm.owner_refusal(me + 1, mine, 0o100600), "group has no rw"
+    assert "not ours" in rcomm.owner_refusal(me + 1, mine + 4321, 0o100660)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to make another user's region")
+def test_another_users_region_shared_with_our_group_is_accepted(shm_name):
+    path = _region(shm_name)
+    os.chown(path, 65534, os.getegid())
+    os.chmod(path, 0o660)
+    with rcomm.Client(shm_name) as c:
+        c.write_cmd({"time_tag": 3})
+        assert c.read_cmd()["time_tag"] == 3
+    os.chown(path, 65534, 65534)
+    with pytest.raises(rcomm.RcommError, match="not ours"):
+        rcomm.Client(shm_name)

@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <grp.h>
 #include <stdexcept>
+#include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -83,39 +84,52 @@ Comm::~Comm()
 void Comm::init()
 {
     const std::string what = "rcomm " + name_ + ": ";
-    // a stale region: ours is unlinked, another user's is refused
-    int fd = shm_open(name_.c_str(), O_RDONLY, 0);
+    // A region of this name already there: another user's is refused; one whose host
+    // still runs (it holds the region's lock) is refused; one whose host died is stale
+    // and replaced.
+    int fd = shm_open(name_.c_str(), O_RDWR, 0);
     if (fd >= 0) {
         struct stat st;
-        const bool mine = fstat(fd, &st) == 0 && st.st_uid == geteuid();
-        ::close(fd);
-        if (!mine) {
+        if (fstat(fd, &st) != 0 || st.st_uid != geteuid()) {
+            ::close(fd);
             throw std::runtime_error(what + "exists and belongs to another user (uid " +
                                      std::to_string(st.st_uid) + "): refused");
         }
-        shm_unlink(name_.c_str());
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            ::close(fd);
+            throw std::runtime_error(what + "in use by a running navkit-host (it holds the region's lock): "
+                                            "stop that one, or give this one another name with --shm NAME "
+                                            "or [executive] shm_name");
+        }
+        shm_unlink(name_.c_str());  // stale: its host ended without removing it
+        ::close(fd);
     }
     fd = shm_open(name_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);
     if (fd < 0) {
         throw std::runtime_error(what + std::strerror(errno));
     }
     created_ = true;
+    // The lock marks the region live for as long as this host runs (the kernel drops it
+    // when the process ends, however it ends). A second host that opens the region in
+    // the microseconds between O_EXCL and this call could take it for stale: accepted.
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        const int e = errno;
+        ::close(fd);
+        throw std::runtime_error(what + "lock: " + std::strerror(e));
+    }
+    fd_ = fd;
     mode_t mode = 0600;
     if (!group_.empty()) {
         const group *g = getgrnam(group_.c_str());
         if (!g || fchown(fd, static_cast<uid_t>(-1), g->gr_gid) != 0) {
-            ::close(fd);
             throw std::runtime_error(what + "group " + group_ + ": " + (g ? std::strerror(errno) : "unknown"));
         }
         mode = 0660;
     }
     if (fchmod(fd, mode) != 0 || ftruncate(fd, NAVKIT_RCOMM_SIZE) != 0) {
-        const int e = errno;
-        ::close(fd);
-        throw std::runtime_error(what + std::strerror(e));
+        throw std::runtime_error(what + std::strerror(errno));
     }
     void *p = mmap(nullptr, NAVKIT_RCOMM_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-    ::close(fd);
     if (p == MAP_FAILED) {
         throw std::runtime_error(what + "mmap: " + std::strerror(errno));
     }
@@ -133,8 +147,12 @@ void Comm::shutdown()
         base_ = nullptr;
     }
     if (created_) {
-        shm_unlink(name_.c_str());
+        shm_unlink(name_.c_str());  // before the lock goes, so no one replaces it meanwhile
         created_ = false;
+    }
+    if (fd_ >= 0) {
+        ::close(fd_);  // drops the lock
+        fd_ = -1;
     }
 }
 

@@ -8,8 +8,6 @@
 
 namespace navkit {
 
-static_assert(sizeof(termios) <= 64, "saved_termios_ too small");
-
 Console::Console(std::FILE *out, int in_fd, double status_period_s)
     : out_(out), in_fd_(in_fd), status_period_s_(status_period_s)
 {
@@ -26,7 +24,7 @@ void Console::init()
     if (isatty(in_fd_) == 1) {
         termios t;
         if (tcgetattr(in_fd_, &t) == 0) {
-            std::memcpy(saved_termios_, &t, sizeof t);
+            saved_termios_ = t;
             t.c_lflag &= static_cast<tcflag_t>(~(ICANON | ECHO));
             t.c_cc[VMIN] = 0;
             t.c_cc[VTIME] = 0;
@@ -38,9 +36,7 @@ void Console::init()
 void Console::shutdown()
 {
     if (in_raw_) {
-        termios t;
-        std::memcpy(&t, saved_termios_, sizeof t);
-        tcsetattr(in_fd_, TCSANOW, &t);
+        tcsetattr(in_fd_, TCSANOW, &saved_termios_);
         in_raw_ = false;
     }
     if (status_shown_ && out_tty_) {

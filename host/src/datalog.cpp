@@ -68,13 +68,18 @@ std::string Datalog::start(std::time_t when, const std::vector<LogParam> &params
     return "";
 }
 
-void Datalog::row(const std::vector<double> &values)
+std::string Datalog::row(const std::vector<double> &values)
 {
-    if (!f_ || values.size() != n_) {
-        return;
+    if (!f_) {
+        return "";
+    }
+    if (values.size() != n_) {
+        return path_ + ": a row of " + std::to_string(values.size()) + " values for " + std::to_string(n_) +
+               " columns: not written";
     }
     std::fputs(format_row(values).c_str(), f_);
     std::fflush(f_);  // a crash loses at most this row
+    return "";
 }
 
 void Datalog::stop()

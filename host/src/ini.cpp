@@ -1,5 +1,6 @@
 #include "navkit/ini.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -15,6 +16,8 @@
 #include <vector>
 
 #include <ini.h>
+
+#include "navkit/options.hpp"
 
 namespace navkit {
 namespace {
@@ -132,7 +135,7 @@ Table nav_table(Config &c)
     Table t;
     ExecutiveCfg &e = c.exec;
     t["executive"] = {
-        {"frame_rate_hz", dbl_key(&e.frame_rate_hz, 0.1, 1000)},
+        {"frame_rate_hz", dbl_key(&e.frame_rate_hz, kMinRateHz, kMaxRateHz)},
         {"planner_timeout", dbl_key(&e.planner_timeout_s, 0, 3600)},
         {"console_idle", dbl_key(&e.console_idle_s, 0, 3600)},
         {"shm_name", str_key(&e.shm_name, false)},
@@ -144,7 +147,23 @@ Table nav_table(Config &c)
     MicroCfg &m = c.micro;
     t["micro"] = {
         {"port", str_key(&m.port, false)},
-        {"baud", int_key(&m.baud, 300, 4000000)},
+        {"baud", [&m](const std::string &v) -> std::string {
+             long x;
+             if (!parse_long(v, &x)) {
+                 return "'" + v + "' is not an integer";
+             }
+             for (int b : supported_bauds()) {
+                 if (x == b) {
+                     m.baud = b;
+                     return "";
+                 }
+             }
+             std::string list;
+             for (int b : supported_bauds()) {
+                 list += (list.empty() ? "" : ", ") + std::to_string(b);
+             }
+             return std::to_string(x) + " is not a supported rate (" + list + ")";
+         }},
         {"data_bits", int_key(&m.data_bits, 5, 8)},
         {"parity", [&m](const std::string &v) -> std::string {
              if (v != "N" && v != "E" && v != "O") {
@@ -248,11 +267,50 @@ std::string lower(std::string s)
     return s;
 }
 
+// The first refusal of a file: inih goes on after a handler error and returns the
+// line of the first bad line, so the handler keeps only the first one it meets (with
+// the line it came from, counted by read_line below).
 struct ParseState {
     Table *table;
-    std::string error;  // "key: reason" of the first refused line
+    std::FILE *f;
+    int line = 0;          // lines read so far (inih calls the reader once per line)
+    int error_line = 0;    // line of `error`, 0 = none yet
+    std::string error;     // "key: reason" of the first refused line
     std::set<std::string> seen;
 };
+
+void refuse(ParseState *st, const std::string &why)
+{
+    if (st->error_line == 0) {
+        st->error_line = st->line;
+        st->error = why;
+    }
+}
+
+// inih's reader: one whole line per call, counted; a line longer than inih's buffer is
+// refused here (inih would cut it and parse the pieces).
+char *read_line(char *str, int num, void *stream)
+{
+    ParseState *st = static_cast<ParseState *>(stream);
+    std::string line;
+    int ch;
+    while ((ch = std::fgetc(st->f)) != EOF) {
+        line.push_back(static_cast<char>(ch));
+        if (ch == '\n') {
+            break;
+        }
+    }
+    if (line.empty()) {
+        return nullptr;
+    }
+    st->line++;
+    if (line.size() > static_cast<size_t>(num) - 1) {
+        refuse(st, "line: longer than " + std::to_string(num - 2) + " characters");
+        line = "\n";  // parsed as an empty line
+    }
+    std::memcpy(str, line.c_str(), line.size() + 1);
+    return str;
+}
 
 int handler(void *user, const char *section, const char *name, const char *value)
 {
@@ -260,21 +318,21 @@ int handler(void *user, const char *section, const char *name, const char *value
     const std::string sec = lower(section), key = lower(name);
     auto s = st->table->find(sec);
     if (s == st->table->end()) {
-        st->error = "[" + std::string(section) + "]: unknown section";
+        refuse(st, "[" + std::string(section) + "]: unknown section");
         return 0;
     }
     auto k = s->second.find(key);
     if (k == s->second.end()) {
-        st->error = std::string(name) + ": unknown key in [" + sec + "]";
+        refuse(st, std::string(name) + ": unknown key in [" + sec + "]");
         return 0;
     }
     if (!st->seen.insert(sec + "." + key).second) {
-        st->error = std::string(name) + ": duplicate key in [" + sec + "]";
+        refuse(st, std::string(name) + ": duplicate key in [" + sec + "]");
         return 0;
     }
     const std::string why = k->second(value);
     if (!why.empty()) {
-        st->error = std::string(name) + ": " + why;
+        refuse(st, std::string(name) + ": " + why);
         return 0;
     }
     return 1;
@@ -309,14 +367,18 @@ int line_of(const std::string &path, const std::string &section, const std::stri
     return 0;
 }
 
-// inih calls the handler for keys only: a section without keys is checked here.
-void check_sections(const std::string &path, const Table &table)
+// inih calls the handler for keys only: a section without keys is checked here, for
+// the lines before `before` (the first other refusal; 0 = the whole file).
+void check_sections(const std::string &path, const Table &table, int before)
 {
     std::ifstream f(path);
     std::string line;
     int no = 0;
     while (std::getline(f, line)) {
         no++;
+        if (before > 0 && no >= before) {
+            return;
+        }
         const size_t a = line.find_first_not_of(" \t");
         if (a == std::string::npos || line[a] != '[') {
             continue;
@@ -358,6 +420,13 @@ void check_micro(const std::string &path, const Config &c)
 
 }  // namespace
 
+const std::vector<int> &supported_bauds()
+{
+    static const std::vector<int> b = {9600,   19200,  38400,   57600,   115200,  230400,
+                                       460800, 500000, 921600, 1000000, 2000000, 3000000};
+    return b;
+}
+
 void Ini::load_file(const std::string &path, Config &cfg)
 {
     const std::string base = base_name(path);
@@ -373,15 +442,21 @@ void Ini::load_file(const std::string &path, Config &cfg)
     if (!f) {
         throw ConfigError(path + ":0: file: " + std::strerror(errno));
     }
-    check_sections(path, table);
-    ParseState st{&table, "", {}};
-    const int rc = ini_parse_file(f, handler, &st);
+    ParseState st{&table, f, 0, 0, "", {}};
+    const int rc = ini_parse_stream(read_line, &st, handler, &st);
     std::fclose(f);
-    if (rc != 0) {
-        if (st.error.empty()) {
-            st.error = "line: malformed (not [section], key = value or a comment)";
-        }
-        throw ConfigError(path + ":" + std::to_string(rc) + ": " + st.error);
+    const int first = st.error_line && rc > 0 ? std::min(st.error_line, rc) : std::max(st.error_line, rc);
+    check_sections(path, table, first);
+    if (rc < 0) {
+        throw ConfigError(path + ":0: file: inih could not allocate its line buffer");
+    }
+    // rc is inih's first bad line: one before ours (or without ours) is a malformed line
+    if (rc > 0 && (st.error_line == 0 || rc < st.error_line)) {
+        st.error_line = rc;
+        st.error = "line: malformed (not [section], key = value or a comment)";
+    }
+    if (st.error_line) {
+        throw ConfigError(path + ":" + std::to_string(st.error_line) + ": " + st.error);
     }
     if (base == "NavAndControl.ini") {
         check_micro(path, cfg);

@@ -82,42 +82,49 @@ static std::vector<std::string> list_dir(const std::string &dir)
 }
 
 // USB vendor of a tty (ttyUSB0): the interface's parent device holds idVendor.
-static bool is_ftdi(const std::string &tty)
+static bool is_ftdi(const std::string &tty, const DeviceRoots &roots)
 {
     for (const char *rel : {"/device/../idVendor", "/device/../../idVendor"}) {
-        if (read_line("/sys/class/tty/" + tty + rel).rfind("0403", 0) == 0) {
+        if (read_line(roots.sys + "/class/tty/" + tty + rel).rfind("0403", 0) == 0) {
             return true;
         }
     }
     return false;
 }
 
-std::string SerialPort::find_ftdi()
+std::string SerialPort::find_ftdi(const DeviceRoots &roots)
 {
-    for (const std::string &e : list_dir("/dev/serial/by-id")) {
-        const std::string p = "/dev/serial/by-id/" + e;
-        if (is_ftdi(base_name(real_path(p)))) {
+    const std::string by_id = roots.dev + "/serial/by-id";
+    for (const std::string &e : list_dir(by_id)) {
+        const std::string p = by_id + "/" + e;
+        if (is_ftdi(base_name(real_path(p)), roots)) {
             return p;
         }
     }
-    for (const std::string &e : list_dir("/sys/class/tty")) {
-        if (e.rfind("ttyUSB", 0) == 0 && is_ftdi(e)) {
-            return "/dev/" + e;
+    for (const std::string &e : list_dir(roots.sys + "/class/tty")) {
+        if (e.rfind("ttyUSB", 0) == 0 && is_ftdi(e, roots)) {
+            return roots.dev + "/" + e;
         }
     }
     return "";
 }
 
-std::string SerialPort::latency_timer_path(const std::string &dev)
+std::string SerialPort::latency_timer_path(const std::string &dev, const DeviceRoots &roots)
 {
-    const std::string p = "/sys/bus/usb-serial/devices/" + base_name(real_path(dev)) + "/latency_timer";
+    const std::string p = roots.sys + "/bus/usb-serial/devices/" + base_name(real_path(dev)) + "/latency_timer";
     return access(p.c_str(), F_OK) == 0 ? p : std::string();
+}
+
+std::string SerialPort::line_settings(const MicroCfg &cfg)
+{
+    return std::to_string(cfg.baud) + " baud " + std::to_string(cfg.data_bits) + cfg.parity +
+           std::to_string(cfg.stop_bits);
 }
 
 std::string SerialPort::open(const MicroCfg &cfg)
 {
     close();
-    const std::string path = cfg.port == "auto" ? find_ftdi() : cfg.port;
+    const std::string path = cfg.port == "auto" ? find_ftdi(roots_) : cfg.port;
     if (path.empty()) {
         return "no FTDI (USB VID 0403) serial port found";
     }
@@ -215,7 +222,8 @@ long SerialPort::write_all(const uint8_t *buf, size_t len)
 
 // ------------------------------------------------------------------ MicroUsb
 
-MicroUsb::MicroUsb(const MicroCfg &cfg, Console &console) : cfg_(cfg), con_(console)
+MicroUsb::MicroUsb(const MicroCfg &cfg, Console &console, DeviceRoots roots)
+    : cfg_(cfg), con_(console), port_(std::move(roots))
 {
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
 }
@@ -244,8 +252,7 @@ void MicroUsb::shutdown()
 
 void MicroUsb::reset_parser()
 {
-    const navkit_link_stats_t &s = parser_.stats;
-    err_base_ += s.bad_crc + s.unknown_type + s.bad_length;
+    base_ = counters();  // decode failures are kept in base_ already
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
 }
 
@@ -261,8 +268,8 @@ void MicroUsb::open_port()
     }
     last_open_error_.clear();
     reset_parser();  // bytes of the old connection are gone
-    con_.print("micro port %s open (%d baud, 8N1 raw)", port_.path().c_str(), cfg_.baud);
-    const std::string lt = SerialPort::latency_timer_path(port_.path());
+    con_.print("micro port %s open (%s, raw)", port_.path().c_str(), SerialPort::line_settings(cfg_).c_str());
+    const std::string lt = SerialPort::latency_timer_path(port_.path(), port_.roots());
     if (!lt.empty() && cfg_.latency_timer_ms > 0) {
         std::ofstream f(lt);
         f << cfg_.latency_timer_ms << "\n";
@@ -322,9 +329,17 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
             const uint8_t *f;
             size_t fl;
             while (navkit_parser_next(&parser_, &f, &fl)) {
-                // the parser only returns micro_data (DIR_TO_HOST); the newest one wins
-                if (navkit_micro_data_decode(f, fl, out) == NAVKIT_OK) {
+                // the parser only returns micro_data (DIR_TO_HOST); the newest one wins.
+                // One that does not decode, or has a field outside the spec's range, is
+                // dropped and counted (decode_failures).
+                navkit_micro_data_t m;
+                int bad = -1;
+                if (navkit_micro_data_decode(f, fl, &m) == NAVKIT_OK && navkit_micro_data_check(&m, &bad) == NAVKIT_OK) {
+                    *out = m;
                     got++;
+                } else {
+                    base_.decode_failures++;
+                    last_bad_field_ = bad;
                 }
             }
         }
@@ -352,14 +367,23 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
     if (got > 1) {
         superseded_ += got - 1;
     }
-    const uint32_t errors = link_errors();
-    if (errors != reported_errors_ && (last_error_report_us_ < 0 || now_us_ - last_error_report_us_ >= 1000000)) {
+    const LinkCounters c = counters();
+    if ((c.rejected() != reported_.rejected() || c.dropped_bytes != reported_.dropped_bytes) &&
+        (last_error_report_us_ < 0 || now_us_ - last_error_report_us_ >= 1000000)) {
         // at most one line per second of frame time, naming the stream offset of the last reject
         static const char *const why[] = {"ok", "bad CRC", "unknown type", "bad length", "range", "space", "no start"};
         const int e = parser_.last_error;
-        con_.print("micro link: %u frames rejected so far (last: %s at stream byte offset %u)", errors,
-                   e >= 0 && e <= 6 ? why[e] : "?", static_cast<unsigned>(parser_.last_error_offset));
-        reported_errors_ = errors;
+        con_.print("micro link: bad CRC %llu, unknown type %llu, bad length %llu, decode failures %llu, "
+                   "dropped bytes %llu so far (last reject: %s at stream byte offset %u%s%s)",
+                   static_cast<unsigned long long>(c.bad_crc), static_cast<unsigned long long>(c.unknown_type),
+                   static_cast<unsigned long long>(c.bad_length), static_cast<unsigned long long>(c.decode_failures),
+                   static_cast<unsigned long long>(c.dropped_bytes), e >= 0 && e <= 6 ? why[e] : "?",
+                   static_cast<unsigned>(parser_.last_error_offset),
+                   c.decode_failures ? "; last decode failure: " : "",
+                   c.decode_failures ? (last_bad_field_ >= 0 ? navkit_micro_data_field_name(last_bad_field_)
+                                                             : "not a micro_data")
+                                     : "");
+        reported_ = c;
         last_error_report_us_ = now_us_;
     }
     if (got) {
@@ -374,17 +398,25 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
     have_data_ = true;
     status_ = d.status;
     if (d.spec_hash != NAVKIT_SPEC_HASH) {
-        if (!mismatch_ || d.spec_hash != mismatch_hash_) {
-            con_.print("micro spec hash 0x%08X differs from the host's 0x%08X: refusing to drive it",
+        // said at once, then once a second of frame time while it lasts
+        if (!mismatch_ || d.spec_hash != mismatch_hash_ || now_us_ - last_mismatch_report_us_ >= 1000000) {
+            con_.print("micro spec hash 0x%08X differs from the host's 0x%08X: not driving it "
+                       "(no command; a config probe once a second)",
                        static_cast<unsigned>(d.spec_hash), static_cast<unsigned>(NAVKIT_SPEC_HASH));
+            last_mismatch_report_us_ = now_us_;
         }
         mismatch_ = true;
         mismatch_hash_ = d.spec_hash;
+        configured_ = false;  // whatever it said: our config was never taken
         return;
     }
     if (mismatch_) {
-        con_.print("micro spec hash matches the host's 0x%08X now", static_cast<unsigned>(NAVKIT_SPEC_HASH));
+        con_.print("micro spec hash matches the host's 0x%08X now (was 0x%08X): configuring it",
+                   static_cast<unsigned>(NAVKIT_SPEC_HASH), static_cast<unsigned>(mismatch_hash_));
         mismatch_ = false;
+        last_probe_us_ = -1;
+        // as after a reset: the last command is not run again by a new micro
+        queue_command(stop_command(last_.dio_command), true);
     }
     const bool conf = (d.status & NAVKIT_MICRO_STATUS_CONFIGURED) != 0;
     if (!conf && configured_) {
@@ -425,6 +457,7 @@ void MicroUsb::write_frame(const uint8_t *buf, size_t len)
         tx_errors_++;
     }
     tx_frame_ += static_cast<uint32_t>(n);
+    stop_last_ = false;
 }
 
 void MicroUsb::send()
@@ -434,6 +467,17 @@ void MicroUsb::send()
     }
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
     size_t n = 0;
+    if (mismatch_) {
+        // never a command; the probe is the geometry config, which carries our spec hash
+        if (last_probe_us_ >= 0 && now_us_ - last_probe_us_ < 1000000) {
+            return;
+        }
+        last_probe_us_ = now_us_;
+        navkit_micro_cfg_geometry_t m = cfg_.geometry;
+        m.time_tag = ++cfg_tag_;
+        write_frame(buf, navkit_micro_cfg_geometry_encode(&m, buf, sizeof buf));
+        return;
+    }
     if (needs_config()) {
         // the config messages in order, skipping those the micro reports as received
         static const uint16_t ok_bits[3] = {NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK, NAVKIT_MICRO_STATUS_CFG_MOTION_OK,
@@ -464,24 +508,42 @@ void MicroUsb::send()
         }
     } else {
         n = navkit_micro_cmd_encode(&last_, buf, sizeof buf);
+        const uint64_t errs = tx_errors_;
+        write_frame(buf, n);
+        stop_last_ = port_.is_open() && tx_errors_ == errs && last_.fwd_cmd == NAVKIT_FWD_CMD_STOP &&
+                     last_.turn_cmd == NAVKIT_TURN_CMD_STOP;
+        return;
     }
     write_frame(buf, n);
 }
 
-void MicroUsb::send_stop(uint16_t dio)
+bool MicroUsb::send_stop(uint16_t dio)
 {
-    if (!port_.is_open() || mismatch_) {
-        return;
+    if (!port_.is_open() || mismatch_ || !configured_) {
+        return false;
     }
     queue_command(stop_command(dio), true);
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    const uint64_t errs = tx_errors_;
     write_frame(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
+    stop_last_ = port_.is_open() && tx_errors_ == errs;
+    return stop_last_;
+}
+
+LinkCounters MicroUsb::counters() const
+{
+    const navkit_link_stats_t &s = parser_.stats;
+    LinkCounters c = base_;
+    c.bad_crc += s.bad_crc;
+    c.unknown_type += s.unknown_type;
+    c.bad_length += s.bad_length;
+    c.dropped_bytes += s.dropped_bytes;
+    return c;
 }
 
 uint32_t MicroUsb::link_errors() const
 {
-    const navkit_link_stats_t &s = parser_.stats;
-    return err_base_ + s.bad_crc + s.unknown_type + s.bad_length;
+    return static_cast<uint32_t>(counters().rejected());
 }
 
 }  // namespace navkit

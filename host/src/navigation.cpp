@@ -20,7 +20,8 @@ navkit_micro_cmd_t Navigation::neutral(uint16_t dio)
     return m;
 }
 
-int Navigation::convert(const navkit_lisp_cmd_t &in, uint16_t heading, uint16_t dio, navkit_micro_cmd_t *out)
+int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> heading, uint16_t dio,
+                        navkit_micro_cmd_t *out)
 {
     navkit_micro_cmd_t m = neutral(dio);
     int result = NAVKIT_NAV_RESULT_OK;
@@ -68,8 +69,12 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, uint16_t heading, uint16_t 
         m.turn_distance = in.turn_distance;
         break;
     case NAVKIT_TURN_MODE_HEADING_HOLD: {
-        // HdgSel to the heading at arrival plus word 9, wrapped to 0..3599
-        const int64_t h = (static_cast<int64_t>(heading) + in.turn_distance) % 3600;
+        // HdgSel to the heading at arrival plus word 9, wrapped to 0..3599; no heading
+        // known (no fresh micro_data): rejected, never a hold of heading 0
+        if (!heading) {
+            return NAVKIT_NAV_RESULT_REJECTED;
+        }
+        const int64_t h = (static_cast<int64_t>(*heading) + in.turn_distance) % 3600;
         m.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
         m.turn_distance = static_cast<int32_t>(h < 0 ? h + 3600 : h);
         break;
@@ -137,7 +142,7 @@ void Navigation::init()
     dio_ = 0;
 }
 
-NavOutput Navigation::update(const Arbitration &a, uint16_t heading)
+NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> heading)
 {
     NavOutput o;
     if (a.timeout_started) {
@@ -153,6 +158,7 @@ NavOutput Navigation::update(const Arbitration &a, uint16_t heading)
         ack_ = a.planner.time_tag;
         navkit_micro_cmd_t m;
         result_ = convert(a.planner, heading, a.dio, &m);
+        heading_missing_ = a.planner.turn_mode == NAVKIT_TURN_MODE_HEADING_HOLD && !heading;
         if (result_ != NAVKIT_NAV_RESULT_REJECTED) {
             o.is_new = true;
             o.cmd = m;

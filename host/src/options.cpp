@@ -26,8 +26,9 @@ std::string parse_options(int argc, char **argv, Options *o)
 {
     for (int i = 1; i < argc; i++) {
         const std::string a = argv[i];
+        // the next argument; one that looks like an option is not taken as a value
         auto value = [&](std::string *out) -> bool {
-            if (i + 1 >= argc) {
+            if (i + 1 >= argc || std::strncmp(argv[i + 1], "--", 2) == 0) {
                 return false;
             }
             *out = argv[++i];
@@ -41,7 +42,9 @@ std::string parse_options(int argc, char **argv, Options *o)
         } else if (a == "--config" || a == "--port" || a == "--rate" || a == "--clock" ||
                    a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
             if (!value(&v) || v.empty()) {
-                return a + ": needs a value";
+                return a + ": needs a value" +
+                       (i + 1 < argc && argv[i + 1][0] == '-' ? std::string(" (got the option ") + argv[i + 1] + ")"
+                                                               : std::string());
             }
             char *end = nullptr;
             if (a == "--config") {
@@ -50,8 +53,8 @@ std::string parse_options(int argc, char **argv, Options *o)
                 o->port = v;
             } else if (a == "--rate") {
                 o->rate_hz = std::strtod(v.c_str(), &end);
-                if (*end || !(o->rate_hz > 0 && o->rate_hz <= 1000)) {
-                    return a + ": " + v + ": not a rate in (0, 1000] Hz";
+                if (*end || !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {
+                    return a + ": " + v + ": not a rate in 0.1..1000 Hz (the range of [executive] frame_rate_hz)";
                 }
             } else if (a == "--clock") {
                 if (v != "real" && v != "lockstep") {
@@ -80,6 +83,13 @@ std::string parse_options(int argc, char **argv, Options *o)
     }
     if (!o->lockstep && o->lockstep_fd >= 0) {
         return "--lockstep-fd needs --clock lockstep";
+    }
+    // options the lockstep clock would ignore are refused, never dropped silently
+    if (o->lockstep && o->rate_hz > 0) {
+        return "--rate has no effect with --clock lockstep (the driver's ticks start the frames)";
+    }
+    if (o->lockstep && !o->timing_log.empty()) {
+        return "--timing-log has no effect with --clock lockstep (it times the real-time schedule)";
     }
     return "";
 }

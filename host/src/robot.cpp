@@ -4,6 +4,8 @@
 #include "navkit/robot.hpp"
 
 #include <ctime>
+#include <functional>
+#include <optional>
 #include <unistd.h>
 #include <vector>
 
@@ -16,20 +18,74 @@ Robot::Robot(const Config &c)
 {
 }
 
-// What the datalog records each frame: name and default plot range.
-static const std::vector<LogParam> &log_params()
+// What the datalog records each frame: one table of columns (name, default plot range,
+// and how the value is read from the Robot after step 8), so the header and every row
+// come from the same list and cannot disagree in length.
+struct LogColumn {
+    LogParam param;
+    std::function<double(const Robot &)> value;
+};
+
+static const std::vector<LogColumn> &log_columns()
 {
-    static const std::vector<LogParam> p = {
-        {"time_s", 0, 600},          {"frame", 0, 10000},        {"distance_mm", -5000, 5000},
-        {"speed_mm_s", -1000, 1000}, {"heading_deg", 0, 360},    {"turn_deg", -360, 360},
-        {"x_mm", -5000, 5000},       {"y_mm", -5000, 5000},      {"ir0_mm", 0, 800},
-        {"ir1_mm", 0, 800},          {"ir2_mm", 0, 800},         {"ir3_mm", 0, 800},
-        {"sonar0_mm", 0, 3000},      {"sonar1_mm", 0, 3000},     {"sonar2_mm", 0, 3000},
-        {"sonar3_mm", 0, 3000},      {"battery_v", 0, 15},       {"fwd_cmd", 0, 5},
-        {"turn_cmd", 0, 25},         {"cmd_time_tag", 0, 65535}, {"dio", 0, 4095},
-        {"micro_status", 0, 8191},   {"overruns", 0, 100},
-    };
+    static const std::vector<LogColumn> cols = [] {
+        using R = const Robot &;
+        std::vector<LogColumn> c = {
+            {{"time_s", 0, 600}, [](R r) { return static_cast<double>(r.tick.time_us) / 1e6; }},
+            {{"frame", 0, 10000}, [](R r) { return static_cast<double>(r.frames); }},
+            {{"distance_mm", -5000, 5000}, [](R r) { return static_cast<double>(r.data.distance); }},
+            {{"speed_mm_s", -1000, 1000}, [](R r) { return static_cast<double>(r.data.fwd_speed); }},
+            {{"heading_deg", 0, 360}, [](R r) { return r.data.heading / 10.0; }},
+            {{"turn_deg", -360, 360}, [](R r) { return r.data.turn_progress / 10.0; }},
+            {{"x_mm", -5000, 5000}, [](R r) { return static_cast<double>(r.data.x); }},
+            {{"y_mm", -5000, 5000}, [](R r) { return static_cast<double>(r.data.y); }},
+        };
+        for (int i = 0; i < 4; i++) {
+            c.push_back({{"ir" + std::to_string(i) + "_mm", 0, 800},
+                         [i](R r) { return static_cast<double>(r.lisp_data.ir_range[i]); }});
+        }
+        for (int i = 0; i < 4; i++) {
+            c.push_back({{"sonar" + std::to_string(i) + "_mm", 0, 3000},
+                         [i](R r) { return static_cast<double>(r.lisp_data.sonar_range[i]); }});
+        }
+        c.push_back({{"battery_v", 0, 15}, [](R r) { return r.sensors.battery.value(); }});
+        for (int i = 0; i < 8; i++) {  // calibrated RC servo positions (sensors.ini [servoN])
+            c.push_back({{"servo" + std::to_string(i) + "_deg", -180, 180},
+                         [i](R r) { return r.lisp_data.servo_pos[i] / 10.0; }});
+        }
+        const std::vector<LogColumn> tail = {
+            {{"fwd_cmd", 0, 5}, [](R r) { return static_cast<double>(r.micro.last_command().fwd_cmd); }},
+            {{"turn_cmd", 0, 25}, [](R r) { return static_cast<double>(r.micro.last_command().turn_cmd); }},
+            {{"cmd_time_tag", 0, 65535}, [](R r) { return static_cast<double>(r.micro.last_command().time_tag); }},
+            {{"dio", 0, 4095}, [](R r) { return static_cast<double>(r.micro.last_command().dio_command); }},
+            {{"micro_status", 0, 8191}, [](R r) { return static_cast<double>(r.data.status); }},
+            {{"overruns", 0, 100}, [](R r) { return static_cast<double>(r.lisp_data.overruns); }},
+            // who commanded the robot last: 0 none, 1 planner, 2 console (ProcessCommands)
+            {{"owner", 0, 2}, [](R r) { return static_cast<double>(static_cast<int>(r.owner)); }},
+        };
+        c.insert(c.end(), tail.begin(), tail.end());
+        return c;
+    }();
+    return cols;
+}
+
+static std::vector<LogParam> log_params()
+{
+    std::vector<LogParam> p;
+    for (const LogColumn &c : log_columns()) {
+        p.push_back(c.param);
+    }
     return p;
+}
+
+static const char *owner_name(Owner o)
+{
+    switch (o) {
+    case Owner::planner: return "planner";
+    case Owner::console: return "console";
+    case Owner::none: break;
+    }
+    return "none";
 }
 
 static void start_recording(Robot &r)
@@ -158,15 +214,24 @@ void RobotMain(Robot &r)
         r.console.print("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),
                         navkit_lisp_cmd_field_name(arb.rejected_field));
     }
-    // 6. navigation
-    const NavOutput nav = r.nav.update(arb, r.have_data ? r.data.heading : 0);
+    r.owner = arb.owner;
+    // 6. navigation: a heading hold needs the micro's heading of this moment, so only
+    // fresh data of a micro of our spec counts (none yet, offline: the hold is rejected)
+    const std::optional<uint16_t> heading =
+        online && r.have_data && !r.micro.spec_mismatch() ? std::optional<uint16_t>(r.data.heading) : std::nullopt;
+    const NavOutput nav = r.nav.update(arb, heading);
     if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_NOT_IMPLEMENTED) {
         r.console.print("planner fwd_cmd %d (high level) is not implemented", static_cast<int>(arb.planner.fwd_cmd));
+    } else if (arb.planner_new && r.nav.heading_missing()) {
+        r.console.print("planner command %d rejected: heading hold (turn mode 11) needs the micro's current "
+                        "heading, and no fresh micro_data has come (micro offline): send it again later",
+                        static_cast<int>(arb.planner.time_tag));
     } else if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_REJECTED) {
         r.console.print("planner command %d rejected: a value does not fit the micro command",
                         static_cast<int>(arb.planner.time_tag));
     }
-    // 7. send one micro message (Q: this frame's message is the stop)
+    // 7. send one micro message (Q: this frame's message is the stop, when the micro is
+    // configured; else it gets its config as usual and RobotShutdown says it is not moving)
     if (r.quit) {
         r.micro.queue_command(MicroUsb::stop_command(arb.dio), true);
     } else {
@@ -213,26 +278,29 @@ void RobotMain(Robot &r)
     r.comm.set_host_heartbeat(r.frames);
     // 9. datalog row
     if (r.datalog.recording()) {
-        const navkit_micro_cmd_t &c = r.micro.last_command();
-        r.datalog.row({now / 1e6, static_cast<double>(r.frames), static_cast<double>(d.distance),
-                       static_cast<double>(d.fwd_speed), d.heading / 10.0, d.turn_progress / 10.0,
-                       static_cast<double>(d.x), static_cast<double>(d.y),
-                       static_cast<double>(ld.ir_range[0]), static_cast<double>(ld.ir_range[1]),
-                       static_cast<double>(ld.ir_range[2]), static_cast<double>(ld.ir_range[3]),
-                       static_cast<double>(ld.sonar_range[0]), static_cast<double>(ld.sonar_range[1]),
-                       static_cast<double>(ld.sonar_range[2]), static_cast<double>(ld.sonar_range[3]),
-                       r.sensors.battery.value(), static_cast<double>(c.fwd_cmd), static_cast<double>(c.turn_cmd),
-                       static_cast<double>(c.time_tag), static_cast<double>(c.dio_command),
-                       static_cast<double>(d.status), static_cast<double>(ld.overruns)});
+        std::vector<double> row;
+        for (const LogColumn &c : log_columns()) {
+            row.push_back(c.value(r));
+        }
+        const std::string err = r.datalog.row(row);
+        if (!err.empty()) {
+            r.console.print("datalog: %s: recording stopped", err.c_str());
+            stop_recording(r);
+        }
     }
     // 10. status line
-    char line[200];
-    std::snprintf(line, sizeof line, "frame %u  micro %s%s  cmd tag %u  dist %d mm  hdg %.1f  link errors %u  overruns %d%s",
+    const LinkCounters lc = r.micro.counters();
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
+                  "link crc/type/len/decode %llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
                   r.frames, online ? "online" : "offline",
                   r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : ""),
-                  static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance), d.heading / 10.0,
-                  static_cast<unsigned>(ld.link_errors), static_cast<int>(ld.overruns),
-                  r.datalog.recording() ? "  REC" : "");
+                  owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance),
+                  d.heading / 10.0, static_cast<unsigned long long>(lc.bad_crc),
+                  static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),
+                  static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
+                  static_cast<int>(ld.overruns), r.datalog.recording() ? "  REC" : "");
     r.console.status(line);
     r.frames++;
 }
@@ -243,25 +311,44 @@ void RobotShutdown(Robot &r)
         r.animation.end();
         r.console.set_face({});  // the closing lines scroll without the face
     }
-    if (!r.quit) {
-        r.micro.send_stop(r.micro.last_command().dio_command);
+    // The last message to the micro is a stop: Q's frame sent it (when the micro was
+    // configured); otherwise it goes now. A micro that is not configured (or of another
+    // spec, never driven) is not moving and gets none.
+    const char *stopped = "stop sent";
+    if (!(r.quit && r.micro.stop_was_last()) && !r.micro.send_stop(r.micro.last_command().dio_command)) {
+        stopped = r.micro.port_open() ? "micro not configured by us: not moving, no stop sent"
+                                      : "port closed: no stop sent";
     }
     stop_recording(r);
     r.comm.shutdown();
     r.micro.shutdown();
-    r.console.print("link: %llu config downloads, %u frames rejected, %llu micro_data superseded by newer ones, "
+    const LinkCounters lc = r.micro.counters();
+    r.console.print("link: %llu config downloads; rejected frames: %llu bad CRC, %llu unknown type, %llu bad length, "
+                    "%llu decode failures; %llu bytes dropped; %llu micro_data superseded by newer ones, "
                     "%llu messages written in part, %llu lockstep reads short",
                     static_cast<unsigned long long>(r.micro.config_downloads()),
-                    static_cast<unsigned>(r.micro.link_errors()),
+                    static_cast<unsigned long long>(lc.bad_crc), static_cast<unsigned long long>(lc.unknown_type),
+                    static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.decode_failures),
+                    static_cast<unsigned long long>(lc.dropped_bytes),
                     static_cast<unsigned long long>(r.micro.superseded()),
                     static_cast<unsigned long long>(r.micro.tx_errors()),
                     static_cast<unsigned long long>(r.micro.short_reads()));
+    if (r.have_data) {
+        // the micro's own receive counters (host-to-micro direction), each apart
+        const navkit_micro_data_t &d = r.data;
+        r.console.print("micro's receive counters (its last micro_data): %u good, %u bad CRC, %u unknown type, "
+                        "%u bad length, %u schema mismatch, %u bytes dropped; %u commands rejected",
+                        static_cast<unsigned>(d.rx_good), static_cast<unsigned>(d.rx_bad_crc),
+                        static_cast<unsigned>(d.rx_unknown_type), static_cast<unsigned>(d.rx_bad_length),
+                        static_cast<unsigned>(d.rx_schema_mismatch), static_cast<unsigned>(d.rx_dropped_bytes),
+                        static_cast<unsigned>(d.cmd_rejected));
+    }
     if (r.clock) {
         r.console.print("clock: %llu overruns, %llu frames skipped",
                         static_cast<unsigned long long>(r.clock->overruns()),
                         static_cast<unsigned long long>(r.clock->skipped()));
     }
-    r.console.print("shut down after %u frames (micro stopped, rcomm %s removed)", r.frames,
+    r.console.print("shut down after %u frames (%s, rcomm %s removed)", r.frames, stopped,
                     r.cfg.exec.shm_name.c_str());
     r.console.shutdown();
 }

@@ -16,27 +16,76 @@ magic, layout version, spec hash and owner, and then:
 - bumps the planner heartbeat word, which the host watches (planner_timeout, s).
 A planner should call heartbeat() at least once per host frame while it lives;
 write_cmd() bumps it too.
+
+Owner rule (the same as rcomm.h's): a region owned by our user is accepted; one of
+another user only when its group is one of ours and its mode gives that group read and
+write (the host's `shm_group = NAME`, mode 0660); a world-writable region never.
+
+Memory model, and what this module relies on: every shared word (seqlock counters,
+message words, heartbeats) is read and written as one aligned 4-byte atomic access
+with sequentially consistent ordering, through GCC's libatomic (`__atomic_load_4`,
+`__atomic_store_4`, `__atomic_fetch_add_4`, called with ctypes; libatomic1 comes with
+the GCC runtime on every Linux this kit supports). Python has no fence and CPython's
+mmap slice and struct writes are byte copies of no stated width or order, so they are
+used for nothing shared. With every access sequentially consistent the seqlock is
+correct on weakly ordered CPUs too (aarch64), not only on x86's TSO: a reader that sees
+any word of a new message also sees the odd counter before it. The heartbeat is an
+atomic read-modify-write of the shared word (fetch-add), so two writers never lose a
+beat. Words are native-endian, and the region is little-endian: little-endian hosts
+only (x86-64, aarch64 Linux).
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import mmap
 import os
 import struct
 
 from navkit import protocol
 
-__all__ = ["Client", "RcommError"]
+__all__ = ["Client", "RcommError", "owner_refusal"]
 
-_U32 = struct.Struct("<I")
-_HEADER = struct.Struct("<III")     # magic, version, spec hash at offset 0
-_PLANNER_HEARTBEAT = 12             # byte offsets of the header words
+_MAGIC, _VERSION, _SPEC = 0, 4, 8   # byte offsets of the header words
+_PLANNER_HEARTBEAT = 12
 _HOST_HEARTBEAT = 16
 _RETRIES = 1000
+_SEQ_CST = 5                        # __ATOMIC_SEQ_CST
+
+
+def _libatomic():
+    """GCC's libatomic: 4-byte atomic load, store and fetch-add (see the module docstring)."""
+    lib = ctypes.CDLL(ctypes.util.find_library("atomic") or "libatomic.so.1")
+    load = getattr(lib, "__atomic_load_4")
+    load.argtypes, load.restype = [ctypes.c_void_p, ctypes.c_int], ctypes.c_uint32
+    store = getattr(lib, "__atomic_store_4")
+    store.argtypes, store.restype = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_int], None
+    fetch_add = getattr(lib, "__atomic_fetch_add_4")
+    fetch_add.argtypes = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_int]
+    fetch_add.restype = ctypes.c_uint32
+    return load, store, fetch_add
+
+
+_load4, _store4, _fetch_add4 = _libatomic()
 
 
 class RcommError(ConnectionError):
-    """The region is missing, not ours, or of another layout or spec; the text says why."""
+    """The region is missing, refused by the owner rule, or of another layout or spec;
+    the text says why."""
+
+
+def owner_refusal(uid: int, gid: int, mode: int) -> str:
+    """Why a client may not use a region of owner uid, group gid and mode (st_mode),
+    or "" when it may (the owner rule of the module docstring)."""
+    if mode & 0o002:
+        return f"world-writable (mode {mode & 0o777:03o})"
+    if uid == os.geteuid():
+        return ""
+    if mode & 0o060 == 0o060 and (gid == os.getegid() or gid in os.getgroups()):
+        return ""
+    return (f"owned by uid {uid}, not us, and group {gid} is not ours with rw "
+            f"(mode {mode & 0o777:03o})")
 
 
 def _path(name: str) -> str:
@@ -52,45 +101,71 @@ class Client:
             fd = os.open(_path(name), os.O_RDWR)
         except OSError as e:
             raise RcommError(f"rcomm {name}: {e.strerror}") from None
+        self._mm = None
+        self._anchor = None
         try:
             st = os.fstat(fd)
-            if st.st_uid != os.geteuid():
-                raise RcommError(f"rcomm {name}: owned by uid {st.st_uid}, not us: refused")
+            why = owner_refusal(st.st_uid, st.st_gid, st.st_mode)
+            if why:
+                raise RcommError(f"rcomm {name}: {why}: refused")
             if st.st_size < protocol.RCOMM_SIZE:
                 raise RcommError(f"rcomm {name}: {st.st_size} bytes, the layout needs "
                                  f"{protocol.RCOMM_SIZE}")
             self._mm = mmap.mmap(fd, protocol.RCOMM_SIZE)
         finally:
             os.close(fd)
-        magic, version, spec = _HEADER.unpack_from(self._mm, 0)
+        # the mapping's address for libatomic; released in close() before the unmap
+        self._anchor = ctypes.c_char.from_buffer(self._mm)
+        self._base = ctypes.addressof(self._anchor)
+        magic, version, spec = (self._word(o) for o in (_MAGIC, _VERSION, _SPEC))
         if magic != protocol.RCOMM_MAGIC or version != protocol.RCOMM_VERSION:
-            self._mm.close()
+            self.close()
             raise RcommError(f"rcomm {name}: magic 0x{magic:08X} version {version}, expected "
                              f"0x{protocol.RCOMM_MAGIC:08X} version {protocol.RCOMM_VERSION}")
         if spec != protocol.SPEC_HASH:
-            self._mm.close()
+            self.close()
             raise RcommError(f"rcomm {name}: spec hash 0x{spec:08X}, ours 0x{protocol.SPEC_HASH:08X}")
         self._off = protocol.RCOMM_OFFSETS
-        self._beats = _U32.unpack_from(self._mm, _PLANNER_HEARTBEAT)[0]
+
+    # ------------------------------------------------------------ shared words
+    def _open(self) -> None:
+        """Raise RcommError after close() (the mapping's address is gone)."""
+        if self._mm is None:
+            raise RcommError(f"rcomm {self.name}: closed")
+
+    def _word(self, off: int) -> int:
+        """Atomic load of the uint32 at byte offset off (seq_cst)."""
+        return _load4(self._base + off, _SEQ_CST)
+
+    def _set_word(self, off: int, value: int) -> None:
+        """Atomic store of a uint32 at byte offset off (seq_cst)."""
+        _store4(self._base + off, value & 0xFFFFFFFF, _SEQ_CST)
 
     # ------------------------------------------------------------ seqlock
     def _write(self, slot: str, data: bytes) -> None:
+        """Seqlock write of whole little-endian words: seq odd, words, seq even (+2)."""
+        self._open()
         off = self._off[slot]
-        seq = _U32.unpack_from(self._mm, off)[0]
+        words = struct.unpack(f"<{len(data) // 4}I", data)
+        seq = self._word(off)
         seq += seq & 1                     # a writer that died mid-write left it odd
-        _U32.pack_into(self._mm, off, (seq + 1) & 0xFFFFFFFF)
-        self._mm[off + 4:off + 4 + len(data)] = data
-        _U32.pack_into(self._mm, off, (seq + 2) & 0xFFFFFFFF)
+        self._set_word(off, seq + 1)
+        for i, w in enumerate(words):
+            self._set_word(off + 4 + 4 * i, w)
+        self._set_word(off, seq + 2)
 
     def _read(self, slot: str, size: int) -> bytes | None:
+        """Seqlock read: the words between two equal even reads of seq (bounded retries)."""
+        self._open()
         off = self._off[slot]
+        n = size // 4
         for _ in range(_RETRIES):
-            s1 = _U32.unpack_from(self._mm, off)[0]
+            s1 = self._word(off)
             if s1 & 1:
                 continue
-            data = bytes(self._mm[off + 4:off + 4 + size])
-            if _U32.unpack_from(self._mm, off)[0] == s1:
-                return data if s1 else None
+            words = [self._word(off + 4 + 4 * i) for i in range(n)]
+            if self._word(off) == s1:
+                return struct.pack(f"<{n}I", *words) if s1 else None
         return None
 
     # ------------------------------------------------------------ planner API
@@ -123,17 +198,24 @@ class Client:
     def heartbeat(self) -> None:
         """Bump the planner heartbeat word (the host stops the robot when it stays
         unchanged for planner_timeout seconds)."""
-        self._beats = (self._beats + 1) & 0xFFFFFFFF
-        _U32.pack_into(self._mm, _PLANNER_HEARTBEAT, self._beats)
+        self._open()
+        _fetch_add4(self._base + _PLANNER_HEARTBEAT, 1, _SEQ_CST)
 
     beat = heartbeat  # the co-simulation harness's name
 
     def host_heartbeat(self) -> int:
         """The host's frame counter (it advances once per host frame)."""
-        return _U32.unpack_from(self._mm, _HOST_HEARTBEAT)[0]
+        self._open()
+        return self._word(_HOST_HEARTBEAT)
+
+    def planner_heartbeat(self) -> int:
+        """The planner heartbeat word as it is in the region (every client's beats)."""
+        self._open()
+        return self._word(_PLANNER_HEARTBEAT)
 
     def close(self) -> None:
         """Unmap the region (the host owns it and removes it at shutdown)."""
+        self._anchor = None                # the buffer export must end before the unmap
         if self._mm is not None:
             self._mm.close()
             self._mm = None

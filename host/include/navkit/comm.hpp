@@ -1,7 +1,8 @@
 // Comm: the seed's Comm class plus its RComm.dll, as POSIX shared memory laid out per
 // docs/internals.md: header words, then the lisp_cmd, lisp_data and emotion slots, each
-// behind a seqlock. The host creates the region (mode 0600, or 0660 with a group),
-// refuses one owned by another user, and unlinks it at shutdown.
+// behind a seqlock. The host creates the region (mode 0600, or 0660 with a group) and
+// holds an flock() on it while it runs; it refuses a region owned by another user or
+// locked by a running host, replaces a stale one of its user, and unlinks it at shutdown.
 #pragma once
 
 #include <cstdint>
@@ -17,7 +18,7 @@ class Comm {
 public:
     Comm(std::string name, std::string group);
     ~Comm();
-    // Create the region; throws std::runtime_error saying why not.
+    // Create the region (and take its lock); throws std::runtime_error saying why not.
     void init();
     void shutdown();
 
@@ -37,6 +38,7 @@ public:
 private:
     std::string name_, group_;
     uint8_t *base_ = nullptr;
+    int fd_ = -1;            // the region, kept open for its lock
     bool created_ = false;
 };
 

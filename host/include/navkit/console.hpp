@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <termios.h>
 #include <vector>
 
 namespace navkit {
@@ -46,7 +47,7 @@ private:
     std::vector<std::string> face_;  // lines of the face block
     size_t face_shown_ = 0;          // face lines on screen above the status line
     bool face_dirty_ = false;        // face_ differs from what is on screen
-    unsigned char saved_termios_[64];  // struct termios of stdin before raw mode
+    termios saved_termios_{};          // stdin before raw mode (valid while in_raw_)
 };
 
 }  // namespace navkit

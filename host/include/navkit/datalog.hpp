@@ -1,7 +1,8 @@
 // Datalog: the seed's data logging. start() ('R') creates "Data MM-DD-YY HH;MM;SS.txt"
 // in the log folder with the seed's header (the number of parameters, then one line per
 // parameter: name, default range low and high); row() appends one line of values per
-// frame and flushes it; stop() ('S') closes the file.
+// frame and flushes it; stop() ('S') closes the file. robot.cpp builds the header and
+// every row from one column table, so their counts agree by construction.
 #pragma once
 
 #include <cstdio>
@@ -22,7 +23,10 @@ public:
     ~Datalog() { stop(); }
     // "" on success, else why not. `when` names the file.
     std::string start(std::time_t when, const std::vector<LogParam> &params);
-    void row(const std::vector<double> &values);
+    // "" when written (or not recording); else why not: a row whose count differs from
+    // the header's is a bug of the caller, refused and said, never written or dropped
+    // quietly.
+    std::string row(const std::vector<double> &values);
     void stop();
     bool recording() const { return f_ != nullptr; }
     const std::string &path() const { return path_; }

@@ -6,6 +6,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 extern "C" {
 #include "navkit/navkit_proto.h"
@@ -28,6 +29,10 @@ struct ExecutiveCfg {
     bool record = false;             // start the datalog at start-up
     int dio_default = 0;             // levels of the DIO bits no planner owns (12 bits)
 };
+
+// The serial rates [micro] baud may take (each has a termios speed constant; SerialPort
+// maps them), in bit/s.
+const std::vector<int> &supported_bauds();
 
 struct MicroCfg {
     MicroCfg()

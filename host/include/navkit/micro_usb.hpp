@@ -2,8 +2,10 @@
 // path), sets it raw and non-blocking, receives micro_data (only the newest whole frame
 // of those waiting is used), and sends exactly one message per frame: a config message
 // while the micro is unconfigured, else the command (new, or the last one repeated with
-// its time tag). A micro built from another spec is refused (no command is ever sent).
-// A vanished port is reported and reopened when its path returns.
+// its time tag). A micro built from another spec is refused: it never gets a command,
+// only a config probe once a second (which carries our spec hash, so such a micro
+// refuses it, while a micro reflashed with our spec takes it and answers). A vanished
+// port is reported and reopened when its path returns.
 #pragma once
 
 #include <cstdint>
@@ -19,9 +21,17 @@ namespace navkit {
 
 class Console;
 
+// Where SerialPort looks for devices: the roots of /dev and /sys (a test points them at
+// a fake tree in a temporary folder).
+struct DeviceRoots {
+    std::string dev = "/dev";
+    std::string sys = "/sys";
+};
+
 // The port: discovery, termios, non-blocking read/write. Pure OS plumbing.
 class SerialPort {
 public:
+    explicit SerialPort(DeviceRoots roots = DeviceRoots()) : roots_(std::move(roots)) {}
     ~SerialPort();
     // port = "auto" or a path. "" on success, else why not.
     std::string open(const MicroCfg &cfg);
@@ -33,19 +43,36 @@ public:
     long read_some(uint8_t *buf, size_t cap);
     // Bytes written (all or nothing on a tty), -1 the port is gone (closed by this call).
     long write_all(const uint8_t *buf, size_t len);
-    // First FTDI (USB VID 0403) tty: /dev/serial/by-id, then /sys/class/tty; "" if none.
-    static std::string find_ftdi();
-    // sysfs latency_timer of tty path `dev`; "" if the device has none (not FTDI).
-    static std::string latency_timer_path(const std::string &dev);
+    // First FTDI (USB VID 0403) tty: <dev>/serial/by-id, then <sys>/class/tty; "" if none.
+    static std::string find_ftdi(const DeviceRoots &roots);
+    // <sys>/bus/usb-serial/devices/<tty>/latency_timer of tty path `dev`; "" if the
+    // device has none (not FTDI).
+    static std::string latency_timer_path(const std::string &dev, const DeviceRoots &roots);
+    // "115200 baud 8N1": the line settings of cfg.
+    static std::string line_settings(const MicroCfg &cfg);
+    const DeviceRoots &roots() const { return roots_; }
 
 private:
+    DeviceRoots roots_;
     int fd_ = -1;
     std::string path_;
 };
 
+// The micro link's error counters, kept apart (summed over port reopens).
+struct LinkCounters {
+    uint64_t bad_crc = 0;          // candidate frames with a wrong CRC
+    uint64_t unknown_type = 0;     // candidates of an unknown (or host-to-micro) type
+    uint64_t bad_length = 0;       // candidates whose length word is not their type's
+    uint64_t decode_failures = 0;  // whole micro_data frames that did not decode or had a
+                                   // field outside the spec's range (dropped)
+    uint64_t dropped_bytes = 0;    // bytes not part of a returned frame
+    // Frames rejected for any reason (lisp_data.link_errors): the four frame counters.
+    uint64_t rejected() const { return bad_crc + unknown_type + bad_length + decode_failures; }
+};
+
 class MicroUsb {
 public:
-    MicroUsb(const MicroCfg &cfg, Console &console);
+    MicroUsb(const MicroCfg &cfg, Console &console, DeviceRoots roots = DeviceRoots());
     void init();
     void shutdown();
 
@@ -62,10 +89,14 @@ public:
 
     // The command of this frame: new (a new time tag) or not (repeat the last one).
     void queue_command(const navkit_micro_cmd_t &cmd, bool is_new);
-    // Send the one message of this frame: config while unconfigured, else the command.
+    // Send the one message of this frame: config while unconfigured, else the command;
+    // to a micro of another spec nothing but a config probe once a second.
     void send();
-    // Send a stop (fwd 5, turn 5) now, outside the frame order (shutdown).
-    void send_stop(uint16_t dio);
+    // Send a stop (fwd 5, turn 5) now, outside the frame order (shutdown). Only to a
+    // configured micro of our spec (an unconfigured one is not moving); true if sent.
+    bool send_stop(uint16_t dio);
+    // The last message written whole was a stop command (fwd 5, turn 5).
+    bool stop_was_last() const { return stop_last_; }
 
     // A stop command carrying these DIO levels (the seed's Navigation Init command).
     static navkit_micro_cmd_t stop_command(uint16_t dio);
@@ -73,6 +104,8 @@ public:
     bool port_open() const { return port_.is_open(); }
     uint32_t tx_bytes_frame() const { return tx_frame_; }
     void begin_frame(int64_t now_us);
+    // The counters so far; link_errors() is their rejected() sum (lisp_data.link_errors).
+    LinkCounters counters() const;
     uint32_t link_errors() const;
     uint64_t config_downloads() const { return config_sent_; }
     uint64_t superseded() const { return superseded_; }
@@ -108,9 +141,13 @@ private:
     uint64_t superseded_ = 0;    // whole micro_data dropped for a newer one
     uint64_t short_reads_ = 0;   // lockstep ticks whose rx_bytes did not all arrive in 1 s
     uint64_t tx_errors_ = 0;     // frames written only in part (output buffer full)
-    uint32_t err_base_ = 0;      // link errors of parsers before the last reopen
-    uint32_t reported_errors_ = 0;
+    LinkCounters base_;          // counters of parsers before the last reopen, and decode failures
+    LinkCounters reported_;      // the counters last shown on the console
     int64_t last_error_report_us_ = -1;
+    int64_t last_probe_us_ = -1;     // mismatch: frame time of the last config probe
+    int64_t last_mismatch_report_us_ = -1;
+    bool stop_last_ = false;
+    int last_bad_field_ = -1;    // field of the last micro_data outside the spec's range
 };
 
 }  // namespace navkit

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 #include "navkit/ini.hpp"
 #include "navkit/process_commands.hpp"
@@ -24,15 +25,19 @@ public:
     explicit Navigation(const ConsoleCfg &console);
     void init();
     // Update(): this frame's micro command from the arbitration; heading (deg x 10,
-    // 0..3599) is the micro's latest, used when heading hold (mode 11) arrives.
-    NavOutput update(const Arbitration &a, uint16_t heading);
+    // 0..3599) is the micro's current one (nullopt: no fresh micro_data, e.g. none yet
+    // or the micro offline), used when heading hold (mode 11) arrives: without it a
+    // heading hold is rejected (heading_missing() says why).
+    NavOutput update(const Arbitration &a, std::optional<uint16_t> heading);
     int nav_result() const { return result_; }
+    // The last new planner command was a heading hold rejected for want of a heading.
+    bool heading_missing() const { return heading_missing_; }
     int32_t ack_time_tag() const { return ack_; }
 
     // Planner command -> micro command (time tag left 0); returns a nav_result:
     // ok, not_implemented (high-level codes: the rest still applies) or rejected (a
-    // value does not fit the micro; *out untouched).
-    static int convert(const navkit_lisp_cmd_t &in, uint16_t heading, uint16_t dio,
+    // value does not fit the micro, or a heading hold without a heading; *out untouched).
+    static int convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> heading, uint16_t dio,
                        navkit_micro_cmd_t *out);
     // Teleop key -> micro command.
     static navkit_micro_cmd_t teleop(Teleop t, const ConsoleCfg &c, uint16_t dio);
@@ -44,6 +49,7 @@ private:
     uint16_t dio_ = 0;           // DIO levels of the last command handed out
     int result_ = NAVKIT_NAV_RESULT_OK;
     int32_t ack_ = 0;
+    bool heading_missing_ = false;
 };
 
 }  // namespace navkit

@@ -5,6 +5,10 @@
 
 namespace navkit {
 
+// Frame rates --rate and [executive] frame_rate_hz take, Hz.
+constexpr double kMinRateHz = 0.1;
+constexpr double kMaxRateHz = 1000.0;
+
 struct Options {
     std::string config_dir = "config";
     std::string port;          // "" = INI

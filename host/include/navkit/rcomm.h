@@ -13,7 +13,9 @@
  * Words are the spec's raw int32 values in spec order (navkit_lisp_cmd_pack/unpack of
  * the generated navkit_proto.h convert to and from the structs). Header-only, POSIX +
  * GCC/Clang __atomic builtins; little-endian hosts (the region's byte order). Link -lrt
- * on old glibc. Every shared word is accessed with aligned 32-bit atomics; the seqlock
+ * on old glibc. A region is opened when it is ours, or another user's shared with one of
+ * our groups (group rw, the host's shm_group); never a world-writable one. Every
+ * shared word is accessed with aligned 32-bit atomics; the seqlock
  * writer makes seq odd, writes, makes it even (+2 per message); the reader copies
  * between two equal, even reads of seq, retrying a bounded number of times.
  */
@@ -26,6 +28,7 @@
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <sys/types.h>
 #include <unistd.h>
 
 #include "navkit/navkit_proto.h"
@@ -44,13 +47,42 @@ static inline uint32_t *navkit_rcomm_word_(navkit_rcomm_t *r, size_t off)
     return (uint32_t *)(void *)(r->base + off);
 }
 
-/* Open the host's region `name`: 0, or -1 with r->error set (missing, another user's,
- * wrong magic, version or spec hash). */
+/* May this client use a region of owner uid, group gid and mode? 0 = yes, else why not:
+ * 1 = world-writable (never), 2 = neither ours nor shared with one of our groups
+ * (owner another user: the region's group must be one of ours and its mode must give
+ * that group read and write, as the host's shm_group = NAME makes it, mode 0660). */
+static inline int navkit_rcomm_owner_check(uid_t uid, gid_t gid, mode_t mode)
+{
+    gid_t groups[256];
+    int n, i;
+    if (mode & S_IWOTH) {
+        return 1;
+    }
+    if (uid == geteuid()) {
+        return 0;
+    }
+    if ((mode & (S_IRGRP | S_IWGRP)) != (S_IRGRP | S_IWGRP)) {
+        return 2;
+    }
+    if (gid == getegid()) {
+        return 0;
+    }
+    n = getgroups((int)(sizeof groups / sizeof groups[0]), groups);
+    for (i = 0; i < n; i++) {
+        if (groups[i] == gid) {
+            return 0;
+        }
+    }
+    return 2;
+}
+
+/* Open the host's region `name`: 0, or -1 with r->error set (missing, world-writable,
+ * neither ours nor shared with our group, too small, wrong magic, version or spec hash). */
 static inline int navkit_rcomm_open(navkit_rcomm_t *r, const char *name)
 {
     struct stat st;
     void *p;
-    int fd;
+    int fd, why;
     r->base = NULL;
     r->error[0] = '\0';
     fd = shm_open(name, O_RDWR, 0);
@@ -58,9 +90,27 @@ static inline int navkit_rcomm_open(navkit_rcomm_t *r, const char *name)
         snprintf(r->error, sizeof r->error, "rcomm %s: cannot open", name);
         return -1;
     }
-    if (fstat(fd, &st) != 0 || st.st_uid != geteuid() || st.st_size < (off_t)NAVKIT_RCOMM_SIZE) {
+    if (fstat(fd, &st) != 0) {
         close(fd);
-        snprintf(r->error, sizeof r->error, "rcomm %s: not ours or too small: refused", name);
+        snprintf(r->error, sizeof r->error, "rcomm %s: cannot stat", name);
+        return -1;
+    }
+    why = navkit_rcomm_owner_check(st.st_uid, st.st_gid, st.st_mode);
+    if (why != 0) {
+        close(fd);
+        if (why == 1) {
+            snprintf(r->error, sizeof r->error, "rcomm %s: world-writable (mode %03o): refused", name,
+                     (unsigned)(st.st_mode & 0777));
+        } else {
+            snprintf(r->error, sizeof r->error,
+                     "rcomm %s: owned by uid %u, not us, and group %u is not ours with rw (mode %03o): refused",
+                     name, (unsigned)st.st_uid, (unsigned)st.st_gid, (unsigned)(st.st_mode & 0777));
+        }
+        return -1;
+    }
+    if (st.st_size < (off_t)NAVKIT_RCOMM_SIZE) {
+        close(fd);
+        snprintf(r->error, sizeof r->error, "rcomm %s: too small: refused", name);
         return -1;
     }
     p = mmap(NULL, NAVKIT_RCOMM_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
@@ -71,8 +121,8 @@ static inline int navkit_rcomm_open(navkit_rcomm_t *r, const char *name)
     }
     r->base = (uint8_t *)p;
     if (__atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_MAGIC_OFFSET), __ATOMIC_ACQUIRE) != NAVKIT_RCOMM_MAGIC ||
-        *navkit_rcomm_word_(r, NAVKIT_RCOMM_VERSION_OFFSET) != NAVKIT_RCOMM_VERSION ||
-        *navkit_rcomm_word_(r, NAVKIT_RCOMM_SPEC_HASH_OFFSET) != NAVKIT_SPEC_HASH) {
+        __atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_VERSION_OFFSET), __ATOMIC_RELAXED) != NAVKIT_RCOMM_VERSION ||
+        __atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_SPEC_HASH_OFFSET), __ATOMIC_RELAXED) != NAVKIT_SPEC_HASH) {
         munmap(p, NAVKIT_RCOMM_SIZE);
         r->base = NULL;
         snprintf(r->error, sizeof r->error, "rcomm %s: magic, version or spec hash differ", name);

@@ -42,6 +42,7 @@ struct Robot {
     navkit_lisp_data_t lisp_data{}; // published every frame
     navkit_emotion_t emotion{};     // the planner's emotion (the face's targets)
     bool quit = false;              // 'Q': this frame sends the stop and the executive ends
+    Owner owner = Owner::none;      // who commanded the robot last (status line, datalog)
     uint32_t frames = 0;
 };
 

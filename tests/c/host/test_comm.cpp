@@ -136,3 +136,61 @@ TEST(Comm, StaleRegionOfOurOwnIsReplaced)
     EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
     navkit_rcomm_close(&r);
 }
+
+TEST(Comm, ASecondHostIsRefusedWhileTheFirstRuns)
+{
+    const std::string name = unique_name("twohosts");
+    Comm first(name, "");
+    first.init();
+    first.set_host_heartbeat(5);
+    Comm second(name, "");
+    try {
+        second.init();
+        FAIL() << "a second host took over a running one's region";
+    } catch (const std::runtime_error &e) {
+        const std::string w = e.what();
+        EXPECT_NE(w.find("rcomm " + name + ": in use by a running navkit-host"), std::string::npos) << w;
+        EXPECT_NE(w.find("--shm NAME"), std::string::npos) << w;
+    }
+    navkit_rcomm_t r;
+    ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << "the first host's region is untouched: " << r.error;
+    EXPECT_EQ(navkit_rcomm_host_heartbeat(&r), 5u);
+    navkit_rcomm_close(&r);
+    first.shutdown();
+    Comm third(name, "");
+    third.init();  // the first has ended: the name is free again
+}
+
+TEST(Comm, ClientOwnerRules)
+{
+    const uid_t me = geteuid();
+    const gid_t mine = getegid();
+    EXPECT_EQ(navkit_rcomm_owner_check(me, 12345, 0600), 0) << "ours";
+    EXPECT_EQ(navkit_rcomm_owner_check(me, mine, 0666), 1) << "world-writable: never";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0660), 0) << "another user's, shared with our group";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0600), 2) << "our group, but the mode does not share it";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine + 54321, 0660), 2) << "a group that is not ours";
+}
+
+TEST(Comm, ClientOpensAnotherUsersRegionSharedWithItsGroup)
+{
+    if (geteuid() != 0) {
+        GTEST_SKIP() << "needs root to make a region owned by another user";
+    }
+    const std::string name = unique_name("group");
+    Comm c(name, "");
+    c.init();
+    const std::string path = "/dev/shm" + name;
+    navkit_rcomm_t r;
+    ASSERT_EQ(chown(path.c_str(), 65534, getegid()), 0);
+    ASSERT_EQ(chmod(path.c_str(), 0660), 0);
+    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+    navkit_rcomm_close(&r);
+    ASSERT_EQ(chown(path.c_str(), 65534, 65534), 0);
+    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), -1) << "another user, a group not ours";
+    EXPECT_NE(std::string(r.error).find("not ours"), std::string::npos) << r.error;
+    ASSERT_EQ(chown(path.c_str(), 0, 0), 0);
+    ASSERT_EQ(chmod(path.c_str(), 0666), 0);
+    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), -1) << "world-writable";
+    EXPECT_NE(std::string(r.error).find("world-writable"), std::string::npos) << r.error;
+}

@@ -43,9 +43,10 @@ TEST(Datalog, RowsAreOnDiskAfterEachCall)
     ASSERT_NE(mkdtemp(dir), nullptr);
     Datalog d(dir);
     ASSERT_EQ(d.start(1000000000, {{"a", 0, 1}, {"b", 0, 2}}), "");
-    d.row({1, 2});
+    EXPECT_EQ(d.row({1, 2}), "");
     EXPECT_EQ(slurp(d.path()), "2\na 0 1\nb 0 2\n1\t2\n") << "flushed without closing";
-    d.row({1});  // wrong width: ignored
+    EXPECT_EQ(d.row({1}), d.path() + ": a row of 1 values for 2 columns: not written") << "refused aloud";
+    EXPECT_EQ(slurp(d.path()), "2\na 0 1\nb 0 2\n1\t2\n");
     Datalog d2(dir);
     ASSERT_EQ(d2.start(1000000000, {{"a", 0, 1}}), "");
     EXPECT_NE(d2.path(), d.path()) << "same second: a second file, never overwritten";

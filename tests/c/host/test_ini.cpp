@@ -143,3 +143,45 @@ TEST_F(IniFiles, IrRangeOrder)
     write("sensors.ini", "[ir2]\nmin_mm = 500\nmax_mm = 400\n");
     EXPECT_EQ(error(), dir_ + "/sensors.ini:3: max_mm: must be above min_mm in [ir2]");
 }
+
+TEST_F(IniFiles, TwoBadLinesReportTheFirst)
+{
+    // inih goes on after the first refusal; the message is still the first line's
+    write("NavAndControl.ini", "[executive]\nrecord = yes\nframe_rate = 5\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: record: 'yes' is not 0 or 1");
+}
+
+TEST_F(IniFiles, MalformedLineBeforeABadKeyIsTheFirst)
+{
+    write("NavAndControl.ini", "[executive]\njust words\nframe_rate = 5\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: line: malformed (not [section], key = value or a comment)");
+    write("NavAndControl.ini", "[executive]\nframe_rate = 5\njust words\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: frame_rate: unknown key in [executive]");
+}
+
+TEST_F(IniFiles, EmptyUnknownSectionAfterABadKeyIsNotTheFirst)
+{
+    write("sensors.ini", "[battery]\nchannel = 9\n[lidar]\n");
+    EXPECT_EQ(error(), dir_ + "/sensors.ini:2: channel: 9 is outside 0..7");
+}
+
+TEST_F(IniFiles, OverlongLineIsRefusedNotCut)
+{
+    write("NavAndControl.ini", "[executive]\nlog_dir = /" + std::string(300, 'x') + "\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: line: longer than 198 characters");
+}
+
+TEST_F(IniFiles, BaudMustBeASupportedRate)
+{
+    write("NavAndControl.ini", "[micro]\n\nbaud = 250000\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: baud: 250000 is not a supported rate (9600, 19200, 38400, "
+                              "57600, 115200, 230400, 460800, 500000, 921600, 1000000, 2000000, 3000000)");
+    write("NavAndControl.ini", "[micro]\nbaud = 921600\n");
+    EXPECT_EQ(Ini::load(dir_).micro.baud, 921600);
+}
+
+TEST_F(IniFiles, FrameRateRangeIsTheCommandLines)
+{
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 0.05\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: frame_rate_hz: 0.05 is outside 0.1..1000");
+}

@@ -82,6 +82,37 @@ TEST(Navigation, HeadingHoldIsCurrentHeadingPlusWord9Wrapped)
     }
 }
 
+TEST(Navigation, HeadingHoldWithoutAFreshHeadingIsRejected)
+{
+    navkit_lisp_cmd_t c = lisp();
+    c.time_tag = 77;
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 100;
+    c.distance = 500;
+    c.turn_mode = 11;
+    c.turn_distance = 100;
+    navkit_micro_cmd_t m;
+    m.turn_distance = 4242;
+    EXPECT_EQ(Navigation::convert(c, std::nullopt, 0, &m), NAVKIT_NAV_RESULT_REJECTED);
+    EXPECT_EQ(m.turn_distance, 4242) << "untouched: never a hold of heading 0";
+
+    ConsoleCfg cc;
+    Navigation n(cc);
+    n.init();
+    Arbitration a;
+    a.planner_new = true;
+    a.planner = c;
+    EXPECT_FALSE(n.update(a, std::nullopt).is_new) << "nothing goes to the micro";
+    EXPECT_TRUE(n.heading_missing());
+    EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
+    c.time_tag = 78;
+    a.planner = c;
+    const NavOutput o = n.update(a, uint16_t{900});
+    EXPECT_TRUE(o.is_new);
+    EXPECT_FALSE(n.heading_missing());
+    EXPECT_EQ(o.cmd.turn_distance, 1000) << "with fresh data: 900 + 100";
+}
+
 TEST(Navigation, ServoGoesToItsSlotOnly)
 {
     navkit_lisp_cmd_t c = lisp();
