@@ -362,7 +362,7 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     d->rx_bad_crc = (uint16_t)st->bad_crc;
     d->rx_unknown_type = (uint16_t)st->unknown_type;
     d->rx_bad_length = (uint16_t)st->bad_length;
-    d->rx_schema_mismatch = l->schema_mismatch;
+    d->rx_schema_mismatch = (uint16_t)(l->schema_mismatch + st->schema_mismatch);
     d->rx_dropped_bytes = (uint16_t)st->dropped_bytes;
     d->cmd_rejected = l->cmd_rejected;
     d->last_reject = l->last_reject;

@@ -6,7 +6,9 @@
  *     the micro is unconfigured runs when repeated after the configs, unless it was the
  *     first micro_cmd since reset (maybe a stale repeat of what ran before the reset);
  *   - micro_cfg_*: feeds the watchdog; applied, or refused (wrong spec_hash: counted in
- *     rx_schema_mismatch; out of range: counted in cmd_rejected);
+ *     rx_schema_mismatch; out of range: counted in cmd_rejected); a frame of another
+ *     spec's length never reaches here: the parser counts it in its schema_mismatch,
+ *     which rx_schema_mismatch adds in;
  *   - then one micro_data goes back (if the TX FIFO has room for the whole frame): there
  *     is no other request mechanism, a received frame is the request for telemetry.
  * A micro_cmd is executed whole or not at all: it is refused (cmd_rejected + 1,

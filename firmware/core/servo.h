@@ -15,8 +15,10 @@
 
 #include <stdint.h>
 
+#include "navkit/navkit_proto.h"
+
 #define SERVO_COUNT 8u
-#define SERVO_GOTO_FLAG 9999 /* param2 value that selects GoTo */
+#define SERVO_GOTO_FLAG NAVKIT_SERVO_GOTO_GOTO_FLAG /* param2 value that selects GoTo (9999) */
 #define SERVO_Q 1024L        /* position units per deg*10 */
 
 typedef enum {

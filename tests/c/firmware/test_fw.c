@@ -69,6 +69,18 @@ static void test_unconfigured(void)
     d = data();
     CHECK(d.rx_schema_mismatch == 1);
     CHECK(!(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK));
+    /* so is one of another spec's length (good CRC over its own length word) */
+    {
+        size_t n = navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf);
+        memset(buf + n, 0, 4);
+        navkit_frame_seal(buf, n + 4, NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY);
+        sim_send(&h, buf, n + 4);
+        sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+        fw_link_poll(&fw);
+    }
+    d = data();
+    CHECK(d.rx_schema_mismatch == 3 && d.rx_bad_length == 0);
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK));
     /* the three configs: configured */
     sim_configure(&fw, &h);
     d = data();
