@@ -4,7 +4,7 @@ BUILD ?= build
 PY    := .venv/bin/python
 CMAKE_PRESET ?= default
 
-.PHONY: setup build sim test test-c test-py fuzz-build fuzz-corpus fuzz-short fuzz-long bench clean
+.PHONY: setup build sim test test-c test-py fuzz-build fuzz-corpus fuzz-short fuzz-long prop-long bench clean
 
 setup:
 	@scripts/setup.sh
@@ -50,6 +50,13 @@ fuzz-short: fuzz-build fuzz-corpus
 fuzz-long: fuzz-build fuzz-corpus build
 	$(FUZZER) -max_total_time=600 $(FUZZ_CORPUS)
 	$(PY) -m navkit fuzz-proto --seconds 600
+
+# Opt-in long property run of the motion profile generator (random moves with random
+# modifications, stops and forever targets; about 2.5 min of CPU per 2 million moves).
+PROP_SEED ?= 777
+PROP_COUNT ?= 2000000
+prop-long: build
+	$(BUILD)/tests/c/firmware/fw_test_profile --seed $(PROP_SEED) --count $(PROP_COUNT)
 
 bench: build
 	$(PY) -m navkit bench-proto
