@@ -115,6 +115,15 @@ def test_summary_fields(tmp_path_factory):
     assert "overruns" in s["host"] and s["host"]["config_downloads"] >= 1
 
 
+def test_frame_period_option_in_lockstep(tmp_path_factory):
+    """`navkit sim --frame-ms 50`: the harness drives 20 host frames per simulated second
+    (the lockstep host takes its time from the driver, so no --rate is passed)."""
+    text = "duration_s = 2.0\n[[command]]\nt = 0.2\nfwd_cmd = 1\nspeed = 200\ndistance = 100\n"
+    r = run_mission(tmp_path_factory, "frame-50ms", text, frame_s=0.05)
+    assert r.summary["frames"] == 40
+    assert r.summary["truth"]["distance_mm"] == pytest.approx(100, abs=5)
+
+
 def test_datalog_and_plots(tmp_path_factory, tmp_path):
     from navkit import plot
 

@@ -394,8 +394,8 @@ class _Run:
             self.lock = Lockstep()
             cmd[1:1] = ["--clock", "lockstep", "--lockstep-fd", str(self.lock.host_fd())]
             pass_fds = (self.lock.host_fd(),)
-        if self.opts.frame_s:
-            cmd += ["--rate", f"{1.0 / self.frame_s:g}"]
+        if self.opts.frame_s and self.opts.realtime:
+            cmd += ["--rate", f"{1.0 / self.frame_s:g}"]  # lockstep: the driver sets the time
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")
         if not self.opts.realtime and self.opts.pin_cpu:
