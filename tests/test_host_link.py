@@ -152,6 +152,26 @@ def test_spec_hash_mismatch_is_refused(host_factory):
     assert h.client.read_data()["host_status"] & (1 << 2)
 
 
+def test_micro_of_another_spec_length_is_refused_naming_its_hash(host_factory):
+    """A micro built from another spec whose micro_data is longer: the parser cannot
+    decode it, but its frozen words 4-5 name the micro's spec; the host never drives it."""
+    h = host_factory()
+    m = Micro()
+    words = len(Micro().data()) // 2 + 6
+    sent = []
+    for k in range(8):
+        msgs, _ = h.tick()
+        sent += msgs
+        h.write(protocol.foreign_frame("micro_data", words, 0xC0FFEE11, time_tag=k))
+    assert sent and all(n != "micro_cmd" for n, _ in sent), "never a command"
+    out = h.output()
+    assert "0xC0FFEE11" in out and f"0x{protocol.SPEC_HASH:08X}" in out
+    assert h.client.read_data()["host_status"] & (1 << 2)
+    # reflashed with our spec: configured, then driven (from a stop)
+    h.configure(m)
+    assert "matches the host's" in h.output()
+
+
 def test_silent_planner_stops_the_robot_then_obeys_again(host_factory):
     h, m = host_factory(), Micro()
     h.configure(m)
@@ -295,7 +315,7 @@ def test_link_counters_are_kept_apart(host_factory):
     assert d["link_errors"] == 2, "lisp_data.link_errors: the sum of rejected frames (CRC + decode)"
     assert h.stop() == 0
     out = h.output()
-    assert "1 bad CRC, 0 unknown type, 0 bad length, 1 decode failures" in out, out
+    assert "1 bad CRC, 0 unknown type, 0 bad length, 0 of another spec, 1 decode failures" in out, out
     assert "micro's receive counters (its last micro_data): 0 good, 0 bad CRC, 0 unknown type, " \
         "4 bad length" in out, "the micro's own counters, each apart"
     dropped = int(out.split(" bytes dropped")[0].rsplit(" ", 1)[1])

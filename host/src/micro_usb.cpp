@@ -254,6 +254,7 @@ void MicroUsb::reset_parser()
 {
     base_ = counters();  // decode failures are kept in base_ already
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
+    seen_schema_mismatch_ = 0;
 }
 
 void MicroUsb::open_port()
@@ -367,17 +368,23 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
     if (got > 1) {
         superseded_ += got - 1;
     }
+    if (parser_.stats.schema_mismatch != seen_schema_mismatch_) {
+        // a whole micro_data of another spec's length: its frozen words 4-5 name its spec
+        seen_schema_mismatch_ = parser_.stats.schema_mismatch;
+        if (!got) {
+            note_foreign_hash(parser_.foreign_hash);
+        }
+    }
     const LinkCounters c = counters();
     if ((c.rejected() != reported_.rejected() || c.dropped_bytes != reported_.dropped_bytes) &&
         (last_error_report_us_ < 0 || now_us_ - last_error_report_us_ >= 1000000)) {
         // at most one line per second of frame time, naming the stream offset of the last reject
-        static const char *const why[] = {"ok", "bad CRC", "unknown type", "bad length", "range", "space", "no start"};
-        const int e = parser_.last_error;
-        con_.print("micro link: bad CRC %llu, unknown type %llu, bad length %llu, decode failures %llu, "
-                   "dropped bytes %llu so far (last reject: %s at stream byte offset %u%s%s)",
+        con_.print("micro link: bad CRC %llu, unknown type %llu, bad length %llu, other spec %llu, "
+                   "decode failures %llu, dropped bytes %llu so far (last reject: %s at stream byte offset %u%s%s)",
                    static_cast<unsigned long long>(c.bad_crc), static_cast<unsigned long long>(c.unknown_type),
-                   static_cast<unsigned long long>(c.bad_length), static_cast<unsigned long long>(c.decode_failures),
-                   static_cast<unsigned long long>(c.dropped_bytes), e >= 0 && e <= 6 ? why[e] : "?",
+                   static_cast<unsigned long long>(c.bad_length), static_cast<unsigned long long>(c.schema_mismatch),
+                   static_cast<unsigned long long>(c.decode_failures),
+                   static_cast<unsigned long long>(c.dropped_bytes), navkit_error_text(parser_.last_error),
                    static_cast<unsigned>(parser_.last_error_offset),
                    c.decode_failures ? "; last decode failure: " : "",
                    c.decode_failures ? (last_bad_field_ >= 0 ? navkit_micro_data_field_name(last_bad_field_)
@@ -398,16 +405,7 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
     have_data_ = true;
     status_ = d.status;
     if (d.spec_hash != NAVKIT_SPEC_HASH) {
-        // said at once, then once a second of frame time while it lasts
-        if (!mismatch_ || d.spec_hash != mismatch_hash_ || now_us_ - last_mismatch_report_us_ >= 1000000) {
-            con_.print("micro spec hash 0x%08X differs from the host's 0x%08X: not driving it "
-                       "(no command; a config probe once a second)",
-                       static_cast<unsigned>(d.spec_hash), static_cast<unsigned>(NAVKIT_SPEC_HASH));
-            last_mismatch_report_us_ = now_us_;
-        }
-        mismatch_ = true;
-        mismatch_hash_ = d.spec_hash;
-        configured_ = false;  // whatever it said: our config was never taken
+        note_foreign_hash(d.spec_hash);
         return;
     }
     if (mismatch_) {
@@ -530,6 +528,20 @@ bool MicroUsb::send_stop(uint16_t dio)
     return stop_last_;
 }
 
+void MicroUsb::note_foreign_hash(uint32_t hash)
+{
+    // said at once, then once a second of frame time while it lasts
+    if (!mismatch_ || hash != mismatch_hash_ || now_us_ - last_mismatch_report_us_ >= 1000000) {
+        con_.print("micro spec hash 0x%08X differs from the host's 0x%08X: not driving it "
+                   "(no command; a config probe once a second)",
+                   static_cast<unsigned>(hash), static_cast<unsigned>(NAVKIT_SPEC_HASH));
+        last_mismatch_report_us_ = now_us_;
+    }
+    mismatch_ = true;
+    mismatch_hash_ = hash;
+    configured_ = false;  // whatever it said: our config was never taken
+}
+
 LinkCounters MicroUsb::counters() const
 {
     const navkit_link_stats_t &s = parser_.stats;
@@ -537,6 +549,7 @@ LinkCounters MicroUsb::counters() const
     c.bad_crc += s.bad_crc;
     c.unknown_type += s.unknown_type;
     c.bad_length += s.bad_length;
+    c.schema_mismatch += s.schema_mismatch;
     c.dropped_bytes += s.dropped_bytes;
     return c;
 }

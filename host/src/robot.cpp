@@ -293,12 +293,13 @@ void RobotMain(Robot &r)
     char line[320];
     std::snprintf(line, sizeof line,
                   "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
-                  "link crc/type/len/decode %llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
+                  "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
                   r.frames, online ? "online" : "offline",
                   r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : ""),
                   owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance),
                   d.heading / 10.0, static_cast<unsigned long long>(lc.bad_crc),
                   static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),
+                  static_cast<unsigned long long>(lc.schema_mismatch),
                   static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
                   static_cast<int>(ld.overruns), r.datalog.recording() ? "  REC" : "");
     r.console.status(line);
@@ -324,12 +325,12 @@ void RobotShutdown(Robot &r)
     r.micro.shutdown();
     const LinkCounters lc = r.micro.counters();
     r.console.print("link: %llu config downloads; rejected frames: %llu bad CRC, %llu unknown type, %llu bad length, "
-                    "%llu decode failures; %llu bytes dropped; %llu micro_data superseded by newer ones, "
+                    "%llu of another spec, %llu decode failures; %llu bytes dropped; %llu micro_data superseded by newer ones, "
                     "%llu messages written in part, %llu lockstep reads short",
                     static_cast<unsigned long long>(r.micro.config_downloads()),
                     static_cast<unsigned long long>(lc.bad_crc), static_cast<unsigned long long>(lc.unknown_type),
-                    static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.decode_failures),
-                    static_cast<unsigned long long>(lc.dropped_bytes),
+                    static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.schema_mismatch),
+                    static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
                     static_cast<unsigned long long>(r.micro.superseded()),
                     static_cast<unsigned long long>(r.micro.tx_errors()),
                     static_cast<unsigned long long>(r.micro.short_reads()));

@@ -65,9 +65,10 @@ struct LinkCounters {
     uint64_t bad_length = 0;       // candidates whose length word is not their type's
     uint64_t decode_failures = 0;  // whole micro_data frames that did not decode or had a
                                    // field outside the spec's range (dropped)
+    uint64_t schema_mismatch = 0;  // CRC-good micro_data of another spec's length
     uint64_t dropped_bytes = 0;    // bytes not part of a returned frame
-    // Frames rejected for any reason (lisp_data.link_errors): the four frame counters.
-    uint64_t rejected() const { return bad_crc + unknown_type + bad_length + decode_failures; }
+    // Frames rejected for any reason (lisp_data.link_errors): the five frame counters.
+    uint64_t rejected() const { return bad_crc + unknown_type + bad_length + decode_failures + schema_mismatch; }
 };
 
 class MicroUsb {
@@ -118,6 +119,8 @@ private:
     void open_port();
     void port_lost(const char *why);
     void note_data(const navkit_micro_data_t &d);
+    // A micro that runs spec `hash` (not ours): not driven, said once a second.
+    void note_foreign_hash(uint32_t hash);
     void write_frame(const uint8_t *buf, size_t len);
     void reset_parser();
 
@@ -146,6 +149,7 @@ private:
     int64_t last_error_report_us_ = -1;
     int64_t last_probe_us_ = -1;     // mismatch: frame time of the last config probe
     int64_t last_mismatch_report_us_ = -1;
+    uint32_t seen_schema_mismatch_ = 0;  // parser_.stats.schema_mismatch already handled
     bool stop_last_ = false;
     int last_bad_field_ = -1;    // field of the last micro_data outside the spec's range
 };
