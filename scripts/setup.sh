@@ -11,7 +11,7 @@ debs=(
   libgtest-dev libinih-dev
   clang libclang-rt-14-dev libfuzzer-14-dev
   gcc-avr avr-libc binutils-avr avrdude simavr
-  python3-venv
+  python3-venv libatomic1
 )
 
 missing=()
