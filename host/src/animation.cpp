@@ -1,8 +1,8 @@
 // Animation: Animation.ini -> a head and its features; update() ramps the features
-// toward the emotion's targets one version per call. The file is read with inih through
-// a line-counting reader, so every error names the exact line; all keys are collected
-// first and checked afterwards (a feature's section is only known once [face] features
-// is read, wherever it is in the file).
+// toward the emotion's targets one version per call. The file is read whole by ini_read
+// (ini_file.hpp: inih through a line-counting reader), so every error names the exact
+// line; the keys are checked afterwards (a feature's section is only known once [face]
+// features is read, wherever it is in the file).
 #include "navkit/animation.hpp"
 
 #include <algorithm>
@@ -10,12 +10,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <map>
-#include <memory>
 #include <sstream>
 
-#include <ini.h>
+#include "navkit/ini_file.hpp"
 
 namespace navkit {
 namespace {
@@ -24,98 +22,19 @@ constexpr int kMaxWidth = 120;     // characters per face line
 constexpr int kMaxLines = 40;      // head lines
 constexpr int kMaxVersions = 64;   // versions per feature
 
-struct Entry {
-    std::string value;
-    int line = 0;
-};
-
-struct Sec {
-    int line = 0;                         // line of its [header]
-    std::map<std::string, Entry> keys;    // lower-case key -> value and line
-};
-
-struct Parse {
-    std::FILE *f = nullptr;
-    int line = 0;                         // lines handed to inih so far
-    bool too_long = false;                // a line did not fit inih's buffer
-    std::map<std::string, Sec> secs;      // lower-case section -> keys
-    std::vector<std::string> order;       // sections in file order
-    int err_line = 0;                     // line of the first refused line (0 = none)
-    std::string err;                      // its "key: reason"
-};
-
-std::string lower(std::string s)
-{
-    for (char &ch : s) {
-        ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    }
-    return s;
-}
-
-void refuse(Parse *p, const std::string &why)
-{
-    if (p->err_line == 0) {
-        p->err_line = p->line;
-        p->err = why;
-    }
-}
-
-// inih's reader: one line per call, counted; section headers are noted here because inih
-// calls the handler for keys only (a section without keys must still be known).
-char *read_line(char *str, int num, void *stream)
-{
-    Parse *p = static_cast<Parse *>(stream);
-    if (!std::fgets(str, num, p->f)) {
-        return nullptr;
-    }
-    p->line++;
-    const size_t n = std::strlen(str);
-    if (n > 0 && str[n - 1] != '\n' && !std::feof(p->f)) {
-        p->too_long = true;
-        return nullptr;
-    }
-    const char *s = str + std::strspn(str, " \t");
-    const char *e = *s == '[' ? std::strchr(s, ']') : nullptr;
-    if (e) {
-        const std::string name = lower(std::string(s + 1, e));
-        if (p->secs.count(name)) {
-            refuse(p, "[" + name + "]: duplicate section");
-        } else {
-            p->secs[name].line = p->line;
-            p->order.push_back(name);
-        }
-    }
-    return str;
-}
-
-int on_key(void *user, const char *section, const char *name, const char *value)
-{
-    Parse *p = static_cast<Parse *>(user);
-    const std::string sec = lower(section), key = lower(name);
-    if (sec.empty()) {
-        refuse(p, key + ": outside any [section]");
-        return 0;
-    }
-    Sec &s = p->secs[sec];
-    if (s.keys.count(key)) {
-        refuse(p, key + ": duplicate key in [" + sec + "]");
-        return 0;
-    }
-    s.keys[key] = Entry{value, p->line};
-    return 1;
-}
-
 // Checks of one parsed file; every failure throws "path:line: key: reason".
 class Checker {
 public:
-    explicit Checker(const std::string &path) : path_(path) {}
+    explicit Checker(const IniFile &ini) : ini_(ini) {}
 
+    // Throws ConfigError "path:line: key: why".
     [[noreturn]] void fail(int line, const std::string &key, const std::string &why) const
     {
-        throw ConfigError(path_ + ":" + std::to_string(line) + ": " + key + ": " + why);
+        ini_.fail(line, key + ": " + why);
     }
 
-    int integer(const std::string &key, const Entry &e, long lo, long hi) const
+    // The key's value as a decimal integer in lo..hi.
+    int integer(const std::string &key, const IniKey &e, long lo, long hi) const
     {
         char *end = nullptr;
         errno = 0;
@@ -130,7 +49,7 @@ public:
     }
 
     // A strip: the characters between double quotes (printable ASCII, one column each).
-    std::string strip(const std::string &key, const Entry &e) const
+    std::string strip(const std::string &key, const IniKey &e) const
     {
         const std::string &v = e.value;
         if (v.size() < 3 || v.front() != '"' || v.back() != '"') {
@@ -147,14 +66,14 @@ public:
     }
 
     // "name.N" keys of a section into a list 0..N-1 (each a strip); refuses gaps.
-    std::vector<std::string> numbered(const Sec &s, const std::string &stem, int max_count) const
+    std::vector<std::string> numbered(const IniSection &s, const std::string &stem, int max_count) const
     {
         std::map<int, std::pair<std::string, int>> got;  // N -> strip, line
         for (const auto &kv : s.keys) {
             if (kv.first.compare(0, stem.size() + 1, stem + ".") != 0) {
                 continue;
             }
-            const Entry n{kv.first.substr(stem.size() + 1), kv.second.line};
+            const IniKey n{kv.first, kv.first.substr(stem.size() + 1), kv.second.line};
             const int i = integer(kv.first, n, 0, max_count - 1);
             if (std::to_string(i) != n.value) {
                 fail(n.line, kv.first, "write the number as " + std::to_string(i));
@@ -173,11 +92,11 @@ public:
     }
 
     // Keys of a section in file order; refuses those that are not `known` (or stem.N).
-    std::vector<std::pair<std::string, Entry>> keys(const std::string &sec, const Sec &s,
+    std::vector<std::pair<std::string, IniKey>> keys(const std::string &sec, const IniSection &s,
                                                     const std::vector<std::string> &known,
                                                     const std::string &stem) const
     {
-        std::vector<std::pair<std::string, Entry>> v(s.keys.begin(), s.keys.end());
+        std::vector<std::pair<std::string, IniKey>> v(s.keys.begin(), s.keys.end());
         std::sort(v.begin(), v.end(), [](const auto &a, const auto &b) { return a.second.line < b.second.line; });
         for (const auto &kv : v) {
             const bool numbered_key = kv.first.compare(0, stem.size() + 1, stem + ".") == 0;
@@ -189,9 +108,10 @@ public:
     }
 
 private:
-    std::string path_;
+    const IniFile &ini_;
 };
 
+// s without its leading and trailing blanks.
 std::string trim(const std::string &s)
 {
     const size_t a = s.find_first_not_of(" \t"), b = s.find_last_not_of(" \t");
@@ -205,6 +125,7 @@ void input_range(FaceInput in, int *lo, int *hi)
     *hi = 100;
 }
 
+// The emotion's value of input `in` (emotion units; 0 for the beacon).
 int input_value(FaceInput in, const navkit_emotion_t &e)
 {
     switch (in) {
@@ -216,6 +137,7 @@ int input_value(FaceInput in, const navkit_emotion_t &e)
     return 0;
 }
 
+// now moved one step (1) toward target.
 int step_toward(int now, int target)
 {
     return now + (target > now) - (target < now);
@@ -225,34 +147,18 @@ int step_toward(int now, int target)
 
 void Animation::start(const std::string &path)
 {
-    Parse p;
-    std::unique_ptr<std::FILE, int (*)(std::FILE *)> f(std::fopen(path.c_str(), "r"), std::fclose);
-    if (!f) {
-        throw ConfigError(path + ":0: file: " + std::strerror(errno));
-    }
-    p.f = f.get();
-    const int rc = ini_parse_stream(read_line, &p, on_key, &p);
-    if (p.too_long) {
-        throw ConfigError(path + ":" + std::to_string(p.line) + ": line: longer than inih's line buffer");
-    }
-    if (rc > 0 && (p.err_line == 0 || rc < p.err_line)) {
-        throw ConfigError(path + ":" + std::to_string(rc) +
-                          ": line: malformed (not [section], key = value or a comment)");
-    }
-    if (p.err_line) {
-        throw ConfigError(path + ":" + std::to_string(p.err_line) + ": " + p.err);
-    }
-    const Checker ck(path);
+    const IniFile ini = ini_read(path);
+    const Checker ck(ini);
 
     // [face]: width, head.N, features
-    auto fs = p.secs.find("face");
-    if (fs == p.secs.end()) {
+    const IniSection *fs = ini.find("face");
+    if (!fs) {
         ck.fail(0, "[face]", "missing section");
     }
-    const Sec &face = fs->second;
+    const IniSection &face = *fs;
     int width = 0;
     std::vector<std::string> names;
-    const Entry *features_entry = nullptr;
+    const IniKey *features_entry = nullptr;
     for (const auto &kv : ck.keys("face", face, {"width", "features"}, "head")) {
         if (kv.first == "width") {
             width = ck.integer(kv.first, kv.second, 1, kMaxWidth);
@@ -261,7 +167,7 @@ void Animation::start(const std::string &path)
             std::stringstream ss(kv.second.value);
             std::string item;
             while (std::getline(ss, item, ',')) {
-                item = lower(trim(item));
+                item = ini_lower(trim(item));
                 if (item.empty() || item == "face") {
                     ck.fail(kv.second.line, "features", "'" + item + "' is not a feature name");
                 }
@@ -290,7 +196,7 @@ void Animation::start(const std::string &path)
         }
     }
     for (const std::string &n : names) {
-        if (!p.secs.count(n)) {
+        if (!ini.find(n)) {
             ck.fail(features_entry->line, "features", "no [" + n + "] section");
         }
     }
@@ -298,22 +204,22 @@ void Animation::start(const std::string &path)
 
     // Feature sections, in file order.
     std::map<std::string, FaceFeature> built;
-    for (const std::string &sec : p.order) {
+    for (const IniSection &s : ini.sections) {
+        const std::string &sec = s.name;
         if (sec == "face") {
             continue;
         }
-        const Sec &s = p.secs.at(sec);
         if (std::find(names.begin(), names.end(), sec) == names.end()) {
             ck.fail(s.line, "[" + sec + "]", "unknown section (not in [face] features)");
         }
         FaceFeature ft;
         ft.name = sec;
-        const Entry *row = nullptr, *col = nullptr, *input = nullptr, *from = nullptr, *to = nullptr;
-        const Entry *talk = nullptr, *gx = nullptr, *gy = nullptr;
+        const IniKey *row = nullptr, *col = nullptr, *input = nullptr, *from = nullptr, *to = nullptr;
+        const IniKey *talk = nullptr, *gx = nullptr, *gy = nullptr;
         const auto kvs = ck.keys(sec, s, {"row", "col", "input", "from", "to", "talk", "gaze_cols", "gaze_rows"},
                                  "version");
         for (const auto &kv : kvs) {
-            const Entry *e = &s.keys.at(kv.first);
+            const IniKey *e = &s.keys.at(kv.first);
             const std::string &k = kv.first;
             if (k == "row") {
                 row = e;
@@ -323,7 +229,7 @@ void Animation::start(const std::string &path)
                 ft.col = ck.integer(k, *e, 0, width - 1);
             } else if (k == "input") {
                 input = e;
-                const std::string v = lower(e->value);
+                const std::string v = ini_lower(e->value);
                 if (v == "happiness") {
                     ft.input = FaceInput::happiness;
                 } else if (v == "arousal") {
@@ -377,7 +283,7 @@ void Animation::start(const std::string &path)
                                             std::to_string(len));
         }
         if (ft.input == FaceInput::beacon) {
-            for (const Entry *e : {from, to, talk}) {
+            for (const IniKey *e : {from, to, talk}) {
                 if (e) {
                     const std::string k = e == from ? "from" : e == to ? "to" : "talk";
                     ck.fail(e->line, k, "not used with input = beacon");
@@ -389,19 +295,19 @@ void Animation::start(const std::string &path)
             ft.from = from ? ck.integer("from", *from, lo, hi) : lo;
             ft.to = to ? ck.integer("to", *to, lo, hi) : hi;
             if (ft.from == ft.to) {
-                const Entry *e = to ? to : from;
+                const IniKey *e = to ? to : from;
                 ck.fail(e->line, e == to ? "to" : "from", "from and to are equal (" + std::to_string(ft.from) + ")");
             }
         }
         const int l = static_cast<int>(len);
         if (ft.col - ft.gaze_cols < 0 || ft.col + l + ft.gaze_cols > width) {
-            const Entry *e = gx ? gx : col;
+            const IniKey *e = gx ? gx : col;
             ck.fail(e->line, e == gx ? "gaze_cols" : "col",
                     std::to_string(l) + "-character versions at col " + std::to_string(ft.col) + " +- " +
                         std::to_string(ft.gaze_cols) + " do not fit width " + std::to_string(width));
         }
         if (ft.row - ft.gaze_rows < 0 || ft.row + ft.gaze_rows >= nlines) {
-            const Entry *e = gy ? gy : row;
+            const IniKey *e = gy ? gy : row;
             ck.fail(e->line, e == gy ? "gaze_rows" : "row",
                     "row " + std::to_string(ft.row) + " +- " + std::to_string(ft.gaze_rows) + " is outside the " +
                         std::to_string(nlines) + " head lines");

@@ -1,22 +1,20 @@
+// Ini: NavAndControl.ini and sensors.ini, read by ini_read (ini_file.hpp) against a table
+// of each file's sections and keys; each key's setter parses and range-checks its value
+// into the Config as the key is read, and the spec's range checks of the micro's config
+// and the IR ranges run afterwards, named at the lines ini_read kept.
 #include "navkit/ini.hpp"
 
-#include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
-#include <set>
 #include <sstream>
 #include <vector>
 
-#include <ini.h>
-
+#include "navkit/ini_file.hpp"
 #include "navkit/options.hpp"
 
 namespace navkit {
@@ -27,6 +25,7 @@ using Setter = std::function<std::string(const std::string &)>;
 using Section = std::map<std::string, Setter>;
 using Table = std::map<std::string, Section>;
 
+// A whole decimal, hex (0x) or octal (0) integer into *out; false if v is not one.
 bool parse_long(const std::string &v, long *out)
 {
     if (v.empty()) {
@@ -42,6 +41,7 @@ bool parse_long(const std::string &v, long *out)
     return true;
 }
 
+// An integer key into *p, lo..hi (default: T's range).
 template <class T>
 Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
 {
@@ -58,6 +58,7 @@ Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::num
     };
 }
 
+// A finite number into *p, lo..hi (the key's unit).
 Setter dbl_key(double *p, double lo, double hi)
 {
     return [p, lo, hi](const std::string &v) -> std::string {
@@ -76,6 +77,7 @@ Setter dbl_key(double *p, double lo, double hi)
     };
 }
 
+// 0 or 1 into *p.
 Setter bool_key(bool *p)
 {
     return [p](const std::string &v) -> std::string {
@@ -87,6 +89,7 @@ Setter bool_key(bool *p)
     };
 }
 
+// The value as written into *p; empty only when allow_empty.
 Setter str_key(std::string *p, bool allow_empty)
 {
     return [p, allow_empty](const std::string &v) -> std::string {
@@ -130,6 +133,7 @@ Setter array_key(T (*arr)[8])
     };
 }
 
+// NavAndControl.ini's sections and keys, each writing into c.
 Table nav_table(Config &c)
 {
     Table t;
@@ -224,6 +228,7 @@ Table nav_table(Config &c)
     return t;
 }
 
+// sensors.ini's sections and keys, each writing into c.sensors.
 Table sensors_table(Config &c)
 {
     Table t;
@@ -259,138 +264,7 @@ Table sensors_table(Config &c)
     return t;
 }
 
-std::string lower(std::string s)
-{
-    for (char &ch : s) {
-        ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    }
-    return s;
-}
-
-// The first refusal of a file: inih goes on after a handler error and returns the
-// line of the first bad line, so the handler keeps only the first one it meets (with
-// the line it came from, counted by read_line below).
-struct ParseState {
-    Table *table;
-    std::FILE *f;
-    int line = 0;          // lines read so far (inih calls the reader once per line)
-    int error_line = 0;    // line of `error`, 0 = none yet
-    std::string error;     // "key: reason" of the first refused line
-    std::set<std::string> seen;
-};
-
-void refuse(ParseState *st, const std::string &why)
-{
-    if (st->error_line == 0) {
-        st->error_line = st->line;
-        st->error = why;
-    }
-}
-
-// inih's reader: one whole line per call, counted; a line longer than inih's buffer is
-// refused here (inih would cut it and parse the pieces).
-char *read_line(char *str, int num, void *stream)
-{
-    ParseState *st = static_cast<ParseState *>(stream);
-    std::string line;
-    int ch;
-    while ((ch = std::fgetc(st->f)) != EOF) {
-        line.push_back(static_cast<char>(ch));
-        if (ch == '\n') {
-            break;
-        }
-    }
-    if (line.empty()) {
-        return nullptr;
-    }
-    st->line++;
-    if (line.size() > static_cast<size_t>(num) - 1) {
-        refuse(st, "line: longer than " + std::to_string(num - 2) + " characters");
-        line = "\n";  // parsed as an empty line
-    }
-    std::memcpy(str, line.c_str(), line.size() + 1);
-    return str;
-}
-
-int handler(void *user, const char *section, const char *name, const char *value)
-{
-    ParseState *st = static_cast<ParseState *>(user);
-    const std::string sec = lower(section), key = lower(name);
-    auto s = st->table->find(sec);
-    if (s == st->table->end()) {
-        refuse(st, "[" + std::string(section) + "]: unknown section");
-        return 0;
-    }
-    auto k = s->second.find(key);
-    if (k == s->second.end()) {
-        refuse(st, std::string(name) + ": unknown key in [" + sec + "]");
-        return 0;
-    }
-    if (!st->seen.insert(sec + "." + key).second) {
-        refuse(st, std::string(name) + ": duplicate key in [" + sec + "]");
-        return 0;
-    }
-    const std::string why = k->second(value);
-    if (!why.empty()) {
-        refuse(st, std::string(name) + ": " + why);
-        return 0;
-    }
-    return 1;
-}
-
-// Line of `key` in [section] of the file (0 if absent), for errors found after parsing.
-int line_of(const std::string &path, const std::string &section, const std::string &key)
-{
-    std::ifstream f(path);
-    std::string line, sec;
-    int no = 0;
-    while (std::getline(f, line)) {
-        no++;
-        const size_t a = line.find_first_not_of(" \t");
-        if (a == std::string::npos || line[a] == ';' || line[a] == '#') {
-            continue;
-        }
-        if (line[a] == '[') {
-            sec = lower(line.substr(a + 1, line.find(']') - a - 1));
-            continue;
-        }
-        const size_t eq = line.find_first_of("=:");
-        if (eq == std::string::npos) {
-            continue;
-        }
-        std::string k = line.substr(a, eq - a);
-        k.erase(k.find_last_not_of(" \t") + 1);
-        if (sec == section && lower(k) == key) {
-            return no;
-        }
-    }
-    return 0;
-}
-
-// inih calls the handler for keys only: a section without keys is checked here, for
-// the lines before `before` (the first other refusal; 0 = the whole file).
-void check_sections(const std::string &path, const Table &table, int before)
-{
-    std::ifstream f(path);
-    std::string line;
-    int no = 0;
-    while (std::getline(f, line)) {
-        no++;
-        if (before > 0 && no >= before) {
-            return;
-        }
-        const size_t a = line.find_first_not_of(" \t");
-        if (a == std::string::npos || line[a] != '[') {
-            continue;
-        }
-        const size_t b = line.find(']', a);
-        const std::string sec = line.substr(a + 1, b == std::string::npos ? std::string::npos : b - a - 1);
-        if (b != std::string::npos && table.find(lower(sec)) == table.end()) {
-            throw ConfigError(path + ":" + std::to_string(no) + ": [" + sec + "]: unknown section");
-        }
-    }
-}
-
+// The file name of path (after its last '/').
 std::string base_name(const std::string &path)
 {
     const size_t s = path.rfind('/');
@@ -398,7 +272,7 @@ std::string base_name(const std::string &path)
 }
 
 // Range check of the three config messages against the spec, naming the INI line.
-void check_micro(const std::string &path, const Config &c)
+void check_micro(const IniFile &ini, const Config &c)
 {
     int bad = -1;
     std::string sec, name;
@@ -414,8 +288,18 @@ void check_micro(const std::string &path, const Config &c)
     } else {
         return;
     }
-    throw ConfigError(path + ":" + std::to_string(line_of(path, sec, name)) + ": " + name +
-                      ": outside the spec's range (docs/protocol.md, " + sec + ")");
+    ini.fail(ini.line(sec, name), name + ": outside the spec's range (docs/protocol.md, " + sec + ")");
+}
+
+// Each GP2D12's valid range must be non-empty, named at its max_mm line.
+void check_ir(const IniFile &ini, const Config &c)
+{
+    for (int i = 0; i < 4; i++) {
+        if (c.sensors.ir[i].min_mm >= c.sensors.ir[i].max_mm) {
+            const std::string sec = "ir" + std::to_string(i);
+            ini.fail(ini.line(sec, "max_mm"), "max_mm: must be above min_mm in [" + sec + "]");
+        }
+    }
 }
 
 }  // namespace
@@ -438,28 +322,27 @@ void Ini::load_file(const std::string &path, Config &cfg)
     } else {
         throw ConfigError(path + ":0: file: not a file navkit-host reads");
     }
-    std::FILE *f = std::fopen(path.c_str(), "r");
-    if (!f) {
-        throw ConfigError(path + ":0: file: " + std::strerror(errno));
-    }
-    ParseState st{&table, f, 0, 0, "", {}};
-    const int rc = ini_parse_stream(read_line, &st, handler, &st);
-    std::fclose(f);
-    const int first = st.error_line && rc > 0 ? std::min(st.error_line, rc) : std::max(st.error_line, rc);
-    check_sections(path, table, first);
-    if (rc < 0) {
-        throw ConfigError(path + ":0: file: inih could not allocate its line buffer");
-    }
-    // rc is inih's first bad line: one before ours (or without ours) is a malformed line
-    if (rc > 0 && (st.error_line == 0 || rc < st.error_line)) {
-        st.error_line = rc;
-        st.error = "line: malformed (not [section], key = value or a comment)";
-    }
-    if (st.error_line) {
-        throw ConfigError(path + ":" + std::to_string(st.error_line) + ": " + st.error);
-    }
+    // the table's checks run as each header and key is read, so the first refusal of the
+    // file (the reader's or the table's) is the one reported
+    const IniFile ini = ini_read(path, [&table](const IniSection &sec, const IniKey *key) -> std::string {
+        const auto s = table.find(sec.name);
+        if (s == table.end()) {
+            return "[" + sec.written + "]: unknown section";
+        }
+        if (!key) {
+            return "";
+        }
+        const auto k = s->second.find(ini_lower(key->name));
+        if (k == s->second.end()) {
+            return key->name + ": unknown key in [" + sec.name + "]";
+        }
+        const std::string why = k->second(key->value);
+        return why.empty() ? "" : key->name + ": " + why;
+    });
     if (base == "NavAndControl.ini") {
-        check_micro(path, cfg);
+        check_micro(ini, cfg);
+    } else {
+        check_ir(ini, cfg);
     }
 }
 
@@ -468,13 +351,6 @@ Config Ini::load(const std::string &dir)
     Config c;
     load_file(dir + "/NavAndControl.ini", c);
     load_file(dir + "/sensors.ini", c);
-    for (int i = 0; i < 4; i++) {
-        if (c.sensors.ir[i].min_mm >= c.sensors.ir[i].max_mm) {
-            const std::string p = dir + "/sensors.ini", sec = "ir" + std::to_string(i);
-            throw ConfigError(p + ":" + std::to_string(line_of(p, sec, "max_mm")) +
-                              ": max_mm: must be above min_mm in [" + sec + "]");
-        }
-    }
     if (c.animation.file[0] != '/') {
         c.animation.file = dir + "/" + c.animation.file;  // read by Animation::start when on
     }

@@ -1,5 +1,5 @@
 // Animation: the seed's Animation.cpp, a simple face for a terminal. config/Animation.ini
-// (read here with inih, as the seed reads its Animation.ini itself) describes a head
+// (read here with ini_read, ini_file.hpp, as the seed reads its Animation.ini itself) describes a head
 // (fixed-width text lines) and features drawn over it (brows, eyes, mouth, beacon), each
 // an ordered list of versions (equal-length text strips), plus the emotion matrix: which
 // emotion input picks each feature's target version and over what input range. Every

@@ -1,7 +1,8 @@
 // Ini: the seed's INI class. Reads config/NavAndControl.ini and config/sensors.ini with
-// inih into one Config. Every key has a default (the value shipped in the INI files);
-// an unknown section or key, a malformed or out-of-range value, a duplicate key or a
-// missing file throws ConfigError with the text "file:line: key: reason".
+// ini_read (ini_file.hpp, inih) into one Config. Every key has a default (the value
+// shipped in the INI files); an unknown section or key, a malformed or out-of-range
+// value, a duplicate key or section or a missing file throws ConfigError with the text
+// "file:line: key: reason".
 #pragma once
 
 #include <stdexcept>

@@ -16,6 +16,7 @@
 
 #include "navkit/animation.hpp"
 #include "navkit/console.hpp"
+#include "tmp_file.hpp"
 
 using namespace navkit;
 
@@ -36,22 +37,10 @@ static const char *kMini = "[face]\n"                 // 1
 
 class AnimationFile : public ::testing::Test {
 protected:
-    void SetUp() override
-    {
-        char tmpl[] = "/tmp/navkit-animXXXXXX";
-        ASSERT_NE(mkdtemp(tmpl), nullptr);
-        dir_ = tmpl;
-        path_ = dir_ + "/Animation.ini";
-    }
-    void TearDown() override
-    {
-        std::remove(path_.c_str());
-        rmdir(dir_.c_str());
-    }
     // The ConfigError text of starting on `text`, or "" if it starts.
     std::string error(const std::string &text)
     {
-        std::ofstream(path_) << text;
+        tmp_.write(text);
         Animation a;
         try {
             a.start(path_);
@@ -70,7 +59,8 @@ protected:
         }
         return out;
     }
-    std::string dir_, path_;
+    TmpFile tmp_{"navkit-anim", "Animation.ini"};
+    const std::string &dir_ = tmp_.dir, &path_ = tmp_.path;
 };
 
 TEST_F(AnimationFile, MiniStarts)
