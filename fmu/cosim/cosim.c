@@ -342,7 +342,9 @@ int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len,
     for (k = 0; k < n_steps; k++) {
         double t = c->start_s + (double)c->steps * c->step_s;
         double tf = c->fw_start_s + (double)c->fw_steps * c->step_s;
-        uint64_t t0 = c->timing ? now_ns() : 0, t1;
+        /* timing samples one step in COSIM_TIMING_EVERY (cosim.h) */
+        int timed = c->timing && c->steps % COSIM_TIMING_EVERY == 0;
+        uint64_t t0 = timed ? now_ns() : 0, t1;
         if ((rc = transfer(c, COSIM_PLANT)) != COSIM_OK)
             return rc;
         if ((rc = step_one(c, COSIM_FIRMWARE, tf)) != COSIM_OK)
@@ -363,16 +365,16 @@ int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len,
         }
         if ((rc = transfer(c, COSIM_FIRMWARE)) != COSIM_OK)
             return rc;
-        if (c->timing) {
+        if (timed) {
             t1 = now_ns();
-            c->ns[COSIM_FIRMWARE] += t1 - t0;
+            c->ns[COSIM_FIRMWARE] += (t1 - t0) * COSIM_TIMING_EVERY;
             t0 = t1;
         }
         if ((rc = step_one(c, COSIM_PLANT, t)) != COSIM_OK)
             return rc;
         c->steps++;
-        if (c->timing)
-            c->ns[COSIM_PLANT] += now_ns() - t0;
+        if (timed)
+            c->ns[COSIM_PLANT] += (now_ns() - t0) * COSIM_TIMING_EVERY;
         if (width > 1 && c->steps % c->every == 0) {
             if (*n_rows < rows_cap) {
                 if ((rc = cosim_sample(c, rows + *n_rows * width)) != COSIM_OK)
