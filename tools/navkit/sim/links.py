@@ -140,6 +140,12 @@ class Lockstep:
 
     def __init__(self):
         self.sock, self.host_end = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        # A blocking socket with kernel timeouts (SO_RCVTIMEO / SO_SNDTIMEO): a frame is
+        # one send and one recv, where Python's own timeouts add a poll before each and an
+        # ioctl per settimeout().
+        self._timeout = None
+        self._done = bytearray(_DONE.size)
+        self._done_view = memoryview(self._done)
 
     def host_fd(self) -> int:
         """The fd to pass to the host (--lockstep-fd)."""
@@ -153,20 +159,26 @@ class Lockstep:
               timeout_s: float = 10.0) -> tuple[int, int] | None:
         """Tick one frame and wait for its done: (tx_bytes, flags), or None at EOF (the
         host went away). LinkError if the done is malformed or late."""
-        self.sock.sendall(_TICK.pack(TICK_MAGIC, frame & 0xFFFFFFFF, sim_time_us, rx_bytes, 0))
-        buf = b""
-        self.sock.settimeout(timeout_s)
+        sock = self.sock
+        if timeout_s != self._timeout:
+            sec = int(timeout_s)
+            tv = struct.pack("@ll", sec, int((timeout_s - sec) * 1e6))
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, tv)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, tv)
+            self._timeout = timeout_s
+        view, size, got = self._done_view, _DONE.size, 0
+        sock.sendall(_TICK.pack(TICK_MAGIC, frame & 0xFFFFFFFF, sim_time_us, rx_bytes, 0))
         try:
-            while len(buf) < _DONE.size:
-                chunk = self.sock.recv(_DONE.size - len(buf))
-                if not chunk:
+            while got < size:
+                n = sock.recv_into(view[got:], size - got)
+                if not n:
                     return None
-                buf += chunk
-        except socket.timeout:
+                got += n
+        except (BlockingIOError, socket.timeout):
             raise LinkError(f"no done from the host for frame {frame} within {timeout_s} s") from None
         except ConnectionResetError:
             return None
-        magic, done_frame, tx_bytes, flags = _DONE.unpack(buf)
+        magic, done_frame, tx_bytes, flags = _DONE.unpack(self._done)
         if magic != DONE_MAGIC:
             raise LinkError(f"bad done magic 0x{magic:08X} for frame {frame}")
         if done_frame != frame & 0xFFFFFFFF:
