@@ -197,6 +197,58 @@ class _Receiver:
                 "unknown_type": st["unknown_type"], "dropped_bytes": st["dropped_bytes"]}
 
 
+_STRUCT_CODES = {"int8": "b", "uint8": "B", "int16": "h", "uint16": "H", "int32": "i",
+                 "uint32": "I"}
+
+
+def _fields_text(protocol, name: str):
+    """A function from the little-endian bytes of rcomm message `name` to the JSON text
+    (bytes) of its fields exactly as `dumps(protocol.from_bytes(name, data))` gives it
+    (same key order, integers as %d), without building the dict: one struct unpack and
+    one %-format. Checked against the codec on a byte pattern when made; None (use the
+    codec) if the message has a field type it does not know or the check fails."""
+    import struct
+
+    m = protocol.SPEC.messages[name]
+    by_name = {f.name: f for f in m.fields}
+    keys = list(protocol.from_bytes(name, bytes(m.size)))   # the codec's key order
+    parts, items = [], []        # items: (byte offset, struct code) in key order
+    for key in keys:
+        f = by_name[key]
+        code = _STRUCT_CODES.get(f.type)
+        if code is None:
+            return None
+        n = f.count
+        parts.append(f'"{key}":' + ("[" + ",".join(["%d"] * n) + "]" if n > 1 else "%d"))
+        items += [(f.byte_offset + i * f.size, code) for i in range(n)]
+    order = sorted(range(len(items)), key=lambda i: items[i][0])
+    fmt, at = "<", 0
+    for i in order:
+        off, code = items[i]
+        if off < at:
+            return None
+        fmt += (f"{off - at}x" if off > at else "") + code
+        at = off + struct.calcsize("<" + code)
+    unpack = struct.Struct(fmt).unpack_from
+    back = [0] * len(items)          # key-order position -> struct position
+    for pos, i in enumerate(order):
+        back[i] = pos
+    import operator
+
+    pick = operator.itemgetter(*back) if len(back) > 1 else (lambda v: (v[back[0]],))
+    template = "{" + ",".join(parts) + "}"
+
+    def text(data: bytes) -> bytes:
+        return (template % pick(unpack(data))).encode()
+
+    dumps = json.JSONEncoder(separators=(",", ":")).encode
+    probe = bytes((i * 151 + 17) & 0xFF for i in range(m.size))   # signs and high bits
+    for data in (probe, bytes(m.size)):
+        if text(data) != dumps(protocol.from_bytes(name, data)).encode():
+            return None
+    return text
+
+
 class _Decoder:
     """Turns the harness's raw items into MCAP messages (runs in the log worker)."""
 
@@ -226,6 +278,9 @@ class _Decoder:
         self.row_struct = struct.Struct(f"={width}d")
         self.last_micro = None
         self.last_lisp = None
+        self.last_lisp_raw = None      # decoded into last_lisp by finish()
+        # /planner/data is written every frame: its text straight from the bytes
+        self.lisp_text = _fields_text(protocol, "lisp_data")
         self.last_row = None
         self.config_downloads = 0
         self.lisp_size = protocol.SPEC.messages["lisp_data"].size
@@ -260,15 +315,11 @@ class _Decoder:
                 '{"frame":%d,"t":%r,"rx_bytes":%d,"tx_bytes":%d,"flags":%d,"host":"running"}'
                 % (k, t_ns / 1e9, rx, tx, flags)).encode())
             if lisp_raw is not None:
-                d = self.p.from_bytes("lisp_data", lisp_raw)
-                self.last_lisp = d
-                rec.write_raw("/planner/data", t_ns, self.dumps(d).encode())
+                self.lisp(t_ns, lisp_raw)
             if host_bytes:
                 self.host_bytes(t_ns, host_bytes)
         elif kind == "L":        # lisp_data outside a lockstep frame (real time)
-            d = self.p.from_bytes("lisp_data", item[2])
-            self.last_lisp = d
-            rec.write_raw("/planner/data", item[1], self.dumps(d).encode())
+            self.lisp(item[1], item[2])
         elif kind == "H":        # host bytes outside a lockstep frame (real time)
             self.host_bytes(item[1], item[2])
         elif kind == "M":        # micro bytes: (M, t_ns, bytes)
@@ -311,6 +362,16 @@ class _Decoder:
             rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
         elif kind == "S":        # end of a frame: flush point (S, t_ns)
             rec.flush_if(item[1])
+
+    def lisp(self, t_ns: int, raw: bytes) -> None:
+        """One lisp_data (its little-endian bytes) to /planner/data."""
+        if self.lisp_text is None or len(raw) != self.lisp_size:
+            d = self.p.from_bytes("lisp_data", raw)     # the codec's error for a bad size
+            self.rec.write_raw("/planner/data", t_ns, self.dumps(d).encode())
+        else:
+            self.rec.write_raw("/planner/data", t_ns, self.lisp_text(raw))
+        self.last_lisp_raw = raw
+        self.last_lisp = None
 
     def frames(self, buf: bytearray, parser, data: bytes):
         """Whole frames of a byte stream as (name, fields, JSON bytes). The logged streams
@@ -379,6 +440,8 @@ class _Decoder:
 
     def finish(self) -> dict:
         self.rec.close()
+        if self.last_lisp is None and self.last_lisp_raw is not None:
+            self.last_lisp = self.p.from_bytes("lisp_data", self.last_lisp_raw)
         return {"counts": dict(self.rec.counts), "last_micro": self.last_micro,
                 "last_lisp": self.last_lisp,
                 "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
