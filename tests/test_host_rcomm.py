@@ -69,6 +69,22 @@ def test_seqlock_write_and_torn_read(shm_name):
         assert c.read_cmd()["time_tag"] == 10
 
 
+def test_still_read_is_the_seqlock_read_in_one_copy(shm_name):
+    _region(shm_name)
+    off = protocol.RCOMM_OFFSETS["lisp_data"]
+    data = protocol.to_bytes("lisp_data", {"time_tag": 7, "distance": -123, "heading": 2700})
+    with rcomm.Client(shm_name) as c, open("/dev/shm" + shm_name, "r+b") as f:
+        assert c.read_data_raw_still() is None, "never written"
+        f.seek(off)
+        f.write(struct.pack("<I", 2) + data)         # a host's whole write: seq 2
+        f.flush()
+        assert c.read_data_raw_still() == c.read_data_raw() == data
+        f.seek(off)
+        f.write(struct.pack("<I", 3))                # a write in progress after all
+        f.flush()
+        assert c.read_data_raw_still() is None, "the seqlock read answers: no torn message"
+
+
 def test_heartbeats_both_ways(host_factory):
     h, m = host_factory(), Micro()
     c = h.client

@@ -27,7 +27,8 @@ with sequentially consistent ordering, through GCC's libatomic (`__atomic_load_4
 `__atomic_store_4`, `__atomic_fetch_add_4`, called with ctypes; libatomic1 comes with
 the GCC runtime on every Linux this kit supports). Python has no fence and CPython's
 mmap slice and struct writes are byte copies of no stated width or order, so they are
-used for nothing shared. With every access sequentially consistent the seqlock is
+used for nothing shared (one exception, read_data_raw_still(), for a caller that knows
+the host is not running). With every access sequentially consistent the seqlock is
 correct on weakly ordered CPUs too (aarch64), not only on x86's TSO: a reader that sees
 any word of a new message also sees the odd counter before it. The heartbeat is an
 atomic read-modify-write of the shared word (fetch-add), so two writers never lose a
@@ -51,6 +52,7 @@ _MAGIC, _VERSION, _SPEC = 0, 4, 8   # byte offsets of the header words
 _PLANNER_HEARTBEAT = 12
 _HOST_HEARTBEAT = 16
 _RETRIES = 1000
+_LISP_DATA_SIZE = protocol.SPEC.messages["lisp_data"].size   # bytes
 _SEQ_CST = 5                        # __ATOMIC_SEQ_CST
 
 
@@ -183,7 +185,21 @@ class Client:
     def read_data_raw(self) -> bytes | None:
         """The little-endian bytes of the host's latest lisp_data, or None before the
         host's first frame (or if every bounded retry met a write in progress)."""
-        return self._read("lisp_data", protocol.SPEC.messages["lisp_data"].size)
+        return self._read("lisp_data", _LISP_DATA_SIZE)
+
+    def read_data_raw_still(self) -> bytes | None:
+        """read_data_raw() in one copy, for a caller that knows the host is not running
+        (a lockstep driver between a frame's done and its next tick): the slot's bytes
+        are one plain slice of the mapping taken between two atomic reads of an even,
+        unchanged seq, instead of one atomic call per word. If seq says a write was in
+        progress after all, the seqlock read of read_data_raw() answers."""
+        self._open()
+        off = self._off["lisp_data"]
+        s1 = self._word(off)
+        data = self._mm[off + 4:off + 4 + _LISP_DATA_SIZE]
+        if s1 & 1 or self._word(off) != s1:
+            return self.read_data_raw()
+        return data if s1 else None
 
     def read_data(self) -> dict | None:
         """The host's latest lisp_data as a dict of raw values, or None (see read_data_raw)."""

@@ -250,7 +250,6 @@ class _Planner:
     def __init__(self, shm_name: str):
         self.shm_name = shm_name
         self.client = None
-        self._view = None         # lockstep_reader's mapping
         self.time_tag = 0
 
     def _open(self):
@@ -287,52 +286,7 @@ class _Planner:
     def read(self) -> dict | None:
         return self.client.read_data() if self.client is not None else None
 
-    def lockstep_reader(self):
-        """A function returning the raw lisp_data as the client's read_data_raw() does, for
-        lockstep only: between a done and the next tick the host does not run, so the
-        region holds still and the whole message is one copy from a read-only mapping of
-        it (the client's seqlock read is one atomic call per word: ~35 per frame). The
-        sequence word is still checked (even, unchanged after the copy); the client's
-        read takes over otherwise, on a big-endian machine (the copy would not be the
-        little-endian bytes), or when there is no region."""
-        import mmap
-        import struct
-        import sys
-
-        from navkit import protocol
-
-        client = self.client
-        if client is None:
-            return lambda: None
-        if sys.byteorder != "little":
-            return client.read_data_raw
-        try:
-            fd = os.open("/dev/shm/" + self.shm_name.lstrip("/"), os.O_RDONLY)
-        except OSError:
-            return client.read_data_raw
-        try:
-            self._view = mm = mmap.mmap(fd, protocol.RCOMM_SIZE, prot=mmap.PROT_READ)
-        except (OSError, ValueError):
-            return client.read_data_raw
-        finally:
-            os.close(fd)
-        off = protocol.RCOMM_OFFSETS["lisp_data"]
-        start, end = off + 4, off + 4 + protocol.SPEC.messages["lisp_data"].size
-        seq_at = struct.Struct("<I").unpack_from
-        fallback = client.read_data_raw
-
-        def read():
-            (s1,) = seq_at(mm, off)
-            data = mm[start:end]
-            if s1 & 1 or seq_at(mm, off)[0] != s1:
-                return fallback()
-            return data if s1 else None
-        return read
-
     def close(self) -> None:
-        if self._view is not None:
-            self._view.close()
-            self._view = None
         if self.client is not None:
             self.client.close()
             self.client = None
@@ -684,7 +638,9 @@ class _Run:
         import array
 
         log.truth(array.array("d", row).tobytes())
-        lisp_raw = self.planner.lockstep_reader()
+        # between a frame's done and the next tick the host does not run: one copy
+        client = self.planner.client
+        lisp_raw = (lambda: None) if client is None else client.read_data_raw_still
         # The objects made so far (modules, FMU descriptions) never become garbage: keep
         # the collector from walking them again at every full collection of the loop.
         gc.freeze()
