@@ -456,13 +456,19 @@ def _worker(conn, path, metadata, columns, width, spin) -> None:
     """Log worker process: decode and write until the harness says stop (None) or goes
     away (EOF), then close the MCAP file and send the results back. With `spin` it polls
     instead of sleeping while waiting for work (see RunLog.spin)."""
+    import time
+
+    cpu0 = time.process_time()
+    spun = 0.0                  # CPU s spent polling for work (spin), not working
     dec = _Decoder(path, metadata, columns, width)
     try:
         while True:
             try:
                 if spin.value:
+                    s0 = time.process_time()
                     while spin.value and not conn.poll(0):
                         pass
+                    spun += time.process_time() - s0
                 batch = conn.recv()
             except (EOFError, OSError):
                 batch = None
@@ -472,6 +478,8 @@ def _worker(conn, path, metadata, columns, width, spin) -> None:
                 dec.handle(item)
     finally:
         res = dec.finish()
+        res["cpu_s"] = round(time.process_time() - cpu0 - spun, 3)
+        res["spin_cpu_s"] = round(spun, 3)
         try:
             conn.send(res)
         except (OSError, BrokenPipeError):
@@ -488,7 +496,9 @@ class RunLog:
     event(), end_frame(); close() returns the worker's results (message counts, last
     decoded micro_data / lisp_data / truth, config downloads, watchdog stops, and `link`:
     per direction frames sent, and frames received, CRC errors, resyncs as the receiving
-    end's parser counts them over the whole run)."""
+    end's parser counts them over the whole run; with a worker process also `cpu_s`, its
+    CPU time (s) from start to its results, without `spin_cpu_s`, the CPU s it spent
+    polling for work)."""
 
     def __init__(self, path: Path, metadata: dict, columns: list, width: int,
                  inline: bool = False, batch_frames: int = 10):
