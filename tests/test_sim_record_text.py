@@ -17,3 +17,39 @@ def test_lisp_data_text_is_the_codecs_json():
     for _ in range(200):
         data = bytes(rng.randrange(256) for _ in range(size))
         assert text(data) == dumps(protocol.from_bytes("lisp_data", data)).encode()
+
+
+def _random_frame(rng, m, good_crc):
+    import struct
+
+    body = bytearray(rng.randrange(256) for _ in range(m.size - 2))
+    struct.pack_into("<HHHH", body, 0, protocol.SPEC.framing["start_word"],
+                     rng.randrange(1 << 16), m.id, m.words)
+    crc = protocol.crc16(body)
+    return bytes(body) + struct.pack("<H", crc if good_crc else crc ^ (1 << rng.randrange(16)))
+
+
+def test_frame_texts_are_the_codecs_json_and_crc():
+    from navkit.sim.record import _frame_texts
+
+    fast = _frame_texts(protocol)
+    crc_ok = fast.pop(None)
+    names = {name for name, _, _ in fast.values()}
+    assert {"micro_data", "micro_cmd"} <= names, "the fast path refused a per-frame message"
+    dumps = json.JSONEncoder(separators=(",", ":")).encode
+    rng = random.Random(11)
+    for msg_id, (name, size, text) in fast.items():
+        m = protocol.SPEC.messages[name]
+        assert (m.id, m.size) == (msg_id, size)
+        for _ in range(100):
+            frame = _random_frame(rng, m, good_crc=True)
+            assert crc_ok(frame)
+            assert text(frame) == dumps(protocol.decode_frame(frame)[1]).encode()
+            bad = _random_frame(rng, m, good_crc=False)
+            assert not crc_ok(bad)
+            try:
+                protocol.decode_frame(bad)
+            except protocol.ProtocolError:
+                pass
+            else:
+                raise AssertionError(f"{name}: the codec took a frame crc_ok refused")

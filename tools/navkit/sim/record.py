@@ -9,7 +9,9 @@ keeps everything before its last second.
 from __future__ import annotations
 
 import json
+import operator
 import resource
+import struct
 from pathlib import Path
 
 __all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS"]
@@ -207,8 +209,6 @@ def _fields_text(protocol, name: str):
     (same key order, integers as %d), without building the dict: one struct unpack and
     one %-format. Checked against the codec on a byte pattern when made; None (use the
     codec) if the message has a field type it does not know or the check fails."""
-    import struct
-
     m = protocol.SPEC.messages[name]
     by_name = {f.name: f for f in m.fields}
     keys = list(protocol.from_bytes(name, bytes(m.size)))   # the codec's key order
@@ -233,8 +233,6 @@ def _fields_text(protocol, name: str):
     back = [0] * len(items)          # key-order position -> struct position
     for pos, i in enumerate(order):
         back[i] = pos
-    import operator
-
     pick = operator.itemgetter(*back) if len(back) > 1 else (lambda v: (v[back[0]],))
     template = "{" + ",".join(parts) + "}"
 
@@ -247,6 +245,44 @@ def _fields_text(protocol, name: str):
         if text(data) != dumps(protocol.from_bytes(name, data)).encode():
             return None
     return text
+
+
+def _frame_texts(protocol) -> dict:
+    """{message type id: (name, frame size in bytes, text)} for the serial messages whose
+    JSON text `_fields_text` makes from a whole frame's bytes (the fields sit at their frame
+    offsets), with a CRC check `crc_ok(frame)` in the same dict under key None: one
+    translate and one binascii.crc_hqx for protocol.crc16's CRC-16/MCRF4XX (the reflected
+    CRC is the plain one over bit-reversed bytes). Each entry is checked when made on a
+    frame of a byte pattern: text as the codec's decode_frame gives it, the good CRC
+    accepted and a wrong one refused; a message that fails is left out (the codec
+    decodes it)."""
+    import binascii
+
+    rev = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
+
+    def crc_ok(frame: bytes) -> bool:
+        r = frame.translate(rev)
+        return binascii.crc_hqx(r[:-2], 0xFFFF) == (r[-2] << 8 | r[-1])
+
+    dumps = json.JSONEncoder(separators=(",", ":")).encode
+    start = protocol.SPEC.framing["start_word"]
+    out = {None: crc_ok}
+    for m in protocol.SPEC.serial_messages():
+        text = _fields_text(protocol, m.name)
+        if text is None:
+            continue
+        body = bytearray((i * 151 + 17) & 0xFF for i in range(m.size - 2))
+        struct.pack_into("<HHHH", body, 0, start, 0x1234, m.id, m.words)
+        frame = bytes(body) + struct.pack("<H", protocol.crc16(body))
+        bad = frame[:-1] + bytes([frame[-1] ^ 0x40])
+        try:
+            name, fields = protocol.decode_frame(frame)
+        except protocol.ProtocolError:
+            continue
+        if (name == m.name and text(frame) == dumps(fields).encode() and crc_ok(frame)
+                and not crc_ok(bad)):
+            out[m.id] = (m.name, m.size, text)
+    return out
 
 
 class _Decoder:
@@ -273,10 +309,14 @@ class _Decoder:
         self.cache = {}
         self.h2m_buf, self.m2h_buf = bytearray(), bytearray()
         self.width = width
-        import struct
-
         self.row_struct = struct.Struct(f"={width}d")
-        self.last_micro = None
+        self.last_micro_raw = None     # decoded by finish()
+        # micro_data and micro_cmd are written every frame: their text from the bytes
+        self.fast = _frame_texts(protocol)
+        self.crc_ok = self.fast.pop(None)
+        status = protocol.SPEC.messages["micro_data"].field("status")
+        self.status_at = (struct.Struct("<" + _STRUCT_CODES[status.type]).unpack_from,
+                          status.byte_offset)
         self.last_lisp = None
         self.last_lisp_raw = None      # decoded into last_lisp by finish()
         # /planner/data is written every frame: its text straight from the bytes
@@ -298,8 +338,6 @@ class _Decoder:
         parts.append('"dio_out":%d')
         self.truth_fmt = "{" + ",".join(parts) + "}"
         # a column the plant lacks reads as 0.0: index `width` of a row padded with 0.0
-        import operator
-
         self.truth_get = operator.itemgetter(*[width if i is None else i for i in sel])
 
     def _truth_text(self, row) -> str:
@@ -325,11 +363,12 @@ class _Decoder:
         elif kind == "M":        # micro bytes: (M, t_ns, bytes)
             t_ns = item[1]
             wd_mask = self.wd_mask
-            for name, fields, js in self.frames(self.m2h_buf, self.m2h, item[2]):
+            status, at = self.status_at
+            for name, frame, js in self.frames(self.m2h_buf, self.m2h, item[2]):
                 if name == "micro_data":
-                    self.last_micro = fields
+                    self.last_micro_raw = frame
                     rec.write_raw("/micro/data", t_ns, js)
-                    wd = bool(fields["status"] & wd_mask)
+                    wd = bool(status(frame, at)[0] & wd_mask)
                     if wd and not self.wd_on:
                         self.watchdog_stops += 1
                     self.wd_on = wd
@@ -374,11 +413,12 @@ class _Decoder:
         self.last_lisp = None
 
     def frames(self, buf: bytearray, parser, data: bytes):
-        """Whole frames of a byte stream as (name, fields, JSON bytes). The logged streams
-        are the senders' (before any line noise), so frames come whole and back to back:
-        those are checked and decoded with the codec's decode_frame (a frame identical to
-        the last one, like the host's repeated command, reuses its decoding). Anything
-        else goes through the codec's resyncing Parser."""
+        """Whole frames of a byte stream as (name, frame bytes, JSON bytes). The logged
+        streams are the senders' (before any line noise), so frames come whole and back to
+        back: those are checked (start word, type, length, CRC) and turned into text from
+        their bytes (`_frame_texts`), or else decoded with the codec's decode_frame (a
+        frame identical to the last one, like the host's repeated command, reuses its
+        text). Anything else goes through the codec's resyncing Parser."""
         p = self.p
         self.whole = None       # set below when `data` is whole frames, back to back
         if parser.stats["dropped_bytes"] or buf:
@@ -402,11 +442,16 @@ class _Decoder:
             frame = data[at:at + size]
             hit = self.cache.get(frame)
             if hit is None:
-                try:
-                    name, fields = p.decode_frame(frame)
-                except p.ProtocolError:
-                    break
-                hit = (name, fields, self.dumps(fields).encode())
+                fast = self.fast.get(data[at + 4] | data[at + 5] << 8)
+                if fast is not None and fast[1] == size and self.crc_ok(frame):
+                    name = fast[0]
+                    hit = (name, frame, fast[2](frame))
+                else:
+                    try:
+                        name, fields = p.decode_frame(frame)
+                    except p.ProtocolError:
+                        break
+                    hit = (name, frame, self.dumps(fields).encode())
                 if name == "micro_cmd":
                     self.cache = {frame: hit}
             parser.stats["good"] += 1
@@ -426,13 +471,14 @@ class _Decoder:
     def _parse(self, parser, data: bytes):
         for ev in parser.feed(data):
             if ev.__class__ is self.frame_cls:
-                yield ev.name, ev.fields, self.dumps(ev.fields).encode()
+                yield ev.name, ev.raw, self.dumps(ev.fields).encode()
 
     def host_bytes(self, t_ns: int, data: bytes) -> None:
-        for name, fields, js in self.frames(self.h2m_buf, self.h2m, data):
+        for name, frame, js in self.frames(self.h2m_buf, self.h2m, data):
             if name == "micro_cmd":
                 self.rec.write_raw("/micro/cmd", t_ns, js)
             else:
+                fields = self.p.decode_frame(frame)[1]
                 if name == "micro_cfg_geometry":
                     self.config_downloads += 1
                 self.rec.write("/micro/config", t_ns, {"message": name, "fields": fields})
@@ -442,7 +488,9 @@ class _Decoder:
         self.rec.close()
         if self.last_lisp is None and self.last_lisp_raw is not None:
             self.last_lisp = self.p.from_bytes("lisp_data", self.last_lisp_raw)
-        return {"counts": dict(self.rec.counts), "last_micro": self.last_micro,
+        last_micro = (self.p.decode_frame(self.last_micro_raw)[1]
+                      if self.last_micro_raw is not None else None)
+        return {"counts": dict(self.rec.counts), "last_micro": last_micro,
                 "last_lisp": self.last_lisp,
                 "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
                 "config_downloads": self.config_downloads,
