@@ -115,10 +115,10 @@ class Recorder:
                                           json.dumps(schema, sort_keys=True).encode())
             self._chan[topic] = self._w.register_channel(topic, "json", sid)
         self._w.add_metadata("navkit", {k: str(v) for k, v in metadata.items()})
-        self._seq = dict.fromkeys(self._chan, 0)
+        self._n = {topic: [0] for topic in self._chan}    # messages so far = last sequence
+        self._writers = {topic: self._make_writer(topic) for topic in self._chan}
         self._flush_ns = int(flush_every_s * 1e9)
         self._next_flush = self._flush_ns
-        self.counts = dict.fromkeys(self._chan, 0)
         self._dumps = json.JSONEncoder(separators=(",", ":")).encode
 
     def write(self, topic: str, t_ns: int, obj) -> None:
@@ -127,9 +127,25 @@ class Recorder:
 
     def write_raw(self, topic: str, t_ns: int, data: bytes) -> None:
         """One message whose JSON text is already encoded."""
-        seq = self._seq[topic] = self._seq[topic] + 1
-        self._w.add_message(self._chan[topic], t_ns, data, t_ns, seq)
-        self.counts[topic] += 1
+        self._writers[topic](t_ns, data)
+
+    def writer(self, topic: str):
+        """write_raw for `topic` as a function (t_ns, data) without the topic's lookups,
+        for a caller that writes it every frame."""
+        return self._writers[topic]
+
+    def _make_writer(self, topic: str):
+        add, chan, n = self._w.add_message, self._chan[topic], self._n[topic]
+
+        def write(t_ns: int, data: bytes) -> None:
+            n[0] = seq = n[0] + 1
+            add(chan, t_ns, data, t_ns, seq)
+        return write
+
+    @property
+    def counts(self) -> dict:
+        """Messages written so far per topic."""
+        return {topic: n[0] for topic, n in self._n.items()}
 
     def flush_if(self, t_ns: int) -> None:
         """Close the chunk when `t_ns` reaches the next flush point."""
@@ -293,6 +309,9 @@ class _Decoder:
 
         self.p = protocol
         self.rec = Recorder(path, metadata)
+        self.write_frame, self.write_micro, self.write_truth, self.write_lisp, \
+            self.write_cmd = map(self.rec.writer, ("/host/frame", "/micro/data", "/truth",
+                                                   "/planner/data", "/micro/cmd"))
         self.h2m = protocol.Parser(protocol.DIR_TO_MICRO)
         self.m2h = protocol.Parser(protocol.DIR_TO_HOST)
         # what each end received, and the sender's last chunk with its whole-frame count
@@ -349,7 +368,7 @@ class _Decoder:
         rec = self.rec
         if kind == "F":          # host frame: (F, k, t_ns, rx, tx, flags, host_bytes, lisp_raw)
             _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw = item
-            rec.write_raw("/host/frame", t_ns, (
+            self.write_frame(t_ns, (
                 '{"frame":%d,"t":%r,"rx_bytes":%d,"tx_bytes":%d,"flags":%d,"host":"running"}'
                 % (k, t_ns / 1e9, rx, tx, flags)).encode())
             if lisp_raw is not None:
@@ -364,10 +383,11 @@ class _Decoder:
             t_ns = item[1]
             wd_mask = self.wd_mask
             status, at = self.status_at
+            write = self.write_micro
             for name, frame, js in self.frames(self.m2h_buf, self.m2h, item[2]):
                 if name == "micro_data":
                     self.last_micro_raw = frame
-                    rec.write_raw("/micro/data", t_ns, js)
+                    write(t_ns, js)
                     wd = bool(status(frame, at)[0] & wd_mask)
                     if wd and not self.wd_on:
                         self.watchdog_stops += 1
@@ -385,14 +405,13 @@ class _Decoder:
         elif kind == "X":        # an end's parser restarts: (X, "h2m"|"m2h")
             self.rx[item[1]].restart()
         elif kind == "T":        # truth rows: (T, raw doubles)
-            fmt, get, dio_col = self.truth_fmt, self.truth_get, self.dio_col
+            fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
             pad = (0.0,)
             row = None
             for row in self.row_struct.iter_unpack(item[1]):
                 row += pad
                 dio = int(row[dio_col]) & 0xFFF if dio_col else 0
-                rec.write_raw("/truth", round(row[0] * 1e3) * 1_000_000,
-                              (fmt % (get(row) + (dio,))).encode())
+                write(round(row[0] * 1e3) * 1_000_000, (fmt % (get(row) + (dio,))).encode())
             if row is not None:
                 self.last_row = row
         elif kind == "C":        # planner command: (C, t_ns, dict)
@@ -406,9 +425,9 @@ class _Decoder:
         """One lisp_data (its little-endian bytes) to /planner/data."""
         if self.lisp_text is None or len(raw) != self.lisp_size:
             d = self.p.from_bytes("lisp_data", raw)     # the codec's error for a bad size
-            self.rec.write_raw("/planner/data", t_ns, self.dumps(d).encode())
+            self.write_lisp(t_ns, self.dumps(d).encode())
         else:
-            self.rec.write_raw("/planner/data", t_ns, self.lisp_text(raw))
+            self.write_lisp(t_ns, self.lisp_text(raw))
         self.last_lisp_raw = raw
         self.last_lisp = None
 
@@ -476,7 +495,7 @@ class _Decoder:
     def host_bytes(self, t_ns: int, data: bytes) -> None:
         for name, frame, js in self.frames(self.h2m_buf, self.h2m, data):
             if name == "micro_cmd":
-                self.rec.write_raw("/micro/cmd", t_ns, js)
+                self.write_cmd(t_ns, js)
             else:
                 fields = self.p.decode_frame(frame)[1]
                 if name == "micro_cfg_geometry":
@@ -490,7 +509,7 @@ class _Decoder:
             self.last_lisp = self.p.from_bytes("lisp_data", self.last_lisp_raw)
         last_micro = (self.p.decode_frame(self.last_micro_raw)[1]
                       if self.last_micro_raw is not None else None)
-        return {"counts": dict(self.rec.counts), "last_micro": last_micro,
+        return {"counts": self.rec.counts, "last_micro": last_micro,
                 "last_lisp": self.last_lisp,
                 "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
                 "config_downloads": self.config_downloads,
