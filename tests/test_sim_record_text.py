@@ -53,3 +53,28 @@ def test_frame_texts_are_the_codecs_json_and_crc():
                 pass
             else:
                 raise AssertionError(f"{name}: the codec took a frame crc_ok refused")
+
+
+def test_truth_bytes_template_formats_as_str(tmp_path):
+    """The worker formats /truth with a bytes template; the text must be what the str
+    template and encode() gave (same float conversion), tricky values included."""
+    import struct
+
+    from navkit.sim.record import _Decoder
+
+    columns = ["x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s"] \
+        + [f"servo_deg_{i}" for i in range(8)] + ["dio_out"]
+    dec = _Decoder(tmp_path / "run.mcap", {}, columns, len(columns) + 1)
+    tricky = [0.0, -0.0, 1e-5, -4.99995e-5, 0.00005, 123.45675, -2.5e-4, 1e300, -1e-300,
+              float("inf"), float("-inf"), float("nan"), 0.1 + 0.2, 359.99995]
+    rng = random.Random(5)
+    str_fmt = dec.truth_fmt.decode()
+    for _ in range(300):
+        row = tuple([rng.uniform(0, 600)] + [rng.choice(tricky) if rng.random() < 0.5
+                                             else rng.uniform(-1e4, 1e4) for _ in columns[:-1]]
+                    + [float(rng.randrange(4096))]) + (0.0,)
+        dio = int(row[dec.dio_col]) & 0xFFF
+        want = (str_fmt % (dec.truth_get(row) + (dio,))).encode()
+        assert dec._truth_text(row) == want
+    dec.handle(("T", struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
+    assert dec.finish()["counts"]["/truth"] == 1
