@@ -284,4 +284,4 @@ def test_bench_sim_prints_its_figures(capsys):
     assert sim_bench.run(parser.parse_args(["--minutes", "0.5"])) == 0
     out = capsys.readouterr().out
     assert "real-time factor" in out and "FMUs" in out and "host frame" in out
-    assert "peak memory" in out
+    assert "peak memory" in out and "log worker on the other CPU" in out

@@ -80,6 +80,8 @@ def run(args) -> int:
     fw, plant = s.get("fmu_split_s", (None, None))
     if fw is not None:
         print(f"  of the FMUs: firmware {fw:.3f} s, plant {plant:.3f} s")
+    if s.get("log_worker_cpu_s") is not None:
+        print(f"  log worker on the other CPU (decode + MCAP): {s['log_worker_cpu_s']:.3f} s of CPU")
     mem = s.get("memory_peak_mib", {})
     me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory (resident): harness {me:.0f} MiB, log worker "

@@ -782,6 +782,7 @@ class _Run:
             "watchdog_stops": res.get("watchdog_stops"),
             "messages": res.get("counts", {}),
             "time_share_s": {k: round(v, 3) for k, v in self.times.items()},
+            "log_worker_cpu_s": res.get("cpu_s"),
         }
         if self.fmu_split:
             out["fmu_split_s"] = [round(x, 3) for x in self.fmu_split]
