@@ -139,7 +139,11 @@ static int can_set(npi_t *c, const np_var_info_t *vi) {
 }
 
 /* Copies nvr values of type (NP_F64 or NP_I32) between vals and the model (get != 0:
- * model -> vals); npi_get and npi_set. */
+ * model -> vals); npi_get and npi_set. The state is checked once per call; per value
+ * the reference is checked against the table (vr in range, type) and, for a set, its
+ * causality (inputs always settable, the rest through can_set). One loop per type so a
+ * value is one fixed-size copy (these calls run several times per 1 ms co-simulation
+ * step). On an error the values before the bad reference have been copied. */
 static npi_status_t copy_values(npi_t *c, const uint32_t vr[], size_t nvr, void *vals, size_t nvals, np_type_t type,
                                 int get, const char *fn) {
   if (npi_allowed(c, get ? NPI_GET : NPI_SET)) return NPI_ERROR;
@@ -148,16 +152,35 @@ static npi_status_t copy_values(npi_t *c, const uint32_t vr[], size_t nvr, void 
     return NPI_ERROR;
   }
   if (get && c->state == ST_INIT && ensure_started(c)) return NPI_ERROR;
-  size_t sz = type == NP_F64 ? sizeof(double) : sizeof(int32_t);
-  for (size_t i = 0; i < nvr; i++) {
-    const np_var_info_t *vi = lookup(c, vr[i], type, fn);
-    if (!vi || (!get && !can_set(c, vi))) return NPI_ERROR;
-    char *field = (char *)&c->m.v + vi->offset;
-    if (get)
-      memcpy((char *)vals + i * sz, field, sz);
-    else
-      memcpy(field, (const char *)vals + i * sz, sz);
+  char *base = (char *)&c->m.v;
+#define NPI_COPY_LOOP(CT, NPT, GET)                                                             \
+  for (size_t i = 0; i < nvr; i++) {                                                         \
+    const uint32_t r = vr[i];                                                                \
+    if (r >= NP_NUM_VARS || np_vars[r].type != (NPT)) {                                      \
+      (void)lookup(c, r, type, fn); /* logs why */                                           \
+      return NPI_ERROR;                                                                      \
+    }                                                                                        \
+    char *field = base + np_vars[r].offset;                                                  \
+    if (GET) {                                                                               \
+      memcpy((char *)vals + i * sizeof(CT), field, sizeof(CT));                              \
+    } else {                                                                                 \
+      if (np_vars[r].causality != NP_INPUT && !can_set(c, &np_vars[r])) return NPI_ERROR;    \
+      memcpy(field, (const char *)vals + i * sizeof(CT), sizeof(CT));                        \
+    }                                                                                        \
   }
+  /* GET a constant in each loop: four loops without a branch on the direction */
+  if (type == NP_F64) {
+    if (get) {
+      NPI_COPY_LOOP(double, NP_F64, 1)
+    } else {
+      NPI_COPY_LOOP(double, NP_F64, 0)
+    }
+  } else if (get) { /* NP_I32 (the header's contract) */
+    NPI_COPY_LOOP(int32_t, type, 1)
+  } else {
+    NPI_COPY_LOOP(int32_t, type, 0)
+  }
+#undef NPI_COPY_LOOP
   if (!get) np_inputs_changed(&c->m);
   return NPI_OK;
 }

@@ -515,8 +515,13 @@ static void substep(np_model_t *m, double h) {
   double dl = 0.5 * (m->vw[0] + vn[0]) * h, dr = 0.5 * (m->vw[1] + vn[1]) * h;
   double ds = 0.5 * (dl + dr), dyaw = (dr - dl) / k->track;
   double ymid = m->yaw + 0.5 * dyaw;
-  m->xm += ds * cos(ymid);
-  m->ym += ds * sin(ymid);
+  /* A standing robot (ds == 0) skips the trig: x + (+-0 * finite) is x bit for bit, as
+   * xm and ym start at +0 and a sum is -0 only when both terms are. A non-finite ymid
+   * still takes the full path (its NaN reaches the pose as before). */
+  if (ds != 0.0 || !isfinite(ymid)) {
+    m->xm += ds * cos(ymid);
+    m->ym += ds * sin(ymid);
+  }
   m->yaw += dyaw;
   m->sw[0] += dl;
   m->sw[1] += dr;
