@@ -49,6 +49,12 @@ struct hal {
     uint8_t wire[FWFMU_WIRE_CAP]; /* serial_tx */
     uint32_t wire_len;
     uint32_t baud;
+    /* conversions of the last input value seen (the core reads every channel every tick;
+     * inputs change far less often): a value that compares equal converts to the same
+     * counts (the only unequal bits that compare equal, +0 and -0, both give 0); NaN at
+     * power-on, so the first read converts */
+    double adc_v[5], sonar_v[4];       /* ADC: IR 0-3, battery */
+    uint16_t adc_counts[5], sonar_us[4];
 };
 
 typedef enum {
@@ -148,15 +154,23 @@ uint16_t hal_compass(hal_t *h)
 uint16_t hal_adc(hal_t *h, uint8_t ch)
 {
     /* the firmware reads ch0..FW_ADC_CHANNELS-1 only: ch0-3 IR, ch4 the battery divider */
-    if (ch < 4u) {
-        return fwfmu_adc_counts(h->ir_voltage[ch]);
+    unsigned k = (ch < 4u) ? ch : 4u;
+    double v = (k < 4u) ? h->ir_voltage[k] : h->battery_voltage;
+    if (!(v == h->adc_v[k])) {
+        h->adc_v[k] = v;
+        h->adc_counts[k] = fwfmu_adc_counts((k < 4u) ? v : v / FWFMU_BATTERY_DIVIDER);
     }
-    return fwfmu_adc_counts(h->battery_voltage / FWFMU_BATTERY_DIVIDER);
+    return h->adc_counts[k];
 }
 uint16_t hal_sonar_echo(hal_t *h, uint8_t i)
 {
-    double us = floor(h->sonar_echo[i] + 0.5);
-    return (!(us > 0.0)) ? 0u : (us > 65535.0) ? 65535u : (uint16_t)us;
+    double v = h->sonar_echo[i];
+    if (!(v == h->sonar_v[i])) {
+        double us = floor(v + 0.5);
+        h->sonar_v[i] = v;
+        h->sonar_us[i] = (!(us > 0.0)) ? 0u : (us > 65535.0) ? 65535u : (uint16_t)us;
+    }
+    return h->sonar_us[i];
 }
 uint16_t hal_dio_in(hal_t *h) { return (uint16_t)(h->dio_in & 0x0FFF); }
 void hal_motor(hal_t *h, int16_t l, int16_t r)
@@ -197,6 +211,13 @@ static uint32_t fwfmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_
     const uint64_t per_byte = (uint64_t)FWFMU_BITS_PER_BYTE * 1000000u;
     uint64_t n;
     *credit += (uint64_t)baud * tick_us;
+    if (waiting == 0u) {
+        /* idle (most ticks): what the general case below gives, without the division */
+        if (*credit >= per_byte) {
+            *credit = 0u;
+        }
+        return 0u;
+    }
     n = *credit / per_byte;
     if (n >= waiting) {
         /* an idle line saves no credit beyond the current byte time */
@@ -233,6 +254,7 @@ static void fwfmu_tick(fwfmu_t *m)
 /* Start values of every variable, a powered-up micro, empty UART. */
 static void fwfmu_power_on(fwfmu_t *m)
 {
+    unsigned i;
 #define FWFMU_START(vr, name, caus, var, unit, start, field, desc) m->field = start;
     FWFMU_FLOAT64_VARS(FWFMU_START)
     FWFMU_INT32_VARS(FWFMU_START)
@@ -244,6 +266,12 @@ static void fwfmu_power_on(fwfmu_t *m)
     m->hal.tx_head = m->hal.tx_len = 0u;
     m->hal.wire_len = 0u;
     m->hal.baud = m->baud;
+    for (i = 0; i < 5u; i++) {
+        m->hal.adc_v[i] = NAN;
+    }
+    for (i = 0; i < 4u; i++) {
+        m->hal.sonar_v[i] = NAN;
+    }
     m->rx_stage_len = 0u;
     m->time = 0.0;
     m->start_time = 0.0;
