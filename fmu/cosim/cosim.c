@@ -23,6 +23,9 @@ typedef struct {
     double f64_last[MAX_LINKS];    /* values set last time: unchanged values are not set again */
     int32_t i32_last[MAX_LINKS];
     int valid;                     /* *_last hold what the destination has */
+    fmi3ValueReference set_vr[MAX_LINKS]; /* this step's changed inputs (scratch) */
+    double set_f64[MAX_LINKS];
+    int32_t set_i32[MAX_LINKS];
 } links_t;
 
 /* Recorded columns read from one FMU, of one type. */
@@ -198,17 +201,37 @@ static const char *fmu_name(int which)
     return which == COSIM_FIRMWARE ? "firmware" : "plant";
 }
 
-/* Moves the values of the links from FMU `src` into the other FMU. */
+/* Appends to f->set_vr / `out` (from index k, which it advances) the links of `f` whose
+ * value in `vals` differs bit for bit from the last one set, `last` (all of them when
+ * !f->valid). */
+#define COSIM_CHANGED(f, vals, last, out)                                                   \
+    do {                                                                                    \
+        size_t j_;                                                                          \
+        for (j_ = 0; j_ < (f)->n; j_++) {                                                   \
+            if (!(f)->valid || memcmp(&(vals)[j_], &(last)[j_], sizeof (vals)[0]) != 0) {   \
+                (f)->set_vr[k] = (f)->dst[j_];                                              \
+                (out)[k] = (vals)[j_];                                                      \
+                k++;                                                                        \
+            }                                                                               \
+        }                                                                                   \
+    } while (0)
+
+/* Moves the values of the links from FMU `src` into the other FMU: one get per type,
+ * then one set per type of only the inputs whose values changed since they were last set
+ * (the destination keeps the others; cosim_exchange sets them all). */
 static int transfer(cosim_t *c, int src)
 {
     const fmu_t *s = &c->fmu[src], *d = &c->fmu[1 - src];
     links_t *f = &c->links[src][COSIM_FLOAT64], *i = &c->links[src][COSIM_INT32];
+    size_t k;
     if (f->n) {
         if (s->get_f64(s->inst, f->src, f->n, f->f64, f->n) > fmi3Warning)
             return fail(c, COSIM_ERR_FMU, "getting Float64 of %s failed at t=%.3f s",
                         fmu_name(src), cosim_time(c));
-        if (!f->valid || memcmp(f->f64, f->f64_last, f->n * sizeof(double)) != 0) {
-            if (d->set_f64(d->inst, f->dst, f->n, f->f64, f->n) > fmi3Warning)
+        k = 0;
+        COSIM_CHANGED(f, f->f64, f->f64_last, f->set_f64);
+        if (k) {
+            if (d->set_f64(d->inst, f->set_vr, k, f->set_f64, k) > fmi3Warning)
                 return fail(c, COSIM_ERR_FMU, "setting Float64 of %s failed at t=%.3f s",
                             fmu_name(1 - src), cosim_time(c));
             memcpy(f->f64_last, f->f64, f->n * sizeof(double));
@@ -219,8 +242,10 @@ static int transfer(cosim_t *c, int src)
         if (s->get_i32(s->inst, i->src, i->n, i->i32, i->n) > fmi3Warning)
             return fail(c, COSIM_ERR_FMU, "getting Int32 of %s failed at t=%.3f s",
                         fmu_name(src), cosim_time(c));
-        if (!i->valid || memcmp(i->i32, i->i32_last, i->n * sizeof(int32_t)) != 0) {
-            if (d->set_i32(d->inst, i->dst, i->n, i->i32, i->n) > fmi3Warning)
+        k = 0;
+        COSIM_CHANGED(i, i->i32, i->i32_last, i->set_i32);
+        if (k) {
+            if (d->set_i32(d->inst, i->set_vr, k, i->set_i32, k) > fmi3Warning)
                 return fail(c, COSIM_ERR_FMU, "setting Int32 of %s failed at t=%.3f s",
                             fmu_name(1 - src), cosim_time(c));
             memcpy(i->i32_last, i->i32, i->n * sizeof(int32_t));

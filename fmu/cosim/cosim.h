@@ -87,8 +87,9 @@ COSIM_API int cosim_sample(cosim_t *c, double *row);
 
 /* Copies every plant output connected to the firmware into the firmware's inputs and
  * vice versa without stepping (after initialisation or a firmware reset). During
- * cosim_run() a group of inputs whose values did not change since they were last set is
- * not set again (an FMU keeps its inputs); this call sets all of them. */
+ * cosim_run() an input whose value did not change (bit for bit) since it was last set is
+ * not set again (an FMU keeps its inputs): each step makes one set call per type with
+ * only the changed inputs, or none; this call sets all of them. */
 COSIM_API int cosim_exchange(cosim_t *c);
 
 /* Does `n_steps` steps. `rx` (`rx_len` bytes, may be NULL/0) is set as serial_rx before
