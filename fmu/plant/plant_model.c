@@ -489,8 +489,12 @@ static void substep(np_model_t *m, double h) {
   /* Coulomb friction: box-constrained, projected Gauss-Seidel (sticks when it can) */
   double fc0 = m->fc[0], fc1 = m->fc[1], lim = v->friction_coulomb_n;
   for (int it = 0; it < 4; it++) {
+    double fc1_in = fc1;
     fc0 = clampd((vf0 - w01 * fc1) / w00, lim);
     fc1 = clampd((vf1 - w01 * fc0) / w11, lim);
+    /* an iteration is a function of fc1 alone: when it gives back fc1's bits, the ones
+     * left would repeat it exactly (a wheel stuck or at the force limit: most steps) */
+    if (memcmp(&fc1, &fc1_in, sizeof fc1) == 0) break;
   }
   m->fc[0] = fc0;
   m->fc[1] = fc1;
