@@ -94,6 +94,11 @@ typedef struct {
     double time;               /* s: time of the next doStep */
     double start_time;         /* s */
     uint64_t elapsed_us;       /* us: communication steps since the start, summed */
+    /* the last step size that passed the checks (NaN: none yet), the tick period it was
+     * checked with, and what follows from the two: ticks and us per step */
+    double step_h;             /* s */
+    uint32_t step_period_us;
+    uint64_t step_ticks, step_us;
     uint8_t rx_stage[FWFMU_RX_CAP]; /* serial_rx as set, consumed by the next doStep */
     size_t rx_stage_len;
     char *name;
@@ -276,6 +281,7 @@ static void fwfmu_power_on(fwfmu_t *m)
     m->time = 0.0;
     m->start_time = 0.0;
     m->elapsed_us = 0u;
+    m->step_h = NAN;
     fw_init(&m->fw, &m->hal);
     /* outputs as the micro holds them before its first tick: everything off */
     m->hal.motor_left_duty = m->hal.motor_right_duty = 0.0;
@@ -591,6 +597,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     fwfmu_t *m = (fwfmu_t *)instance;
     struct hal *h;
     double ticks_f, h_s = communicationStepSize;
+    uint32_t period_us;
     uint64_t n, k;
     size_t i;
     (void)noSetFMUStatePriorToCurrentPoint;
@@ -607,14 +614,23 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                   currentCommunicationPoint, m->time);
         return fmi3Error;
     }
-    ticks_f = h_s * 1e6 / (double)fw_tick_period_us(&m->fw);
-    n = (uint64_t)floor(ticks_f + 0.5);
-    if (!(h_s > 0.0) || n < 1u || fabs(ticks_f - (double)n) > 1e-6 * (double)n) {
-        fwfmu_log(m, fmi3Error, "logStatusError",
-                  "communicationStepSize %.9f s is not a whole number of control ticks of %u us", h_s,
-                  (unsigned)fw_tick_period_us(&m->fw));
-        return fmi3Error;
+    period_us = fw_tick_period_us(&m->fw);
+    if (!(h_s == m->step_h && period_us == m->step_period_us)) {
+        /* a new step size or tick period (else the last one's checked results hold) */
+        ticks_f = h_s * 1e6 / (double)period_us;
+        n = (uint64_t)floor(ticks_f + 0.5);
+        if (!(h_s > 0.0) || n < 1u || fabs(ticks_f - (double)n) > 1e-6 * (double)n) {
+            fwfmu_log(m, fmi3Error, "logStatusError",
+                      "communicationStepSize %.9f s is not a whole number of control ticks of %u us", h_s,
+                      (unsigned)period_us);
+            return fmi3Error;
+        }
+        m->step_h = h_s;
+        m->step_period_us = period_us;
+        m->step_ticks = n;
+        m->step_us = (uint64_t)floor(h_s * 1e6 + 0.5);
     }
+    n = m->step_ticks;
     /* serial_rx joins the RX FIFO; a full FIFO drops the excess (like a real UART) */
     for (i = 0; i < m->rx_stage_len; i++) {
         if (h->rx_len < FWFMU_RX_CAP) {
@@ -632,7 +648,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
     for (k = 0; k < n; k++) {
         fwfmu_tick(m); /* a config may change the tick period: the step still ends at t + h */
     }
-    m->elapsed_us += (uint64_t)floor(h_s * 1e6 + 0.5);
+    m->elapsed_us += m->step_us;
     m->time = m->start_time + (double)m->elapsed_us * 1e-6;
     *lastSuccessfulTime = m->time;
     return fmi3OK;
