@@ -161,22 +161,27 @@ def test_make_sim_command_line(tmp_path):
     cmd = _make_sim_command()
     assert "config/missions/demo.toml" in cmd
     env = dict(os.environ, NAVKIT_BUILD_DIR=str(build_dir()))
+    out = build_dir() / "sim" / "demo"
+    out.mkdir(parents=True, exist_ok=True)
+    old = out / "Data 01-01-20 00;00;00.txt"     # an earlier run's datalog: kept, not listed
+    old.write_text("old\n")
     p = subprocess.run(cmd, cwd=repo_root(), env=env, capture_output=True, text=True,
                        timeout=120)
     assert p.returncode == 0, p.stdout + p.stderr
-    out = build_dir() / "sim" / "demo"
     lines = {line.split()[0]: line for line in p.stdout.splitlines() if line.strip()}
     assert str(out) in lines["outputs"] and "run.mcap" in lines["outputs"], p.stdout
     assert "final" in lines and "heading" in lines["final"], p.stdout
     assert "real time" in lines["speed"], p.stdout
     logs = [line.split(None, 1)[1] for line in p.stdout.splitlines() if line.startswith("datalog")]
     assert logs and all(Path(f).parent == out and Path(f).exists() for f in logs), p.stdout
+    assert str(old) not in logs and old.read_text() == "old\n", "only this run's datalogs"
     for f in ("run.mcap", "summary.json", "plot.png"):
         assert (out / f).exists(), f
     s = json.loads((out / "summary.json").read_text())
     t = s["truth"]
     assert (t["x_mm"] ** 2 + t["y_mm"] ** 2) ** 0.5 > 500, "the demo goes somewhere"
     assert s["sim_time_s"] == pytest.approx(24.0)
+    assert [str(out / name) for name in s["datalogs"]] == logs
 
 
 def test_realtime_mode_paces_to_the_wall_clock(tmp_path_factory):

@@ -68,8 +68,8 @@ def run(args) -> int:
     if args.plant:
         print(f"plant     {s['plant_fmu']}")
     print(f"outputs   {out}/  run.mcap  summary.json  host.log" + ("  plot.png" if opts.plot else ""))
-    for log in sorted(Path(out).glob("Data *.txt")):
-        print(f"datalog   {log}")
+    for name in s["datalogs"]:
+        print(f"datalog   {Path(out) / name}")
     print(f"final     x {t.get('x_mm', 0):.0f} mm  y {t.get('y_mm', 0):.0f} mm  "
           f"heading {t.get('heading_deg', 0):.1f} deg  v {t.get('v_mm_s', 0):.0f} mm/s")
     print(f"speed     {s['sim_time_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall "

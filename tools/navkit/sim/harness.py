@@ -294,6 +294,12 @@ class _Planner:
 
 # ------------------------------------------------------------------ run
 
+def _datalogs(folder: Path) -> dict:
+    """The host's datalog files in `folder` (seed names, "Data MM-DD-YY HH;MM;SS.txt"):
+    name -> modification time (ns)."""
+    return {p.name: p.stat().st_mtime_ns for p in folder.glob("Data *.txt")}
+
+
 def _vm_hwm_kib(pid: int) -> int | None:
     """Peak resident memory (KiB) of a live process, from /proc; None if unknown."""
     try:
@@ -377,6 +383,7 @@ class _Run:
         if not host.exists():
             raise SimError(f"{host} not found: build the host first")
         self.out.mkdir(parents=True, exist_ok=True)
+        self.old_datalogs = _datalogs(self.out)   # an earlier run's, kept but not this run's
         meta = {"mission": self.m.text, "mission_file": self.m.path.name,
                 "seed": self.opts.seed, "spec_hash": f"0x{self.protocol.SPEC_HASH:08X}",
                 "git_revision": _git_revision(), "frame_s": self.frame_s,
@@ -780,6 +787,8 @@ class _Run:
                      "config_downloads": res.get("config_downloads"),
                      "host_status": lisp.get("host_status")},
             "watchdog_stops": res.get("watchdog_stops"),
+            "datalogs": sorted(name for name, mtime in _datalogs(self.out).items()
+                               if self.old_datalogs.get(name) != mtime),
             "messages": res.get("counts", {}),
             "time_share_s": {k: round(v, 3) for k, v in self.times.items()},
             "log_worker_cpu_s": res.get("cpu_s"),
