@@ -221,3 +221,126 @@ def test_events_take_effect_at_the_first_frame_at_or_after_t(tmp_path: Path):
     assert [(round(t, 3), m["speed"]) for t, m in r.messages("/planner/cmd")] == \
         [(0.3, 5), (0.9, 7)]
     assert [round(t, 3) for t, m in r.messages("/events") if m["kind"] == "key"] == [0.9]
+
+
+# ---- values the host could not convert to a micro_cmd (host/src/navigation.cpp)
+
+def _micro(name):
+    from navkit import protocol
+
+    return protocol.SPEC.messages["micro_cmd"].field(name)
+
+
+def _host_refused_cases():
+    """(lisp_cmd fields, key): each value one step outside the micro_cmd range the host
+    copies it to, from the spec (int16 words, a servo rate >= 0, a heading 0..3600)."""
+    speed, accel = _micro("speed"), _micro("accel")
+    rate, t_accel = _micro("turn_rate"), _micro("turn_accel")
+    p0, p1, p2 = _micro("rc5_param0"), _micro("rc5_param1"), _micro("rc5_param2")
+    return [
+        ({"fwd_cmd": 1, "speed": 99999999, "distance": 1000}, "speed"),
+        ({"fwd_cmd": 1, "speed": speed.max + 1}, "speed"),
+        ({"fwd_cmd": 3, "accel": accel.min - 1}, "accel"),
+        ({"fwd_cmd": 5, "accel": accel.max + 1}, "accel"),
+        ({"turn_mode": 1, "turn_rate": rate.max + 1, "turn_distance": 900}, "turn_rate"),
+        ({"turn_mode": 11, "turn_accel": t_accel.min - 1}, "turn_accel"),
+        ({"turn_mode": 10, "turn_distance": 3601}, "turn_distance"),
+        ({"turn_mode": 10, "turn_distance": -1}, "turn_distance"),
+        ({"rc_servo_num": 5, "rc_param0": -1, "rc_param1": 100}, "rc_param0"),
+        ({"rc_servo_num": 5, "rc_param0": p0.max + 1}, "rc_param0"),
+        ({"rc_servo_num": 5, "rc_param0": 100, "rc_param1": p1.max + 1}, "rc_param1"),
+        ({"rc_servo_num": 5, "rc_param0": 100, "rc_param2": p2.min - 1}, "rc_param2"),
+    ]
+
+
+def _host_taken_cases():
+    """lisp_cmd fields at the edge of what the host converts, or values it never converts
+    (a forward value without a low-level fwd_cmd, a turn angle copied int32 to int32, a
+    heading hold's offset, a servo number the micro lacks or a rate of 0)."""
+    speed, accel = _micro("speed"), _micro("accel")
+    rate, t_accel, p1 = _micro("turn_rate"), _micro("turn_accel"), _micro("rc0_param1")
+    return [
+        {"fwd_cmd": 1, "speed": speed.max, "accel": accel.min, "distance": 2000000000},
+        {"fwd_cmd": 0, "speed": 99999999},
+        {"fwd_cmd": 105, "speed": 99999999, "accel": -99999999},
+        {"turn_mode": 1, "turn_rate": rate.max, "turn_accel": t_accel.min,
+         "turn_distance": -99999999},
+        {"turn_mode": 10, "turn_distance": 3600},
+        {"turn_mode": 10, "turn_distance": 0},
+        {"turn_mode": 11, "turn_distance": -99999999},
+        {"turn_rate": 99999999, "turn_distance": 99999999},
+        {"rc_servo_num": 8, "rc_param0": -5, "rc_param1": 99999999},
+        {"rc_servo_num": 2, "rc_param0": 0, "rc_param1": 99999999},
+        {"rc_servo_num": 7, "rc_param0": 1, "rc_param1": p1.max, "rc_param2": p1.min},
+    ]
+
+
+def _toml(fields: dict, t=1.0) -> str:
+    return f"[[command]]\nt = {t}\n" + "".join(f"{k} = {v}\n" for k, v in fields.items())
+
+
+@pytest.mark.parametrize("fields, key", _host_refused_cases())
+def test_value_the_host_cannot_convert_names_file_entry_key_and_range(fields, key):
+    text = "duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 100}, 0.5) + _toml(fields)
+    with pytest.raises(MissionError) as e:
+        loads(text, "bad.toml")
+    msg = str(e.value)
+    assert msg.startswith(f"bad.toml: [[command]] #2: key {key!r}: {fields[key]} is outside "), msg
+    assert "the host would drop the command" in msg, msg
+    if key == "turn_distance":
+        assert "outside 0..3600 (deg x 0.1)" in msg and "turn_mode 10 (heading_select)" in msg
+    else:
+        micro = f"rc5_{key[3:]}" if key.startswith("rc_") else key
+        f = _micro(micro)
+        assert f"outside {f.min}..{f.max} (" in msg and f"micro_cmd.{micro} " in msg, msg
+
+
+@pytest.mark.parametrize("fields", _host_taken_cases())
+def test_value_the_host_converts_or_ignores_loads(fields):
+    m = loads("duration_s = 5\n" + _toml(fields))
+    assert m.commands[0].fields == fields
+
+
+def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
+    """One run through the real host: each value the loader takes gives nav_result ok,
+    each it refuses (written here past the loader, as a planner of one's own could) gives
+    nav_result rejected and the host's console message, and moves nothing."""
+    from navkit import protocol
+    from navkit.sim.harness import SimOptions, run
+    from navkit.sim.mission import Command
+    from navkit.sim.results import load as load_run
+
+    from test_sim_util import require_build
+
+    require_build()
+
+    def still(f):       # no distance or angle to go: nothing the robot acts on moves it
+        return {k: 0 if k in ("distance", "turn_distance") and f.get("turn_mode") != 10 else v
+                for k, v in f.items()}
+
+    # a heading hold needs the micro's heading (rejected before its first micro_data), and a
+    # heading select anywhere but here would turn: both checked by loading alone above
+    taken = [still(f) for f in _host_taken_cases() if f.get("turn_mode") not in (10, 11)]
+    taken.append({"turn_mode": 10, "turn_distance": 0})
+    refused = [still(f) for f, _ in _host_refused_cases()]
+    n = len(taken) + len(refused)
+    m = loads(f"duration_s = {0.1 * (n + 3):.1f}\n" +
+              "".join(_toml(f, round(0.2 + 0.1 * i, 1)) for i, f in enumerate(taken)),
+              tmp_path / "edges.toml")
+    for i, f in enumerate(refused):
+        m.commands.append(Command(round(0.2 + 0.1 * (len(taken) + i), 1), f, f"refused #{i}"))
+    run(SimOptions(mission=m, out=tmp_path / "out", plot=False))
+    r = load_run(tmp_path / "out")
+    tags = [msg["time_tag"] for _, msg in r.messages("/planner/cmd")]
+    assert len(tags) == n
+    verdict = {d["ack_time_tag"]: d["nav_result"] for _, d in r.messages("/planner/data")}
+    codes = protocol.SPEC.enums["nav_result"].values
+    high_level = [c for k, c in protocol.SPEC.enums["fwd_cmd"].values.items()
+                  if c > _micro("fwd_cmd").max]
+    want = [codes["not_implemented" if f.get("fwd_cmd") in high_level else "ok"] for f in taken]
+    want += [codes["rejected"]] * len(refused)
+    assert [verdict.get(tag) for tag in tags] == want
+    log = (tmp_path / "out" / "host.log").read_text(errors="replace")
+    for tag in tags[len(taken):]:
+        assert f"planner command {tag} rejected: a value does not fit the micro command" in log
+    assert all(abs(row["x_mm"]) < 2 and abs(row["yaw_deg"]) < 1 for row in r.truth)

@@ -21,7 +21,9 @@ A mission is a TOML file::
     ber = 1e-3                     # line_noise: bit error rate per bit
 
 Every error (unknown key, bad value, a time or a fault's end past the duration) is a
-MissionError naming the file, the entry and the key. Events take effect at the first host
+MissionError naming the file, the entry and the key. A bad value is also one the host
+would refuse while converting the command to a micro_cmd (e.g. speed = 99999999 with
+fwd_cmd 1 fits lisp_cmd's int32 but not micro_cmd's int16). Events take effect at the first host
 frame that starts at or after their t (the harness checks that this frame is in the run).
 """
 
@@ -167,7 +169,62 @@ def _command(where: str, entry: dict, duration: float) -> Command:
     except protocol.ProtocolError as e:
         key = next((k for k in fields if f".{k}:" in str(e)), "?")
         raise MissionError(f"{where}: key {key!r}: {e}") from None
+    _check_host_conversion(where, fields)
     return Command(t, fields, where)
+
+
+def _raw_units(f) -> str:
+    """A spec field's raw units, as docs/protocol.md writes them: 'mm/s', 'deg x 0.1'."""
+    return f.units if f.scale == 1 else f"{f.units} x {f.scale:g}"
+
+
+def _check_host_conversion(where: str, fields: dict) -> None:
+    """MissionError naming the key if the host would refuse this lisp_cmd while making
+    its micro_cmd (host/src/navigation.cpp, Navigation::convert; docs/host.md): the host
+    copies raw values, unscaled (both sides use the same units), into micro_cmd fields
+    narrower than lisp_cmd's int32 words, and drops the whole command when one does not
+    fit. Only what the host converts (and checks) for this command counts:
+    - fwd_cmd 1 / 3 / 5 (the micro's own codes; 100 / 101 / 105 are high level and send
+      no forward command): accel, speed -> micro_cmd accel, speed (mm/s^2, mm/s);
+    - any turn_mode: turn_accel, turn_rate -> micro_cmd turn_accel, turn_rate
+      (deg/s^2 x 0.1, deg/s x 0.1); heading_select: turn_distance is a heading in
+      0..one full turn (0..3600 deg x 0.1); turn / modify / stop copy turn_distance
+      int32 to int32 and heading_hold wraps it, so any value fits there;
+    - rc_servo_num one of the micro's servos with rc_param0 != 0 (else no servo command):
+      rc_param0..2 -> micro_cmd rcN_param0..2 (deg/s x 0.1, deg x 0.1; a rate >= 0).
+    The ranges are the spec's (protocol/navkit.toml), never numbers of this file."""
+    from navkit import protocol
+
+    spec = protocol.SPEC
+    micro, lisp = spec.messages["micro_cmd"], spec.messages["lisp_cmd"]
+    value = lambda k: fields.get(k, 0)  # noqa: E731 (unset lisp_cmd fields are 0)
+    checks = []     # (lisp_cmd key, micro_cmd Field it is copied to, why it is copied)
+    fwd = value("fwd_cmd")
+    if 0 < fwd <= micro.field("fwd_cmd").max:
+        checks += [(k, micro.field(k), f"fwd_cmd {fwd}") for k in ("accel", "speed")]
+    mode = value("turn_mode")
+    mode_name = {c: n for n, c in spec.enums["turn_mode"].values.items()}[mode]
+    why = f"turn_mode {mode} ({mode_name})"
+    if mode:
+        checks += [(k, micro.field(k), why) for k in ("turn_accel", "turn_rate")]
+    servo = value("rc_servo_num")
+    if value("rc_param0") != 0 and any(f.name == f"rc{servo}_param0" for f in micro.fields):
+        checks += [(f"rc_param{i}", micro.field(f"rc{servo}_param{i}"),
+                    f"rc_servo_num {servo}") for i in range(3)]
+    for k, f, why_k in checks:
+        v = value(k)
+        if not f.min <= v <= f.max:
+            raise MissionError(f"{where}: key {k!r}: {v} is outside {f.min}..{f.max} "
+                               f"({_raw_units(f)}), the range of micro_cmd.{f.name} the host "
+                               f"copies it to for {why_k}: the host would drop the command")
+    if mode_name == "heading_select":
+        f = lisp.field("turn_distance")
+        full = round(360 / f.scale)     # one full turn in raw units (deg x 0.1)
+        v = value("turn_distance")
+        if not 0 <= v <= full:
+            raise MissionError(f"{where}: key 'turn_distance': {v} is outside 0..{full} "
+                               f"({_raw_units(f)}), the headings the host takes for {why}: "
+                               f"the host would drop the command")
 
 
 def _key(where: str, entry: dict, duration: float) -> Key:
