@@ -263,10 +263,15 @@ _RUN_CODE = ("import sys; from pathlib import Path; from navkit.sim.harness impo
              " realtime=sys.argv[3] == 'realtime', plot=False))")
 
 
-def test_a_killed_lockstep_run_keeps_what_came_before(tmp_path):
+def test_a_killed_lockstep_run_keeps_what_came_before(tmp_path, capsys):
     """The same in lockstep, hundreds of times faster than real time: killed once a few
-    chunks are on disk, the file still holds whole simulated seconds from 0."""
+    chunks are on disk, the file still holds whole simulated seconds from 0; `navkit plot`
+    and `results.load` read it (no footer, no summary), saying on stderr that it is
+    truncated and up to what log time they read it."""
     import sys
+
+    from navkit.cli import main
+    from navkit.sim.results import load
 
     require_build()
     mission = tmp_path / "long.toml"
@@ -278,6 +283,19 @@ def test_a_killed_lockstep_run_keeps_what_came_before(tmp_path):
     assert times, "messages of the first seconds survived"
     assert min(times) == 0.0 and 2.0 <= max(times) < 2900.0, (min(times), max(times))
     assert not (out / "summary.json").exists()
+    capsys.readouterr()
+    r = load(out)
+    err = capsys.readouterr().err
+    assert r.summary == {} and r.metadata["seed"] == "1"
+    assert sorted(t for msgs in r.topics.values() for t, _ in msgs) == sorted(times), \
+        "every message of the file's whole chunks, no more"
+    assert r.truncated["last_log_time_s"] == max(times)
+    assert r.truth[-1]["t"] == pytest.approx(max(t for t, _ in r.messages("/truth")))
+    assert f"{out / 'run.mcap'}: truncated" in err and f"up to log time {max(times):.3f} s" in err
+    assert main(["plot", str(out / "run.mcap"), "-o", str(tmp_path / "killed.png")]) == 0
+    cap = capsys.readouterr()
+    assert cap.out.strip() == str(tmp_path / "killed.png") and "truncated" in cap.err
+    assert "Traceback" not in cap.err and (tmp_path / "killed.png").stat().st_size > 10_000
 
 
 def test_bench_sim_prints_its_figures(capsys):

@@ -10,6 +10,7 @@ plot range, then one row per host frame) gets one panel per parameter over its r
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 __all__ = ["add_arguments", "run", "plot_mcap", "plot_datalog", "read_datalog", "read_mcap"]
@@ -26,13 +27,17 @@ def run(args) -> int:
     """Plot args.file into args.out; 0 on success, 1 with a message on error."""
     path: Path = args.file
     out = args.out or path.with_suffix(".png")
+    from mcap.exceptions import McapError
+
     try:
         if path.suffix == ".mcap":
             plot_mcap(path, out)
         else:
             plot_datalog(path, out)
-    except (OSError, ValueError) as e:
-        print(f"navkit plot: {path}: {e}")
+    except (OSError, ValueError, McapError) as e:
+        text = str(e)
+        print(f"navkit plot: {text if text.startswith(str(path)) else f'{path}: {text}'}",
+              file=sys.stderr)
         return 1
     print(out)
     return 0
@@ -40,14 +45,13 @@ def run(args) -> int:
 
 def read_mcap(path: Path, topics=None) -> dict:
     """Messages of a run: {topic: [(log_time_ns, decoded JSON), ...]} for `topics` (all
-    if None)."""
-    from mcap.reader import make_reader
+    if None). A killed run's file (no footer) is read up to its last whole chunk, with a
+    warning on stderr (navkit.sim.results.read_mcap); McapError if it is not MCAP."""
+    from navkit.sim.results import read_mcap as read
 
     out: dict = {}
-    with open(path, "rb") as f:
-        reader = make_reader(f)
-        for _schema, channel, message in reader.iter_messages(topics=topics):
-            out.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+    for t_ns, topic, data in read(path, topics).messages:
+        out.setdefault(topic, []).append((t_ns, json.loads(data)))
     return out
 
 

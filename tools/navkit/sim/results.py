@@ -3,26 +3,117 @@ MCAP message by topic (for tests, notebooks and scripts).
 
 Times are simulated seconds; message fields are as logged (raw spec values for decoded
 frames, mm / deg / mm/s for /truth).
+
+`read_mcap(path)` reads any run.mcap, also one whose run was killed: the file then ends
+without its summary and footer (and maybe inside a record), so it is read record by record
+up to the last whole record, with a warning on stderr naming the file, the byte where it
+ends and the last log time read.
 """
 
 from __future__ import annotations
 
+import io
 import json
+import operator
+import struct
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["RunResult", "load"]
+__all__ = ["RunResult", "McapContents", "load", "read_mcap"]
+
+_MAGIC = b"\x89MCAP0\r\n"
+_FOOTER_OPCODE = 0x02
+_RECORD_HEAD = struct.Struct("<BQ")       # opcode, length of the record's content (bytes)
+
+
+@dataclass
+class McapContents:
+    """What `read_mcap` found: `messages` [(log time ns, topic, JSON bytes), ...] in log-time
+    order (file order among equal times), `metadata` (the metadata records' name -> value
+    pairs) and `truncated`: None for a whole file, else {"size": file bytes, "read_bytes":
+    bytes of whole records read, "last_log_time_s": the latest log time read (s, None if
+    no message)}."""
+
+    messages: list
+    metadata: dict
+    truncated: dict | None = None
+
+
+def _whole_records(data: bytes) -> tuple[int, bool]:
+    """(end offset of the last whole record after the leading magic, whether it is the
+    footer followed by the closing magic: the file is whole)."""
+    at, n = len(_MAGIC), len(data)
+    while at + _RECORD_HEAD.size <= n:
+        opcode, length = _RECORD_HEAD.unpack_from(data, at)
+        nxt = at + _RECORD_HEAD.size + length
+        if nxt > n:
+            break
+        at = nxt
+        if opcode == _FOOTER_OPCODE:
+            return at, data[at:at + len(_MAGIC)] == _MAGIC
+    return at, False
+
+
+def read_mcap(path: str | Path, topics=None) -> McapContents:
+    """Messages and metadata of MCAP file `path` (only the topics in `topics`, all if None),
+    read front to back with the mcap package's StreamReader. A file without its footer (a
+    killed run) is read up to its last whole record (whole chunks: a chunk's messages come
+    only with the whole chunk) and a warning goes to stderr. McapError (mcap.exceptions)
+    naming the file if it is not an MCAP file or a record does not decode."""
+    from mcap.exceptions import EndOfFile, McapError
+    from mcap.records import Channel, Message, Metadata
+    from mcap.stream_reader import StreamReader
+
+    path = Path(path)
+    data = path.read_bytes()
+    if data[:len(_MAGIC)] != _MAGIC:
+        raise McapError(f"{path}: not an MCAP file (it does not start with the MCAP magic; "
+                        f"{len(data)} bytes)")
+    end, whole = _whole_records(data)
+    want = None if topics is None else set(topics)
+    chans, messages, metadata = {}, [], {}
+    try:
+        for rec in StreamReader(io.BytesIO(data if whole else data[:end])).records:
+            cls = rec.__class__
+            if cls is Message:
+                topic = chans.get(rec.channel_id)
+                if topic is None:
+                    raise McapError(f"{path}: a message on channel {rec.channel_id} before "
+                                    f"that channel's record")
+                if want is None or topic in want:
+                    messages.append((rec.log_time, topic, rec.data))
+            elif cls is Channel:
+                chans[rec.id] = rec.topic
+            elif cls is Metadata:
+                metadata.update(rec.metadata)
+    except EndOfFile:
+        if whole:
+            raise McapError(f"{path}: ends inside its summary section") from None
+    except (struct.error, RuntimeError, ValueError) as e:   # a record that does not decode
+        raise McapError(f"{path}: a record does not decode: {e}") from None
+    messages.sort(key=operator.itemgetter(0))       # stable: file order among equal times
+    truncated = None
+    if not whole:
+        last = messages[-1][0] / 1e9 if messages else None
+        truncated = {"size": len(data), "read_bytes": end, "last_log_time_s": last}
+        upto = f"messages up to log time {last:.3f} s" if last is not None else "no messages"
+        print(f"warning: {path}: truncated (no summary or footer: the run did not finish); "
+              f"read its whole records, bytes 0..{end} of {len(data)}: {upto}", file=sys.stderr)
+    return McapContents(messages, metadata, truncated)
 
 
 @dataclass
 class RunResult:
     """One run: `summary` (summary.json), `topics` {topic: [(t_s, message dict), ...]}
-    in log-time order, and `metadata` (the MCAP metadata record)."""
+    in log-time order, `metadata` (the MCAP metadata record) and `truncated` (None, or
+    where run.mcap of a killed run ends: McapContents)."""
 
     out: Path
     summary: dict
     topics: dict = field(default_factory=dict)
     metadata: dict = field(default_factory=dict)
+    truncated: dict | None = None     # see McapContents: run.mcap of a killed run
 
     def messages(self, topic: str) -> list:
         """[(t_s, message), ...] of `topic` (empty if none)."""
@@ -66,18 +157,17 @@ class RunResult:
 
 
 def load(out: str | Path) -> RunResult:
-    """Read summary.json and run.mcap of the run in folder `out`."""
-    from mcap.reader import make_reader
-
+    """Read summary.json (empty if the run left none) and run.mcap (also a killed run's:
+    see read_mcap) of the run in folder `out`."""
     out = Path(out)
     summary = json.loads((out / "summary.json").read_text()) \
         if (out / "summary.json").exists() else {}
-    res = RunResult(out=out, summary=summary)
-    with open(out / "run.mcap", "rb") as f:
-        reader = make_reader(f)
-        for _schema, channel, message in reader.iter_messages(log_time_order=True):
-            res.topics.setdefault(channel.topic, []).append(
-                (message.log_time / 1e9, json.loads(message.data)))
-        for rec in reader.iter_metadata():
-            res.metadata.update(rec.metadata)
+    mc = read_mcap(out / "run.mcap")
+    res = RunResult(out=out, summary=summary, metadata=mc.metadata, truncated=mc.truncated)
+    loads, topics = json.loads, res.topics
+    for t_ns, topic, data in mc.messages:
+        msgs = topics.get(topic)
+        if msgs is None:
+            msgs = topics[topic] = []
+        msgs.append((t_ns / 1e9, loads(data)))
     return res
