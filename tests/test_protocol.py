@@ -289,6 +289,53 @@ def test_values_are_checked_against_the_spec():
     assert p.encode_frame("micro_cmd", {"msg_type": 1, "time_tag": 4}, time_tag=5)[2:4] == b"\x05\x00"
 
 
+def test_errors_name_the_array_element_and_the_valid_fields():
+    centers = [1500, 1500, 400, 1500, 1500, 1500, 1500, 1500]
+    with pytest.raises(p.ProtocolError) as e:
+        p.check("micro_cfg_io", {"servo_center": centers})
+    assert str(e.value) == "micro_cfg_io.servo_center[2]: 400 is outside 500..2500"
+    assert e.value.field == "servo_center"
+    with pytest.raises(p.ProtocolError, match=r"servo_min\[7\]: 'x' is not an integer"):
+        p.check("micro_cfg_io", {"servo_min": [0] * 7 + ["x"]})
+    with pytest.raises(p.ProtocolError) as e:
+        p.check("micro_cmd", {"speeed": 7})
+    names = ", ".join(f.name for f in p.SPEC.messages["micro_cmd"].fields)
+    assert str(e.value) == f"micro_cmd: unknown field 'speeed' (fields: {names})"
+
+
+def test_decode_frame_reasons_follow_the_c_order():
+    """Too short is a bad length even with the start word (C: NAVKIT_ERR_LENGTH); a known
+    type of the other direction is named as such."""
+    for short in (b"", b"\xa5\xff\x00", p.encode_frame("micro_cmd")[:9]):
+        with pytest.raises(p.ProtocolError, match=rf"^bad length: {len(short)} byte\(s\), a frame has at least 10$"):
+            p.decode_frame(short)
+    with pytest.raises(p.ProtocolError, match="^no start word$"):
+        p.decode_frame(b"\xa6" + p.encode_frame("micro_cmd")[1:])
+    data = p.encode_frame("micro_data")
+    with pytest.raises(p.ProtocolError, match="^wrong direction: micro_data is a to-host message$"):
+        p.decode_frame(data, p.DIR_TO_MICRO)
+    assert p.decode_frame(data, p.DIR_TO_HOST)[0] == "micro_data"
+    with pytest.raises(p.ProtocolError, match=r"^bad length: micro_data has \d+ words"):
+        p.decode_frame(data + b"\x00\x00")
+    unknown = bytearray(data)
+    unknown[4] = 99
+    with pytest.raises(p.ProtocolError, match="^unknown message type 99$"):
+        p.decode_frame(bytes(unknown))
+    parser = p.Parser(p.DIR_TO_MICRO)
+    events = parser.feed(data) + parser.flush()
+    assert parser.stats["unknown_type"] == 1
+    assert events[0].reason == "wrong direction: micro_data is a to-host message"
+
+
+def test_decoded_fields_are_in_spec_order():
+    for m in p.SPEC.serial_messages():
+        fields = p.decode_frame(p.encode_frame(m.name, p.defaults(m.name), strict=False))[1]
+        assert list(fields) == [f.name for f in m.fields], m.name
+        assert list(fields)[0] == "time_tag"
+    for m in p.SPEC.rcomm_messages():
+        assert list(p.from_bytes(m.name, p.to_bytes(m.name))) == [f.name for f in m.fields], m.name
+
+
 def _random_fields(rng, name):
     from navkit.spec import TYPES
     out = {}

@@ -49,6 +49,8 @@ _LEN_WORD = SPEC.framing["length_word"]
 _HASH_WORD = SPEC.framing["hash_word"]
 _MAX_WORDS = SPEC.framing["max_frame_words"]
 _HEADER = 2 * (_LEN_WORD + 1)
+_MIN_FRAME = _HEADER + 2        # header and CRC word: shorter is a bad length (as in C)
+_DIR_TEXT = {DIR_TO_MICRO: "to-micro", DIR_TO_HOST: "to-host"}
 _CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
 _BY_ID = {m.id: m for m in SPEC.serial_messages()}
 _HASHED = {m.id for m in SPEC.serial_messages() if any(f.name == "spec_hash" for f in m.fields)}
@@ -140,13 +142,14 @@ def defaults(name: str) -> dict:
 
 def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
     """All field values of the message: `fields` checked (type range, and with strict
-    the spec range), the rest 0."""
+    the spec range), the rest 0. An array element is named with its index:
+    `micro_cfg_io.servo_center[2]: 400 is outside 500..2500`."""
     m = lay.message
     full = dict(lay.zero)
     for k, v in fields.items():
         lim = lay.limits.get(k)
         if lim is None:
-            raise ProtocolError(f"{m.name}: unknown field {k!r}", k)
+            raise ProtocolError(f"{m.name}: unknown field {k!r} (fields: {', '.join(lay.limits)})", k)
         count, fmin, fmax, tmin, tmax = lim
         lo, hi = (fmin, fmax) if strict else (tmin, tmax)
         if count > 1:
@@ -155,11 +158,12 @@ def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
             elems = v
         else:
             elems = (v,)
-        for e in elems:
-            if e.__class__ is not int:
-                raise ProtocolError(f"{m.name}.{k}: {e!r} is not an integer", k)
-            if not lo <= e <= hi:
-                raise ProtocolError(f"{m.name}.{k}: {e} is outside {lo}..{hi}", k)
+        for i, e in enumerate(elems):
+            if e.__class__ is not int or not lo <= e <= hi:
+                where = f"{m.name}.{k}[{i}]" if count > 1 else f"{m.name}.{k}"
+                if e.__class__ is not int:
+                    raise ProtocolError(f"{where}: {e!r} is not an integer", k)
+                raise ProtocolError(f"{where}: {e} is outside {lo}..{hi}", k)
         full[k] = v
     if strict:
         for k in lay.zero_bad:
@@ -226,25 +230,36 @@ def foreign_frame(name: str, words: int, spec_hash: int, time_tag: int = 0) -> b
     return bytes(body) + struct.pack("<H", crc16(body))
 
 
+def _wrong_direction(m: Message) -> str:
+    """The reason for a frame of a known type that goes the other way (counted as
+    unknown type, as in C)."""
+    return f"wrong direction: {m.name} is a {_DIR_TEXT[m.direction]} message"
+
+
 def _frame_reason(frame: bytes, direction: str | None) -> tuple[str | None, Message | None]:
-    if len(frame) < _HEADER or struct.unpack_from("<H", frame)[0] != _START:
+    """Why one whole frame is refused (None if it is good), the order of the C
+    navkit_frame_check(): length, start word, type, length word, CRC."""
+    if len(frame) < _MIN_FRAME:
+        return f"{ERR_LENGTH}: {len(frame)} byte(s), a frame has at least {_MIN_FRAME}", None
+    if struct.unpack_from("<H", frame)[0] != _START:
         return "no start word", None
     msg_type, words = struct.unpack_from("<HH", frame, 4)
     m = _BY_ID.get(msg_type)
-    if m is None or (direction is not None and m.direction != direction):
-        return ERR_TYPE, None
+    if m is None:
+        return f"{ERR_TYPE} {msg_type}", None
+    if direction is not None and m.direction != direction:
+        return _wrong_direction(m), None
     if words != m.words or len(frame) != m.size:
-        return ERR_LENGTH, m
+        return (f"{ERR_LENGTH}: {m.name} has {m.words} words ({m.size} bytes); length word {words}, "
+                f"{len(frame)} bytes"), m
     if struct.unpack_from("<H", frame, m.size - 2)[0] != crc16(frame[:-2]):
         return ERR_CRC, m
     return None, m
 
 
 def _unpack(lay: _Layout, data: bytes) -> dict:
-    out = {}
-    for f in lay.message.fields:
-        if f.count > 1:
-            out[f.name] = [0] * f.count
+    """Field values in spec order (arrays as lists)."""
+    out = {f.name: [0] * f.count if f.count > 1 else 0 for f in lay.message.fields}
     for (name, idx), v in zip(lay.slots, lay.struct.unpack_from(data)):
         if name[0] == "#":
             continue
@@ -381,7 +396,7 @@ class Parser:
             m = _BY_ID.get(msg_type)
             if m is None or (self.direction is not None and m.direction != self.direction):
                 self.stats["unknown_type"] += 1
-                self._drop(1, ERR_TYPE, events)
+                self._drop(1, ERR_TYPE if m is None else _wrong_direction(m), events)
                 continue
             if words != m.words:
                 # contract 5: maybe a whole frame of another spec version
