@@ -9,20 +9,46 @@ cd "$(dirname "$0")/.."
 debs=(
   build-essential cmake ninja-build pkg-config
   libgtest-dev libinih-dev
-  clang libclang-rt-14-dev libfuzzer-14-dev
-  gcc-avr avr-libc binutils-avr avrdude simavr
+  clang
+  gcc-avr avr-libc binutils-avr simavr
   python3-venv libatomic1
 )
 
+# The major version N of the clang that Debian's `clang` package brings (it depends on
+# clang-N): the installed one, else the one apt would install; empty if apt cannot tell.
+clang_major() {
+  { dpkg-query -W -f='${Depends}' clang 2>/dev/null || apt-cache depends clang 2>/dev/null; } |
+    grep -o 'clang-[0-9]\+' | head -n 1 | cut -d- -f2 || true
+}
+
 missing=()
+need() {
+  dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q 'install ok installed' || missing+=("$1")
+}
 for p in "${debs[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+  need "$p"
 done
+root=$([[ $(id -u) -eq 0 ]] && echo 1 || echo 0)
+updated=0
+llvm=$(clang_major)
+if [[ -z $llvm && $root -eq 1 ]]; then
+  apt-get update -qq
+  updated=1
+  llvm=$(clang_major)
+fi
+if [[ -z $llvm ]]; then
+  echo "setup: cannot tell which clang apt installs ('apt-cache depends clang' names no clang-N):" \
+       "run as root, or install clang with its libclang-rt-N-dev and libfuzzer-N-dev" >&2
+  exit 1
+fi
+# libFuzzer and the sanitizer runtimes of that clang (the fuzz preset builds with `clang`)
+need "libclang-rt-$llvm-dev"
+need "libfuzzer-$llvm-dev"
 if ((${#missing[@]})); then
-  if [[ $(id -u) -eq 0 ]]; then
+  if [[ $root -eq 1 ]]; then
     echo "setup: installing Debian packages: ${missing[*]}"
     export DEBIAN_FRONTEND=noninteractive
-    apt-get update -qq
+    ((updated)) || apt-get update -qq
     apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
   else
     echo "setup: missing Debian packages (run as root, or install them): ${missing[*]}" >&2
