@@ -14,6 +14,7 @@ folder (`cmake --build <build> --target navkit_proto_shim`).
 
 from __future__ import annotations
 
+import argparse
 import ctypes
 import random
 import sys
@@ -147,10 +148,32 @@ def check_case(rng: random.Random) -> str | None:
     return None
 
 
+def _count(text: str) -> int:
+    try:
+        n = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 case, not {n}")
+    return n
+
+
+def _seconds(text: str) -> float:
+    try:
+        s = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 < s < float("inf"):    # also refuses nan
+        raise argparse.ArgumentTypeError(f"must be a positive, finite time in s, not {text}")
+    return s
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=1, help="random seed (default %(default)s)")
-    parser.add_argument("--count", type=int, default=2000, help="cases to run (default %(default)s)")
-    parser.add_argument("--seconds", type=float, help="run for this long instead of --count")
+    runs = parser.add_mutually_exclusive_group()
+    runs.add_argument("--count", type=_count, default=2000,
+                      help="cases to run, >= 1 (default %(default)s)")
+    runs.add_argument("--seconds", type=_seconds, help="run for this long (s, > 0) instead of --count")
 
 
 def run(args) -> int:

@@ -5,10 +5,13 @@
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include "navkit/navkit_proto.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+
+#define BENCH_MAX_FRAMES 1000000000L /* frames per measurement at most (~a minute each) */
 
 static double now_s(void)
 {
@@ -31,7 +34,13 @@ int main(int argc, char **argv)
     navkit_parser_t p;
     double t0;
     if (argc == 3 && strcmp(argv[1], "--frames") == 0) {
-        n = strtol(argv[2], NULL, 0);
+        char *end;
+        errno = 0;
+        n = strtol(argv[2], &end, 0);
+        if (argv[2][0] == '\0' || *end != '\0' || errno == ERANGE || n < 1 || n > BENCH_MAX_FRAMES) {
+            fprintf(stderr, "%s: --frames: '%s' is not an integer in 1..%ld\n", argv[0], argv[2], BENCH_MAX_FRAMES);
+            return 2;
+        }
     } else if (argc != 1) {
         fprintf(stderr, "usage: %s [--frames N]\n", argv[0]);
         return 2;

@@ -17,6 +17,7 @@
  */
 #include "navkit/navkit_proto.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -275,16 +276,39 @@ static void check_rcomm(uint64_t *s)
     RCOMM_ROUND_TRIP(emotion, EMOTION);
 }
 
+/* An unsigned integer option value (decimal, 0x hex or 0 octal), the whole text, within
+ * lo..hi; else a message naming the option and the value, and 0. */
+static int props_arg(const char *prog, const char *opt, const char *text, unsigned long long lo,
+                     unsigned long long hi, unsigned long long *out)
+{
+    char *end;
+    errno = 0;
+    *out = strtoull(text, &end, 0);
+    if (text[0] == '\0' || *end != '\0' || strchr(text, '-') != NULL || errno == ERANGE || *out < lo ||
+        *out > hi) {
+        fprintf(stderr, "%s: %s: '%s' is not an integer in %llu..%llu\n", prog, opt, text, lo, hi);
+        return 0;
+    }
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     uint64_t seed = 1, s;
     long count = 1000, i;
+    unsigned long long v;
     int a;
     for (a = 1; a + 1 < argc; a += 2) {
         if (strcmp(argv[a], "--seed") == 0) {
-            seed = strtoull(argv[a + 1], NULL, 0);
+            if (!props_arg(argv[0], "--seed", argv[a + 1], 0u, UINT64_MAX, &v)) {
+                return 2;
+            }
+            seed = (uint64_t)v;
         } else if (strcmp(argv[a], "--count") == 0) {
-            count = strtol(argv[a + 1], NULL, 0);
+            if (!props_arg(argv[0], "--count", argv[a + 1], 1u, 1000000000u, &v)) {
+                return 2;
+            }
+            count = (long)v;
         } else {
             fprintf(stderr, "usage: %s [--seed S] [--count N]\n", argv[0]);
             return 2;
