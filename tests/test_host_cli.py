@@ -220,7 +220,7 @@ def test_status_line_is_drawn_in_place_on_a_terminal(host_factory):
                 screen += os.read(master, 65536)
         for k in range(3):
             tick(k)
-        assert b"\r\x1b[Kframe 2  micro offline  owner none" in screen, screen
+        assert b"\r\x1b[Kframe 2  micro offline unconfigured  owner none" in screen, screen
         assert b"status:" not in screen, "not the pipe form"
         os.write(master, b"Q")                        # no Enter: raw mode
         tick(3)

@@ -33,6 +33,22 @@ def test_config_download_at_start_then_one_command_per_frame(host_factory):
     assert tags == {cmd["time_tag"]}, "a repeated message keeps its time tag"
 
 
+def test_restarted_host_downloads_its_config_to_a_configured_micro(host_factory):
+    """A host restart without a micro reset: the micro still says configured (another
+    host's config), and still gets all three of ours before the first command."""
+    h = host_factory(ini={"NavAndControl.ini": {"wheel_diameter": 12000, "wheel_kp": 500,
+                                                "servo_max": 800}})
+    m = Micro()
+    m.cfg.update(CONFIGS)
+    sent = h.configure(m)
+    assert [n for n, _ in sent] == CONFIGS + ["micro_cmd"], "the whole config, then the command"
+    got = dict(sent[:3])
+    assert got["micro_cfg_geometry"]["wheel_diameter"] == 12000
+    assert got["micro_cfg_motion"]["wheel_kp"] == 500
+    assert got["micro_cfg_io"]["servo_max"] == [800] * 8
+    assert h.client.read_data()["host_status"] & 2, "micro_configured once ours is in force"
+
+
 def test_config_values_come_from_the_ini(host_factory):
     h, m = host_factory(ini={"NavAndControl.ini": {"wheel_diameter": 12000}}), Micro()
     geo = dict(h.configure(m)[:3])["micro_cfg_geometry"]
@@ -133,9 +149,9 @@ def test_port_vanishes_and_returns(host_factory):
     assert msgs == [] and flags & 2
     assert h.client.read_data()["host_status"] & (1 << 6), "port_lost"
     h.plug()
-    msgs, flags = h.step(m)
-    assert flags == 0 and len(msgs) == 1, "reopened when the path returned"
-    assert msgs[0][1]["time_tag"] == cmd["time_tag"], "the micro kept its config: the command repeats"
+    again = h.configure(m)
+    assert [n for n, _ in again] == CONFIGS + ["micro_cmd"], "reopened: our config goes again"
+    assert again[-1][1]["time_tag"] == cmd["time_tag"], "the micro kept its tags: the command repeats"
     out = h.output()
     assert "lost" in out and out.count("open (") >= 2
 

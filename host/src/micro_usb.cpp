@@ -269,6 +269,9 @@ void MicroUsb::open_port()
     }
     last_open_error_.clear();
     reset_parser();  // bytes of the old connection are gone
+    // whatever the micro on the other end reports, it may hold another config (a host
+    // restarted without a micro reset, another micro plugged in): download ours whole
+    config_again();
     con_.print("micro port %s open (%s, raw)", port_.path().c_str(), SerialPort::line_settings(cfg_).c_str());
     const std::string lt = SerialPort::latency_timer_path(port_.path(), port_.roots());
     if (!lt.empty() && cfg_.latency_timer_ms > 0) {
@@ -282,6 +285,13 @@ void MicroUsb::open_port()
                        now.c_str(), cfg_.latency_timer_ms, lt.c_str());
         }
     }
+}
+
+void MicroUsb::config_again()
+{
+    taken_ = false;
+    round_done_ = false;
+    round_next_ = 0;
 }
 
 void MicroUsb::port_lost(const char *why)
@@ -422,11 +432,17 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
         // it again, so it is replaced by a stop (the seed's Navigation Init command)
         con_.print("micro reset (reports unconfigured): downloading the config again");
         queue_command(stop_command(last_.dio_command), true);
-    }
-    if (conf && !configured_) {
-        con_.print("micro configured (firmware %u.%u)", d.fw_version >> 8, d.fw_version & 0xFFu);
+        config_again();
     }
     configured_ = conf;
+    if (!conf) {
+        taken_ = false;  // (a round in progress goes on)
+    } else if (round_done_ && !taken_) {
+        // configured, and this micro_data came after our three config messages went out
+        con_.print("micro configured (firmware %u.%u)", d.fw_version >> 8, d.fw_version & 0xFFu);
+        taken_ = true;
+        round_next_ = 0;  // a second round, begun while waiting for this, is not finished
+    }
 }
 
 bool MicroUsb::online(int64_t now_us) const
@@ -477,18 +493,11 @@ void MicroUsb::send()
         return;
     }
     if (needs_config()) {
-        // the config messages in order, skipping those the micro reports as received
-        static const uint16_t ok_bits[3] = {NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK, NAVKIT_MICRO_STATUS_CFG_MOTION_OK,
-                                            NAVKIT_MICRO_STATUS_CFG_IO_OK};
-        int pick = next_cfg_;
-        for (int i = 0; i < 3; i++) {
-            const int c = (next_cfg_ + i) % 3;
-            if (!have_data_ || mismatch_ || !(status_ & ok_bits[c])) {
-                pick = c;
-                break;
-            }
-        }
-        next_cfg_ = (pick + 1) % 3;
+        // the three config messages in order, one per frame, whatever the micro's cfg_*_ok
+        // bits say (they may be another host's config), round after round until a
+        // micro_data after a whole round says configured
+        const int pick = round_next_;
+        round_next_ = (round_next_ + 1) % 3;
         const uint16_t tag = ++cfg_tag_;
         if (pick == 0) {
             navkit_micro_cfg_geometry_t m = cfg_.geometry;
@@ -503,6 +512,7 @@ void MicroUsb::send()
             navkit_micro_cfg_io_t m = cfg_.io;
             m.time_tag = tag;
             n = navkit_micro_cfg_io_encode(&m, buf, sizeof buf);
+            round_done_ = true;
         }
     } else {
         n = navkit_micro_cmd_encode(&last_, buf, sizeof buf);
@@ -540,6 +550,7 @@ void MicroUsb::note_foreign_hash(uint32_t hash)
     mismatch_ = true;
     mismatch_hash_ = hash;
     configured_ = false;  // whatever it said: our config was never taken
+    config_again();
 }
 
 LinkCounters MicroUsb::counters() const

@@ -185,7 +185,8 @@ void RobotMain(Robot &r)
         r.have_data = true;
         r.sensors.update(r.data);
     }
-    // 3. an unconfigured micro gets config messages: MicroUsb::send() picks them
+    // 3. until our config is in force (start-up, port reopen, micro reset) the micro gets
+    // config messages: MicroUsb::send() picks them
     // 4. read the planner's command
     PlannerInput pin;
     pin.have = r.comm.read_lisp_cmd(&r.lisp_cmd);
@@ -295,7 +296,7 @@ void RobotMain(Robot &r)
                   "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
                   "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
                   r.frames, online ? "online" : "offline",
-                  r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : ""),
+                  r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : " unconfigured"),
                   owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance),
                   d.heading / 10.0, static_cast<unsigned long long>(lc.bad_crc),
                   static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),

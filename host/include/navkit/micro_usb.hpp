@@ -1,8 +1,9 @@
 // MicroUsb: the seed's MicroUSB class. Finds the FTDI serial port (or uses a given
 // path), sets it raw and non-blocking, receives micro_data (only the newest whole frame
-// of those waiting is used), and sends exactly one message per frame: a config message
-// while the micro is unconfigured, else the command (new, or the last one repeated with
-// its time tag). A micro built from another spec is refused: it never gets a command,
+// of those waiting is used), and sends exactly one message per frame: the config (all
+// three messages, one per frame) at start-up, after every port reopen and whenever the
+// micro reports unconfigured, until a micro_data after a whole round says configured;
+// else the command (new, or the last one repeated with its time tag). A micro built from another spec is refused: it never gets a command,
 // only a config probe once a second (which carries our spec hash, so such a micro
 // refuses it, while a micro reflashed with our spec takes it and answers). A vanished
 // port is reported and reopened when its path returns.
@@ -84,9 +85,11 @@ public:
 
     // The micro's state, from the data received.
     bool online(int64_t now_us) const;
-    bool configured() const { return configured_; }
+    // Our config is in force: all three config messages went out since start-up (or the
+    // last port reopen, micro reset or refusal) and a micro_data since says configured.
+    bool configured() const { return taken_; }
     bool spec_mismatch() const { return mismatch_; }
-    bool needs_config() const { return !configured_ || mismatch_; }
+    bool needs_config() const { return !taken_ || mismatch_; }
 
     // The command of this frame: new (a new time tag) or not (repeat the last one).
     void queue_command(const navkit_micro_cmd_t &cmd, bool is_new);
@@ -108,7 +111,7 @@ public:
     // The counters so far; link_errors() is their rejected() sum (lisp_data.link_errors).
     LinkCounters counters() const;
     uint32_t link_errors() const;
-    uint64_t config_downloads() const { return config_sent_; }
+    uint64_t config_downloads() const { return config_sent_; }  // rounds started
     uint64_t superseded() const { return superseded_; }
     uint64_t short_reads() const { return short_reads_; }
     uint64_t tx_errors() const { return tx_errors_; }
@@ -123,6 +126,8 @@ private:
     void note_foreign_hash(uint32_t hash);
     void write_frame(const uint8_t *buf, size_t len);
     void reset_parser();
+    // Our config is no longer known to be in force: download it again from geometry on.
+    void config_again();
 
     const MicroCfg &cfg_;
     Console &con_;
@@ -133,14 +138,16 @@ private:
     int64_t last_rx_us_ = -1;
     bool have_data_ = false;
     uint16_t status_ = 0;
-    bool configured_ = false;
+    bool configured_ = false;    // the micro's word (status bit of its last micro_data)
+    bool taken_ = false;         // our config is in force (configured())
+    bool round_done_ = false;    // all three config messages went out since config_again()
+    int round_next_ = 0;         // next config message of the round: 0 geometry, 1 motion, 2 io
     bool mismatch_ = false;
     uint32_t mismatch_hash_ = 0;
-    int next_cfg_ = 0;           // 0 geometry, 1 motion, 2 io
     uint16_t cfg_tag_ = 0;
     navkit_micro_cmd_t last_{};  // the command repeated while nothing new comes
     uint32_t tx_frame_ = 0;
-    uint64_t config_sent_ = 0;   // config downloads started (a geometry message sent)
+    uint64_t config_sent_ = 0;   // config rounds started (a geometry message sent)
     uint64_t superseded_ = 0;    // whole micro_data dropped for a newer one
     uint64_t short_reads_ = 0;   // lockstep ticks whose rx_bytes did not all arrive in 1 s
     uint64_t tx_errors_ = 0;     // frames written only in part (output buffer full)
