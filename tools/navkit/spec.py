@@ -4,7 +4,8 @@ This is the first stage of the generator (parse + validate -> model -> emitters)
 the source of the Python codec. Only the standard library is used, so CMake can run
 the generator with any Python >= 3.11.
 
-Errors name the place: `SpecError("protocol/navkit.toml:123: micro_cmd.accel: reason")`.
+Errors name the place: `SpecError` reads "protocol/navkit.toml:123: micro_cmd.accel: reason"
+and carries `path` and `line` (None when the file cannot be read).
 """
 
 from __future__ import annotations
@@ -38,13 +39,29 @@ _FRAMING_KEYS = {"doc", "start_word", "length_word", "crc", "crc_doc", "max_fram
 _FRAMING_REQUIRED = ("start_word", "length_word", "max_frame_words", "hash_word")
 _SLIP_KEYS = {"slip", "resolution"}
 _LINK_KEYS = {"doc", "word_bits", "framing"}
-_DIRECTIONS = {"host_to_micro", "micro_to_host", "planner_to_host", "host_to_planner"}
+# The directions a link carries, by its framing: a serial-framed link joins host and
+# micro, an unframed (shared-memory) link planner and host.
+_LINK_DIRECTIONS = {"serial": ("host_to_micro", "micro_to_host"),
+                    None: ("planner_to_host", "host_to_planner")}
+_DIRECTIONS = {d for ds in _LINK_DIRECTIONS.values() for d in ds}
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 _CRCS = {"CRC-16/MCRF4XX"}
 
 
 class SpecError(ValueError):
-    """A spec that cannot be used; the message starts with file:line."""
+    """A spec that cannot be used: `path`, `line` (1-based; None when the file cannot be
+    read) and the text, which reads `path:line: what: reason`."""
+
+    def __init__(self, path: Path, line: int | None, text: str):
+        super().__init__(f"{path}:{line}: {text}" if line is not None else f"{path}: {text}")
+        self.path, self.line = path, line
+
+
+def _toml_kind(v) -> str:
+    """The TOML name of a value's kind, for error texts."""
+    if isinstance(v, bool):
+        return "boolean"
+    return {int: "integer", float: "float", str: "string", list: "array", dict: "table"}.get(type(v), type(v).__name__)
 
 
 def _is_int(v) -> bool:
@@ -169,16 +186,19 @@ class _Lines:
                 return i + 1
         return 0
 
-    def message_span(self, name: str) -> tuple[int, int]:
-        """0-based [start, stop) line span of the [[message]] block named `name`."""
-        starts = [i for i, ln in enumerate(self.lines) if ln.strip() == "[[message]]"]
-        for k, s in enumerate(starts):
-            stop = starts[k + 1] if k + 1 < len(starts) else len(self.lines)
-            nxt = [i for i in range(s + 1, stop) if self.lines[i].startswith("[")]
-            stop = nxt[0] if nxt else stop
-            if self.find(rf'^\s*name\s*=\s*"{re.escape(name)}"', s, stop):
-                return s, stop
-        return 0, len(self.lines)
+    def entry_line(self, start: int, k: int, stop: int | None = None) -> int:
+        """1-based line of entry k (0-based) of the array that opens at line `start`
+        (`key = [`, one entry a line, as the spec's convention is): the k-th line after it
+        that is neither blank nor a comment; `start` if there are not that many."""
+        stop = len(self.lines) if stop is None else stop
+        n = 0
+        for i in range(start, stop):
+            text = self.lines[i].strip()
+            if text and not text.startswith("#"):
+                if n == k:
+                    return i + 1
+                n += 1
+        return start
 
     def block_span(self, header: str, k: int) -> tuple[int, int]:
         """0-based [start, stop) line span of the k-th (0-based) table `header`, e.g.
@@ -197,12 +217,12 @@ def load(path: str | Path) -> Spec:
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as e:
-        raise SpecError(f"{path}: cannot read: {e.strerror}") from None
+        raise SpecError(path, None, f"cannot read: {e.strerror}") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         m = re.search(r"line (\d+)", str(e))
-        raise SpecError(f"{path}:{m.group(1) if m else 0}: TOML syntax: {e}") from None
+        raise SpecError(path, int(m.group(1)) if m else 0, f"TOML syntax: {e}") from None
     return _Builder(path, text, data).build()
 
 
@@ -211,7 +231,7 @@ class _Builder:
         self.path, self.data, self.lines = path, data, _Lines(text)
 
     def fail(self, line: int, what: str, reason: str):
-        raise SpecError(f"{self.path}:{line}: {what}: {reason}")
+        raise SpecError(self.path, line, f"{what}: {reason}")
 
     def unknown(self, table: dict, allowed: set, what: str, span=(0, None)):
         for key in table:
@@ -220,19 +240,43 @@ class _Builder:
                     self.lines.find(rf"^\[+{re.escape(key)}\b", *span)
                 self.fail(line, what, f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
 
+    def table(self, value, line: int, what: str) -> dict:
+        """`value` if it is a TOML table, else fail naming `what`."""
+        if not isinstance(value, dict):
+            self.fail(line, what, f"must be a table, not {_toml_kind(value)} {value!r}")
+        return value
+
+    def tables(self, value, line: int, what: str) -> list:
+        """`value` if it is an array of tables, else fail (naming the first bad entry)."""
+        if not isinstance(value, list):
+            self.fail(line, what, f"must be an array of tables, not {_toml_kind(value)} {value!r}")
+        return value
+
+    def child_line(self, parent: str, name: str) -> int:
+        """Line of `[parent.name]`, or of `name = ...` under it (an inline entry)."""
+        esc = re.escape(name)
+        return (self.lines.find(rf"^\[{re.escape(parent)}\.{esc}\]")
+                or self.lines.find(rf"^\s*{esc}\s*=", max(self.lines.find(rf"^\[{re.escape(parent)}\]") - 1, 0))
+                or self.lines.find(rf"^{re.escape(parent)}\s*=") or 1)
+
     def build(self) -> Spec:
         d = self.data
         self.unknown(d, _TOP_KEYS, "spec")
-        head = d.get("spec", {})
+        head = self.table(d.get("spec", {}), self.lines.find(r"^\[?spec\b") or 1, "[spec]")
         self.unknown(head, {"name", "version", "doc"}, "[spec]")
         version = head.get("version", 1)
         if not _is_int(version) or version < 1:
             self.fail(self.lines.find(r"^version\s*=") or self.lines.find(r"^\[spec\]"), "spec.version",
                       f"must be a positive integer, not {version!r}")
-        framing = self.framing(d.get("framing", {}))
-        links = d.get("links", {})
+        for key in ("name", "doc"):
+            if not isinstance(head.get(key, ""), str):
+                self.fail(self.lines.find(rf"^{key}\s*=") or 1, f"spec.{key}", "must be a string")
+        framing = self.framing(self.table(d.get("framing", {}), self.lines.find(r"^\[?framing\b") or 1,
+                                          "[framing]"))
+        links = self.table(d.get("links", {}), self.lines.find(r"^\[?links\b") or 1, "[links]")
         for lname, link in links.items():
-            lline = self.lines.find(rf"^\[links\.{re.escape(lname)}\]")
+            lline = self.child_line("links", lname)
+            self.table(link, lline, f"links.{lname}")
             self.unknown(link, _LINK_KEYS, f"[links.{lname}]", (lline - 1 if lline else 0, None))
             if not isinstance(link.get("doc"), str) or not link["doc"]:
                 self.fail(lline, f"links.{lname}.doc", "missing (a non-empty string)")
@@ -242,31 +286,42 @@ class _Builder:
                 self.fail(self.lines.find(r"^framing\s*=", lline) or lline, f"links.{lname}.framing",
                           f"unknown framing {link['framing']!r} (known: serial; omit the key for an "
                           "unframed link)")
-        for k, slip in enumerate(d.get("seed_slip", [])):
+        slips = self.tables(d.get("seed_slip", []), self.lines.find(r"^\[*seed_slip\b") or 1, "seed_slip")
+        for k, slip in enumerate(slips):
             span = self.lines.block_span("[[seed_slip]]", k)
+            self.table(slip, span[0] + 1, f"seed_slip {k + 1}")
             self.unknown(slip, _SLIP_KEYS, f"seed_slip {k + 1}", span)
             for key in sorted(_SLIP_KEYS):
                 if not isinstance(slip.get(key), str) or not slip[key]:
                     self.fail(span[0] + 1, f"seed_slip {k + 1}.{key}", "missing (a non-empty string)")
         enums = {}
-        for kind, table in (("enum", d.get("enums", {})), ("flags", d.get("flags", {}))):
+        for kind, top in (("enum", "enums"), ("flags", "flags")):
+            table = self.table(d.get(top, {}), self.lines.find(rf"^\[?{top}\b") or 1, f"[{top}]")
             for ename, e in table.items():
-                line = self.lines.find(rf"^\[{'enums' if kind == 'enum' else 'flags'}\.{ename}\]")
+                line = self.child_line(top, ename)
+                self.table(e, line, f"{kind} {ename}")
                 self.unknown(e, _ENUM_KEYS, f"{kind} {ename}")
                 if ename in enums:
                     self.fail(line, ename, "defined twice (enums and flags share one namespace)")
-                values = e.get("values", {})
+                if not _NAME_RE.match(ename):
+                    self.fail(line, ename, f"{kind} name must be snake_case")
+                if not isinstance(e.get("doc", ""), str):
+                    self.fail(line, f"{ename}.doc", "must be a string")
+                vline = self.lines.find(r"^\s*values\s*=", line) or line
+                values = self.table(e.get("values", {}), vline, f"{ename}.values")
                 for vname, v in values.items():
-                    if not _NAME_RE.match(vname) or not isinstance(v, int):
-                        self.fail(line, f"{ename}.{vname}", "values must be snake_case = integer")
+                    if not _NAME_RE.match(vname) or not _is_int(v):
+                        self.fail(vline, f"{ename}.{vname}",
+                                  f"values must be snake_case = integer, not {_toml_kind(v)} {v!r}")
                     if kind == "flags" and not 0 <= v < 32:
-                        self.fail(line, f"{ename}.{vname}", "flag bit must be 0..31")
+                        self.fail(vline, f"{ename}.{vname}", "flag bit must be 0..31")
                 if len(set(values.values())) != len(values):
-                    self.fail(line, ename, "two names share a value")
+                    self.fail(vline, ename, "two names share a value")
                 enums[ename] = Enum(ename, kind, e.get("doc", ""), dict(values), line)
         messages, ids = {}, {}
-        for raw in d.get("message", []):
-            m = self.message(raw, links, framing, enums)
+        raws = self.tables(d.get("message", []), self.lines.find(r"^\[*message\b") or 1, "message")
+        for k, raw in enumerate(raws):
+            m = self.message(k, raw, links, framing, enums)
             if m.name in messages:
                 self.fail(m.line, m.name, "message defined twice")
             messages[m.name] = m
@@ -281,7 +336,7 @@ class _Builder:
                 self.fail(m.line, m.name, f"enum msg_type must map {m.name} = {m.id}")
         spec = Spec(self.path, head.get("name", "navkit"), version,
                     head.get("doc", ""), dict(framing), dict(links), enums, messages,
-                    list(d.get("seed_slip", [])))
+                    list(slips))
         _seal(spec)
         return spec
 
@@ -294,7 +349,8 @@ class _Builder:
         framing = tables.get("serial")
         if framing is None:
             self.fail(1, "[framing.serial]", "missing")
-        fline = self.lines.find(r"^\[framing\.serial\]")
+        fline = self.child_line("framing", "serial")
+        self.table(framing, fline, "framing.serial")
         self.unknown(framing, _FRAMING_KEYS, "[framing.serial]", (fline - 1, None))
 
         def at(key):
@@ -324,29 +380,44 @@ class _Builder:
                       f"unsupported {framing.get('crc')!r} (supported: {', '.join(sorted(_CRCS))})")
         return framing
 
-    def message(self, raw: dict, links: dict, framing: dict, enums: dict) -> Message:
-        name = raw.get("name", "?")
-        span = self.lines.message_span(name)
+    def message(self, k: int, raw, links: dict, framing: dict, enums: dict) -> Message:
+        """The k-th (0-based) [[message]]."""
+        span = self.lines.block_span("[[message]]", k)
         line = span[0] + 1
+        self.table(raw, line, f"message {k + 1}")
+        name = raw.get("name", "?")
+        if not isinstance(name, str) or not _NAME_RE.match(name):
+            self.fail(self.lines.find(r"^name\s*=", *span) or line, f"message {k + 1}.name",
+                      f"message name must be a snake_case string, not {name!r}")
         self.unknown(raw, _MESSAGE_KEYS, f"message {name}", span)
-        if not _NAME_RE.match(name):
-            self.fail(line, name, "message name must be snake_case")
+
+        def at(key):
+            return self.lines.find(rf"^{key}\s*=", *span) or line
         link = raw.get("link")
-        if link not in links:
-            self.fail(line, f"{name}.link", f"unknown link {link!r}")
-        if raw.get("direction") not in _DIRECTIONS:
-            self.fail(line, f"{name}.direction", f"must be one of {sorted(_DIRECTIONS)}")
+        if not isinstance(link, str) or link not in links:
+            self.fail(at("link"), f"{name}.link", f"unknown link {link!r} (known: {', '.join(links)})")
+        allowed = _LINK_DIRECTIONS[links[link].get("framing")]
+        direction = raw.get("direction")
+        if not isinstance(direction, str) or direction not in allowed:
+            kind = "serial-framed" if links[link].get("framing") else "unframed (shared-memory)"
+            self.fail(at("direction"), f"{name}.direction",
+                      f"{direction!r} is not a direction of link {link} ({kind}: {' or '.join(allowed)})")
+        if not isinstance(raw.get("doc", ""), str):
+            self.fail(at("doc"), f"{name}.doc", "must be a string")
         word_bits = links[link]["word_bits"]
         framed = links[link].get("framing") == "serial"
-        if framed and not isinstance(raw.get("id"), int):
-            self.fail(line, f"{name}.id", "serial messages need an integer id")
+        if framed and not _is_int(raw.get("id")):
+            self.fail(at("id"), f"{name}.id", f"serial messages need an integer id, not {raw.get('id')!r}")
+        if not framed and "id" in raw:
+            self.fail(at("id"), f"{name}.id", "only serial messages have an id (msg_type)")
         used = {}  # word -> owner
         if framed:
             used[0] = "start word"
             used[framing["length_word"]] = "length word"
         fields, seen = [], {}
-        for f in raw.get("field", []):
-            fld = self.field(name, f, span, word_bits, used, enums, seen)
+        fline = self.lines.find(r"^field\s*=", *span) or line
+        for i, f in enumerate(self.tables(raw.get("field", []), fline, f"{name}.field")):
+            fld = self.field(name, i, f, span, fline, word_bits, used, enums, seen)
             seen[fld.name] = fld.line
             fields.append(fld)
         if framed:
@@ -367,11 +438,18 @@ class _Builder:
             holes = sorted(set(range(words)) - set(used))
             if holes:
                 self.fail(line, name, f"rcomm words {holes} are not defined (rcomm messages are dense)")
-        return Message(name, link, raw["direction"], raw.get("id"), raw.get("doc", ""),
+        return Message(name, link, direction, raw.get("id"), raw.get("doc", ""),
                        tuple(fields), word_bits, words, line)
 
-    def field(self, mname, f, span, word_bits, used, enums, seen) -> Field:
+    def field(self, mname, i, f, span, fline, word_bits, used, enums, seen) -> Field:
+        """Entry i (0-based) of message mname's `field = [...]` (which starts at line fline)."""
+        if not isinstance(f, dict):
+            self.fail(self.lines.entry_line(fline, i, span[1]), f"{mname}.field {i + 1}",
+                      f"must be an inline table {{ name = ..., word = ..., ... }}, not {_toml_kind(f)} {f!r}")
         fname = f.get("name", "?")
+        if not isinstance(fname, str):
+            self.fail(self.lines.entry_line(fline, i, span[1]), f"{mname}.field {i + 1}",
+                      f"field name must be a snake_case string, not {fname!r}")
         line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', *span) or span[0] + 1
         if fname in seen:  # the second definition's line
             line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', seen[fname], span[1]) or line
@@ -382,7 +460,7 @@ class _Builder:
         if fname in seen:
             self.fail(line, what, f"field defined twice (first at line {seen[fname]})")
         ftype = f.get("type")
-        if ftype not in TYPES:
+        if not isinstance(ftype, str) or ftype not in TYPES:
             self.fail(line, what, f"type must be one of {', '.join(TYPES)}")
         size, _, tmin, tmax = TYPES[ftype]
         if word_bits == 32 and size != 4:
@@ -416,9 +494,17 @@ class _Builder:
         for key in ("enum", "flags", "special"):
             ref = f.get(key)
             if ref is not None:
-                e = enums.get(ref)
+                e = enums.get(ref) if isinstance(ref, str) else None
                 if e is None or e.kind != ("flags" if key == "flags" else "enum"):
                     self.fail(line, what, f"unknown {'enum' if key == 'special' else key} {ref!r}")
+                if key == "flags":
+                    width = size * 8
+                    for bname, bit in e.values.items():
+                        if bit >= width:
+                            self.fail(line, what, f"flag {ref}.{bname} is bit {bit}, beyond the {width} bits "
+                                                  f"of {ftype}")
+                        if fmax < tmax and 1 << bit > fmax:
+                            self.fail(line, what, f"flag {ref}.{bname} (bit {bit}, {1 << bit}) exceeds max {fmax}")
                 if key == "enum" and any(not tmin <= v <= tmax for v in e.values.values()):
                     self.fail(line, what, f"enum {ref} has values outside {ftype}")
                 if key == "special" and any(not fmin <= v <= fmax for v in e.values.values()):

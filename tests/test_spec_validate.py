@@ -1,0 +1,161 @@
+"""The spec validator (navkit.spec) on broken specs, and `navkit gen`'s option rules:
+each broken spec is a copy of protocol/navkit.toml with one edit, and the error must be
+a SpecError naming the file and the line of the edit (no other exception)."""
+
+import random
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from navkit.paths import repo_root, spec_path
+from navkit.spec import SpecError, load
+
+NAVKIT = [sys.executable, "-m", "navkit"]
+
+
+def _spec(tmp_path: Path, old: str, new: str) -> Path:
+    text = spec_path().read_text()
+    assert text.count(old) == 1, old
+    path = tmp_path / "navkit.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def _line_of(path: Path, needle: str, after: str | None = None) -> int:
+    lines = path.read_text().splitlines()
+    start = next(i for i, ln in enumerate(lines) if after in ln) if after else 0
+    return next(i for i, ln in enumerate(lines[start:], start + 1) if needle in ln)
+
+
+def _refused(path: Path, line: int, reason: str) -> SpecError:
+    with pytest.raises(SpecError) as e:
+        load(path)
+    assert str(e.value).startswith(f"{path}:{line}: "), str(e.value)
+    assert reason in str(e.value), str(e.value)
+    assert (e.value.path, e.value.line) == (path, line)
+    return e.value
+
+
+@pytest.mark.parametrize("old,new,needle,after,reason", [
+    # a TOML boolean is no integer (Python's bool is an int): not as an enum value ...
+    ("values = { none = 0, turn = 1, modify = 3, stop = 5, heading_select",
+     "values = { none = 0, turn = true, modify = 3, stop = 5, heading_select", "turn = true", None,
+     "turn_mode.turn: values must be snake_case = integer, not boolean True"),
+    # ... nor as a flag bit, nor as a message id
+    ("values = { micro_online = 0,", "values = { micro_online = false,", "micro_online = false", None,
+     "host_status.micro_online: values must be snake_case = integer, not boolean False"),
+    ("id = 4\n", "id = true\n", "id = true", None, "micro_cfg_io.id: serial messages need an integer id, not True"),
+    # a flag bit beyond the field's width (status is uint16) or above its max
+    ("hdg_hold = 12 }", "hdg_hold = 20 }", '{ name = "status", word = 7', None,
+     "micro_data.status: flag micro_status.hdg_hold is bit 20, beyond the 16 bits of uint16"),
+    ("sonar3 = 7, compass = 8, battery = 9 }", "sonar3 = 7, compass = 8, battery = 10 }",
+     '{ name = "sensor_enable"', None, "micro_cfg_io.sensor_enable: flag sensor_enable.battery (bit 10, 1024) "
+                                       "exceeds max 1023"),
+    # directions belong to links: a serial message between planner and host, an rcomm
+    # message between host and micro
+    ('direction = "micro_to_host"\nid = 17', 'direction = "planner_to_host"\nid = 17', 'direction = "planner_to_host"',
+     None, "micro_data.direction: 'planner_to_host' is not a direction of link serial (serial-framed: "
+           "host_to_micro or micro_to_host)"),
+    ('name = "lisp_data"\nlink = "rcomm"\ndirection = "host_to_planner"',
+     'name = "lisp_data"\nlink = "rcomm"\ndirection = "host_to_micro"', 'direction = "host_to_micro"', 'name = "lisp_data"',
+     "lisp_data.direction: 'host_to_micro' is not a direction of link rcomm (unframed (shared-memory): "
+     "planner_to_host or host_to_planner)"),
+    ('name = "emotion"\nlink = "rcomm"\n', 'name = "emotion"\nlink = "rcomm"\nid = 9\n', "id = 9", None,
+     "emotion.id: only serial messages have an id"),
+    # entries of `field = [...]` that are not inline tables: the entry's own line
+    ('  { name = "speed", word = 7,', '  "speed",\n  { name = "speed", word = 7,', '  "speed",', None,
+     "micro_cmd.field 5: must be an inline table { name = ..., word = ..., ... }, not string 'speed'"),
+    ('  { name = "talking", word = 7,', '  7,\n  { name = "talking", word = 7,', "  7,", 'name = "emotion"',
+     "emotion.field 8: must be an inline table"),
+    # names, types and references of the wrong kind are errors, not TypeErrors
+    ('{ name = "accel", word = 6, type = "int16", units = "mm/s^2"',
+     '{ name = 6, word = 6, type = "int16", units = "mm/s^2"', "{ name = 6,", None,
+     "micro_cmd.field 4: field name must be a snake_case string, not 6"),
+    ('{ name = "accel", word = 6, type = "int16"', '{ name = "accel", word = 6, type = ["int16"]',
+     'type = ["int16"]', None, "micro_cmd.accel: type must be one of"),
+    ('enum = "turn_mode", min = 0', 'enum = ["turn_mode"], min = 0', 'enum = ["turn_mode"]', None,
+     "lisp_cmd.turn_mode: unknown enum ['turn_mode']"),
+    ('name = "emotion"\nlink = "rcomm"', 'name = "emotion"\nlink = ["rcomm"]', 'link = ["rcomm"]', None,
+     "emotion.link: unknown link ['rcomm']"),
+    ('values = { ok = 0, not_implemented = 1, rejected = 2, planner_timeout = 3 }', 'values = [0, 1]',
+     "values = [0, 1]", None, "nav_result.values: must be a table, not array [0, 1]"),
+])
+def test_broken_spec_is_refused_at_its_line(tmp_path, old, new, needle, after, reason):
+    path = _spec(tmp_path, old, new)
+    _refused(path, _line_of(path, needle, after), reason)
+
+
+def test_a_field_list_that_is_no_array_names_its_line(tmp_path):
+    text = spec_path().read_text()
+    at = text.index("field = [", text.index('name = "emotion"'))  # the last message
+    path = tmp_path / "navkit.toml"
+    path.write_text(text[:at] + "field = 3\n")
+    _refused(path, _line_of(path, "field = 3"), "emotion.field: must be an array of tables, not integer 3")
+
+
+def test_a_non_table_top_level_entry_names_its_line(tmp_path):
+    path = _spec(tmp_path, "[flags.micro_status]", "[flags]\nbogus = 5\n\n[flags.micro_status]")
+    _refused(path, _line_of(path, "bogus = 5"), "flags bogus: must be a table, not integer 5")
+    path = _spec(tmp_path, "[[seed_slip]]\nslip = \"RC6", "seed_slip_x = 1\n[[seed_slip]]\nslip = \"RC6")
+    _refused(path, _line_of(path, "seed_slip_x"), "unknown key 'seed_slip_x'")
+
+
+def test_spec_error_of_an_unreadable_file_has_no_line(tmp_path):
+    with pytest.raises(SpecError) as e:
+        load(tmp_path / "missing.toml")
+    assert e.value.line is None and str(e.value).startswith(f"{tmp_path / 'missing.toml'}: cannot read")
+
+
+def test_toml_syntax_error_carries_its_line(tmp_path):
+    path = _spec(tmp_path, "version = 1\n", "version = = 1\n")
+    _refused(path, _line_of(path, "version = = 1"), "TOML syntax")
+
+
+def test_any_wrong_kind_of_value_is_a_spec_error(tmp_path):
+    """Seeded: 150 copies of the spec, each with one `key = value` (top-level or inside
+    an inline table) given a value of another TOML kind: each loads, or raises SpecError
+    naming a line of the file; never another exception."""
+    text = spec_path().read_text()
+    spots = [m for m in re.finditer(r"(?:^|[{,]\s*)([a-z_]+) = (\"[^\"]*\"|-?\d[\w.]*|true|false)", text, re.M)]
+    rng = random.Random(7)
+    kinds = ["true", "[1, 2]", "{ a = 1 }", '"x"', "-1", "1.5", "70000"]
+    n_lines = text.count("\n") + 1
+    refused = 0
+    for _ in range(150):
+        m = rng.choice(spots)
+        path = tmp_path / "navkit.toml"
+        path.write_text(text[:m.start(2)] + rng.choice(kinds) + text[m.end(2):])
+        try:
+            load(path)
+        except SpecError as e:
+            assert 1 <= e.line <= n_lines, str(e)
+            refused += 1
+    assert refused > 100
+
+
+def test_seed_slips_list_forever_and_dio_active():
+    slips = " ".join(s["slip"] + " " + s["resolution"] for s in load(spec_path()).seed_slips)
+    assert "200000000 " in slips and "2000000000" in slips
+    assert "DIOcommand" in slips and "dio_active (word 14)" in slips
+
+
+def test_a_broken_spec_fails_the_codec_import_with_a_spec_error(tmp_path):
+    """navkit.protocol loads the spec at import: a broken spec raises SpecError naming
+    file:line (what the CLI catches), not some other exception."""
+    tree = tmp_path / "repo"
+    shutil.copytree(repo_root() / "tools" / "navkit", tree / "tools" / "navkit",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    (tree / "protocol").mkdir()
+    spec = tree / "protocol" / "navkit.toml"
+    spec.write_text(spec_path().read_text().replace("hdg_hold = 12 }", "hdg_hold = 20 }"))
+    code = ("from navkit.spec import SpecError\ntry:\n    import navkit.protocol\n"
+            "except SpecError as e:\n    print('LINE', e.line, e)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                       env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    line = _line_of(spec, '{ name = "status", word = 7')
+    assert r.stdout.startswith(f"LINE {line} {spec}:{line}: micro_data.status: flag micro_status.hdg_hold"), r.stdout
