@@ -159,3 +159,27 @@ def test_a_broken_spec_fails_the_codec_import_with_a_spec_error(tmp_path):
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     line = _line_of(spec, '{ name = "status", word = 7')
     assert r.stdout.startswith(f"LINE {line} {spec}:{line}: micro_data.status: flag micro_status.hdg_hold"), r.stdout
+
+
+@pytest.mark.parametrize("args,only,others", [
+    (["--print-hash", "--c-out", "OUT"], "--print-hash", "--c-out"),
+    (["--print-hash", "--docs-out", "OUT/p.md"], "--print-hash", "--docs-out"),
+    (["--check-docs", "DOCS", "--c-out", "OUT"], "--check-docs", "--c-out"),
+    (["--check-docs", "DOCS", "--docs-out", "OUT/p.md", "--c-out", "OUT"], "--check-docs", "--c-out, --docs-out"),
+    (["--print-hash", "--check-docs", "DOCS"], "--print-hash", "--check-docs"),
+])
+def test_gen_refuses_options_it_would_ignore(tmp_path, args, only, others):
+    docs = repo_root() / "docs" / "protocol.md"
+    argv = [str(tmp_path / "out") + a[3:] if a.startswith("OUT") else str(docs) if a == "DOCS" else a for a in args]
+    r = subprocess.run(NAVKIT + ["gen"] + argv, capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert f"navkit gen: {only} cannot be combined with {others}:" in r.stderr
+    assert r.stdout == "" and not (tmp_path / "out").exists()
+
+
+def test_gen_options_alone_still_work():
+    r = subprocess.run(NAVKIT + ["gen", "--print-hash"], capture_output=True, text=True)
+    assert r.returncode == 0 and re.fullmatch(r"0x[0-9a-f]{8}\n", r.stdout), r.stderr
+    r = subprocess.run(NAVKIT + ["gen", "--check-docs", str(repo_root() / "docs" / "protocol.md")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr

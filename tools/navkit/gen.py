@@ -411,6 +411,17 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     import sys
     from navkit.spec import SpecError
+    # --print-hash and --check-docs each do one thing and write nothing: refuse them
+    # with each other or with an output folder instead of ignoring the rest
+    given = [opt for opt, v in (("--print-hash", args.print_hash), ("--check-docs", args.check_docs),
+                                ("--c-out", args.c_out), ("--docs-out", args.docs_out))
+             if v not in (None, False)]
+    for only, does in (("--print-hash", "prints the spec hash"), ("--check-docs", "compares FILE with the docs")):
+        if only in given and len(given) > 1:
+            others = [g for g in given if g != only]
+            print(f"navkit gen: {only} cannot be combined with {', '.join(others)}: it only {does} "
+                  "and writes nothing; give it alone", file=sys.stderr)
+            return 2
     try:
         spec = load(args.spec)
     except SpecError as e:
