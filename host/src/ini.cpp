@@ -1,9 +1,10 @@
 // Ini: NavAndControl.ini and sensors.ini, read by ini_read (ini_file.hpp) against a table
 // of each file's sections and keys; each key's setter parses and range-checks its value
-// into the Config as the key is read, and the spec's range checks of the micro's config
-// and the IR ranges run afterwards, named at the lines ini_read kept.
+// into the Config as the key is read, and the spec's range checks of the micro's config,
+// each servo's limits and the IR ranges run afterwards, named at the lines ini_read kept.
 #include "navkit/ini.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -54,6 +55,20 @@ Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::num
             return std::to_string(x) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi);
         }
         *p = static_cast<T>(x);
+        return "";
+    };
+}
+
+// A sign, +1 or -1, into *p: the spec's range is -1..1, but the micro refuses 0
+// (firmware/core/config.c config_sign_ok).
+Setter sign_key(int16_t *p)
+{
+    return [p](const std::string &v) -> std::string {
+        long x;
+        if (!parse_long(v, &x) || (x != 1 && x != -1)) {
+            return "'" + v + "' is not 1 or -1 (the micro refuses any other sign)";
+        }
+        *p = static_cast<int16_t>(x);
         return "";
     };
 }
@@ -182,10 +197,10 @@ Table nav_table(Config &c)
     navkit_micro_cfg_geometry_t &g = m.geometry;
     t["micro_cfg_geometry"] = {
         {"wheel_diameter", int_key(&g.wheel_diameter)}, {"counts_per_rev", int_key(&g.counts_per_rev)},
-        {"track_width", int_key(&g.track_width)},       {"enc_left_sign", int_key(&g.enc_left_sign)},
-        {"enc_right_sign", int_key(&g.enc_right_sign)}, {"motor_left_sign", int_key(&g.motor_left_sign)},
-        {"motor_right_sign", int_key(&g.motor_right_sign)},
-        {"gyro_lsb_per_dps", int_key(&g.gyro_lsb_per_dps)}, {"gyro_sign", int_key(&g.gyro_sign)},
+        {"track_width", int_key(&g.track_width)},       {"enc_left_sign", sign_key(&g.enc_left_sign)},
+        {"enc_right_sign", sign_key(&g.enc_right_sign)}, {"motor_left_sign", sign_key(&g.motor_left_sign)},
+        {"motor_right_sign", sign_key(&g.motor_right_sign)},
+        {"gyro_lsb_per_dps", int_key(&g.gyro_lsb_per_dps)}, {"gyro_sign", sign_key(&g.gyro_sign)},
         {"compass_weight", int_key(&g.compass_weight)}, {"control_rate", int_key(&g.control_rate)},
     };
     navkit_micro_cfg_motion_t &mo = m.motion;
@@ -291,6 +306,22 @@ void check_micro(const IniFile &ini, const Config &c)
     ini.fail(ini.line(sec, name), name + ": outside the spec's range (docs/protocol.md, " + sec + ")");
 }
 
+// What the micro refuses beyond the spec's ranges (firmware/core/config.c config_io):
+// each servo's servo_min above its servo_max, named at the later of the two keys' lines.
+void check_servo_limits(const IniFile &ini, const Config &c)
+{
+    const navkit_micro_cfg_io_t &io = c.micro.io;
+    for (int i = 0; i < 8; i++) {
+        if (io.servo_min[i] > io.servo_max[i]) {
+            const int lmin = ini.line("micro_cfg_io", "servo_min"), lmax = ini.line("micro_cfg_io", "servo_max");
+            ini.fail(std::max(lmin, lmax), std::string(lmin > lmax ? "servo_min" : "servo_max") + ": servo " +
+                                               std::to_string(i) + "'s servo_min " + std::to_string(io.servo_min[i]) +
+                                               " is above its servo_max " + std::to_string(io.servo_max[i]) +
+                                               " (the micro refuses it)");
+        }
+    }
+}
+
 // Each GP2D12's valid range must be non-empty, named at its max_mm line.
 void check_ir(const IniFile &ini, const Config &c)
 {
@@ -341,6 +372,7 @@ void Ini::load_file(const std::string &path, Config &cfg)
     });
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
+        check_servo_limits(ini, cfg);
     } else {
         check_ir(ini, cfg);
     }

@@ -185,3 +185,28 @@ TEST_F(IniFiles, FrameRateRangeIsTheCommandLines)
     write("NavAndControl.ini", "[executive]\nframe_rate_hz = 0.05\n");
     EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: frame_rate_hz: 0.05 is outside 0.1..1000");
 }
+
+TEST_F(IniFiles, SignsMustBePlusOrMinusOne)
+{
+    // the spec's range is -1..1, but the micro refuses 0 (firmware/core/config.c)
+    for (const char *key : {"enc_left_sign", "enc_right_sign", "motor_left_sign", "motor_right_sign", "gyro_sign"}) {
+        write("NavAndControl.ini", std::string("[micro_cfg_geometry]\n\n") + key + " = 0\n");
+        EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: " + key + ": '0' is not 1 or -1 (the micro refuses any other sign)");
+    }
+    write("NavAndControl.ini", "[micro_cfg_geometry]\nenc_left_sign = -1\ngyro_sign = 1\n");
+    const Config c = Ini::load(dir_);
+    EXPECT_EQ(c.micro.geometry.enc_left_sign, -1);
+    EXPECT_EQ(c.micro.geometry.gyro_sign, 1);
+}
+
+TEST_F(IniFiles, ServoMinAboveServoMaxIsRefused)
+{
+    write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = 1000\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: servo_min: servo 0's servo_min 1000 is above its servo_max 900 "
+                              "(the micro refuses it)");
+    write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = -900\n\nservo_max = 900, 900, 900, -1000, 900, 900, 900, 900\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:4: servo_max: servo 3's servo_min -900 is above its servo_max -1000 "
+                              "(the micro refuses it)");
+    write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = 100\nservo_max = 100\n");
+    EXPECT_EQ(error(), "") << "equal limits are taken";
+}
