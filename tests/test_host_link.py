@@ -49,6 +49,31 @@ def test_restarted_host_downloads_its_config_to_a_configured_micro(host_factory)
     assert h.client.read_data()["host_status"] & 2, "micro_configured once ours is in force"
 
 
+def test_a_refused_config_is_said_and_never_taken_for_configured(host_factory):
+    """A micro configured by someone else refuses our micro_cfg_io: it keeps saying
+    configured, but our config is not in force, so it is never driven; the console names
+    the refused message, warns after rounds without our config, and the status line says
+    unconfigured."""
+    h, m = host_factory(), Micro()
+    m.cfg.update(CONFIGS)
+    m.refuse.add("micro_cfg_io")
+    sent = []
+    for _ in range(30):                                     # 3 s
+        sent += h.step(m)[0]
+    names = [n for n, _ in sent]
+    assert "micro_cmd" not in names, "never driven with another config"
+    assert names[:6] == CONFIGS * 2, "a refusal sends the whole config again"
+    assert not h.client.read_data()["host_status"] & 2, "micro_configured stays off"
+    out = h.output()
+    assert "micro refused micro_cfg_io (last_reject 0x8004" in out, out
+    assert out.count("micro refused micro_cfg_io") <= 2, "said again at most every 5 s"
+    assert "micro not configured after 5 rounds of config messages (it refuses micro_cfg_io)" in out, out
+    assert "micro online unconfigured" in out, "the status line"
+    m.refuse.clear()                                        # the micro takes it now
+    again = h.configure(m)
+    assert again[-1][0] == "micro_cmd" and "micro configured" in h.output()
+
+
 def test_config_values_come_from_the_ini(host_factory):
     h, m = host_factory(ini={"NavAndControl.ini": {"wheel_diameter": 12000}}), Micro()
     geo = dict(h.configure(m)[:3])["micro_cfg_geometry"]

@@ -50,6 +50,9 @@ class Micro:
     def __init__(self, spec_hash: int = protocol.SPEC_HASH):
         self.spec_hash = spec_hash
         self.cfg: set[str] = set()
+        self.refuse: set[str] = set()   # config messages it refuses (as a field out of range)
+        self.rejected = 0               # micro_data.cmd_rejected
+        self.last_reject = 0            # micro_data.last_reject: 0x8000 | msg_type of a refused config
         self.tag = 0
         self.fields: dict = {}          # extra micro_data fields
         self.received: list = []        # (name, fields) of every frame the host sent
@@ -65,16 +68,21 @@ class Micro:
         return s | (1 if len(self.cfg) == 3 else 0)
 
     def handle(self, msgs: list) -> None:
-        """Take the host's frames; configs carrying our spec hash are accepted."""
+        """Take the host's frames; configs carrying our spec hash are accepted, but
+        those in `refuse` are counted as the firmware counts a config out of range."""
         for name, f in msgs:
             self.received.append((name, f))
-            if name in _OK_BITS and f["spec_hash"] == self.spec_hash:
+            if name in self.refuse:
+                self.rejected = (self.rejected + 1) & 0xFFFF
+                self.last_reject = 0x8000 | f["msg_type"]
+            elif name in _OK_BITS and f["spec_hash"] == self.spec_hash:
                 self.cfg.add(name)
 
     def data(self, **fields) -> bytes:
         """One micro_data frame (fields override the micro's state)."""
         self.tag = (self.tag + 1) & 0xFFFF
-        f = {"status": self.status, "spec_hash": self.spec_hash, "fw_version": 0x0100}
+        f = {"status": self.status, "spec_hash": self.spec_hash, "fw_version": 0x0100,
+             "cmd_rejected": self.rejected, "last_reject": self.last_reject}
         f.update(self.fields)
         f.update(fields)
         return protocol.encode_frame("micro_data", f, time_tag=self.tag, strict=False)

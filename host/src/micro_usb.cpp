@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <climits>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
@@ -17,6 +18,13 @@
 #include "navkit/console.hpp"
 
 namespace navkit {
+
+// micro_data.last_reject of a refused config message: this bit | its msg_type (a field
+// outside what the micro accepts; firmware/core/link.h LINK_REJECT_RANGE).
+static const uint16_t kRejectConfigRange = 0x8000u;
+// Rounds of config messages (and at least 1 s) without our config in force before the
+// console says so; said again every 5 s (frame time) while it lasts.
+static const uint64_t kConfigWarnRounds = 5;
 
 // ------------------------------------------------------------------ SerialPort
 
@@ -272,6 +280,7 @@ void MicroUsb::open_port()
     // whatever the micro on the other end reports, it may hold another config (a host
     // restarted without a micro reset, another micro plugged in): download ours whole
     config_again();
+    rejected_seen_ = 0;  // its refusals so far are news (ours may be among them)
     con_.print("micro port %s open (%s, raw)", port_.path().c_str(), SerialPort::line_settings(cfg_).c_str());
     const std::string lt = SerialPort::latency_timer_path(port_.path(), port_.roots());
     if (!lt.empty() && cfg_.latency_timer_ms > 0) {
@@ -426,6 +435,7 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
         // as after a reset: the last command is not run again by a new micro
         queue_command(stop_command(last_.dio_command), true);
     }
+    note_rejects(d);
     const bool conf = (d.status & NAVKIT_MICRO_STATUS_CONFIGURED) != 0;
     if (!conf && configured_) {
         // a reset micro has forgotten the time tags: repeating the last command would run
@@ -442,7 +452,65 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
         con_.print("micro configured (firmware %u.%u)", d.fw_version >> 8, d.fw_version & 0xFFu);
         taken_ = true;
         round_next_ = 0;  // a second round, begun while waiting for this, is not finished
+        rounds_waiting_ = 0;
+        refused_type_ = 0;
+        last_rounds_warn_us_ = -1;
     }
+}
+
+static const char *config_name(uint16_t msg_type)
+{
+    switch (msg_type) {
+    case NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY: return "micro_cfg_geometry";
+    case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION: return "micro_cfg_motion";
+    case NAVKIT_MSG_TYPE_MICRO_CFG_IO: return "micro_cfg_io";
+    default: return nullptr;
+    }
+}
+
+void MicroUsb::note_rejects(const navkit_micro_data_t &d)
+{
+    if (d.cmd_rejected == rejected_seen_) {
+        return;
+    }
+    rejected_seen_ = d.cmd_rejected;
+    const uint16_t type = static_cast<uint16_t>(d.last_reject & ~kRejectConfigRange);
+    const char *name = config_name(type);
+    if (!(d.last_reject & kRejectConfigRange) || !name) {
+        return;  // a refused micro_cmd: Navigation's business, not the config's
+    }
+    // said at once for a message it did not refuse last, else at most every 5 s
+    if (type != refused_type_ || last_refusal_report_us_ < 0 || now_us_ - last_refusal_report_us_ >= 5000000) {
+        con_.print("micro refused %s (last_reject 0x%04X: a field outside what it accepts, "
+                   "firmware/core/config.c): check [%s] in NavAndControl.ini; sending the config again",
+                   name, static_cast<unsigned>(d.last_reject), name);
+        last_refusal_report_us_ = now_us_;
+    }
+    refused_type_ = type;
+    // an already configured micro keeps saying configured: ours is not in force
+    config_again();
+}
+
+void MicroUsb::warn_config_rounds()
+{
+    if (rounds_waiting_ == 1) {
+        waiting_since_us_ = now_us_;
+    }
+    if (rounds_waiting_ < kConfigWarnRounds || now_us_ - waiting_since_us_ < 1000000 ||
+        (last_rounds_warn_us_ >= 0 && now_us_ - last_rounds_warn_us_ < 5000000)) {
+        return;
+    }
+    last_rounds_warn_us_ = now_us_;
+    char why[96];
+    if (!online(now_us_)) {
+        std::snprintf(why, sizeof why, "no micro_data from it for 1 s");
+    } else if (refused_type_) {
+        std::snprintf(why, sizeof why, "it refuses %s", config_name(refused_type_));
+    } else {
+        std::snprintf(why, sizeof why, "it reports status 0x%04X", static_cast<unsigned>(status_));
+    }
+    con_.print("micro not configured after %llu rounds of config messages (%s): not driving it",
+               static_cast<unsigned long long>(rounds_waiting_), why);
 }
 
 bool MicroUsb::online(int64_t now_us) const
@@ -500,6 +568,8 @@ void MicroUsb::send()
         round_next_ = (round_next_ + 1) % 3;
         const uint16_t tag = ++cfg_tag_;
         if (pick == 0) {
+            rounds_waiting_++;
+            warn_config_rounds();
             navkit_micro_cfg_geometry_t m = cfg_.geometry;
             m.time_tag = tag;
             n = navkit_micro_cfg_geometry_encode(&m, buf, sizeof buf);

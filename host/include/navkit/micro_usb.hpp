@@ -128,6 +128,12 @@ private:
     void reset_parser();
     // Our config is no longer known to be in force: download it again from geometry on.
     void config_again();
+    // micro_data.cmd_rejected moved: a refused config message is said, and the config
+    // goes again.
+    void note_rejects(const navkit_micro_data_t &d);
+    // Says that our config is not in force after kConfigWarnRounds rounds and 1 s, then
+    // every 5 s (frame time) while it lasts.
+    void warn_config_rounds();
 
     const MicroCfg &cfg_;
     Console &con_;
@@ -142,6 +148,12 @@ private:
     bool taken_ = false;         // our config is in force (configured())
     bool round_done_ = false;    // all three config messages went out since config_again()
     int round_next_ = 0;         // next config message of the round: 0 geometry, 1 motion, 2 io
+    uint64_t rounds_waiting_ = 0;    // rounds started since our config was last in force
+    int64_t waiting_since_us_ = 0;   // frame time of the first of them
+    int64_t last_rounds_warn_us_ = -1;
+    uint16_t rejected_seen_ = 0;     // micro_data.cmd_rejected already looked at
+    uint16_t refused_type_ = 0;      // msg_type of the last config the micro refused, 0 = none
+    int64_t last_refusal_report_us_ = -1;
     bool mismatch_ = false;
     uint32_t mismatch_hash_ = 0;
     uint16_t cfg_tag_ = 0;
