@@ -3,7 +3,8 @@ lockstep mode: config download at start and after a micro reset, one message per
 repeats keep their time tag, only the newest micro_data is used, garbage is survived,
 the port vanishes and returns, a micro of another spec is refused, planner commands
 reach the wire in the frame that reads them, a silent planner stops the robot, DIO
-masks, console teleop only while the planner is quiet, the battery safety stop."""
+masks, console teleop only while the planner is quiet (but its stop key always wins),
+the battery safety stop, a refused config."""
 
 import os
 import signal
@@ -283,6 +284,32 @@ def test_console_teleop_only_while_the_planner_is_quiet(host_factory):
     h.proc.stdin.flush()
     c = h.step(m)[0][0][1]
     assert c["turn_cmd"] == 1 and c["turn_distance"] < 0, "1 s after the planner's last command"
+
+
+def test_console_stop_key_wins_over_a_driving_planner(host_factory):
+    h, m = host_factory(), Micro()
+    h.configure(m)
+    h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
+    go = h.step(m)[0][0][1]
+    assert go["fwd_cmd"] == 1
+    h.proc.stdin.write(b" ")
+    h.proc.stdin.flush()
+    stop = h.step(m)[0][0][1]
+    assert (stop["fwd_cmd"], stop["turn_cmd"]) == (5, 5) and stop["time_tag"] != go["time_tag"], \
+        "space stops the robot while the planner drives"
+    h.client.heartbeat()
+    assert h.step(m)[0][0][1] == stop, "the planner's old command is not run again"
+    h.proc.stdin.write(b"w")
+    h.proc.stdin.flush()
+    assert h.step(m)[0][0][1] == stop, "other teleop keys: the planner has priority"
+    h.proc.stdin.write(b"d")
+    h.proc.stdin.flush()
+    h.step(m)
+    out = h.output()
+    assert out.count("key ignored: planner has priority") == 1, "said once, at most once a second"
+    h.client.write_cmd({"time_tag": 2, "fwd_cmd": 1, "speed": 100, "distance": 100})
+    c = h.step(m)[0][0][1]
+    assert c["fwd_cmd"] == 1 and c["speed"] == 100, "the planner's next new command is obeyed"
 
 
 def test_safety_stop_on_low_battery(host_factory):

@@ -70,10 +70,23 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
 
     const bool planner_quiet = last_cmd_us_ < 0 || timed_out_ ||
                                static_cast<double>(now_us - last_cmd_us_) >= idle_s_ * 1e6;
-    if (c.teleop != Teleop::none && !safety_ && !a.planner_new && planner_quiet) {
+    if (c.teleop == Teleop::stop) {
+        // the console's stop always wins, like safety's: one stop (a planner command of
+        // this same frame is dropped); the planner is obeyed again on its next new command
+        a.planner_new = false;
         a.teleop_new = true;
-        a.teleop = c.teleop;
+        a.teleop = Teleop::stop;
         owner_ = Owner::console;
+    } else if (c.teleop != Teleop::none) {
+        if (safety_) {
+            a.teleop_ignored = TeleopIgnored::safety;
+        } else if (a.planner_new || !planner_quiet) {
+            a.teleop_ignored = TeleopIgnored::planner;
+        } else {
+            a.teleop_new = true;
+            a.teleop = c.teleop;
+            owner_ = Owner::console;
+        }
     }
 
     const uint16_t active = timed_out_ ? 0 : planner_active_;

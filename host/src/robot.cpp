@@ -109,20 +109,26 @@ static void stop_recording(Robot &r)
     }
 }
 
-// Keys typed since the last frame: the seed's R / S, Q to quit, and the teleop keys.
+// Keys typed since the last frame: the seed's R / S, Q to quit, and the teleop keys (the
+// last one counts, but a stop among them wins).
 static ConsoleInput handle_keys(Robot &r)
 {
     ConsoleInput in;
     static const char dio_keys[] = "1234567890-=";  // DIO bits 0..11
+    auto teleop = [&in](Teleop t) {
+        if (in.teleop != Teleop::stop) {
+            in.teleop = t;
+        }
+    };
     for (char k : r.console.keys()) {
         switch (k) {
         case 'R': case 'r': start_recording(r); break;
         case 'S': case 's': stop_recording(r); break;
         case 'Q': case 'q': r.quit = true; break;
-        case 'w': in.teleop = Teleop::forward; break;
-        case 'x': in.teleop = Teleop::reverse; break;
-        case 'a': in.teleop = Teleop::left; break;
-        case 'd': in.teleop = Teleop::right; break;
+        case 'w': teleop(Teleop::forward); break;
+        case 'x': teleop(Teleop::reverse); break;
+        case 'a': teleop(Teleop::left); break;
+        case 'd': teleop(Teleop::right); break;
         case ' ': in.teleop = Teleop::stop; break;
         default:
             for (int b = 0; dio_keys[b]; b++) {
@@ -210,6 +216,13 @@ void RobotMain(Robot &r)
     if (arb.safety_started) {
         r.console.print("safety stop (battery below %.2f V or IR range below %d mm)", r.cfg.safety.battery_min_v,
                         r.cfg.safety.ir_stop_mm);
+    }
+    if (arb.teleop_ignored != TeleopIgnored::no &&
+        (r.key_ignored_us < 0 || now - r.key_ignored_us >= 1000000)) {
+        // once per frame with an ignored key, at most once a second (a held key repeats)
+        r.console.print("key ignored: %s (space stops the robot at any time)",
+                        arb.teleop_ignored == TeleopIgnored::planner ? "planner has priority" : "safety stop holds");
+        r.key_ignored_us = now;
     }
     if (arb.planner_rejected) {
         r.console.print("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),

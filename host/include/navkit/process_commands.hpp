@@ -6,8 +6,11 @@
 //     passes the spec's range check goes to Navigation. A planner that stops beating
 //     its heartbeat for planner_timeout_s gets one stop sent and loses its DIO bits; its
 //     next new command is obeyed again.
-//  3. The console's teleop keys are obeyed only when the planner has sent no command for
-//     console_idle_s (or timed out, or never sent one).
+//  3. The console's stop key (space) always wins, like safety: one stop (a planner
+//     command of the same frame is dropped); the planner is obeyed again on its next new
+//     command. The other teleop keys are obeyed only when the planner has sent no
+//     command for console_idle_s (or timed out, or never sent one) and no safety
+//     condition holds; otherwise they are ignored and Arbitration says why.
 //  4. DIO, exactly as the seed says: the planner owns a bit only while the bit is set in
 //     dio_active of its current message; its level is then dio_command's bit. Every
 //     other bit takes the console's level (dio_default, toggled by keys 0-9, '-', '=').
@@ -42,6 +45,9 @@ struct SafetyInput {
 
 enum class Owner { none, planner, console };
 
+// Why a teleop key (not the stop key) of this frame was not obeyed.
+enum class TeleopIgnored { no, planner, safety };
+
 struct Arbitration {
     bool planner_new = false;        // pass arb.planner to Navigation
     navkit_lisp_cmd_t planner{};
@@ -49,6 +55,7 @@ struct Arbitration {
     int rejected_field = -1;
     bool teleop_new = false;         // pass arb.teleop to Navigation
     Teleop teleop = Teleop::none;
+    TeleopIgnored teleop_ignored = TeleopIgnored::no;  // a teleop key was ignored, and why
     bool stop = false;               // send a stop (safety started or planner timed out)
     bool timeout_started = false;    // the planner timed out in this frame
     bool safety_started = false;

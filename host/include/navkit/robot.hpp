@@ -43,6 +43,7 @@ struct Robot {
     navkit_emotion_t emotion{};     // the planner's emotion (the face's targets)
     bool quit = false;              // 'Q': this frame sends the stop and the executive ends
     Owner owner = Owner::none;      // who commanded the robot last (status line, datalog)
+    int64_t key_ignored_us = -1;    // frame time (us) of the last "key ignored" line
     uint32_t frames = 0;
 };
 

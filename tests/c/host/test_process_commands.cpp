@@ -139,3 +139,42 @@ TEST(ProcessCommands, OutOfRangeCommandIsRejectedAndChangesNothing)
     EXPECT_EQ(a.rejected_field, NAVKIT_LISP_CMD_FIELD_TURN_MODE);
     EXPECT_EQ(a.dio, 0b1);
 }
+
+TEST(ProcessCommands, ConsoleStopAlwaysWinsThenThePlannersNextNewCommand)
+{
+    ProcessCommands pc(exec_cfg(0));
+    ConsoleInput stop, fwd;
+    stop.teleop = Teleop::stop;
+    fwd.teleop = Teleop::forward;
+    EXPECT_TRUE(pc.update(planner(1), {}, {}, 0).planner_new);
+    Arbitration a = pc.update(planner(1), stop, {}, 100000);
+    EXPECT_TRUE(a.teleop_new && a.teleop == Teleop::stop) << "the stop key while the planner drives";
+    EXPECT_EQ(a.owner, Owner::console);
+    a = pc.update(planner(1), {}, {}, 200000);
+    EXPECT_FALSE(a.planner_new || a.teleop_new) << "the planner's old command is not run again";
+    a = pc.update(planner(1), fwd, {}, 300000);
+    EXPECT_FALSE(a.teleop_new) << "other keys: the planner still has priority";
+    EXPECT_EQ(a.teleop_ignored, TeleopIgnored::planner);
+    a = pc.update(planner(2), stop, {}, 400000);
+    EXPECT_TRUE(a.teleop_new && a.teleop == Teleop::stop && !a.planner_new)
+        << "a new planner command in the stop's frame is dropped";
+    a = pc.update(planner(3), {}, {}, 500000);
+    EXPECT_TRUE(a.planner_new) << "its next new command is obeyed";
+    EXPECT_EQ(a.owner, Owner::planner);
+    EXPECT_EQ(a.teleop_ignored, TeleopIgnored::no);
+}
+
+TEST(ProcessCommands, TeleopKeysIgnoredDuringSafetySayWhy)
+{
+    ProcessCommands pc(exec_cfg(0));
+    SafetyInput bad;
+    bad.stop = true;
+    ConsoleInput fwd, stop;
+    fwd.teleop = Teleop::forward;
+    stop.teleop = Teleop::stop;
+    pc.update(PlannerInput{}, {}, bad, 0);
+    Arbitration a = pc.update(PlannerInput{}, fwd, bad, 100000);
+    EXPECT_FALSE(a.teleop_new);
+    EXPECT_EQ(a.teleop_ignored, TeleopIgnored::safety);
+    EXPECT_TRUE(pc.update(PlannerInput{}, stop, bad, 200000).teleop_new) << "a stop is always taken";
+}
