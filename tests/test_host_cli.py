@@ -103,6 +103,18 @@ def test_real_time_mode_sends_config_and_stops_on_sigint(host_factory):
     assert "signal 2" in h.output()
 
 
+def test_a_key_flood_does_not_hold_the_frames(host_factory):
+    """stdin is /dev/zero (endless bytes): keys are read at most 64 bytes a frame, so
+    the 20 Hz frames go on and SIGINT ends the host cleanly."""
+    with open("/dev/zero", "rb") as zero:
+        h = host_factory(lockstep=False, args=("--rate", "20"), stdin=zero)
+        time.sleep(1.0)
+        h.proc.send_signal(signal.SIGINT)
+        assert h.proc.wait(timeout=10) == 0, h.output()
+    frames = int(h.output().split("shut down after ")[1].split(" frames")[0])
+    assert frames >= 10, f"{frames} frames in about 1 s at 20 Hz"
+
+
 @pytest.mark.parametrize("args, said", [
     (["--port", "--record"], "--port: needs a value (got the option --record)"),
     (["--clock", "lockstep"], "--clock lockstep needs --lockstep-fd N"),

@@ -92,9 +92,11 @@ class Host:
     """navkit-host in lockstep mode on a pty (reached through a symlink, so the test can
     unplug and replug it) with a unique rcomm name."""
 
-    def __init__(self, tmp: Path, ini: dict | None = None, args: tuple = (), lockstep: bool = True):
+    def __init__(self, tmp: Path, ini: dict | None = None, args: tuple = (), lockstep: bool = True,
+                 stdin=subprocess.PIPE):
         """ini: {file name: {key: value}} replacing the first `key = ...` line of the
-        shipped file."""
+        shipped file. stdin: a pipe the test writes keys to (proc.stdin), a file, or
+        "closed" (the host starts with fd 0 closed)."""
         self.tmp = Path(tmp)
         self.cfg = self.tmp / "config"
         self.cfg.mkdir()
@@ -122,8 +124,10 @@ class Host:
             self.sock, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
             cmd[1:1] = ["--clock", "lockstep", "--lockstep-fd", str(theirs.fileno())]
             fds = (theirs.fileno(),)
-        self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=self.log,
-                                     stderr=subprocess.STDOUT, pass_fds=fds)
+        closed = isinstance(stdin, str) and stdin == "closed"
+        self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL if closed else stdin, stdout=self.log,
+                                     stderr=subprocess.STDOUT, pass_fds=fds,
+                                     preexec_fn=(lambda: os.close(0)) if closed else None)
         if lockstep:
             theirs.close()
         self.client = self._attach()

@@ -1,5 +1,6 @@
 #include "navkit/console.hpp"
 
+#include <cerrno>
 #include <cstdarg>
 #include <cstring>
 #include <poll.h>
@@ -115,23 +116,31 @@ void Console::erase_block()
 
 std::string Console::keys()
 {
-    std::string out;
-    while (!in_eof_) {
-        pollfd p{in_fd_, POLLIN, 0};
-        if (poll(&p, 1, 0) <= 0 || !(p.revents & (POLLIN | POLLHUP))) {
-            break;
-        }
-        char buf[64];
-        const ssize_t n = ::read(in_fd_, buf, sizeof buf);
-        if (n > 0) {
-            out.append(buf, static_cast<size_t>(n));
-        } else if (n == 0 && !in_raw_) {
-            in_eof_ = true;  // no more keys: the executive keeps running
-        } else {
-            break;
-        }
+    // one read of at most kMaxKeyBytes per frame: a flood (a stuck key, `yes w |`,
+    // </dev/zero) cannot hold the frame; what is left waits for the next frames
+    if (in_eof_) {
+        return "";
     }
-    return out;
+    pollfd p{in_fd_, POLLIN, 0};
+    if (poll(&p, 1, 0) <= 0) {
+        return "";
+    }
+    if (p.revents & POLLNVAL) {
+        in_eof_ = true;  // not an open file: no keys
+        return "";
+    }
+    if (!(p.revents & (POLLIN | POLLHUP))) {
+        return "";
+    }
+    char buf[kMaxKeyBytes];
+    const ssize_t n = ::read(in_fd_, buf, sizeof buf);
+    if (n > 0) {
+        return std::string(buf, static_cast<size_t>(n));
+    }
+    if ((n == 0 && (!in_raw_ || (p.revents & POLLHUP))) || (n < 0 && errno != EAGAIN && errno != EINTR)) {
+        in_eof_ = true;  // no more keys (EOF, a hung-up terminal): the executive keeps running
+    }
+    return "";
 }
 
 }  // namespace navkit

@@ -1,7 +1,8 @@
 // Console: the seed's console window as a terminal. Print() scrolls status and warning
 // lines; status() keeps one status line (redrawn in place on a terminal, printed every
-// status_period_s otherwise); keys() reads the keys waiting on stdin without blocking
-// (raw mode on a terminal, a pipe or file works too; EOF just ends key input).
+// status_period_s otherwise); keys() reads the keys waiting on stdin without blocking,
+// at most 64 bytes a frame (raw mode on a terminal, a pipe or file works too; EOF just
+// ends key input).
 // set_face() keeps the face (Animation) in a fixed block of lines just above the status
 // line on a terminal; scrolling lines appear above the block.
 #pragma once
@@ -29,8 +30,10 @@ public:
     // stdout is not a terminal.
     void set_face(const std::vector<std::string> &lines);
     bool out_tty() const { return out_tty_; }  // stdout is a terminal (known after init())
-    // Keys typed since the last call (bytes), never blocks.
+    // Keys typed since the last call (bytes), at most kMaxKeyBytes of them (the rest
+    // comes with the next calls); never blocks.
     std::string keys();
+    static constexpr size_t kMaxKeyBytes = 64;
 
 private:
     void erase_block();  // terminal: cursor to the face block's first line, clear below
