@@ -111,7 +111,7 @@ def test_spec_error_of_an_unreadable_file_has_no_line(tmp_path):
 
 
 def test_toml_syntax_error_carries_its_line(tmp_path):
-    path = _spec(tmp_path, "version = 1\n", "version = = 1\n")
+    path = _spec(tmp_path, "\nversion = 1\n", "\nversion = = 1\n")
     _refused(path, _line_of(path, "version = = 1"), "TOML syntax")
 
 
@@ -183,3 +183,107 @@ def test_gen_options_alone_still_work():
     r = subprocess.run(NAVKIT + ["gen", "--check-docs", str(repo_root() / "docs" / "protocol.md")],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
+
+
+# ------------------------------------------------------------ the rcomm region in the spec
+
+@pytest.mark.parametrize("old,new,needle,reason", [
+    ("planner_heartbeat = 12,", "planner_heartbeat = 13,", "planner_heartbeat = 13",
+     "links.rcomm.header.planner_heartbeat: 13 must be a multiple of 4 in 0..60"),
+    ("planner_heartbeat = 12,", "planner_heartbeat = 64,", "planner_heartbeat = 64",
+     "links.rcomm.header.planner_heartbeat: 64 must be a multiple of 4 in 0..60"),
+    ("host_heartbeat = 16 }", "host_heartbeat = 8 }", "host_heartbeat = 8",
+     "links.rcomm.header.host_heartbeat: offset 8 is also spec_hash's"),
+    (", host_heartbeat = 16 }", " }", "header = {", "links.rcomm.header.host_heartbeat: missing"),
+    ("host_heartbeat = 16 }", "host_heartbeat = 16, pulse = 20 }", "pulse = 20",
+     "links.rcomm.header: unknown header word 'pulse'"),
+    ("slot_align = 64\n", "slot_align = 48\n", "slot_align = 48", "links.rcomm.slot_align: 48 is not a power of two"),
+    ("header_bytes = 64\n", "header_bytes = 96\n", "header_bytes = 96",
+     "links.rcomm.header_bytes: 96 is not a multiple of slot_align 64"),
+    ("slot_words_at = 4\n", "slot_words_at = 6\n", "slot_words_at = 6", "links.rcomm.slot_words_at: 6 is not a multiple of 4"),
+    ("magic = 0x43524B4E\n", "magic = true\n", "magic = true", "links.rcomm.magic: must be an integer in 1..4294967295"),
+    ("magic = 0x43524B4E\n", "", "[links.rcomm]", "links.rcomm.magic: missing"),
+    ('word_bits = 16\nframing = "serial"\n', 'word_bits = 16\nframing = "serial"\nslot_align = 64\n', "slot_align = 64",
+     "[links.serial]: unknown key 'slot_align'"),
+    ("[links.rcomm]", '[links.shm2]\ndoc = "x"\nword_bits = 32\n\n[links.rcomm]', "[links.rcomm]",
+     "links.rcomm: a second unframed link (links.shm2 is one)"),
+])
+def test_broken_rcomm_layout_is_refused_at_its_line(tmp_path, old, new, needle, reason):
+    path = _spec(tmp_path, old, new)
+    _refused(path, _line_of(path, needle), reason)
+
+
+def test_rcomm_layout_enters_the_hash_and_its_doc_does_not(tmp_path):
+    base = load(spec_path())
+    assert base.rcomm.slots == {"lisp_cmd": 64, "lisp_data": 192, "emotion": 384} and base.rcomm.size == 448
+    assert load(_spec(tmp_path, "magic = 0x43524B4E\n", "magic = 0x43524B4F\n")).hash != base.hash
+    assert load(_spec(tmp_path, "slot_words_at = 4\n", "slot_words_at = 8\n")).hash != base.hash
+    assert load(_spec(tmp_path, 'layout_doc = "The header', 'layout_doc = "Header')).hash == base.hash
+
+
+def test_generated_header_and_docs_carry_the_specs_rcomm_layout():
+    from navkit.paths import build_dir
+    r = load(spec_path()).rcomm
+    header = (build_dir() / "gen" / "navkit" / "navkit_proto.h").read_text()
+    want = {"MAGIC": f"0x{r.magic:08X}UL", "VERSION": f"{r.version}u", "HEADER_BYTES": f"{r.header_bytes}u",
+            "SLOT_ALIGN": f"{r.slot_align}u", "SLOT_WORDS_OFFSET": f"{r.slot_words_at}u", "SIZE": f"{r.size}u"}
+    want |= {f"{w.upper()}_OFFSET": f"{off}u" for w, off in (r.header | r.slots).items()}
+    got = dict(re.findall(r"^#define NAVKIT_RCOMM_(\w+) (\w+)", header, re.M))
+    assert got == want
+    docs = (repo_root() / "docs" / "protocol.md").read_text().split("## rcomm shared-memory layout")[1]
+    assert "| 0 | `magic` `0x43524B4E` ('NKRC') |" in docs and "| 12 | `planner_heartbeat` |" in docs
+    assert "| 192 | `lisp_data` slot: uint32 seqlock sequence, its words from +4 |" in docs
+
+
+def test_docs_start_word_comes_from_the_spec(tmp_path):
+    from navkit.gen import emit_docs
+    docs = emit_docs(load(_spec(tmp_path, "start_word = 0xFFA5\n", "start_word = 0xFEA5\n")))
+    assert "| 0 | *start* | uint16 | | | `0xFEA5` |" in docs and "FFA5" not in docs
+
+
+def test_python_client_follows_the_specs_rcomm_layout(tmp_path):
+    """navkit.rcomm built from a spec with another layout (magic, version, heartbeats
+    swapped, words at +8 in 128-byte slots) opens a region laid out that way, reads the
+    heartbeats and lisp_data where that spec puts them and writes lisp_cmd there."""
+    tree = tmp_path / "repo"
+    shutil.copytree(repo_root() / "tools" / "navkit", tree / "tools" / "navkit",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    (tree / "protocol").mkdir()
+    text = spec_path().read_text()
+    for old, new in (("magic = 0x43524B4E", "magic = 0x5A524B4E"), ("layout_version = 1", "layout_version = 7"),
+                     ("planner_heartbeat = 12, host_heartbeat = 16", "planner_heartbeat = 16, host_heartbeat = 12"),
+                     ("slot_align = 64", "slot_align = 128"), ("header_bytes = 64", "header_bytes = 128"),
+                     ("slot_words_at = 4", "slot_words_at = 8")):
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    (tree / "protocol" / "navkit.toml").write_text(text)
+    code = r'''
+import os, struct
+from navkit import protocol, rcomm
+r = protocol.SPEC.rcomm
+assert (r.magic, r.version, r.slots["lisp_cmd"], r.slots["lisp_data"]) == (0x5A524B4E, 7, 128, 256), r
+name = "/navkit-spec-test-%d" % os.getpid()
+region = bytearray(r.size)
+struct.pack_into("<IIIII", region, 0, r.magic, r.version, protocol.SPEC_HASH, 5, 900)  # 12: host, 16: planner
+data = protocol.to_bytes("lisp_data", {"time_tag": 42, "heading": 1234})
+struct.pack_into("<I", region, r.slots["lisp_data"], 2)
+region[r.slots["lisp_data"] + 8:r.slots["lisp_data"] + 8 + len(data)] = data
+with open("/dev/shm" + name, "wb") as f:
+    f.write(region)
+try:
+    with rcomm.Client(name) as c:
+        assert c.host_heartbeat() == 5 and c.planner_heartbeat() == 900
+        d = c.read_data()
+        assert (d["time_tag"], d["heading"]) == (42, 1234), d
+        c.write_cmd({"time_tag": 9, "fwd_cmd": 1})
+    raw = open("/dev/shm" + name, "rb").read()
+    assert struct.unpack_from("<I", raw, 16)[0] == 901            # the planner heartbeat moved to 16
+    assert struct.unpack_from("<II", raw, r.slots["lisp_cmd"]) == (2, 0)   # seq, then 4 bytes unused
+    assert struct.unpack_from("<iii", raw, r.slots["lisp_cmd"] + 8) == (9, 0, 1)
+finally:
+    os.unlink("/dev/shm" + name)
+print("OK")
+'''
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                       env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
+    assert r.returncode == 0 and r.stdout == "OK\n", r.stderr

@@ -50,7 +50,7 @@ bool Comm::seqlock_read(const uint8_t *base, size_t slot_off, uint8_t *out, size
             continue;  // a write is in progress
         }
         for (size_t i = 0; i < nbytes; i += 4) {
-            navkit_put_u32(out + i, le32(load32(base, slot_off + 4 + i, __ATOMIC_RELAXED)));
+            navkit_put_u32(out + i, le32(load32(base, slot_off + NAVKIT_RCOMM_SLOT_WORDS_OFFSET + i, __ATOMIC_RELAXED)));
         }
         __atomic_thread_fence(__ATOMIC_ACQUIRE);
         const uint32_t s2 = le32(load32(base, slot_off, __ATOMIC_RELAXED));
@@ -69,7 +69,7 @@ void Comm::seqlock_write(uint8_t *base, size_t slot_off, const uint8_t *in, size
     store32(base, slot_off, native32(s + 1), __ATOMIC_RELAXED);
     __atomic_thread_fence(__ATOMIC_RELEASE);
     for (size_t i = 0; i < nbytes; i += 4) {
-        store32(base, slot_off + 4 + i, native32(navkit_get_u32(in + i)), __ATOMIC_RELAXED);
+        store32(base, slot_off + NAVKIT_RCOMM_SLOT_WORDS_OFFSET + i, native32(navkit_get_u32(in + i)), __ATOMIC_RELAXED);
     }
     store32(base, slot_off, native32(s + 2), __ATOMIC_RELEASE);
 }

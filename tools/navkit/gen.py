@@ -21,20 +21,23 @@ from navkit.spec import TYPES, Message, Spec, load
 __all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs",
            "rcomm_layout", "write_outputs", "spec_label"]
 
-RCOMM_MAGIC = 0x43524B4E   # 'NKRC'
-RCOMM_VERSION = 1
-RCOMM_HEADER = 64          # bytes before the first slot
-RCOMM_ALIGN = 64           # each slot starts at a multiple of this
-
 
 def rcomm_layout(spec: Spec) -> tuple[dict[str, int], int]:
-    """Byte offset of each rcomm message's slot (u32 seq, then its words), and the
-    region size. Slots follow the spec's order, each 64-byte aligned."""
-    offsets, at = {}, RCOMM_HEADER
-    for m in spec.rcomm_messages():
-        offsets[m.name] = at
-        at += -(-(4 + m.size) // RCOMM_ALIGN) * RCOMM_ALIGN
-    return offsets, at
+    """Byte offset of each rcomm message's slot and the region's size in bytes, as the
+    spec's unframed link lays them out (`spec.rcomm`, from [links.rcomm])."""
+    if spec.rcomm is None:
+        return {}, 0
+    return dict(spec.rcomm.slots), spec.rcomm.size
+
+
+def __getattr__(name: str) -> int:
+    """RCOMM_MAGIC and RCOMM_VERSION of the default spec, for `navkit.protocol`'s import
+    of them (it should read SPEC.rcomm.magic and .version; then this goes)."""
+    if name in ("RCOMM_MAGIC", "RCOMM_VERSION"):
+        from navkit.paths import spec_path
+        rcomm = load(spec_path()).rcomm
+        return rcomm.magic if name == "RCOMM_MAGIC" else rcomm.version
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def spec_label(spec: Spec) -> str:
@@ -156,19 +159,22 @@ def emit_c_header(spec: Spec) -> str:
             out.append(f"/* To/from its {m.size} little-endian bytes (explicit byte code, any host order). */")
             out.append(f"void navkit_{m.name}_store(const navkit_{m.name}_t *m, uint8_t bytes[NAVKIT_{up}_BYTES]);")
             out.append(f"void navkit_{m.name}_load(const uint8_t bytes[NAVKIT_{up}_BYTES], navkit_{m.name}_t *m);\n")
-    offsets, size = rcomm_layout(spec)
-    out.append("/* rcomm shared-memory layout (docs/internals.md): header words, then one slot per\n"
-               " * message (u32 seqlock sequence, then the message's words), byte offsets. */")
-    out.append(f"#define NAVKIT_RCOMM_MAGIC 0x{RCOMM_MAGIC:08X}UL /* 'NKRC' */")
-    out.append(f"#define NAVKIT_RCOMM_VERSION {RCOMM_VERSION}u")
-    out.append("#define NAVKIT_RCOMM_MAGIC_OFFSET 0u")
-    out.append("#define NAVKIT_RCOMM_VERSION_OFFSET 4u")
-    out.append("#define NAVKIT_RCOMM_SPEC_HASH_OFFSET 8u")
-    out.append("#define NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET 12u")
-    out.append("#define NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET 16u")
-    for name, off in offsets.items():
-        out.append(f"#define NAVKIT_RCOMM_{name.upper()}_OFFSET {off}u /* seq at +0, words at +4 */")
-    out.append(f"#define NAVKIT_RCOMM_SIZE {size}u\n")
+    r = spec.rcomm
+    if r is not None:
+        out.append(f"/* rcomm shared-memory layout ([links.{r.link}]): header words, then one slot per\n"
+                   " * message (uint32 seqlock sequence, then the message's words); byte offsets. */")
+        text = f" /* '{r.magic_text}' */" if r.magic_text else ""
+        out.append(f"#define NAVKIT_RCOMM_MAGIC 0x{r.magic:08X}UL{text}")
+        out.append(f"#define NAVKIT_RCOMM_VERSION {r.version}u /* layout version */")
+        for word, off in r.header.items():
+            out.append(f"#define NAVKIT_RCOMM_{word.upper()}_OFFSET {off}u /* header word (uint32) */")
+        out.append(f"#define NAVKIT_RCOMM_HEADER_BYTES {r.header_bytes}u /* the first slot starts here */")
+        out.append(f"#define NAVKIT_RCOMM_SLOT_ALIGN {r.slot_align}u /* every slot starts at a multiple */")
+        out.append(f"#define NAVKIT_RCOMM_SLOT_WORDS_OFFSET {r.slot_words_at}u /* a slot's words, after its seq at +0 */")
+        for name, off in r.slots.items():
+            out.append(f"#define NAVKIT_RCOMM_{name.upper()}_OFFSET {off}u /* slot: seq at +0, words at "
+                       f"+{r.slot_words_at} */")
+        out.append(f"#define NAVKIT_RCOMM_SIZE {r.size}u\n")
     out.append("#ifdef __cplusplus\n}\n#endif\n#endif /* NAVKIT_PROTO_H */\n")
     return "\n".join(out)
 
@@ -334,7 +340,7 @@ def emit_docs(spec: Spec) -> str:
         out.append("| --- | --- | --- | --- | --- | --- |")
         rows = []
         if m.framed:
-            rows.append((0, "| 0 | *start* | uint16 | | | `0xFFA5` |"))
+            rows.append((0, f"| 0 | *start* | uint16 | | | `0x{fr['start_word']:04X}` |"))
             rows.append((fr["length_word"], f"| {fr['length_word']} | *length* | uint16 | words | | {m.words} |"))
             rows.append((m.words - 1, f"| {m.words - 1} | *crc* | uint16 | | | {fr['crc']} of words 0..{m.words - 2} |"))
             taken = {0, fr["length_word"], m.words - 1}
@@ -365,13 +371,17 @@ def emit_docs(spec: Spec) -> str:
         out.append("| name | " + ("value" if e.kind == "enum" else "bit") + " |\n| --- | --- |")
         out += [f"| `{k}` | {v} |" for k, v in e.values.items()]
         out.append("")
-    offsets, size = rcomm_layout(spec)
-    out.append("## rcomm shared-memory layout\n")
-    out.append("| byte offset | what |\n| --- | --- |")
-    out += ["| 0 | magic `0x43524B4E` ('NKRC') |", "| 4 | layout version |", "| 8 | spec hash |",
-            "| 12 | planner heartbeat |", "| 16 | host heartbeat |"]
-    out += [f"| {off} | `{n}` slot: u32 seqlock sequence, then its words |" for n, off in offsets.items()]
-    out += [f"| {size} | end |", ""]
+    r = spec.rcomm
+    if r is not None:
+        out.append(f"## {r.link} shared-memory layout\n")
+        out.append(f"{r.doc}\n")
+        out.append("| byte offset | what |\n| --- | --- |")
+        values = {"magic": f" `0x{r.magic:08X}`" + (f" ('{r.magic_text}')" if r.magic_text else ""),
+                  "version": f" {r.version} (layout version)"}
+        out += [f"| {off} | `{word}`{values.get(word, '')} |" for word, off in sorted(r.header.items(), key=lambda x: x[1])]
+        out += [f"| {off} | `{n}` slot: uint32 seqlock sequence, its words from +{r.slot_words_at} |"
+                for n, off in r.slots.items()]
+        out += [f"| {r.size} | end (slots start at multiples of {r.slot_align}, the first at {r.header_bytes}) |", ""]
     out.append("## How the seed's slips were resolved\n")
     out.append("| seed (rev 8/18/05) | navkit |\n| --- | --- |")
     out += [f"| {s['slip']} | {s['resolution']} |" for s in spec.seed_slips]

@@ -1,5 +1,5 @@
 """`navkit.rcomm`: the planner's end of the host's rcomm shared memory (the seed's
-RComm.dll), laid out as docs/internals.md says.
+RComm.dll), laid out as protocol/navkit.toml [links.rcomm] says (docs/protocol.md).
 
     >>> with Client("/navkit") as c:                     # doctest: +SKIP
     ...     c.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 1000})
@@ -48,9 +48,11 @@ from navkit import protocol
 
 __all__ = ["Client", "RcommError", "owner_refusal"]
 
-_MAGIC, _VERSION, _SPEC = 0, 4, 8   # byte offsets of the header words
-_PLANNER_HEARTBEAT = 12
-_HOST_HEARTBEAT = 16
+_LAYOUT = protocol.SPEC.rcomm      # the region as the spec lays it out ([links.rcomm]), bytes
+_MAGIC, _VERSION, _SPEC = (_LAYOUT.header[w] for w in ("magic", "version", "spec_hash"))
+_PLANNER_HEARTBEAT = _LAYOUT.header["planner_heartbeat"]
+_HOST_HEARTBEAT = _LAYOUT.header["host_heartbeat"]
+_WORDS_AT = _LAYOUT.slot_words_at  # a slot's words, after its seq at +0
 _RETRIES = 1000
 _LISP_DATA_SIZE = protocol.SPEC.messages["lisp_data"].size   # bytes
 _SEQ_CST = 5                        # __ATOMIC_SEQ_CST
@@ -110,24 +112,23 @@ class Client:
             why = owner_refusal(st.st_uid, st.st_gid, st.st_mode)
             if why:
                 raise RcommError(f"rcomm {name}: {why}: refused")
-            if st.st_size < protocol.RCOMM_SIZE:
-                raise RcommError(f"rcomm {name}: {st.st_size} bytes, the layout needs "
-                                 f"{protocol.RCOMM_SIZE}")
-            self._mm = mmap.mmap(fd, protocol.RCOMM_SIZE)
+            if st.st_size < _LAYOUT.size:
+                raise RcommError(f"rcomm {name}: {st.st_size} bytes, the layout needs {_LAYOUT.size}")
+            self._mm = mmap.mmap(fd, _LAYOUT.size)
         finally:
             os.close(fd)
         # the mapping's address for libatomic; released in close() before the unmap
         self._anchor = ctypes.c_char.from_buffer(self._mm)
         self._base = ctypes.addressof(self._anchor)
         magic, version, spec = (self._word(o) for o in (_MAGIC, _VERSION, _SPEC))
-        if magic != protocol.RCOMM_MAGIC or version != protocol.RCOMM_VERSION:
+        if magic != _LAYOUT.magic or version != _LAYOUT.version:
             self.close()
             raise RcommError(f"rcomm {name}: magic 0x{magic:08X} version {version}, expected "
-                             f"0x{protocol.RCOMM_MAGIC:08X} version {protocol.RCOMM_VERSION}")
+                             f"0x{_LAYOUT.magic:08X} version {_LAYOUT.version}")
         if spec != protocol.SPEC_HASH:
             self.close()
             raise RcommError(f"rcomm {name}: spec hash 0x{spec:08X}, ours 0x{protocol.SPEC_HASH:08X}")
-        self._off = protocol.RCOMM_OFFSETS
+        self._off = _LAYOUT.slots
 
     # ------------------------------------------------------------ shared words
     def _open(self) -> None:
@@ -153,7 +154,7 @@ class Client:
         seq += seq & 1                     # a writer that died mid-write left it odd
         self._set_word(off, seq + 1)
         for i, w in enumerate(words):
-            self._set_word(off + 4 + 4 * i, w)
+            self._set_word(off + _WORDS_AT + 4 * i, w)
         self._set_word(off, seq + 2)
 
     def _read(self, slot: str, size: int) -> bytes | None:
@@ -165,7 +166,7 @@ class Client:
             s1 = self._word(off)
             if s1 & 1:
                 continue
-            words = [self._word(off + 4 + 4 * i) for i in range(n)]
+            words = [self._word(off + _WORDS_AT + 4 * i) for i in range(n)]
             if self._word(off) == s1:
                 return struct.pack(f"<{n}I", *words) if s1 else None
         return None
@@ -196,7 +197,7 @@ class Client:
         self._open()
         off = self._off["lisp_data"]
         s1 = self._word(off)
-        data = self._mm[off + 4:off + 4 + _LISP_DATA_SIZE]
+        data = self._mm[off + _WORDS_AT:off + _WORDS_AT + _LISP_DATA_SIZE]
         if s1 & 1 or self._word(off) != s1:
             return self.read_data_raw()
         return data if s1 else None

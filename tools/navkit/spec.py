@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = [
-    "SpecError", "Field", "Message", "Enum", "Spec", "load", "TYPES",
+    "SpecError", "Field", "Message", "Enum", "Rcomm", "Spec", "load", "TYPES",
 ]
 
 # type name -> (size in bytes, signed, minimum, maximum)
@@ -39,6 +39,10 @@ _FRAMING_KEYS = {"doc", "start_word", "length_word", "crc", "crc_doc", "max_fram
 _FRAMING_REQUIRED = ("start_word", "length_word", "max_frame_words", "hash_word")
 _SLIP_KEYS = {"slip", "resolution"}
 _LINK_KEYS = {"doc", "word_bits", "framing"}
+# The shared-memory region of the unframed link (all required there, refused elsewhere).
+_RCOMM_KEYS = {"magic", "layout_version", "header_bytes", "header", "slot_align", "slot_words_at", "layout_doc"}
+# The header words every region has (uint32 each; the host and the clients use all five).
+_RCOMM_HEADER_WORDS = ("magic", "version", "spec_hash", "planner_heartbeat", "host_heartbeat")
 # The directions a link carries, by its framing: a serial-framed link joins host and
 # micro, an unframed (shared-memory) link planner and host.
 _LINK_DIRECTIONS = {"serial": ("host_to_micro", "micro_to_host"),
@@ -142,6 +146,33 @@ class Enum:
     line: int
 
 
+@dataclass(frozen=True)
+class Rcomm:
+    """The shared-memory region of the unframed link; every offset and size in bytes.
+
+    The header holds uint32 words at `header` offsets (magic, version = layout version,
+    spec_hash, planner_heartbeat, host_heartbeat) within `header_bytes`; then one slot
+    per rcomm message in spec order, each at a multiple of `slot_align`: a uint32
+    seqlock sequence at +0, the message's words from +`slot_words_at`."""
+
+    link: str
+    magic: int
+    version: int
+    header: dict[str, int]
+    header_bytes: int
+    slot_align: int
+    slot_words_at: int
+    slots: dict[str, int]   # message -> offset of its slot
+    size: int               # bytes of the whole region
+    doc: str
+
+    @property
+    def magic_text(self) -> str:
+        """The magic's 4 bytes as ASCII (little-endian, as in memory), or '' if not printable."""
+        b = self.magic.to_bytes(4, "little")
+        return b.decode("ascii") if all(0x20 <= c < 0x7F for c in b) else ""
+
+
 @dataclass
 class Spec:
     """The validated model of the whole spec."""
@@ -155,6 +186,7 @@ class Spec:
     enums: dict[str, Enum]
     messages: dict[str, Message]
     seed_slips: list[dict]
+    rcomm: Rcomm | None = None  # the shared-memory region, if the spec has an unframed link
     hash: int = 0           # uint32: first 4 bytes of the canonical model's sha256
     hash_hex: str = ""      # the full sha256, hex
     canonical: str = field(default="", repr=False)
@@ -274,10 +306,18 @@ class _Builder:
         framing = self.framing(self.table(d.get("framing", {}), self.lines.find(r"^\[?framing\b") or 1,
                                           "[framing]"))
         links = self.table(d.get("links", {}), self.lines.find(r"^\[?links\b") or 1, "[links]")
+        shared = None  # the unframed link: (name, line)
         for lname, link in links.items():
             lline = self.child_line("links", lname)
             self.table(link, lline, f"links.{lname}")
-            self.unknown(link, _LINK_KEYS, f"[links.{lname}]", (lline - 1 if lline else 0, None))
+            framed_link = "framing" in link
+            self.unknown(link, _LINK_KEYS if framed_link else _LINK_KEYS | _RCOMM_KEYS, f"[links.{lname}]",
+                         (lline - 1 if lline else 0, None))
+            if not framed_link:
+                if shared is not None:
+                    self.fail(lline, f"links.{lname}", f"a second unframed link (links.{shared[0]} is one): "
+                                                       "the generated rcomm layout is for one region")
+                shared = (lname, lline)
             if not isinstance(link.get("doc"), str) or not link["doc"]:
                 self.fail(lline, f"links.{lname}.doc", "missing (a non-empty string)")
             if link.get("word_bits") not in (16, 32) or isinstance(link.get("word_bits"), bool):
@@ -334,11 +374,64 @@ class _Builder:
         for m in messages.values():
             if m.framed and (msg_type is None or msg_type.values.get(m.name) != m.id):
                 self.fail(m.line, m.name, f"enum msg_type must map {m.name} = {m.id}")
+        rcomm = self.rcomm(shared[0], links[shared[0]], shared[1], messages) if shared else None
         spec = Spec(self.path, head.get("name", "navkit"), version,
                     head.get("doc", ""), dict(framing), dict(links), enums, messages,
-                    list(slips))
+                    list(slips), rcomm)
         _seal(spec)
         return spec
+
+    def rcomm(self, lname: str, link: dict, lline: int, messages: dict) -> Rcomm:
+        """The validated region layout of the unframed link `lname`, with its slots."""
+        def at(key):
+            return self.lines.find(rf"^{key}\s*=", lline) or lline
+
+        def uint(key, lo, hi=0xFFFFFFFF):
+            v = link.get(key)
+            if v is None:
+                self.fail(lline, f"links.{lname}.{key}", "missing (an integer)")
+            if not _is_int(v) or not lo <= v <= hi:
+                self.fail(at(key), f"links.{lname}.{key}", f"must be an integer in {lo}..{hi}, not {v!r}")
+            return v
+        magic = uint("magic", 1)
+        version = uint("layout_version", 1)
+        align = uint("slot_align", 4, 4096)
+        if align & (align - 1):
+            self.fail(at("slot_align"), f"links.{lname}.slot_align", f"{align} is not a power of two")
+        header_bytes = uint("header_bytes", 4, 65536)
+        if header_bytes % align:
+            self.fail(at("header_bytes"), f"links.{lname}.header_bytes",
+                      f"{header_bytes} is not a multiple of slot_align {align} (the first slot starts there)")
+        words_at = uint("slot_words_at", 4, 4096)
+        if words_at % 4:
+            self.fail(at("slot_words_at"), f"links.{lname}.slot_words_at",
+                      f"{words_at} is not a multiple of 4 (words are aligned uint32; the seq is at +0)")
+        if "header" not in link:
+            self.fail(lline, f"links.{lname}.header", "missing (a table of header word = byte offset)")
+        header = self.table(link["header"], at("header"), f"links.{lname}.header")
+        taken = {}
+        for word in _RCOMM_HEADER_WORDS:
+            if word not in header:
+                self.fail(at("header"), f"links.{lname}.header.{word}", "missing (a byte offset)")
+        for word, off in header.items():
+            if word not in _RCOMM_HEADER_WORDS:
+                self.fail(at("header"), f"links.{lname}.header", f"unknown header word {word!r} "
+                                                                 f"(known: {', '.join(_RCOMM_HEADER_WORDS)})")
+            if not _is_int(off) or off % 4 or not 0 <= off <= header_bytes - 4:
+                self.fail(at("header"), f"links.{lname}.header.{word}",
+                          f"{off!r} must be a multiple of 4 in 0..{header_bytes - 4} (a uint32 within header_bytes)")
+            if off in taken:
+                self.fail(at("header"), f"links.{lname}.header.{word}", f"offset {off} is also {taken[off]}'s")
+            taken[off] = word
+        if not isinstance(link.get("layout_doc"), str) or not link["layout_doc"]:
+            self.fail(lline, f"links.{lname}.layout_doc", "missing (a non-empty string)")
+        slots, end = {}, header_bytes
+        for m in messages.values():
+            if m.link == lname:
+                slots[m.name] = end
+                end += -(-(words_at + m.size) // align) * align
+        return Rcomm(lname, magic, version, dict(header), header_bytes, align, words_at, slots, end,
+                     link["layout_doc"])
 
     def framing(self, tables: dict) -> dict:
         """The validated [framing.serial] table (the only framing there is)."""
@@ -525,7 +618,7 @@ def _seal(spec: Spec) -> None:
     model = {
         "name": spec.name, "version": spec.version,
         "framing": {k: v for k, v in spec.framing.items() if not k.endswith("doc")},
-        "links": {k: {kk: vv for kk, vv in v.items() if kk != "doc"} for k, v in spec.links.items()},
+        "links": {k: {kk: vv for kk, vv in v.items() if not kk.endswith("doc")} for k, v in spec.links.items()},
         "enums": {e.name: [e.kind, e.values] for e in spec.enums.values()},
         "messages": [
             [m.name, m.link, m.direction, m.id, m.words,

@@ -149,7 +149,8 @@ static inline void navkit_rcomm_write_slot_(navkit_rcomm_t *r, size_t slot, cons
     __atomic_store_n(seq, s + 1u, __ATOMIC_RELAXED);
     __atomic_thread_fence(__ATOMIC_RELEASE);
     for (i = 0; i < n; i++) {
-        __atomic_store_n(navkit_rcomm_word_(r, slot + 4 + 4 * i), (uint32_t)w[i], __ATOMIC_RELAXED);
+        __atomic_store_n(navkit_rcomm_word_(r, slot + NAVKIT_RCOMM_SLOT_WORDS_OFFSET + 4 * i), (uint32_t)w[i],
+                         __ATOMIC_RELAXED);
     }
     __atomic_store_n(seq, s + 2u, __ATOMIC_RELEASE);
 }
@@ -166,7 +167,8 @@ static inline int navkit_rcomm_read_slot_(navkit_rcomm_t *r, size_t slot, int32_
             continue;
         }
         for (i = 0; i < n; i++) {
-            w[i] = (int32_t)__atomic_load_n(navkit_rcomm_word_(r, slot + 4 + 4 * i), __ATOMIC_RELAXED);
+            w[i] = (int32_t)__atomic_load_n(navkit_rcomm_word_(r, slot + NAVKIT_RCOMM_SLOT_WORDS_OFFSET + 4 * i),
+                                            __ATOMIC_RELAXED);
         }
         __atomic_thread_fence(__ATOMIC_ACQUIRE);
         if (__atomic_load_n(seq, __ATOMIC_RELAXED) == s1) {
