@@ -686,22 +686,23 @@ class _Run:
             # tens of ms, so its bytes go to the pty while the rest of the chunk computes
             # and the kernel moves them meanwhile. All are written before the next tick
             # either way, so the split changes nothing the host sees; /micro/data is
-            # stamped with the end of the call that completed each frame.
+            # stamped with the end of the call that completed each frame. Each call's truth
+            # rows are logged before its micro bytes (log-time order), so the log can close
+            # a chunk between the rows of a frame longer than a chunk's 1 s span.
             t1 = pc()
             tx, rows = coupler.run_raw(split, host_bytes)
             times["fmus"] += pc() - t1
+            log.truth(rows)
             log.micro(t_ns + split * 1_000_000, tx)
             self.rx_count = self._to_host(tx)
             if split < spf:
                 t1 = pc()
                 tx2, rows2 = coupler.run_raw(spf - split)
                 times["fmus"] += pc() - t1
+                log.truth(rows2)
                 log.micro(t_ns + frame_ns, tx2)
                 self.rx_count += self._to_host(tx2)
-                rows += rows2
-            t_end_ns = t_ns + frame_ns
-            log.truth(rows)
-            log.end_frame(t_end_ns)
+            log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
             if self.opts.progress and k % max(1, int(10 / self.frame_s)) == 0:
                 print(f"  t = {t_ns / 1e9:7.1f} s", flush=True)
         self.sim_time_s = n_frames * self.frame_s
@@ -742,7 +743,8 @@ class _Run:
                     if raw is not None:      # the host's own frame counter
                         self.frames = self.protocol.from_bytes("lisp_data", raw)["frame"] + 1
                 next_frame_ns += round(self.frame_s * 1e9)
-                self.log.end_frame(t_ns + chunk_ns)
+                # the next frame's chunk ends about then (the log splits finer if need be)
+                self.log.end_frame(next_frame_ns + chunk_ns)
             sleep = wall0 + (t_ns + chunk_ns) / 1e9 - time.monotonic()
             if sleep > 0:
                 time.sleep(sleep)

@@ -2,8 +2,10 @@
 
 Log time (and publish time) of every message is the simulated time in ns, never the wall
 clock, so two runs of the same (mission, config, seed) give identical message contents.
-Chunks are closed at least every `flush_every_s` of simulated time so a run that is killed
-keeps everything before its last second.
+No chunk spans more than `flush_every_s` (1 s) of simulated time (latest minus earliest log
+time in it), whatever the frame period, so a run that is killed keeps everything before its
+last second: chunks are closed at frame ends before a frame that would pass that span, and
+within a frame (between its truth rows) when one frame is longer than it.
 """
 
 from __future__ import annotations
@@ -97,8 +99,10 @@ def _config_schema() -> dict:
 
 
 class Recorder:
-    """Writes `run.mcap`. Call `write(topic, t_ns, obj)` with JSON-able objects, `flush_if`
-    once per frame, and `close()` at the end."""
+    """Writes `run.mcap`. Call `reserve(t0_ns, t1_ns)` before writing messages whose log
+    times lie in [t0_ns, t1_ns] (at most `flush_every_s` apart), `write(topic, t_ns, obj)`
+    with JSON-able objects, `flush_before(t_ns)` at each frame end with the end of the next
+    frame, and `close()` at the end."""
 
     def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0):
         from mcap.writer import CompressionType, Writer
@@ -117,8 +121,8 @@ class Recorder:
         self._w.add_metadata("navkit", {k: str(v) for k, v in metadata.items()})
         self._n = {topic: [0] for topic in self._chan}    # messages so far = last sequence
         self._writers = {topic: self._make_writer(topic) for topic in self._chan}
-        self._flush_ns = int(flush_every_s * 1e9)
-        self._next_flush = self._flush_ns
+        self.span_ns = int(flush_every_s * 1e9)     # the longest span of one chunk, ns
+        self._lo = self._hi = None      # earliest / latest log time (ns) in the open chunk
         self._dumps = json.JSONEncoder(separators=(",", ":")).encode
 
     def write(self, topic: str, t_ns: int, obj) -> None:
@@ -147,11 +151,30 @@ class Recorder:
         """Messages written so far per topic."""
         return {topic: n[0] for topic, n in self._n.items()}
 
-    def flush_if(self, t_ns: int) -> None:
-        """Close the chunk when `t_ns` reaches the next flush point."""
-        if t_ns >= self._next_flush:
+    def reserve(self, t0_ns: int, t1_ns: int) -> None:
+        """Messages with log times in [t0_ns, t1_ns] (ns, t1_ns - t0_ns <= the span) come
+        next: close the open chunk first if with them it would span more than
+        `flush_every_s`."""
+        lo = self._lo
+        if lo is None:
+            self._lo, self._hi = t0_ns, t1_ns
+            return
+        hi = self._hi
+        lo = t0_ns if t0_ns < lo else lo
+        hi = t1_ns if t1_ns > hi else hi
+        if hi - lo > self.span_ns:
             self._w.flush()
-            self._next_flush = (t_ns // self._flush_ns + 1) * self._flush_ns
+            self._lo, self._hi = t0_ns, t1_ns
+        else:
+            self._lo, self._hi = lo, hi
+
+    def flush_before(self, next_end_ns: int) -> None:
+        """A frame ended; the next one's messages reach `next_end_ns` (ns): close the chunk
+        now if they would make it span more than `flush_every_s` (so chunks end at frame
+        ends when frames are at most that long)."""
+        if self._lo is not None and next_end_ns - self._lo > self.span_ns:
+            self._w.flush()
+            self._lo = self._hi = None
 
     def close(self) -> None:
         """Write the summary section and close the file."""
@@ -329,6 +352,7 @@ class _Decoder:
         self.h2m_buf, self.m2h_buf = bytearray(), bytearray()
         self.width = width
         self.row_struct = struct.Struct(f"={width}d")
+        self.first_t = struct.Struct("=d").unpack_from     # a row's time (s) at an offset
         self.last_micro_raw = None     # decoded by finish()
         # micro_data and micro_cmd are written every frame: their text from the bytes
         self.fast = _frame_texts(protocol)
@@ -370,6 +394,7 @@ class _Decoder:
         rec = self.rec
         if kind == "F":          # host frame: (F, k, t_ns, rx, tx, flags, host_bytes, lisp_raw)
             _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw = item
+            rec.reserve(t_ns, t_ns)
             self.write_frame(t_ns, (
                 b'{"frame":%d,"t":%r,"rx_bytes":%d,"tx_bytes":%d,"flags":%d,"host":"running"}'
                 % (k, t_ns / 1e9, rx, tx, flags)))
@@ -378,11 +403,14 @@ class _Decoder:
             if host_bytes:
                 self.host_bytes(t_ns, host_bytes)
         elif kind == "L":        # lisp_data outside a lockstep frame (real time)
+            rec.reserve(item[1], item[1])
             self.lisp(item[1], item[2])
         elif kind == "H":        # host bytes outside a lockstep frame (real time)
+            rec.reserve(item[1], item[1])
             self.host_bytes(item[1], item[2])
         elif kind == "M":        # micro bytes: (M, t_ns, bytes)
             t_ns = item[1]
+            rec.reserve(t_ns, t_ns)
             wd_mask = self.wd_mask
             status, at = self.status_at
             write = self.write_micro
@@ -406,22 +434,33 @@ class _Decoder:
                 rx.feed(data)
         elif kind == "X":        # an end's parser restarts: (X, "h2m"|"m2h")
             self.rx[item[1]].restart()
-        elif kind == "T":        # truth rows: (T, raw doubles)
+        elif kind == "T":        # truth rows: (T, raw doubles), in time order
             fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
+            raw = item[1]
+            t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
+            t1 = round(self.first_t(raw, len(raw) - self.row_struct.size)[0] * 1e3) * 1_000_000
+            whole = t1 - t0 <= rec.span_ns      # else (a frame over 1 s) a chunk per span
+            if whole:
+                rec.reserve(t0, t1)
             pad = (0.0,)
             row = None
-            for row in self.row_struct.iter_unpack(item[1]):
+            for row in self.row_struct.iter_unpack(raw):
                 row += pad
                 dio = int(row[dio_col]) & 0xFFF if dio_col else 0
-                write(round(row[0] * 1e3) * 1_000_000, fmt % (get(row) + (dio,)))
+                t_ns = round(row[0] * 1e3) * 1_000_000
+                if not whole:
+                    rec.reserve(t_ns, t_ns)
+                write(t_ns, fmt % (get(row) + (dio,)))
             if row is not None:
                 self.last_row = row
         elif kind == "C":        # planner command: (C, t_ns, dict)
+            rec.reserve(item[1], item[1])
             rec.write("/planner/cmd", item[1], item[2])
         elif kind == "E":        # event: (E, t_ns, kind, detail)
+            rec.reserve(item[1], item[1])
             rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
-        elif kind == "S":        # end of a frame: flush point (S, t_ns)
-            rec.flush_if(item[1])
+        elif kind == "S":        # end of a frame: (S, end of the next frame, ns)
+            rec.flush_before(item[1])
 
     def lisp(self, t_ns: int, raw: bytes) -> None:
         """One lisp_data (its little-endian bytes) to /planner/data."""
@@ -562,7 +601,9 @@ class RunLog:
     the other core, off the lockstep loop. `inline=True` does it all in this process.
 
     Items: frame(), host(), micro(), received(), receiver_restart(), truth(), command(),
-    event(), end_frame(); close() returns the worker's results (message counts, last
+    event(), end_frame(); each with its log time, in time order within a frame (truth rows
+    before the micro's bytes of the same FMU call) but for a few ms in real time;
+    close() returns the worker's results (message counts, last
     decoded micro_data / lisp_data / truth, config downloads, watchdog stops, and `link`:
     per direction frames sent, and frames received, CRC errors, resyncs as the receiving
     end's parser counts them over the whole run; with a worker process also `cpu_s`, its
@@ -640,9 +681,11 @@ class RunLog:
     def event(self, t_ns, kind, detail) -> None:
         self._items.append(("E", t_ns, kind, detail))
 
-    def end_frame(self, t_ns) -> None:
-        """A frame ends at t_ns: flush point; sends the batch every `batch_frames`."""
-        self._items.append(("S", t_ns))
+    def end_frame(self, next_end_ns) -> None:
+        """A frame ends; the next one ends at `next_end_ns` (ns): the log closes its chunk
+        here if the next frame would pass its 1 s span. Sends the batch every
+        `batch_frames`."""
+        self._items.append(("S", next_end_ns))
         self._frames += 1
         if self._frames >= self._batch:
             self._send()
