@@ -115,6 +115,20 @@ def test_a_key_flood_does_not_hold_the_frames(host_factory):
     assert frames >= 10, f"{frames} frames in about 1 s at 20 Hz"
 
 
+def test_closed_stdin_gives_no_keys(host_factory):
+    """The host started with fd 0 closed: it must not take a file it opens later (the
+    rcomm region, the port) for its keyboard."""
+    h, m = host_factory(stdin="closed"), Micro()
+    sent = h.configure(m)
+    for _ in range(5):
+        msgs, flags = h.step(m)
+        assert flags == 0 and msgs == sent[-1:], "no key moved, stopped or quit the robot"
+    assert h.stop() == 0
+    out = h.output()
+    assert "recording" not in out and not list(h.tmp.glob("Data *.txt")), out
+    assert "key ignored" not in out and "Q: quitting" not in out
+
+
 @pytest.mark.parametrize("args, said", [
     (["--port", "--record"], "--port: needs a value (got the option --record)"),
     (["--clock", "lockstep"], "--clock lockstep needs --lockstep-fd N"),

@@ -1,16 +1,39 @@
 // navkit-host: the executive. Loads the config, picks the clock, then runs the seed's
 // RobotInit, RobotMain once per frame, and RobotShutdown (host/src/robot.cpp).
+#include <cerrno>
 #include <cstdio>
+#include <fcntl.h>
 #include <memory>
 #include <stdexcept>
+#include <unistd.h>
 
 #include "navkit/options.hpp"
 #include "navkit/robot.hpp"
 
 using namespace navkit;
 
+// fds 0-2 that the caller left closed get /dev/null, before anything else opens a file:
+// otherwise the next open (the rcomm region, the port, the datalog) would take their
+// place, and the console would read keys from it or print into it. False if impossible.
+static bool std_fds_open()
+{
+    for (int fd = 0; fd <= 2; fd++) {
+        if (fcntl(fd, F_GETFD) != -1 || errno != EBADF) {
+            continue;
+        }
+        const int n = open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);  // the lowest free fd: this one
+        if (n != fd) {
+            return false;
+        }
+    }
+    return true;
+}
+
 int main(int argc, char **argv)
 {
+    if (!std_fds_open()) {
+        return 1;  // no /dev/null: nowhere to say so either
+    }
     Options o;
     const std::string err = parse_options(argc, argv, &o);
     if (!err.empty()) {
