@@ -287,3 +287,27 @@ print("OK")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
                        env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
     assert r.returncode == 0 and r.stdout == "OK\n", r.stderr
+
+
+# ------------------------------------------------------------ micro_data.last_reject codes
+
+def test_last_reject_codes_come_from_the_spec():
+    from navkit.paths import build_dir
+    spec = load(spec_path())
+    f = spec.messages["micro_data"].field("last_reject")
+    bit = spec.enums[f.flags].values["range"]
+    assert f.flags == "reject" and bit == 15
+    header = (build_dir() / "gen" / "navkit" / "navkit_proto.h").read_text()
+    assert f"#define NAVKIT_REJECT_RANGE (1u << {bit})" in header
+    for name in ("link.h", "link.c"):  # the firmware uses the generated name, not its own
+        text = (repo_root() / "firmware" / "core" / name).read_text()
+        assert "0x8000" not in text and "LINK_REJECT_RANGE" not in text, name
+    assert "NAVKIT_REJECT_RANGE | msg_type" in (repo_root() / "firmware" / "core" / "link.c").read_text()
+    docs = (repo_root() / "docs" / "protocol.md").read_text()
+    assert "### reject (flags)" in docs and f"| `range` | {bit} |" in docs
+
+
+def test_docs_table_cells_escape_a_bar(tmp_path):
+    from navkit.gen import emit_docs
+    path = _spec(tmp_path, 'doc = "Watchdog stops since reset."', 'doc = "Stops | since reset."')
+    assert "| Stops \\| since reset. |" in emit_docs(load(path))

@@ -127,7 +127,7 @@ static uint16_t link_cmd_check(const navkit_micro_cmd_t *c)
         return c->turn_cmd; /* HdgSel takes a heading of -360..360 deg */
     }
     if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK) {
-        return (uint16_t)(LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD);
+        return (uint16_t)(NAVKIT_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD);
     }
     return 0u;
 }
@@ -201,7 +201,7 @@ static void link_cfg_result(link_t *l, config_result_t r, uint16_t msg_type)
     if (r == CONFIG_ERR_HASH) {
         l->schema_mismatch++;
     } else if (r == CONFIG_ERR_RANGE) {
-        link_reject(l, (uint16_t)(LINK_REJECT_RANGE | msg_type));
+        link_reject(l, (uint16_t)(NAVKIT_REJECT_RANGE | msg_type));
     }
 }
 

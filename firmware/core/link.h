@@ -12,13 +12,14 @@
  *   - then one micro_data goes back (if the TX FIFO has room for the whole frame): there
  *     is no other request mechanism, a received frame is the request for telemetry.
  * A micro_cmd is executed whole or not at all: it is refused (cmd_rejected + 1,
- * last_reject = the code) for an unknown or unimplemented fwd_cmd or turn_cmd, for a
- * HdgSel heading outside -3600..3600 (last_reject = 10), for a field out of its spec
- * range (last_reject = LINK_REJECT_RANGE | 1), and while unconfigured (last_reject =
- * fwd_cmd, or turn_cmd when fwd_cmd is 0). A refused config counts in cmd_rejected with
- * last_reject = LINK_REJECT_RANGE | its msg_type (or in rx_schema_mismatch for a wrong
- * spec_hash). A fwd_cmd/turn_cmd 3 with no 1 to modify is refused with its code; a 3
- * after a stop latch is ignored without counting (the latch shows in the status).
+ * last_reject = the code, as the spec's flags `reject` describe it) for an unknown or
+ * unimplemented fwd_cmd or turn_cmd, for a HdgSel heading outside -3600..3600 (deg*10;
+ * last_reject = 10), for a field out of its spec range (last_reject =
+ * NAVKIT_REJECT_RANGE | 1), and while unconfigured (last_reject = fwd_cmd, or turn_cmd
+ * when fwd_cmd is 0). A refused config counts in cmd_rejected with last_reject =
+ * NAVKIT_REJECT_RANGE | its msg_type (or in rx_schema_mismatch for a wrong spec_hash).
+ * A fwd_cmd/turn_cmd 3 with no 1 to modify is refused with its code; a 3 after a stop
+ * latch is ignored without counting (the latch shows in the status).
  */
 #ifndef NAVKIT_LINK_H
 #define NAVKIT_LINK_H
@@ -26,8 +27,6 @@
 #include <stdint.h>
 
 #include "navkit/navkit_proto.h"
-
-#define LINK_REJECT_RANGE 0x8000u /* last_reject: a field out of range; | msg_type */
 
 struct fw;
 

@@ -84,6 +84,11 @@ def _range(f) -> str:
     return f"{f.min}..{f.max}"
 
 
+def _cell(text: str) -> str:
+    """Text fit for a markdown table cell (a `|` would end the cell)."""
+    return text.replace("|", "\\|")
+
+
 def _field_comment(f) -> str:
     bits = [x for x in (_units(f) and f"[{_units(f)}]", _range(f) and f"range {_range(f)}",
                         f.default is not None and f"default {f.default}",
@@ -317,7 +322,7 @@ def emit_docs(spec: Spec) -> str:
            "deliberately ignores doc text: a change of wording keeps it.\n",
            "All values are little-endian and written by explicit byte code. Units apply to "
            "raw x scale.\n", "## Links\n", "| link | words | what |", "| --- | --- | --- |"]
-    out += [f"| {n} | {l['word_bits']}-bit | {l['doc']} |" for n, l in spec.links.items()]
+    out += [f"| {n} | {l['word_bits']}-bit | {_cell(l['doc'])} |" for n, l in spec.links.items()]
     out += ["", "## Serial framing\n", fr["doc"] + "\n",
             f"- start word `0x{fr['start_word']:04X}` (bytes `{fr['start_word'] & 0xFF:02X} "
             f"{fr['start_word'] >> 8:02X}`), length in word {fr['length_word']};",
@@ -362,7 +367,7 @@ def emit_docs(spec: Spec) -> str:
                 extra.append("special values: " + ", ".join(
                     f"{v} = {k}" for k, v in spec.enums[f.special].values.items()) + f" (see {f.special})")
             doc = f.doc + (f" ({'; '.join(extra)})" if extra else "")
-            rows.append((f.word, f"| {word} | `{f.name}` | {typ} | {_units(f)} | {_range(f)} | {doc} |"))
+            rows.append((f.word, f"| {word} | `{f.name}` | {typ} | {_cell(_units(f))} | {_range(f)} | {_cell(doc)} |"))
         out += [r for _, r in sorted(rows)]
         out.append("")
     out.append("## Enums and flags\n")
@@ -384,7 +389,7 @@ def emit_docs(spec: Spec) -> str:
         out += [f"| {r.size} | end (slots start at multiples of {r.slot_align}, the first at {r.header_bytes}) |", ""]
     out.append("## How the seed's slips were resolved\n")
     out.append("| seed (rev 8/18/05) | navkit |\n| --- | --- |")
-    out += [f"| {s['slip']} | {s['resolution']} |" for s in spec.seed_slips]
+    out += [f"| {_cell(s['slip'])} | {_cell(s['resolution'])} |" for s in spec.seed_slips]
     out.append("")
     return "\n".join(out)
 

@@ -81,6 +81,14 @@ static void test_unconfigured(void)
     d = data();
     CHECK(d.rx_schema_mismatch == 3 && d.rx_bad_length == 0);
     CHECK(!(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK));
+    /* one with a field outside its spec range: cmd_rejected, last_reject = reject.range | msg_type */
+    navkit_micro_cfg_geometry_defaults(&g);
+    g.wheel_diameter = 0u;
+    sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+    fw_link_poll(&fw);
+    d = data();
+    CHECK(d.cmd_rejected == 2 && d.last_reject == (NAVKIT_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY));
+    CHECK(d.rx_schema_mismatch == 3 && !(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK));
     /* the three configs: configured */
     sim_configure(&fw, &h);
     d = data();
@@ -346,7 +354,7 @@ static void test_turns(void)
     c.dg_set = 3600;
     host_run(&c, 0.1);
     d = data();
-    CHECK(d.last_reject == (LINK_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD));
+    CHECK(d.last_reject == (NAVKIT_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD));
     /* a turn modify while HdgSel steers: there is no turn 1 to modify */
     c = cmd();
     c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
