@@ -33,7 +33,7 @@ def test_help_and_unknown_options():
 
 
 @pytest.mark.parametrize("text, where", [
-    ("[executive]\nframe_rate_hz = fast\n", "frame_rate_hz: 'fast' is not a number"),
+    ("[executive]\nframe_rate_hz = fast\n", "frame_rate_hz: 'fast' is not a decimal number"),
     ("[executive]\nwarp = 9\n", "warp: unknown key"),
     ("[teleport]\n", "[teleport]: unknown section"),
     ("[micro_cfg_geometry]\ncounts_per_rev = 3\n", "counts_per_rev: outside the spec's range"),
@@ -136,6 +136,7 @@ def test_closed_stdin_gives_no_keys(host_factory):
     (["--clock", "lockstep", "--lockstep-fd", "0", "--timing-log", "t.txt"],
      "--timing-log has no effect with --clock lockstep"),
     (["--rate", "0.05"], "not a rate in 0.1..1000 Hz"),
+    (["--rate", "0x10"], "--rate: 0x10: not a rate in 0.1..1000 Hz"),
     (["--lockstep-fd", "3"], "--lockstep-fd needs --clock lockstep"),
 ])
 def test_options_without_effect_or_value_are_refused(args, said):

@@ -6,10 +6,8 @@
 #include "navkit/animation.hpp"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <map>
 #include <sstream>
 
@@ -36,11 +34,10 @@ public:
     // The key's value as a decimal integer in lo..hi.
     int integer(const std::string &key, const IniKey &e, long lo, long hi) const
     {
-        char *end = nullptr;
-        errno = 0;
-        const long x = std::strtol(e.value.c_str(), &end, 10);
-        if (e.value.empty() || errno || *end) {
-            fail(e.line, key, "'" + e.value + "' is not an integer");
+        long x;
+        const std::string why = ini_parse_int(e.value, false, &x);
+        if (!why.empty()) {
+            fail(e.line, key, why);
         }
         if (x < lo || x > hi) {
             fail(e.line, key, std::to_string(x) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));

@@ -26,30 +26,17 @@ using Setter = std::function<std::string(const std::string &)>;
 using Section = std::map<std::string, Setter>;
 using Table = std::map<std::string, Section>;
 
-// A whole decimal, hex (0x) or octal (0) integer into *out; false if v is not one.
-bool parse_long(const std::string &v, long *out)
-{
-    if (v.empty()) {
-        return false;
-    }
-    char *end = nullptr;
-    errno = 0;
-    const long x = std::strtol(v.c_str(), &end, 0);
-    if (errno || *end) {
-        return false;
-    }
-    *out = x;
-    return true;
-}
-
-// An integer key into *p, lo..hi (default: T's range).
+// An integer key into *p, lo..hi (default: T's range); decimal, or also 0x hex for the
+// bit-mask keys (hex_ok).
 template <class T>
-Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
+Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max(),
+               bool hex_ok = false)
 {
-    return [p, lo, hi](const std::string &v) -> std::string {
+    return [p, lo, hi, hex_ok](const std::string &v) -> std::string {
         long x;
-        if (!parse_long(v, &x)) {
-            return "'" + v + "' is not an integer";
+        const std::string why = ini_parse_int(v, hex_ok, &x);
+        if (!why.empty()) {
+            return why;
         }
         if (x < lo || x > hi) {
             return std::to_string(x) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi);
@@ -59,13 +46,20 @@ Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::num
     };
 }
 
+// A bit-mask key into *p, lo..hi: decimal or 0x hex.
+template <class T>
+Setter mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
+{
+    return int_key(p, lo, hi, true);
+}
+
 // A sign, +1 or -1, into *p: the spec's range is -1..1, but the micro refuses 0
 // (firmware/core/config.c config_sign_ok).
 Setter sign_key(int16_t *p)
 {
     return [p](const std::string &v) -> std::string {
         long x;
-        if (!parse_long(v, &x) || (x != 1 && x != -1)) {
+        if (!ini_parse_int(v, false, &x).empty() || (x != 1 && x != -1)) {
             return "'" + v + "' is not 1 or -1 (the micro refuses any other sign)";
         }
         *p = static_cast<int16_t>(x);
@@ -77,10 +71,10 @@ Setter sign_key(int16_t *p)
 Setter dbl_key(double *p, double lo, double hi)
 {
     return [p, lo, hi](const std::string &v) -> std::string {
-        char *end = nullptr;
-        const double x = std::strtod(v.c_str(), &end);
-        if (v.empty() || *end || !std::isfinite(x)) {
-            return "'" + v + "' is not a number";
+        double x;
+        const std::string why = ini_parse_real(v, &x);
+        if (!why.empty()) {
+            return why;
         }
         if (x < lo || x > hi) {
             std::ostringstream s;
@@ -135,8 +129,9 @@ Setter array_key(T (*arr)[8])
         for (size_t i = 0; i < 8; i++) {
             const std::string &s = parts[parts.size() == 1 ? 0 : i];
             long x;
-            if (!parse_long(s, &x)) {
-                return "'" + s + "' is not an integer";
+            const std::string why = ini_parse_int(s, false, &x);
+            if (!why.empty()) {
+                return why;
             }
             if (x < std::numeric_limits<T>::min() || x > std::numeric_limits<T>::max()) {
                 return std::to_string(x) + " does not fit the field";
@@ -161,15 +156,16 @@ Table nav_table(Config &c)
         {"shm_group", str_key(&e.shm_group, true)},
         {"log_dir", str_key(&e.log_dir, false)},
         {"record", bool_key(&e.record)},
-        {"dio_default", int_key(&e.dio_default, 0, 4095)},
+        {"dio_default", mask_key(&e.dio_default, 0, 4095)},
     };
     MicroCfg &m = c.micro;
     t["micro"] = {
         {"port", str_key(&m.port, false)},
         {"baud", [&m](const std::string &v) -> std::string {
              long x;
-             if (!parse_long(v, &x)) {
-                 return "'" + v + "' is not an integer";
+             const std::string why = ini_parse_int(v, false, &x);
+             if (!why.empty()) {
+                 return why;
              }
              for (int b : supported_bauds()) {
                  if (x == b) {
@@ -217,8 +213,8 @@ Table nav_table(Config &c)
     };
     navkit_micro_cfg_io_t &io = m.io;
     t["micro_cfg_io"] = {
-        {"dio_direction", int_key(&io.dio_direction)}, {"dio_safe_state", int_key(&io.dio_safe_state)},
-        {"sensor_enable", int_key(&io.sensor_enable)}, {"servo_center", array_key(&io.servo_center)},
+        {"dio_direction", mask_key(&io.dio_direction)}, {"dio_safe_state", mask_key(&io.dio_safe_state)},
+        {"sensor_enable", mask_key(&io.sensor_enable)}, {"servo_center", array_key(&io.servo_center)},
         {"servo_us_per_deg", array_key(&io.servo_us_per_deg)}, {"servo_min", array_key(&io.servo_min)},
         {"servo_max", array_key(&io.servo_max)},
     };
@@ -334,6 +330,62 @@ void check_ir(const IniFile &ini, const Config &c)
 }
 
 }  // namespace
+
+std::string ini_parse_int(const std::string &v, bool hex_ok, long *out)
+{
+    const size_t sign = !v.empty() && (v[0] == '+' || v[0] == '-') ? 1 : 0;
+    const bool hex = v.size() > 2 && v[0] == '0' && (v[1] == 'x' || v[1] == 'X');
+    if (hex && !hex_ok) {
+        return "'" + v + "' is hex: 0x is taken by the bit masks only, this key is decimal";
+    }
+    const size_t from = hex ? 2 : sign;
+    const char *digits = hex ? "0123456789abcdefABCDEF" : "0123456789";
+    if (v.size() <= from || v.find_first_not_of(digits, from) != std::string::npos) {
+        return "'" + v + "' is not a " + (hex_ok ? "decimal or 0x hex" : "decimal") + " integer";
+    }
+    errno = 0;
+    const long x = std::strtol(v.c_str() + (hex ? 2 : 0), nullptr, hex ? 16 : 10);  // base 10: never octal
+    if (errno) {
+        return "'" + v + "' is too large";
+    }
+    *out = x;
+    return "";
+}
+
+std::string ini_parse_real(const std::string &v, double *out)
+{
+    // [+-] digits [. digits] [e [+-] digits], at least one digit before the exponent
+    size_t i = !v.empty() && (v[0] == '+' || v[0] == '-') ? 1 : 0;
+    auto digits = [&v, &i]() {
+        const size_t a = i;
+        while (i < v.size() && v[i] >= '0' && v[i] <= '9') {
+            i++;
+        }
+        return i - a;
+    };
+    size_t n = digits();
+    if (i < v.size() && v[i] == '.') {
+        i++;
+        n += digits();
+    }
+    bool ok = n > 0;
+    if (ok && i < v.size() && (v[i] == 'e' || v[i] == 'E')) {
+        i++;
+        if (i < v.size() && (v[i] == '+' || v[i] == '-')) {
+            i++;
+        }
+        ok = digits() > 0;
+    }
+    if (!ok || i != v.size()) {
+        return "'" + v + "' is not a decimal number";
+    }
+    const double x = std::strtod(v.c_str(), nullptr);
+    if (!std::isfinite(x)) {
+        return "'" + v + "' is too large";
+    }
+    *out = x;
+    return "";
+}
 
 const std::vector<int> &supported_bauds()
 {

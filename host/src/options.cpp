@@ -1,7 +1,8 @@
 #include "navkit/options.hpp"
 
-#include <cstdlib>
 #include <cstring>
+
+#include "navkit/ini.hpp"
 
 namespace navkit {
 
@@ -46,14 +47,13 @@ std::string parse_options(int argc, char **argv, Options *o)
                        (i + 1 < argc && argv[i + 1][0] == '-' ? std::string(" (got the option ") + argv[i + 1] + ")"
                                                                : std::string());
             }
-            char *end = nullptr;
             if (a == "--config") {
                 o->config_dir = v;
             } else if (a == "--port") {
                 o->port = v;
             } else if (a == "--rate") {
-                o->rate_hz = std::strtod(v.c_str(), &end);
-                if (*end || !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {
+                // decimal as the INI's numbers (no hex, inf or nan)
+                if (!ini_parse_real(v, &o->rate_hz).empty() || !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {
                     return a + ": " + v + ": not a rate in 0.1..1000 Hz (the range of [executive] frame_rate_hz)";
                 }
             } else if (a == "--clock") {
@@ -62,8 +62,8 @@ std::string parse_options(int argc, char **argv, Options *o)
                 }
                 o->lockstep = v == "lockstep";
             } else if (a == "--lockstep-fd") {
-                const long fd = std::strtol(v.c_str(), &end, 10);
-                if (*end || fd < 0 || fd > 65535) {
+                long fd = -1;
+                if (!ini_parse_int(v, false, &fd).empty() || fd < 0 || fd > 65535) {
                     return a + ": " + v + ": not a file descriptor";
                 }
                 o->lockstep_fd = static_cast<int>(fd);

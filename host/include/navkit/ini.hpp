@@ -31,6 +31,13 @@ struct ExecutiveCfg {
     int dio_default = 0;             // levels of the DIO bits no planner owns (12 bits)
 };
 
+// Numbers of the INI files and the command line. Integers are decimal: [+-]digits (a
+// leading zero is not octal: 0400 is 400); with hex_ok (the bit-mask keys) also 0x and
+// hex digits. Reals are decimal, [+-]digits[.digits][e[+-]digits], finite: no hex, inf
+// or nan. "" with *out set, else why v is refused ("'v' is ...").
+std::string ini_parse_int(const std::string &v, bool hex_ok, long *out);
+std::string ini_parse_real(const std::string &v, double *out);
+
 // The serial rates [micro] baud may take (each has a termios speed constant; SerialPort
 // maps them), in bit/s.
 const std::vector<int> &supported_bauds();

@@ -87,7 +87,7 @@ TEST_F(AnimationFile, ErrorsNameFileLineKeyReason)
     };
     const std::vector<Case> cases = {
         {mini_with(2, "width = 5\ncolour = red\n"), p + "3: colour: unknown key in [face]"},
-        {mini_with(2, "width = five\n"), p + "2: width: 'five' is not an integer"},
+        {mini_with(2, "width = five\n"), p + "2: width: 'five' is not a decimal integer"},
         {mini_with(2, "width = 500\n"), p + "2: width: 500 is outside 1..120"},
         {mini_with(4, "head.0 = \"|..|\"\n"), p + "4: head.0: 4 characters, width is 5"},
         {mini_with(4, "head.0 = |...|\n"), p + "4: head.0: '|...|' is not a quoted strip (\"...\", at least one character)"},

@@ -210,3 +210,68 @@ TEST_F(IniFiles, ServoMinAboveServoMaxIsRefused)
     write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = 100\nservo_max = 100\n");
     EXPECT_EQ(error(), "") << "equal limits are taken";
 }
+
+TEST(IniNumbers, IntegersAreDecimalHexOnlyWhereAllowed)
+{
+    long x = -1;
+    EXPECT_EQ(ini_parse_int("0400", false, &x), "");
+    EXPECT_EQ(x, 400) << "a leading zero is not octal";
+    EXPECT_EQ(ini_parse_int("-012", false, &x), "");
+    EXPECT_EQ(x, -12);
+    EXPECT_EQ(ini_parse_int("+7", false, &x), "");
+    EXPECT_EQ(x, 7);
+    EXPECT_EQ(ini_parse_int("0800", false, &x), "") << "no octal digit rule either";
+    EXPECT_EQ(x, 800);
+    EXPECT_EQ(ini_parse_int("0x10", false, &x), "'0x10' is hex: 0x is taken by the bit masks only, this key is decimal");
+    EXPECT_EQ(ini_parse_int("0x0F0", true, &x), "");
+    EXPECT_EQ(x, 0xF0);
+    EXPECT_EQ(ini_parse_int("0XaB", true, &x), "");
+    EXPECT_EQ(x, 0xAB);
+    for (const char *bad : {"", "-", "1.5", "1e3", "12abc", " 5", "0x", "-0x10", "0xg"}) {
+        EXPECT_EQ(ini_parse_int(bad, true, &x), "'" + std::string(bad) + "' is not a decimal or 0x hex integer") << bad;
+    }
+    EXPECT_EQ(ini_parse_int("99999999999999999999", false, &x), "'99999999999999999999' is too large");
+}
+
+TEST(IniNumbers, RealsAreDecimalAndFinite)
+{
+    double x = -1;
+    EXPECT_EQ(ini_parse_real("0.015", &x), "");
+    EXPECT_DOUBLE_EQ(x, 0.015);
+    EXPECT_EQ(ini_parse_real("-.5", &x), "");
+    EXPECT_DOUBLE_EQ(x, -0.5);
+    EXPECT_EQ(ini_parse_real("10", &x), "");
+    EXPECT_DOUBLE_EQ(x, 10.0);
+    EXPECT_EQ(ini_parse_real("2.5e-3", &x), "");
+    EXPECT_DOUBLE_EQ(x, 0.0025);
+    EXPECT_EQ(ini_parse_real("007.5", &x), "");
+    EXPECT_DOUBLE_EQ(x, 7.5);
+    for (const char *bad : {"", ".", "0x10", "0x1p3", "inf", "-infinity", "nan", "1e", "1.2.3", "5 Hz", "e5"}) {
+        EXPECT_EQ(ini_parse_real(bad, &x), "'" + std::string(bad) + "' is not a decimal number") << bad;
+    }
+    EXPECT_EQ(ini_parse_real("1e999", &x), "'1e999' is too large");
+}
+
+TEST_F(IniFiles, NumbersInTheFiles)
+{
+    write("NavAndControl.ini", "[executive]\ndio_default = 0x0F0\n[micro_cfg_motion]\nwheel_kp = 0400\n"
+                               "[micro_cfg_io]\nsensor_enable = 0x3FF\nservo_min = -0900\n");
+    const Config c = Ini::load(dir_);
+    EXPECT_EQ(c.exec.dio_default, 0xF0);
+    EXPECT_EQ(c.micro.motion.wheel_kp, 400) << "decimal, not octal 256";
+    EXPECT_EQ(c.micro.io.sensor_enable, 0x3FF);
+    EXPECT_EQ(c.micro.io.servo_min[5], -900);
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 0x10\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: frame_rate_hz: '0x10' is not a decimal number");
+    write("NavAndControl.ini", "[executive]\nplanner_timeout = nan\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: planner_timeout: 'nan' is not a decimal number");
+    write("NavAndControl.ini", "[micro_cfg_motion]\n\nwheel_kp = 0x10\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: wheel_kp: '0x10' is hex: 0x is taken by the bit masks only, "
+                              "this key is decimal");
+    write("NavAndControl.ini", "[micro_cfg_io]\nservo_max = 900, 0x10, 900, 900, 900, 900, 900, 900\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: servo_max: '0x10' is hex: 0x is taken by the bit masks only, "
+                              "this key is decimal");
+    copy("NavAndControl.ini");
+    write("sensors.ini", "[sonar1]\nmm_per_us = inf\n");
+    EXPECT_EQ(error(), dir_ + "/sensors.ini:2: mm_per_us: 'inf' is not a decimal number");
+}
