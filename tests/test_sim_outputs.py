@@ -311,3 +311,29 @@ def test_bench_sim_prints_its_figures(capsys):
     out = capsys.readouterr().out
     assert "real-time factor" in out and "FMUs" in out and "host frame" in out
     assert "peak memory" in out and "log worker on the other CPU" in out
+
+
+@pytest.mark.parametrize("seed", [2 ** 31, 5_000_000_000, -(2 ** 31) - 1, 2 ** 32 - 1])
+def test_a_seed_the_plant_cannot_take_is_refused(seed, tmp_path, capsys):
+    """The built plant's seed is an Int32: fmpy would wrap 5000000000 to 705032704 (and
+    4294967295 to -1) silently, giving another seed's run under this seed's name."""
+    from navkit.cli import main
+    from navkit.paths import build_dir
+
+    require_build()
+    mission = tmp_path / "m.toml"
+    mission.write_text("duration_s = 0.3\n")
+    assert main(["sim", "--mission", str(mission), "--out", str(tmp_path / "out"),
+                 "--seed", str(seed), "--no-plot"]) == 1
+    out = capsys.readouterr().out
+    assert out == (f"navkit sim: --seed {seed}: outside -2147483648..2147483647, the values "
+                   f"of the plant FMU's seed parameter (Int32, "
+                   f"{build_dir() / 'fmus' / 'navkit_plant.fmu'})\n")
+    assert not (tmp_path / "out").exists(), "refused before anything starts"
+
+
+@pytest.mark.parametrize("seed", [2 ** 31 - 1, -(2 ** 31)])
+def test_the_seeds_at_the_ends_of_the_plants_range_run(seed, tmp_path_factory):
+    r = run_mission(tmp_path_factory, "seed-ends", "duration_s = 0.3\n", seed=seed)
+    assert r.metadata["seed"] == str(seed) and r.summary["seed"] == seed
+    assert r.truth[-1]["t"] == pytest.approx(0.3)

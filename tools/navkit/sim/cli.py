@@ -24,7 +24,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", "-o", type=Path, default=None,
                         help="output folder (default: <build>/sim/<mission name>)")
     parser.add_argument("--seed", type=int, default=1, help="seed of the plant's noise and "
-                        "the line noise (default 1)")
+                        "the line noise (default 1): a value of the plant FMU's seed "
+                        "parameter, -2147483648..2147483647 (Int32) for the built plant")
     parser.add_argument("--realtime", action="store_true",
                         help="pace to the wall clock, host on its own clock (not deterministic)")
     parser.add_argument("--config", type=Path, default=None,

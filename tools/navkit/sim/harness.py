@@ -142,6 +142,29 @@ def _set_start(slave, md, name: str, value, where: str, fmu: Path) -> None:
 
 _PARAM_MSG = re.compile(r"\bparameter (\w+)\b")
 
+# FMI integer types -> (least, greatest) value
+_INT_RANGES = {f"{u}Int{n}": (0, (1 << n) - 1) if u else (-(1 << n - 1), (1 << n - 1) - 1)
+               for u in ("", "U") for n in (8, 16, 32, 64)}
+
+
+def _check_seed(seed: int, plant_md, plant_fmu: Path) -> None:
+    """SimError unless `seed` fits the plant FMU's `seed` parameter (model description
+    `plant_md`): its integer type's range (Int32 for the built plant), narrowed by its
+    min / max when the FMU declares them. fmpy would wrap a seed outside it silently, so
+    two seeds would give the same run while the outputs record different ones. A plant
+    without a seed takes any (the line noise's generator is seeded with it as well)."""
+    var = next((v for v in plant_md.modelVariables if v.name == "seed"), None)
+    if var is None:
+        return
+    lo, hi = _INT_RANGES[var.type]
+    lo = max(lo, int(var.min)) if var.min is not None else lo
+    hi = min(hi, int(var.max)) if var.max is not None else hi
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise SimError(f"--seed {seed!r}: not an integer")
+    if not lo <= seed <= hi:
+        raise SimError(f"--seed {seed!r}: outside {lo}..{hi}, the values of the plant FMU's "
+                       f"seed parameter ({var.type}, {plant_fmu})")
+
 
 class _Fmus:
     """Both FMUs (files checked to exist by the caller) extracted, instantiated and
@@ -367,6 +390,7 @@ class _Run:
             plant_md = check(plant_fmu, fw_fmu)     # FMI 3.0 co-simulation, the contract
         except PlantFmuError as e:
             raise SimError(str(e)) from None
+        _check_seed(self.opts.seed, plant_md, plant_fmu)
         plant_params = {"seed": self.opts.seed}
         if self.m.world is not None:
             plant_params["world_file"] = str(self.m.world)
