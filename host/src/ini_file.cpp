@@ -63,8 +63,10 @@ void note_header(Reader *r, const std::string &line)
 }
 
 // inih's reader: one whole line per call (at most num - 1 characters with its newline),
-// counted; a longer line is refused here (inih would cut it and parse the pieces). After
-// the first refusal it ends the input: only the first is reported.
+// counted; a longer line is refused here (inih would cut it and parse the pieces), and so
+// is an indented key or header (inih would add it to the previous key's value: its
+// multi-line continuation, compiled into the system's libinih). After the first refusal
+// it ends the input: only the first is reported.
 char *read_line(char *str, int num, void *stream)
 {
     Reader *r = static_cast<Reader *>(stream);
@@ -87,9 +89,15 @@ char *read_line(char *str, int num, void *stream)
         return nullptr;
     }
     r->line++;
+    const size_t text = line.find_first_not_of(" \t\r\n\f\v");
     if (line.size() > static_cast<size_t>(num) - 1) {
         refuse(r, "line: longer than " + std::to_string(num - 2) + " characters");
         line = "\n";  // parsed as an empty line
+    } else if (text > 0 && text != std::string::npos && line[text] != ';' && line[text] != '#') {
+        // inih would take it as a continuation of the previous key's value
+        refuse(r, "line: indented (keys and [sections] start at the beginning of the line; "
+                  "continuation lines are not supported)");
+        line = "\n";
     } else {
         note_header(r, line);
     }

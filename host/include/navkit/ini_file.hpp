@@ -2,8 +2,8 @@
 // kept whole: every section in file order with its header line and its keys with theirs.
 // The one reader of NavAndControl.ini, sensors.ini (Ini) and Animation.ini (Animation).
 // It refuses, with ConfigError "path:line: key: reason" for the earliest bad line only:
-// a missing or unreadable file (line 0), a line longer than inih's buffer, a malformed
-// line (inih's own error), a key outside any section, a duplicate key in a section and a
+// a missing or unreadable file (line 0), a line longer than inih's buffer, an indented
+// key or section line (no multi-line values), a malformed line (inih's own error), a key outside any section, a duplicate key in a section and a
 // repeated section header (no shipped file or test repeats one). Section and key names
 // are matched without regard to case.
 #pragma once

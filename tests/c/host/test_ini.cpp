@@ -275,3 +275,10 @@ TEST_F(IniFiles, NumbersInTheFiles)
     write("sensors.ini", "[sonar1]\nmm_per_us = inf\n");
     EXPECT_EQ(error(), dir_ + "/sensors.ini:2: mm_per_us: 'inf' is not a decimal number");
 }
+
+TEST_F(IniFiles, IndentedKeyIsReportedAtItsLineNotAsThePreviousKey)
+{
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 10\n    planner_timeout = 5\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: line: indented (keys and [sections] start at the beginning "
+                              "of the line; continuation lines are not supported)");
+}

@@ -62,6 +62,13 @@ TEST_F(IniRead, RefusalsNamePathLineKeyReason)
         {"[a]\nX = 1\n\nx = 2\n", p + "4: x: duplicate key in [a]"},
         {"[a]\nx = 1\n[b]\n[A]\ny = 2\n", p + "4: [A]: duplicate section"},
         {"[a]\nx = " + std::string(300, 'v') + "\n", p + "2: line: longer than 198 characters"},
+        // inih's multi-line continuation would append it to x, or blame x as a duplicate
+        {"[a]\nx = 1\n  y = 2\n", p + "3: line: indented (keys and [sections] start at the beginning of the "
+                                         "line; continuation lines are not supported)"},
+        {"[a]\nx = 1\n\tx = 2\n", p + "3: line: indented (keys and [sections] start at the beginning of the "
+                                          "line; continuation lines are not supported)"},
+        {"[a]\nx = 1\n [b]\n", p + "3: line: indented (keys and [sections] start at the beginning of the "
+                                       "line; continuation lines are not supported)"},
         // the earliest line wins, whichever part finds it
         {"[a]\nnot a key\nx = 1\nx = 2\n", p + "2: line: malformed (not [section], key = value or a comment)"},
         {"[a]\nx = 1\nx = 2\nnot a key\n", p + "3: x: duplicate key in [a]"},
@@ -70,6 +77,8 @@ TEST_F(IniRead, RefusalsNamePathLineKeyReason)
         EXPECT_EQ(error(c.text), c.want) << c.text;
     }
     EXPECT_EQ(error("[a]\nx = " + std::string(194, 'v') + "\n"), "") << "a 198-character line fits";
+    EXPECT_EQ(error("[a]\nx = 1\n   ; an indented comment\n \t \r\ny = 2\n"), "")
+        << "indented comments and blank lines are fine";
     EXPECT_EQ(error("[a]\nx = " + std::string(195, 'v') + "\n"), p + "2: line: longer than 198 characters");
 }
 
