@@ -113,6 +113,65 @@ def test_summary_fields(tmp_path_factory):
     assert s["link"]["micro_to_host"]["frames_sent"] > 0
     assert "crc_errors" in s["link"] and "resyncs" in s["link"]
     assert "overruns" in s["host"] and s["host"]["config_downloads"] >= 1
+    assert s["planner"] == {"commands": 1, "accepted": 1, "rejected": 0, "not_implemented": 0,
+                            "unacknowledged": 0, "refused": []}
+
+
+REFUSED = """
+duration_s = 4.0
+[[command]]
+t = 0.5
+fwd_cmd = "explore"
+[[command]]
+t = 1.0
+fwd_cmd = 1
+speed = 200
+distance = 100
+[[command]]
+t = 1.0
+fwd_cmd = 1
+speed = 200
+distance = 150
+[[fault]]
+t = 2.0
+kind = "unplug"
+duration_s = 1.5
+[[command]]
+t = 3.0
+turn_mode = "heading_hold"
+turn_rate = 300
+turn_distance = 900
+"""
+
+
+def test_commands_the_host_refuses_are_counted_and_warned_about(tmp_path_factory, capsys):
+    """fwd_cmd "explore" (a high-level code) is not implemented; a heading hold while the
+    micro is unplugged is rejected (no heading to hold); of two commands in one frame the
+    host sees only the second, so the first is never acknowledged. Each refusal is a
+    warning on stderr naming the mission entry, its t and the reason."""
+    r = run_mission(tmp_path_factory, "refused", REFUSED)
+    err = capsys.readouterr().err
+    p = r.summary["planner"]
+    where = lambda i: f"{r.out / 'refused.toml'}: [[command]] #{i}"  # noqa: E731
+    assert p == {"commands": 4, "accepted": 1, "rejected": 1, "not_implemented": 1,
+                 "unacknowledged": 1, "refused": [
+                     {"command": 1, "t": 0.5, "where": where(1), "nav_result": "not_implemented",
+                      "reason": "fwd_cmd 105 (explore) is a high-level code; the rest of the "
+                                "command applies"},
+                     {"command": 4, "t": 3.0, "where": where(4), "nav_result": "rejected",
+                      "reason": "heading hold (turn_mode 11) needs the micro's current heading "
+                                "and the host had none (no fresh micro_data: micro offline); "
+                                "the command was dropped"}]}
+    warnings = [line for line in err.splitlines() if line.startswith("warning: ")]
+    assert warnings == [
+        f"warning: {where(1)} (t = 0.5 s): not implemented by the host: {p['refused'][0]['reason']} "
+        "(lisp_data.nav_result = not_implemented)",
+        f"warning: {where(4)} (t = 3 s): rejected by the host: {p['refused'][1]['reason']} "
+        "(lisp_data.nav_result = rejected)"], err
+    assert r.truth[-1]["distance_mm"] == pytest.approx(150, abs=5), "the later of the two ran"
+    host_log = (r.out / "host.log").read_text()
+    assert "fwd_cmd 105 (high level) is not implemented" in host_log
+    assert "planner command 3000 rejected: heading hold" in host_log
 
 
 def test_frame_period_option_in_lockstep(tmp_path_factory):

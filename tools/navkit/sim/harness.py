@@ -26,6 +26,7 @@ import resource
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -342,6 +343,7 @@ class _Run:
 
         self.opts = opts
         self.m = opts.mission
+        self.command_index = {id(c): i + 1 for i, c in enumerate(self.m.commands)}  # [[command]] #
         self.build = _build(opts)
         self.config_dir = Path(opts.config_dir) if opts.config_dir else repo_root() / "config"
         self.out = Path(opts.out)
@@ -564,7 +566,7 @@ class _Run:
             if self.silent_until is not None:
                 return          # a silent planner writes nothing
             msg = self.planner.command(e.fields, t_ns // 1_000_000)
-            self.log.command(t_ns, msg)
+            self.log.command(t_ns, msg, (self.command_index[id(e)], e.t, e.where))
         elif what == "key":
             self._event(t_ns, "key", {"key": e.key})
             if self.proc is not None and self.host_state == "running":
@@ -813,6 +815,7 @@ class _Run:
                      "config_downloads": res.get("config_downloads"),
                      "host_status": lisp.get("host_status")},
             "watchdog_stops": res.get("watchdog_stops"),
+            "planner": _planner_summary(res.get("planner")),
             "datalogs": sorted(name for name, mtime in _datalogs(self.out).items()
                                if self.old_datalogs.get(name) != mtime),
             "messages": res.get("counts", {}),
@@ -822,6 +825,50 @@ class _Run:
         if self.fmu_split:
             out["fmu_split_s"] = [round(x, 3) for x in self.fmu_split]
         return out
+
+
+def _refusal(cmd: dict, result: str) -> str:
+    """Why the host refused planner command `cmd` (lisp_cmd fields) with lisp_data
+    nav_result `result` (host/src/navigation.cpp, Navigation::convert)."""
+    from navkit import protocol
+
+    enums = protocol.SPEC.enums
+    if result == "not_implemented":
+        fwd = cmd["fwd_cmd"]
+        name = {c: n for n, c in enums["fwd_cmd"].values.items()}.get(fwd, "?")
+        return f"fwd_cmd {fwd} ({name}) is a high-level code; the rest of the command applies"
+    if result == "rejected" and cmd["turn_mode"] == enums["turn_mode"].values["heading_hold"]:
+        return ("heading hold (turn_mode 11) needs the micro's current heading and the host "
+                "had none (no fresh micro_data: micro offline); the command was dropped")
+    if result == "rejected":
+        return "a value does not fit the micro command the host makes of it; the command was dropped"
+    return f"lisp_data.nav_result = {result}"
+
+
+def _planner_summary(planner: dict | None) -> dict:
+    """summary.json `planner` from the log's verdicts: commands written, how many the host
+    accepted, rejected, did not implement or never acknowledged, and `refused`, one entry
+    per rejected or not-implemented command ([[command]] index, t in s, nav_result,
+    reason)."""
+    from navkit import protocol
+
+    names = {c: n for n, c in protocol.SPEC.enums["nav_result"].values.items()}
+    out = {"commands": 0, "accepted": 0, "rejected": 0, "not_implemented": 0,
+           "unacknowledged": 0, "refused": []}
+    if not planner:
+        return out
+    out["commands"] = planner["commands"]
+    out["unacknowledged"] = len(planner["unacknowledged"])
+    for (index, t, where), cmd, code in planner["verdicts"]:
+        result = names.get(code, str(code))
+        if result == "ok":
+            out["accepted"] += 1
+            continue
+        if result in out:
+            out[result] += 1
+        out["refused"].append({"command": index, "t": t, "where": where,
+                               "nav_result": result, "reason": _refusal(cmd, result)})
+    return out
 
 
 def run(opts: SimOptions) -> dict:
@@ -853,6 +900,10 @@ def run(opts: SimOptions) -> dict:
     wall = time.perf_counter() - wall0
     summary = r.summary(wall)
     (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    for ref in summary["planner"]["refused"]:
+        verdict = "not implemented" if ref["nav_result"] == "not_implemented" else "rejected"
+        print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
+              f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
     if opts.plot:
         from navkit.plot import plot_mcap
 

@@ -362,6 +362,15 @@ class _Decoder:
                           status.byte_offset)
         self.last_lisp = None
         self.last_lisp_raw = None      # decoded into last_lisp by finish()
+        # the host's verdict on each planner command: lisp_data.nav_result of the first
+        # lisp_data whose ack_time_tag is the command's time tag
+        lisp = protocol.SPEC.messages["lisp_data"]
+        self.ack_at = [(struct.Struct("<" + _STRUCT_CODES[f.type]).unpack_from, f.byte_offset)
+                       for f in (lisp.field("ack_time_tag"), lisp.field("nav_result"))]
+        self.commands = 0
+        self.pending = {}              # time tag -> (mission entry, lisp_cmd) not yet acked
+        self.verdicts = []             # (mission entry, lisp_cmd, nav_result) acked
+        self.unacknowledged = []       # (mission entry, lisp_cmd) never acked
         # /planner/data is written every frame: its text straight from the bytes
         self.lisp_text = _fields_text(protocol, "lisp_data")
         self.last_row = None
@@ -453,9 +462,11 @@ class _Decoder:
                 write(t_ns, fmt % (get(row) + (dio,)))
             if row is not None:
                 self.last_row = row
-        elif kind == "C":        # planner command: (C, t_ns, dict)
+        elif kind == "C":        # planner command: (C, t_ns, dict, mission entry)
             rec.reserve(item[1], item[1])
             rec.write("/planner/cmd", item[1], item[2])
+            self.commands += 1
+            self.pending[item[2]["time_tag"]] = (item[3], item[2])
         elif kind == "E":        # event: (E, t_ns, kind, detail)
             rec.reserve(item[1], item[1])
             rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
@@ -469,8 +480,23 @@ class _Decoder:
             self.write_lisp(t_ns, self.dumps(d).encode())
         else:
             self.write_lisp(t_ns, self.lisp_text(raw))
+        if self.pending and len(raw) == self.lisp_size:
+            self.acks(raw)
         self.last_lisp_raw = raw
         self.last_lisp = None
+
+    def acks(self, raw: bytes) -> None:
+        """The verdict of lisp_data `raw` on the pending planner command it acknowledges
+        (ack_time_tag = its time tag); a pending command with an earlier tag was never
+        taken (the host saw a later one)."""
+        (ack_unpack, ack_off), (res_unpack, res_off) = self.ack_at
+        ack = ack_unpack(raw, ack_off)[0]
+        if ack not in self.pending:
+            return
+        for tag in [tag for tag in self.pending if tag < ack]:
+            self.unacknowledged.append(self.pending.pop(tag))
+        entry, cmd = self.pending.pop(ack)
+        self.verdicts.append((entry, cmd, res_unpack(raw, res_off)[0]))
 
     def frames(self, buf: bytearray, parser, data: bytes):
         """Whole frames of a byte stream as (name, frame bytes, JSON bytes). The logged
@@ -550,7 +576,11 @@ class _Decoder:
             self.last_lisp = self.p.from_bytes("lisp_data", self.last_lisp_raw)
         last_micro = (self.p.decode_frame(self.last_micro_raw)[1]
                       if self.last_micro_raw is not None else None)
+        self.unacknowledged += self.pending.values()
+        self.pending = {}
         return {"counts": self.rec.counts, "last_micro": last_micro,
+                "planner": {"commands": self.commands, "verdicts": self.verdicts,
+                            "unacknowledged": self.unacknowledged},
                 "last_lisp": self.last_lisp,
                 "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
                 "config_downloads": self.config_downloads,
@@ -604,7 +634,10 @@ class RunLog:
     event(), end_frame(); each with its log time, in time order within a frame (truth rows
     before the micro's bytes of the same FMU call) but for a few ms in real time;
     close() returns the worker's results (message counts, last
-    decoded micro_data / lisp_data / truth, config downloads, watchdog stops, and `link`:
+    decoded micro_data / lisp_data / truth, config downloads, watchdog stops, `planner`:
+    commands written and per command() its entry and lisp_cmd with the host's
+    lisp_data.nav_result once a lisp_data acknowledged it (`verdicts`) or never
+    (`unacknowledged`), and `link`:
     per direction frames sent, and frames received, CRC errors, resyncs as the receiving
     end's parser counts them over the whole run; with a worker process also `cpu_s`, its
     CPU time (s) from start to its results, without `spin_cpu_s`, the CPU s it spent
@@ -675,8 +708,10 @@ class RunLog:
         port the host opens again)."""
         self._items.append(("X", direction))
 
-    def command(self, t_ns, msg) -> None:
-        self._items.append(("C", t_ns, msg))
+    def command(self, t_ns, msg, entry) -> None:
+        """The planner wrote lisp_cmd `msg` for mission entry `entry` (any picklable
+        value, handed back with the host's verdict in close()'s `planner`)."""
+        self._items.append(("C", t_ns, msg, entry))
 
     def event(self, t_ns, kind, detail) -> None:
         self._items.append(("E", t_ns, kind, detail))
