@@ -311,3 +311,37 @@ def test_docs_table_cells_escape_a_bar(tmp_path):
     from navkit.gen import emit_docs
     path = _spec(tmp_path, 'doc = "Watchdog stops since reset."', 'doc = "Stops | since reset."')
     assert "| Stops \\| since reset. |" in emit_docs(load(path))
+
+
+# ------------------------------------------------------------ coded fields
+
+@pytest.mark.parametrize("old,new,needle,reason", [
+    ('enum = "fwd_cmd", max = 5', 'enum = "fwd_cmd", min = 6, max = 50', 'enum = "fwd_cmd", min = 6',
+     "micro_cmd.fwd_cmd: no value of enum fwd_cmd lies within 6..50"),
+    ('enum = "fwd_cmd", max = 5', 'enum = "fwd_cmd", max = 5, default = 2', "default = 2",
+     "micro_cmd.fwd_cmd: default 2 is not a value of enum fwd_cmd"),
+])
+def test_coded_field_needs_codes_in_range(tmp_path, old, new, needle, reason):
+    path = _spec(tmp_path, old, new)
+    _refused(path, _line_of(path, needle), reason)
+
+
+def test_generated_check_refuses_non_codes_of_coded_fields_only():
+    """The C check has a membership test for every coded field whose range holds a
+    non-code (dg_control, a bit set, and mc_datalog_cmd, all of whose 0..5 are codes,
+    keep their range check); the codes the firmware receives and refuses (turn_cmd 13,
+    15, 20, 23, 25) are codes, so they reach it."""
+    from navkit.paths import build_dir
+    spec = load(spec_path())
+    cmd = spec.messages["micro_cmd"]
+    assert [f.name for f in cmd.fields if f.coded] == ["msg_type", "fwd_cmd", "turn_cmd", "mc_datalog_cmd"]
+    turn = cmd.field("turn_cmd")
+    for code in (13, 15, 20, 23, 25):
+        assert code in spec.enums["turn_cmd"].values.values() and turn.min <= code <= turn.max
+    src = (build_dir() / "gen" / "navkit_proto.c").read_text()
+    body = src.split("int navkit_micro_cmd_check(")[1].split("\n}\n")[0]
+    assert "m->turn_cmd != 10u && m->turn_cmd != 13u" in body and "m->fwd_cmd != 3u && m->fwd_cmd != 5u" in body
+    assert "m->dg_control > 3u" in body and "m->dg_control !=" not in body
+    assert "m->mc_datalog_cmd > 5u" in body and "m->mc_datalog_cmd !=" not in body
+    data = src.split("int navkit_lisp_data_check(")[1].split("\n}\n")[0]
+    assert "m->nav_result != 0L && m->nav_result != 1L" in data

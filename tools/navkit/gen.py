@@ -144,8 +144,9 @@ def emit_c_header(spec: Spec) -> str:
                    + (", spec_hash = NAVKIT_SPEC_HASH" if any(f.name == "spec_hash" for f in m.fields) else "")
                    + ". */")
         out.append(f"void navkit_{m.name}_defaults(navkit_{m.name}_t *m);")
-        out.append(f"/* Range check against the spec: NAVKIT_OK, or NAVKIT_ERR_RANGE with *bad_field =\n"
-                   f" * NAVKIT_{up}_FIELD_<NAME> (bad_field may be NULL). */")
+        out.append(f"/* Check against the spec (each value within its min..max, a coded field's one of its\n"
+                   f" * enum's values): NAVKIT_OK, or NAVKIT_ERR_RANGE with *bad_field =\n"
+                   f" * NAVKIT_{up}_FIELD_<NAME> of the first bad field in spec order (bad_field may be NULL). */")
         out.append(f"int navkit_{m.name}_check(const navkit_{m.name}_t *m, int *bad_field);")
         out.append(f"/* Spec name of field `index`, or \"?\". */")
         out.append(f"const char *navkit_{m.name}_field_name(int index);")
@@ -203,7 +204,7 @@ def _elements(f):
     return [(f"[{i}]", f.byte_offset + i * f.size) for i in range(f.count)]
 
 
-def _c_message(m: Message) -> list[str]:
+def _c_message(spec: Spec, m: Message) -> list[str]:
     up, out = m.name.upper(), []
     t = f"navkit_{m.name}_t"
     # defaults
@@ -224,10 +225,15 @@ def _c_message(m: Message) -> list[str]:
     for i, f in enumerate(m.fields):
         lo, hi = TYPES[f.type][2], TYPES[f.type][3]
         conds = []
-        if f.min > lo:
-            conds.append("{v} < " + _clit(f.min, f.type))
-        if f.max < hi:
-            conds.append("{v} > " + _clit(f.max, f.type))
+        codes = sorted(v for v in spec.enums[f.enum].values.values() if f.min <= v <= f.max) if f.coded else []
+        if codes and len(codes) < f.max - f.min + 1:
+            # coded: not one of the enum's values within min..max (which implies the range)
+            conds = [" && ".join("{v} != " + _clit(v, f.type) for v in codes)]
+        else:
+            if f.min > lo:
+                conds.append("{v} < " + _clit(f.min, f.type))
+            if f.max < hi:
+                conds.append("{v} > " + _clit(f.max, f.type))
         if not conds:
             continue
         for sfx, _ in _elements(f):
@@ -306,7 +312,7 @@ def emit_c_source(spec: Spec) -> str:
             out.append(f"    case NAVKIT_MSG_TYPE_{m.name.upper()}:\n        return dir == {d};")
     out.append("    default:\n        return 0;\n    }\n}\n")
     for m in spec.messages.values():
-        out += _c_message(m)
+        out += _c_message(spec, m)
     return "\n".join(out)
 
 

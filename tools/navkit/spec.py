@@ -103,6 +103,14 @@ class Field:
     def signed(self) -> bool:
         return TYPES[self.type][1]
 
+    @property
+    def coded(self) -> bool:
+        """Its value must be one of its enum's values (checked beside its range): a field
+        with `enum` whose units are not "bits". A bit set such as micro_cmd.dg_control
+        (units "bits") takes any combination of its enum's bits: only its range is
+        checked. `flags` and `special` fields are never coded."""
+        return self.enum is not None and self.units != "bits"
+
 
 @dataclass(frozen=True)
 class Message:
@@ -604,6 +612,12 @@ class _Builder:
                     self.fail(line, what, f"special values of {ref} must lie within {fmin}..{fmax}")
         if f.get("enum") is not None and f.get("special") is not None:
             self.fail(line, what, "a field has enum or special, not both")
+        if f.get("enum") is not None and units != "bits":  # coded: a value must be a member
+            codes = enums[f["enum"]].values.values()
+            if not any(fmin <= v <= fmax for v in codes):
+                self.fail(line, what, f"no value of enum {f['enum']} lies within {fmin}..{fmax}")
+            if default is not None and default not in codes:
+                self.fail(line, what, f"default {default} is not a value of enum {f['enum']}")
         if not isinstance(f.get("doc"), str) or not f["doc"]:
             self.fail(line, what, "every field needs doc text")
         return Field(fname, word, ftype, count, units, float(scale), fmin, fmax,

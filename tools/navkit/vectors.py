@@ -4,8 +4,11 @@
 field=value ...` (arrays as comma lists); serial messages as whole frames, rcomm
 messages as their little-endian bytes. `case` is `defaults` for the spec defaults
 (both codecs' defaults() must give these values), else min, max, random, below or
-above (one field just outside its range); `check` is what range validation says:
-`ok`, or the name of the first field out of range (C: its index).
+above (one field just outside its range) or nonmember (a coded field, Field.coded, at
+a value within its range that is none of its enum's); `check` is what validation
+against the spec says, worked out here from the spec (the oracle both codecs' checks
+are held to): `ok`, or the name of the first field, in spec order, outside its range
+or not one of its enum's values (C: its index).
 `tests/vectors/streams.txt`: `direction | good,bad_crc,unknown_type,bad_length,
 schema_mismatch,dropped_bytes | foreign hash | hex`: a byte stream, the parser counters
 it must produce and the spec hash of the last frame of another spec version in it
@@ -61,19 +64,24 @@ def _encode(name: str, fields: dict) -> bytes:
 
 
 def _check_result(name: str, fields: dict) -> str:
-    """`ok`, or the name of the first field outside its range (spec order)."""
-    try:
-        p.check(name, fields)
-    except p.ProtocolError as e:
-        return e.field
+    """`ok`, or the name of the first field (spec order) with a value outside its
+    min..max or, for a coded field, not one of its enum's values: the spec's verdict,
+    not the codec's."""
+    for f in p.SPEC.messages[name].fields:
+        codes = set(p.SPEC.enums[f.enum].values.values()) if f.coded else None
+        for v in fields[f.name] if f.count > 1 else [fields[f.name]]:
+            if not f.min <= v <= f.max or (codes is not None and v not in codes):
+                return f.name
     return "ok"
 
 
 def make_frames(seed: int = 1) -> str:
     """Golden frames: for every message its defaults, all-minimum, all-maximum, three
     seeded random value sets (values within the type, not the spec range, so the codec
-    is exercised at the edges), and the defaults with the first ranged field just below
-    its min and the last just above its max; each with its range-check verdict."""
+    is exercised at the edges), the defaults with the first ranged field just below
+    its min and the last just above its max, and for every coded field (but a framed
+    message's msg_type, which the frame sets) whose range holds a value none of its
+    enum's, the defaults with the smallest such value; each with its check verdict."""
     rng = random.Random(seed)
     lines = [_header("frames"), "# message | case | check | hex | fields\n"]
     for m in p.SPEC.messages.values():
@@ -93,6 +101,12 @@ def make_frames(seed: int = 1) -> str:
         below = [f for f in m.fields if f.min > TYPES[f.type][2]]
         above = [f for f in m.fields if f.max < TYPES[f.type][3]]
         edges = [("below", f, f.min - 1) for f in below[:1]] + [("above", f, f.max + 1) for f in above[-1:]]
+        for f in m.fields:
+            if f.coded and not (m.framed and f.name == "msg_type"):
+                codes = set(p.SPEC.enums[f.enum].values.values())
+                v = next((v for v in range(f.min, f.max + 1) if v not in codes), None)
+                if v is not None:
+                    edges.append(("nonmember", f, v))
         for case, f, v in edges:
             fields = p.defaults(m.name)
             fields[f.name] = [v] * f.count if f.count > 1 else v
