@@ -345,3 +345,10 @@ def test_generated_check_refuses_non_codes_of_coded_fields_only():
     assert "m->mc_datalog_cmd > 5u" in body and "m->mc_datalog_cmd !=" not in body
     data = src.split("int navkit_lisp_data_check(")[1].split("\n}\n")[0]
     assert "m->nav_result != 0L && m->nav_result != 1L" in data
+
+
+def test_codec_rcomm_constants_are_the_specs():
+    from navkit import protocol
+    r = protocol.SPEC.rcomm
+    assert (protocol.RCOMM_MAGIC, protocol.RCOMM_VERSION) == (r.magic, r.version) == (0x43524B4E, 1)
+    assert (protocol.RCOMM_OFFSETS, protocol.RCOMM_SIZE) == (r.slots, r.size)

@@ -32,11 +32,12 @@ def rcomm_layout(spec: Spec) -> tuple[dict[str, int], int]:
 
 def __getattr__(name: str) -> int:
     """RCOMM_MAGIC and RCOMM_VERSION of the default spec, for `navkit.protocol`'s import
-    of them (it should read SPEC.rcomm.magic and .version; then this goes)."""
+    of them (it should read SPEC.rcomm.magic and .version; then this goes). Loaded once."""
     if name in ("RCOMM_MAGIC", "RCOMM_VERSION"):
         from navkit.paths import spec_path
         rcomm = load(spec_path()).rcomm
-        return rcomm.magic if name == "RCOMM_MAGIC" else rcomm.version
+        globals().update(RCOMM_MAGIC=rcomm.magic, RCOMM_VERSION=rcomm.version)
+        return globals()[name]
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
