@@ -4,6 +4,8 @@ plot.png, the host's datalog and `navkit plot`; determinism; the demo mission.""
 import argparse
 import json
 import os
+import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -74,7 +76,8 @@ def test_mcap_topics_schemas_metadata_and_chunks(tmp_path_factory):
     assert len(r.messages("/host/frame")) == r.summary["frames"]
     meta = r.metadata
     assert meta["seed"] == "1" and "fwd_cmd = 1" in meta["mission"]
-    assert meta["spec_hash"].startswith("0x") and meta["git_revision"]
+    assert meta["spec_hash"].startswith("0x")
+    assert re.fullmatch(r"[0-9a-f]{40}(\+dirty)?", meta["git_revision"]), meta["git_revision"]
     with open(r.out / "run.mcap", "rb") as f:
         reader = make_reader(f)
         summ = reader.get_summary()
@@ -197,6 +200,64 @@ def test_datalog_and_plots(tmp_path_factory, tmp_path):
     assert plot.run(parser.parse_args([str(r.out / "run.mcap"), "-o", str(tmp_path / "run.png")])) == 0
     assert (tmp_path / "log.png").stat().st_size > 10_000
     assert (tmp_path / "run.png").stat().st_size > 10_000
+
+
+def test_git_revision_clean_dirty_and_not_a_checkout(tmp_path):
+    """The metadata's git_revision: HEAD's 40 hex digits, "+dirty" when `git status
+    --porcelain` lists anything (a modified or an untracked file), "unknown" outside a
+    git checkout."""
+    from navkit.sim.harness import git_revision
+
+    assert git_revision(tmp_path) == "unknown"
+    git = ["git", "-C", str(tmp_path), "-c", "user.name=navkit", "-c", "user.email=n@k"]
+    subprocess.run(git + ["init", "-q"], check=True)
+    (tmp_path / "a.txt").write_text("a\n")
+    subprocess.run(git + ["add", "a.txt"], check=True)
+    subprocess.run(git + ["commit", "-q", "-m", "a"], check=True)
+    head = subprocess.run(git + ["rev-parse", "HEAD"], capture_output=True, text=True,
+                          check=True).stdout.strip()
+    assert re.fullmatch(r"[0-9a-f]{40}", head)
+    assert git_revision(tmp_path) == head
+    (tmp_path / "a.txt").write_text("b\n")
+    assert git_revision(tmp_path) == head + "+dirty"
+    subprocess.run(git + ["checkout", "-q", "a.txt"], check=True)
+    (tmp_path / "new.txt").write_text("n\n")
+    assert git_revision(tmp_path) == head + "+dirty"
+
+
+def test_run_plot_has_path_speed_heading_and_a_mark_per_command(tmp_path_factory):
+    """plot.png's figure: three panels (path, speed, heading) holding the /truth values,
+    and on the speed and heading panels one line per /planner/cmd message and per
+    /events message at its log time."""
+    import matplotlib.pyplot as plt
+
+    from navkit import plot
+
+    r = run_mission(tmp_path_factory, "refused", REFUSED)
+    fig = plot.mcap_figure(r.out / "run.mcap")
+    try:
+        ax_xy, ax_v, ax_h = fig.axes
+        assert (ax_xy.get_xlabel(), ax_xy.get_ylabel()) == ("y (left), mm", "x (forward), mm")
+        assert ax_v.get_ylabel() == "speed, mm/s" and ax_h.get_ylabel() == "heading, deg (cw)"
+        assert ax_h.get_xlabel() == "simulated time, s"
+        truth = r.truth
+        path, speed, heading = (ax.get_lines()[0] for ax in (ax_xy, ax_v, ax_h))
+        assert list(path.get_xdata()) == [m["y_mm"] for m in truth]
+        assert list(path.get_ydata()) == [m["x_mm"] for m in truth]
+        assert list(speed.get_xdata()) == list(heading.get_xdata()) == [m["t"] for m in truth]
+        assert list(speed.get_ydata()) == [m["v_mm_s"] for m in truth]
+        assert list(heading.get_ydata()) == [m["heading_deg"] % 360 for m in truth]
+        cmd_t = [t for t, _ in r.messages("/planner/cmd")]
+        ev_t = [t for t, _ in r.messages("/events")]
+        assert cmd_t == [0.5, 1.0, 1.0, 3.0] and ev_t == [2.0, 3.5], "unplug and plug"
+        for ax in (ax_v, ax_h):
+            assert [ln.get_xdata()[0] for ln in ax.get_lines() if ln.get_gid() == "command"] == cmd_t
+            assert [ln.get_xdata()[0] for ln in ax.get_lines() if ln.get_gid() == "event"] == ev_t
+        labels = [a.get_text() for a in ax_v.texts]
+        assert labels == ["fwd 105 v0 d0", "fwd 1 v200 d100", "fwd 1 v200 d150",
+                          "turn 11 90deg"], labels
+    finally:
+        plt.close(fig)
 
 
 def _make_sim_command() -> list:

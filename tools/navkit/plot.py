@@ -13,7 +13,8 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "plot_mcap", "plot_datalog", "read_datalog", "read_mcap"]
+__all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "plot_datalog", "read_datalog",
+           "read_mcap"]
 
 
 def add_arguments(parser) -> None:
@@ -90,7 +91,22 @@ def _wrapped(t, h):
 
 
 def plot_mcap(path: Path, out: Path) -> None:
-    """Plot run `path` (run.mcap) into PNG `out`."""
+    """Plot run `path` (run.mcap) into PNG `out` (mcap_figure)."""
+    fig = mcap_figure(path)
+    try:
+        fig.savefig(out, dpi=110)
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+
+
+def mcap_figure(path: Path):
+    """The plot of run `path` (run.mcap) as a matplotlib Figure (close it with
+    matplotlib.pyplot.close): three panels, the path (truth y_mm across, x_mm up, mm),
+    the speed (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s);
+    on the speed and heading panels one vertical line per /planner/cmd message (gid
+    "command") and per /events message (gid "event") at its log time."""
     msgs = read_mcap(path, ["/truth", "/planner/cmd", "/micro/data", "/events"])
     truth = [m for _, m in msgs.get("/truth", [])]
     if not truth:
@@ -99,7 +115,7 @@ def plot_mcap(path: Path, out: Path) -> None:
     events = msgs.get("/events", [])
     micro = msgs.get("/micro/data", [])
     t = [m["t"] for m in truth]
-    plt, (fig, (ax_xy, ax_v, ax_h)) = _figure(3, 11)
+    _plt, (fig, (ax_xy, ax_v, ax_h)) = _figure(3, 11)
     ax_xy.plot([m["y_mm"] for m in truth], [m["x_mm"] for m in truth], label="truth")
     if micro:
         # the micro's odometry uses the truth's axes (x forward, y left)
@@ -127,17 +143,16 @@ def plot_mcap(path: Path, out: Path) -> None:
     ax_h.legend(loc="best", fontsize="small")
     for ns, cmd in cmds:
         for ax in (ax_v, ax_h):
-            ax.axvline(ns / 1e9, color="tab:green", lw=0.8, alpha=0.7)
+            ax.axvline(ns / 1e9, color="tab:green", lw=0.8, alpha=0.7, gid="command")
         ax_v.annotate(_command_label(cmd), (ns / 1e9, 1.0), xycoords=("data", "axes fraction"),
                       rotation=90, va="top", ha="right", fontsize=6, color="tab:green")
     for ns, ev in events:
         for ax in (ax_v, ax_h):
-            ax.axvline(ns / 1e9, color="tab:red", lw=0.8, ls=":")
+            ax.axvline(ns / 1e9, color="tab:red", lw=0.8, ls=":", gid="event")
         ax_h.annotate(ev["kind"], (ns / 1e9, 0.0), xycoords=("data", "axes fraction"),
                       rotation=90, va="bottom", ha="right", fontsize=6, color="tab:red")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def read_datalog(path: Path) -> tuple[list, list]:

@@ -34,7 +34,8 @@ from pathlib import Path
 
 from navkit.sim.mission import COMMAND_FIELDS, Mission, MissionError
 
-__all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period"]
+__all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period",
+           "git_revision"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _FW_NAME, _PLANT_NAME = "navkit_firmware", "navkit_plant"
@@ -94,15 +95,30 @@ def frame_period(config_dir: Path) -> float:
     return 1.0 / rate if rate > 0 else 0.1
 
 
-def _git_revision() -> str:
+_REVISION = re.compile(r"[0-9a-f]{40}")
+
+
+def git_revision(root: Path | None = None) -> str:
+    """The git revision of checkout `root` (default: the repository's): the 40 hex digits
+    of HEAD, with "+dirty" appended when `git status --porcelain` lists anything (modified,
+    staged or untracked files), or "unknown" when `root` is not a git checkout (or git is
+    missing)."""
     from navkit.paths import repo_root
 
+    git = ["git", "-C", str(root or repo_root())]
     try:
-        out = subprocess.run(["git", "-C", str(repo_root()), "rev-parse", "HEAD"],
-                             capture_output=True, text=True, timeout=5)
-        return out.stdout.strip() or "unknown"
+        head = subprocess.run(git + ["rev-parse", "--verify", "HEAD"], capture_output=True,
+                              text=True, timeout=5)
+        rev = head.stdout.strip()
+        if head.returncode != 0 or not _REVISION.fullmatch(rev):
+            return "unknown"
+        status = subprocess.run(git + ["status", "--porcelain"], capture_output=True,
+                                timeout=30)     # bytes: file names in any encoding
+        if status.returncode != 0:
+            return "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
+    return rev + ("+dirty" if status.stdout.strip() else "")
 
 
 # ------------------------------------------------------------------ FMUs
@@ -344,6 +360,7 @@ class _Run:
         self.opts = opts
         self.m = opts.mission
         self.command_index = {id(c): i + 1 for i, c in enumerate(self.m.commands)}  # [[command]] #
+        self.git_revision = git_revision()      # before the run's wall clock starts
         self.build = _build(opts)
         self.config_dir = Path(opts.config_dir) if opts.config_dir else repo_root() / "config"
         self.out = Path(opts.out)
@@ -412,7 +429,7 @@ class _Run:
         self.old_datalogs = _datalogs(self.out)   # an earlier run's, kept but not this run's
         meta = {"mission": self.m.text, "mission_file": self.m.path.name,
                 "seed": self.opts.seed, "spec_hash": f"0x{self.protocol.SPEC_HASH:08X}",
-                "git_revision": _git_revision(), "frame_s": self.frame_s,
+                "git_revision": self.git_revision, "frame_s": self.frame_s,
                 "realtime": self.opts.realtime, "step_s": STEP_S,
                 "plant_fmu": self.fmus.plant_md.modelName,
                 "firmware_fmu": self.fmus.fw_md.modelName}
