@@ -37,6 +37,9 @@ def test_help_and_unknown_options():
     ("[executive]\nwarp = 9\n", "warp: unknown key"),
     ("[teleport]\n", "[teleport]: unknown section"),
     ("[micro_cfg_geometry]\ncounts_per_rev = 3\n", "counts_per_rev: outside the spec's range"),
+    ("[executive]\nshm_name = /a/b\n", "shm_name: '/a/b' is not a POSIX shared-memory name"),
+    ("[executive]\nshm_group = nosuchgroup-nk\n", "shm_group: 'nosuchgroup-nk' is not a group of this system"),
+    ("[executive]\nlog_dir = /nonexistent/dir\n", "log_dir: /nonexistent/dir: No such file or directory"),
 ])
 def test_config_errors_name_file_line_and_key(tmp_path, text, where):
     from navkit.paths import repo_root
@@ -94,6 +97,22 @@ def test_record_option_starts_the_datalog(host_factory):
     assert len(rows) == 2
 
 
+def test_record_that_cannot_create_its_log_refuses_to_start(tmp_path):
+    """--record asks for a datalog: a log folder where no file can be made (as root:
+    /proc, which root may write to but where no file can be created; else a folder
+    without write permission) stops start-up instead of running without a log."""
+    if os.geteuid() == 0:
+        log_dir = "/proc"
+    else:
+        log_dir = str(tmp_path / "ro")
+        os.mkdir(log_dir, 0o500)
+    shm = f"/nk-rec-{os.getpid()}"
+    r = _run(["--port", "/nonexistent", "--shm", shm, "--log-dir", log_dir, "--record"], stdin=subprocess.DEVNULL)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "--record / [executive] record = 1: cannot record (" in r.stderr and "not starting" in r.stderr, r.stderr
+    assert not os.path.exists("/dev/shm" + shm), "nothing left behind"
+
+
 def test_real_time_mode_sends_config_and_stops_on_sigint(host_factory):
     h = host_factory(lockstep=False, args=("--rate", "50"))
     assert h.read_available(wait_s=2.0), "the host talks to the port on its own clock"
@@ -138,6 +157,11 @@ def test_closed_stdin_gives_no_keys(host_factory):
     (["--rate", "0.05"], "not a rate in 0.1..1000 Hz"),
     (["--rate", "0x10"], "--rate: 0x10: not a rate in 0.1..1000 Hz"),
     (["--lockstep-fd", "3"], "--lockstep-fd needs --clock lockstep"),
+    (["--port", "a", "--port", "/nonexistent"], "--port: given twice"),
+    (["--record", "--record"], "--record: given twice"),
+    (["-h", "--help"], "--help: given twice"),
+    (["--shm", "a/b"], "--shm: '/a/b' is not a POSIX shared-memory name"),
+    (["--log-dir", "/nonexistent/dir"], "--log-dir: /nonexistent/dir: No such file or directory"),
 ])
 def test_options_without_effect_or_value_are_refused(args, said):
     r = _run(args)

@@ -9,11 +9,16 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <climits>
 #include <functional>
+#include <grp.h>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <vector>
+
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "navkit/ini_file.hpp"
 #include "navkit/options.hpp"
@@ -86,6 +91,19 @@ Setter dbl_key(double *p, double lo, double hi)
     };
 }
 
+// The value into *p, once check (shm_name_error, ...) finds nothing wrong with it.
+Setter checked_key(std::string *p, std::string (*check)(const std::string &))
+{
+    return [p, check](const std::string &v) -> std::string {
+        const std::string why = check(v);
+        if (!why.empty()) {
+            return why;
+        }
+        *p = v;
+        return "";
+    };
+}
+
 // 0 or 1 into *p.
 Setter bool_key(bool *p)
 {
@@ -152,9 +170,9 @@ Table nav_table(Config &c)
         {"frame_rate_hz", dbl_key(&e.frame_rate_hz, kMinRateHz, kMaxRateHz)},
         {"planner_timeout", dbl_key(&e.planner_timeout_s, 0, 3600)},
         {"console_idle", dbl_key(&e.console_idle_s, 0, 3600)},
-        {"shm_name", str_key(&e.shm_name, false)},
-        {"shm_group", str_key(&e.shm_group, true)},
-        {"log_dir", str_key(&e.log_dir, false)},
+        {"shm_name", checked_key(&e.shm_name, shm_name_error)},
+        {"shm_group", checked_key(&e.shm_group, shm_group_error)},
+        {"log_dir", checked_key(&e.log_dir, log_dir_error)},
         {"record", bool_key(&e.record)},
         {"dio_default", mask_key(&e.dio_default, 0, 4095)},
     };
@@ -384,6 +402,42 @@ std::string ini_parse_real(const std::string &v, double *out)
         return "'" + v + "' is too large";
     }
     *out = x;
+    return "";
+}
+
+std::string shm_name_error(const std::string &v)
+{
+    if (v.size() < 2 || v[0] != '/' || v.find('/', 1) != std::string::npos || v.size() - 1 > NAME_MAX ||
+        v == "/." || v == "/..") {
+        return "'" + v + "' is not a POSIX shared-memory name ('/' then 1.." + std::to_string(NAME_MAX) +
+               " characters, no other '/', not . or ..)";
+    }
+    return "";
+}
+
+std::string shm_group_error(const std::string &v)
+{
+    if (!v.empty() && !getgrnam(v.c_str())) {
+        return "'" + v + "' is not a group of this system (getgrnam)";
+    }
+    return "";
+}
+
+std::string log_dir_error(const std::string &v)
+{
+    struct stat st;
+    if (v.empty()) {
+        return "needs a value";
+    }
+    if (stat(v.c_str(), &st) != 0) {
+        return v + ": " + std::strerror(errno);
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        return v + ": not a directory";
+    }
+    if (access(v.c_str(), W_OK | X_OK) != 0) {
+        return v + ": cannot create files in it (" + std::strerror(errno) + ")";
+    }
     return "";
 }
 

@@ -1,6 +1,7 @@
 #include "navkit/options.hpp"
 
 #include <cstring>
+#include <set>
 
 #include "navkit/ini.hpp"
 
@@ -25,8 +26,12 @@ const char *usage()
 
 std::string parse_options(int argc, char **argv, Options *o)
 {
+    std::set<std::string> seen;  // each option at most once: a second one is refused, not "the last wins"
     for (int i = 1; i < argc; i++) {
-        const std::string a = argv[i];
+        const std::string a = argv[i] == std::string("-h") ? "--help" : argv[i];
+        if (a.compare(0, 2, "--") == 0 && !seen.insert(a).second) {
+            return a + ": given twice";
+        }
         // the next argument; one that looks like an option is not taken as a value
         auto value = [&](std::string *out) -> bool {
             if (i + 1 >= argc || std::strncmp(argv[i + 1], "--", 2) == 0) {
@@ -69,8 +74,16 @@ std::string parse_options(int argc, char **argv, Options *o)
                 o->lockstep_fd = static_cast<int>(fd);
             } else if (a == "--shm") {
                 o->shm = v[0] == '/' ? v : "/" + v;
+                const std::string why = shm_name_error(o->shm);
+                if (!why.empty()) {
+                    return a + ": " + why;
+                }
             } else if (a == "--log-dir") {
                 o->log_dir = v;
+                const std::string why = log_dir_error(v);
+                if (!why.empty()) {
+                    return a + ": " + why;
+                }
             } else {
                 o->timing_log = v;
             }

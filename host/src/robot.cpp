@@ -6,6 +6,7 @@
 #include <ctime>
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <unistd.h>
 #include <vector>
 
@@ -88,10 +89,11 @@ static const char *owner_name(Owner o)
     return "none";
 }
 
-static void start_recording(Robot &r)
+// Starts the datalog (R key, --record); "" when recording, else why not (said on the console).
+static std::string start_recording(Robot &r)
 {
     if (r.datalog.recording()) {
-        return;
+        return "";
     }
     const std::string err = r.datalog.start(std::time(nullptr), log_params());
     if (err.empty()) {
@@ -99,6 +101,7 @@ static void start_recording(Robot &r)
     } else {
         r.console.print("cannot record: %s", err.c_str());
     }
+    return err;
 }
 
 static void stop_recording(Robot &r)
@@ -169,7 +172,11 @@ void RobotInit(Robot &r)
     r.nav.init();
     navkit_lisp_data_defaults(&r.lisp_data);
     if (r.cfg.exec.record) {
-        start_recording(r);
+        // asked for at start-up (--record, record = 1): running without it is refused
+        const std::string err = start_recording(r);
+        if (!err.empty()) {
+            throw std::runtime_error("--record / [executive] record = 1: cannot record (" + err + "): not starting");
+        }
     }
 }
 

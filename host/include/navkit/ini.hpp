@@ -38,6 +38,14 @@ struct ExecutiveCfg {
 std::string ini_parse_int(const std::string &v, bool hex_ok, long *out);
 std::string ini_parse_real(const std::string &v, double *out);
 
+// Checks of [executive] values (and of --shm, --log-dir): "" if v is fine, else why not.
+// A POSIX shared-memory name: '/' then 1..NAME_MAX characters, no other '/'.
+std::string shm_name_error(const std::string &v);
+// Empty (owner only), or a group getgrnam() knows.
+std::string shm_group_error(const std::string &v);
+// An existing directory this process can create files in (the datalog's).
+std::string log_dir_error(const std::string &v);
+
 // The serial rates [micro] baud may take (each has a termios speed constant; SerialPort
 // maps them), in bit/s.
 const std::vector<int> &supported_bauds();

@@ -22,7 +22,7 @@ struct Options {
     bool help = false;
 };
 
-// "" on success, else the error (unknown option, missing or bad value).
+// "" on success, else the error (unknown or repeated option, missing or bad value).
 std::string parse_options(int argc, char **argv, Options *o);
 const char *usage();
 

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <string>
 #include <unistd.h>
+#include <vector>
 
 #include "navkit/ini.hpp"
 
@@ -281,4 +282,29 @@ TEST_F(IniFiles, IndentedKeyIsReportedAtItsLineNotAsThePreviousKey)
     write("NavAndControl.ini", "[executive]\nframe_rate_hz = 10\n    planner_timeout = 5\n");
     EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: line: indented (keys and [sections] start at the beginning "
                               "of the line; continuation lines are not supported)");
+}
+
+TEST_F(IniFiles, ShmNameGroupAndLogDirAreCheckedAtTheirLines)
+{
+    const std::string nav = dir_ + "/NavAndControl.ini:";
+    const std::string bad_name = " is not a POSIX shared-memory name ('/' then 1..255 characters, no other '/', "
+                                 "not . or ..)";
+    for (const std::string &v : std::vector<std::string>{"/a/b", "navkit", "/", "/.."}) {
+        write("NavAndControl.ini", "[executive]\n\nshm_name = " + v + "\n");
+        EXPECT_EQ(error(), nav + "3: shm_name: '" + v + "'" + bad_name) << v;
+    }
+    // longer than an INI line may be: --shm's path
+    EXPECT_EQ(shm_name_error("/" + std::string(255, 'n')), "");
+    EXPECT_EQ(shm_name_error("/" + std::string(256, 'n')), "'/" + std::string(256, 'n') + "'" + bad_name);
+    write("NavAndControl.ini", "[executive]\nshm_name = /nk\nshm_group = nosuchgroup-nk\n");
+    EXPECT_EQ(error(), nav + "3: shm_group: 'nosuchgroup-nk' is not a group of this system (getgrnam)");
+    write("NavAndControl.ini", "[executive]\nlog_dir = " + dir_ + "/nope\n");
+    EXPECT_EQ(error(), nav + "2: log_dir: " + dir_ + "/nope: No such file or directory");
+    write("NavAndControl.ini", "[executive]\nlog_dir = " + dir_ + "/sensors.ini\n");
+    EXPECT_EQ(error(), nav + "2: log_dir: " + dir_ + "/sensors.ini: not a directory");
+    write("NavAndControl.ini", "[executive]\nshm_name = /nk.test-1\nshm_group = root\nlog_dir = " + dir_ + "\n");
+    const Config c = Ini::load(dir_);
+    EXPECT_EQ(c.exec.shm_name, "/nk.test-1");
+    EXPECT_EQ(c.exec.shm_group, "root");
+    EXPECT_EQ(c.exec.log_dir, dir_);
 }
