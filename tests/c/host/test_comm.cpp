@@ -1,9 +1,10 @@
-// Comm: the rcomm region (layout, mode, owner check), seqlocks, and the planner's C
+// Comm: the rcomm region (layout, mode, shm_group, owner check), seqlocks, and the planner's C
 // header rcomm.h against the host's side.
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <fcntl.h>
+#include <grp.h>
 #include <string>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -193,4 +194,35 @@ TEST(Comm, ClientOpensAnotherUsersRegionSharedWithItsGroup)
     ASSERT_EQ(chmod(path.c_str(), 0666), 0);
     EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), -1) << "world-writable";
     EXPECT_NE(std::string(r.error).find("world-writable"), std::string::npos) << r.error;
+}
+
+TEST(Comm, ShmGroupGivesTheGroupAndMode0660)
+{
+    // chgrp to a group the process is not in needs root (CAP_CHOWN)
+    if (geteuid() != 0) {
+        GTEST_SKIP() << "not root: fchown to another group needs CAP_CHOWN";
+    }
+    std::string name_of_group;
+    gid_t gid = 0;
+    setgrent();
+    while (const group *g = getgrent()) {
+        if (g->gr_gid != getegid()) {  // a group the region would not get anyway
+            name_of_group = g->gr_name;
+            gid = g->gr_gid;
+            break;
+        }
+    }
+    endgrent();
+    if (name_of_group.empty()) {
+        GTEST_SKIP() << "no group other than ours (" << getegid() << ") in the group database";
+    }
+    const std::string name = unique_name("group");
+    Comm c(name, name_of_group);
+    c.init();
+    struct stat st;
+    ASSERT_EQ(stat(("/dev/shm" + name).c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0660u) << "owner and group read and write, nobody else";
+    EXPECT_EQ(st.st_gid, gid) << "the region's group is " << name_of_group;
+    EXPECT_EQ(st.st_uid, geteuid());
+    c.shutdown();
 }
