@@ -19,9 +19,6 @@
 
 namespace navkit {
 
-// micro_data.last_reject of a refused config message: this bit | its msg_type (a field
-// outside what the micro accepts; firmware/core/link.h LINK_REJECT_RANGE).
-static const uint16_t kRejectConfigRange = 0x8000u;
 // Rounds of config messages (and at least 1 s) without our config in force before the
 // console says so; said again every 5 s (frame time) while it lasts.
 static const uint64_t kConfigWarnRounds = 5;
@@ -474,9 +471,10 @@ void MicroUsb::note_rejects(const navkit_micro_data_t &d)
         return;
     }
     rejected_seen_ = d.cmd_rejected;
-    const uint16_t type = static_cast<uint16_t>(d.last_reject & ~kRejectConfigRange);
+    // a refused config: last_reject = reject.range | its msg_type (the spec's flags reject)
+    const uint16_t type = static_cast<uint16_t>(d.last_reject & ~NAVKIT_REJECT_RANGE);
     const char *name = config_name(type);
-    if (!(d.last_reject & kRejectConfigRange) || !name) {
+    if (!(d.last_reject & NAVKIT_REJECT_RANGE) || !name) {
         return;  // a refused micro_cmd: Navigation's business, not the config's
     }
     // said at once for a message it did not refuse last, else at most every 5 s
