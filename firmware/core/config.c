@@ -4,7 +4,9 @@
 #define CONFIG_PI 3.14159265f
 #define CONFIG_RAD_TO_DEG 57.29577951f
 #define CONFIG_STILL_S 0.25f /* s: quiet encoders for this long = standing still */
-#define CONFIG_AXIS_RATE_MAX 500u /* Hz: above this the axes, wheel loops and X/Y run every 4th tick */
+/* Hz: the axes, wheel loops and X/Y run at most at this rate up to a 1 kHz tick: every 4th
+   tick above 2 * this, every 2nd above this (fw.c: the AVR time budget) */
+#define CONFIG_AXIS_RATE_MAX 250u
 
 static uint8_t config_sign_ok(int16_t s)
 {
@@ -57,13 +59,15 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     c->compass_gain = 0.001f * (float)m->compass_weight;
     c->control_rate = m->control_rate;
     c->dt = 1.0f / (float)m->control_rate;
-    c->axis_ticks = (uint8_t)((m->control_rate > CONFIG_AXIS_RATE_MAX) ? 4u : 1u);
+    c->axis_ticks = (uint8_t)((m->control_rate > 2u * CONFIG_AXIS_RATE_MAX) ? 4u
+                               : (m->control_rate > CONFIG_AXIS_RATE_MAX) ? 2u : 1u);
     c->dt_axis = c->dt * (float)c->axis_ticks;
     c->tick_us = (uint32_t)((1000000ul + m->control_rate / 2u) / m->control_rate);
     c->tick_ms = (uint16_t)(c->tick_us / 1000u);
     c->tick_us_rem = (uint16_t)(c->tick_us % 1000u);
     c->wheel_deg_per_mm = CONFIG_RAD_TO_DEG / (0.5f * track_mm);
     c->wheel_mm_per_deg = 1.0f / c->wheel_deg_per_mm;
+    c->turn_rate_per_mm_s = 0.5f * c->wheel_deg_per_mm;
     c->still_ticks = (uint16_t)(CONFIG_STILL_S * (float)m->control_rate + 0.5f);
     c->odom.mm_per_count = c->mm_per_count;
     c->odom.speed_per_count = c->mm_per_count * (float)m->control_rate;

@@ -33,11 +33,12 @@ typedef struct {
     float mm_per_count;       /* mm per encoder count */
     float wheel_deg_per_mm;   /* deg of turn per mm one wheel runs ahead of the centre */
     float wheel_mm_per_deg;   /* its inverse, mm per deg */
+    float turn_rate_per_mm_s; /* deg/s of turn per mm/s of left-minus-right wheel speed: wheel_deg_per_mm / 2 */
     float gyro_dps_per_lsb;   /* deg/s per LSB, gyro_sign folded in (clockwise positive) */
     float compass_gain;       /* 1/s: compass fusion gain, 0 = gyro only */
     float dt;                 /* s: control tick */
     float dt_axis;            /* s: period of the motion axes and wheel loops, axis_ticks * dt */
-    uint8_t axis_ticks;       /* ticks per axis/wheel-loop period: 4 above 500 Hz, else 1 */
+    uint8_t axis_ticks;       /* ticks per axis/wheel-loop period: 4 above 500 Hz, 2 above 250 Hz, else 1 */
     uint32_t tick_us;         /* us: control tick, rounded */
     uint16_t tick_ms;         /* ms: whole milliseconds of tick_us */
     uint16_t tick_us_rem;     /* us: tick_us beyond tick_ms */

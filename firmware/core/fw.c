@@ -6,11 +6,16 @@
 #define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
 /* mm/s: wheel setpoints below this (both together) count as "commanded to stand" */
 #define FW_STILL_SP_MM_S 0.5f
-/* the ticks of one axis period above 500 Hz (config_t.axis_ticks) */
-#define FW_PHASE_FWD 0u
-#define FW_PHASE_TURN 1u
-#define FW_PHASE_WHEELS 2u
-#define FW_PHASE_XY 3u
+/* The four heavy parts of a tick, in their order within an axis period (config_t.axis_ticks
+   ticks): with 4 ticks (above 500 Hz) each part has a tick of its own; with 2 (251-500 Hz)
+   forward + turn share the first and wheels + X/Y the second; with 1 all run every tick.
+   So the axes and wheel loops run at 250 Hz at the default 1 kHz and at 500 Hz, and a
+   16 MHz AVR's worst tick pays for one part (two at 500 Hz) besides the every-tick work. */
+#define FW_PART_FWD 0u
+#define FW_PART_TURN 1u
+#define FW_PART_WHEELS 2u
+#define FW_PART_XY 3u
+#define FW_PARTS 4u
 
 void fw_init(fw_t *fw, hal_t *hal)
 {
@@ -147,6 +152,14 @@ static void fw_sample(fw_t *fw, int32_t *enc_l, int32_t *enc_r)
     fw->dio.in = (uint16_t)(hal_dio_in(fw->hal) & DIO_MASK);
 }
 
+/* The parts that run on this tick, bit FW_PART_* set: FW_PARTS / axis_ticks parts per tick
+   (4, 2, 1 for axis_ticks 1, 2, 4), in their order. */
+static uint8_t fw_parts_due(const fw_t *fw)
+{
+    uint8_t n = (uint8_t)(FW_PARTS >> (fw->cfg.axis_ticks >> 1u));
+    return (uint8_t)(((1u << n) - 1u) << (fw->phase * n));
+}
+
 /* duty (-1..1) -> hal_motor units with the motor sign, rounded half away from zero */
 static int16_t fw_duty_e4(float duty, int8_t sign)
 {
@@ -161,19 +174,28 @@ void fw_tick(fw_t *fw)
     float dt = c->dt;
     float half;
     int32_t raw_l, raw_r;
-    uint8_t still, i, all, driven;
+    uint8_t still, i, driven, due;
 
     fw_sample(fw, &raw_l, &raw_r);
+    due = fw_parts_due(fw);
 
     /* estimation */
     odom_count(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
     /* standing still: judged from the wheels (encoders quiet, setpoints ~0), not from
-       whether a mode is active, so a held HdgSel or a finished move keeps the bias fresh */
-    still = (uint8_t)(fabsf(fw->sp_l) + fabsf(fw->sp_r) < FW_STILL_SP_MM_S && fw->odom.still_ticks > 0u &&
-                      (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks));
+       whether a mode is active, so a held HdgSel or a finished move keeps the bias fresh
+       (the integer tests first: the float sum only once the encoders are quiet) */
+    still = (uint8_t)(fw->odom.still_ticks > 0u && (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks) &&
+                      fabsf(fw->sp_l) + fabsf(fw->sp_r) < FW_STILL_SP_MM_S);
     heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
-    if ((c->sensor_enable & NAVKIT_SENSOR_ENABLE_COMPASS) && c->compass_gain > 0.0f && !fw->hdg.calibrating) {
-        heading_fuse(&fw->hdg, fw->compass, c->compass_gain, dt);
+    /* once per axis period, in the wheel loops' tick (the lightest of the four): fold the
+       integrated angle into the fixed-point heading, with compass fusion over dt_axis if
+       enabled (the pull is slow, gain <= 1/s, and the compass slower still) */
+    if (due & (1u << FW_PART_WHEELS)) {
+        if ((c->sensor_enable & NAVKIT_SENSOR_ENABLE_COMPASS) && c->compass_gain > 0.0f && !fw->hdg.calibrating) {
+            heading_fuse(&fw->hdg, fw->compass, c->compass_gain, c->dt_axis);
+        } else {
+            heading_fold(&fw->hdg);
+        }
     }
 
     /* link silence */
@@ -181,18 +203,16 @@ void fw_tick(fw_t *fw)
         fw_watchdog_stop(fw);
     }
 
-    /* motion: forward + turn -> wheel setpoints -> wheel loops. Above 500 Hz the work is
-       spread over FW_PHASES ticks: forward axis, turn axis, wheel loops, X/Y step, one per
-       tick (dt_axis each); else all of it runs every tick. */
-    all = (uint8_t)(c->axis_ticks == 1u);
-    if (all || fw->phase == FW_PHASE_FWD) {
+    /* motion: forward + turn -> wheel setpoints -> wheel loops, each part on its tick of
+       the axis period (FW_PART_*), with dt_axis */
+    if (due & (1u << FW_PART_FWD)) {
         fw->v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r),
                                 CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance,
                                 CONFIG_DONE_VTOL_MM_S, c->dt_axis);
     }
-    if (all || fw->phase == FW_PHASE_TURN) {
+    if (due & (1u << FW_PART_TURN)) {
         fw->w_turn = turn_tick(&fw->turn, fw_turn_angle(fw),
-                               (fw->odom.v_l - fw->odom.v_r) * 0.5f * c->wheel_deg_per_mm, heading_deg(&fw->hdg),
+                               (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s, heading_deg(&fw->hdg),
                                c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
                                c->dt_axis);
     }
@@ -204,7 +224,7 @@ void fw_tick(fw_t *fw)
         fw->duty_r = 0;
         wheel_reset(&fw->wheel_l);
         wheel_reset(&fw->wheel_r);
-    } else if (all || fw->phase == FW_PHASE_WHEELS) {
+    } else if (due & (1u << FW_PART_WHEELS)) {
         half = fw->w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
         fw->sp_l = fw->v_fwd + half;
         fw->sp_r = fw->v_fwd - half;
@@ -213,7 +233,7 @@ void fw_tick(fw_t *fw)
         fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, c->dt_axis),
                                 c->motor_right_sign);
     }
-    if ((all || fw->phase == FW_PHASE_XY) && odom_xy_due(&fw->odom, &c->odom)) {
+    if ((due & (1u << FW_PART_XY)) && odom_xy_due(&fw->odom, &c->odom)) {
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
     fw->phase = (uint8_t)((fw->phase + 1u < c->axis_ticks) ? fw->phase + 1u : 0u);

@@ -58,7 +58,7 @@ typedef struct fw {
     uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;  /* servo whose pulse width is refreshed next */
-    uint8_t phase;       /* tick within the axis period (config_t.axis_ticks): FW_PHASE_* in fw.c */
+    uint8_t phase;       /* tick within the axis period, 0..config_t.axis_ticks-1 (FW_PART_* in fw.c) */
 } fw_t;
 
 /* Power-on reset: unconfigured, spec defaults loaded, all outputs off/safe. */

@@ -5,33 +5,44 @@
 
 #define HEADING_ONE_DEG 65536.0f           /* q units per deg */
 #define HEADING_FULL_Q 23592960L           /* 360 * 2^16 */
+#define HEADING_HALF_Q 11796480L           /* 180 * 2^16 */
 #define HEADING_BIAS_TAU_S 2.0f            /* s: bias tracking time constant at standstill */
+/* q units per deg*10, times 64: 2^16 / 10 * 64 = 419430.4 (the 0.4 is 3.4e-4 deg at 3599,
+   far below the compass's 0.1 deg); 3599 * 419430 < 2^31 */
+#define HEADING_Q_PER_DEG10_X64 419430L
 
+/* deg (-360..720) into 0 <= deg < 360. */
+static float heading_wrap360(float deg)
+{
+    if (deg >= 360.0f) {
+        deg -= 360.0f;
+    } else if (deg < 0.0f) {
+        deg += 360.0f;
+        if (deg >= 360.0f) { /* -tiny + 360 rounds to 360 */
+            deg = 0.0f;
+        }
+    }
+    return deg;
+}
+
+/* Wrap q into 0..360 deg and refresh the float heading from q + q_frac. */
 static void heading_wrap_q(heading_t *h)
 {
-    /* per-tick changes are small: a conditional add is enough (no 32-bit division) */
+    /* changes between folds are small: a conditional add is enough (no 32-bit division) */
     while (h->q >= HEADING_FULL_Q) {
         h->q -= HEADING_FULL_Q;
     }
     while (h->q < 0) {
         h->q += HEADING_FULL_Q;
     }
-}
-
-/* Add d (deg) to the heading. */
-static void heading_add(heading_t *h, float d)
-{
-    float f = h->q_frac + d * HEADING_ONE_DEG;
-    int32_t k = (int32_t)((f >= 0.0f) ? f + 0.5f : f - 0.5f);
-    h->q += k;
-    h->q_frac = f - (float)k;
-    heading_wrap_q(h);
+    h->deg = heading_wrap360(((float)h->q + h->q_frac) * (1.0f / HEADING_ONE_DEG));
 }
 
 void heading_reset(heading_t *h)
 {
     h->q = 0;
     h->q_frac = 0.0f;
+    h->deg = 0.0f;
     h->bias = 0.0f;
     h->rate = 0.0f;
     h->cal_sum = 0;
@@ -41,6 +52,7 @@ void heading_reset(heading_t *h)
 
 void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still, uint16_t cal_samples, float dt)
 {
+    float d; /* deg turned this tick */
     if (h->calibrating) {
         if (still) {
             h->cal_sum += raw;
@@ -63,7 +75,19 @@ void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still,
         return;
     }
     h->rate = ((float)raw - h->bias) * dps_per_lsb;
-    heading_add(h, h->rate * dt);
+    d = h->rate * dt;
+    /* the exact sum goes to q_frac, rounded into q by heading_fold(); the float heading
+       moves along at once (its rounding is undone at the next fold) */
+    h->q_frac += d * HEADING_ONE_DEG;
+    h->deg = heading_wrap360(h->deg + d);
+}
+
+void heading_fold(heading_t *h)
+{
+    int32_t k = (int32_t)((h->q_frac >= 0.0f) ? h->q_frac + 0.5f : h->q_frac - 0.5f); /* rounded */
+    h->q += k;
+    h->q_frac -= (float)k;
+    heading_wrap_q(h);
 }
 
 float heading_wrap180(float deg)
@@ -73,8 +97,20 @@ float heading_wrap180(float deg)
 
 void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt)
 {
-    float err = heading_wrap180(0.1f * (float)compass10 - heading_deg(h));
-    heading_add(h, err * gain * dt);
+    int32_t err; /* deg * 2^16: compass - folded heading, the shortest way */
+    while (compass10 >= 3600u) { /* outside the hal_compass() contract: whole turns off */
+        compass10 = (uint16_t)(compass10 - 3600u);
+    }
+    /* in the heading's own fixed point: no float wrap, no floor, one conversion */
+    err = (((int32_t)compass10 * HEADING_Q_PER_DEG10_X64 + 32L) >> 6) - h->q;
+    if (err >= HEADING_HALF_Q) {
+        err -= HEADING_FULL_Q;
+    } else if (err < -HEADING_HALF_Q) {
+        err += HEADING_FULL_Q;
+    }
+    /* less what has not been folded yet: the error from the heading now */
+    h->q_frac += ((float)err - h->q_frac) * (gain * dt);
+    heading_fold(h);
 }
 
 void heading_set(heading_t *h, float deg)
@@ -87,12 +123,12 @@ void heading_set(heading_t *h, float deg)
 
 float heading_deg(const heading_t *h)
 {
-    return ((float)h->q + h->q_frac) * (1.0f / HEADING_ONE_DEG);
+    return h->deg;
 }
 
 uint16_t heading_deg10(const heading_t *h)
 {
-    /* q / (2^16 / 10), rounded, then 3600 -> 0 */
-    uint16_t d = (uint16_t)(((int32_t)h->q * 10L + 32768L) >> 16);
+    /* the heading now (deg is 0 <= deg < 360), rounded, then 3600 -> 0 */
+    uint16_t d = (uint16_t)(h->deg * 10.0f + 0.5f);
     return (d >= 3600u) ? (uint16_t)(d - 3600u) : d;
 }

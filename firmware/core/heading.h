@@ -5,6 +5,12 @@
  * Bias: averaged over the first second after reset while the robot stands still
  * (status gyro_calibrating), then tracked by a slow low-pass whenever the robot stands
  * still; while it stands still the heading does not integrate gyro noise.
+ *
+ * Cost on a 16 MHz AVR (no FPU): heading_update() runs every tick, so it only adds the
+ * tick's angle to the residual and to the float heading (~1 200 cycles); heading_fold()
+ * rounds the residual into the fixed-point angle and re-derives the float heading from
+ * it, once per axis period with the wheel loops (fw.c: every 4th tick above 500 Hz,
+ * every 2nd above 250 Hz, else every tick).
  */
 #ifndef NAVKIT_HEADING_H
 #define NAVKIT_HEADING_H
@@ -12,8 +18,9 @@
 #include <stdint.h>
 
 typedef struct {
-    int32_t q;        /* deg * 2^16: heading, 0 .. 360*2^16-1 */
-    float q_frac;     /* deg * 2^16: residual, -0.5..0.5 */
+    int32_t q;        /* deg * 2^16: heading at the last fold, 0 .. 360*2^16-1 */
+    float q_frac;     /* deg * 2^16: turned since the last fold (plus its rounding residual) */
+    float deg;        /* deg: the heading now, 0 <= deg < 360, (q + q_frac) / 2^16 */
     float bias;       /* LSB: gyro zero-rate offset estimate */
     float rate;       /* deg/s: bias-corrected yaw rate, clockwise positive */
     int32_t cal_sum;  /* LSB: sum of start-up calibration samples */
@@ -25,9 +32,15 @@ typedef struct {
 void heading_reset(heading_t *h);
 /* One tick: raw (LSB, counter-clockwise positive as read), dps_per_lsb (deg/s per LSB,
  * sign included so that the result is clockwise positive), still (1 = the robot stands
- * still), cal_samples (samples for the start-up calibration, i.e. ticks in 1 s), dt (s). */
+ * still), cal_samples (samples for the start-up calibration, i.e. ticks in 1 s), dt (s).
+ * Call heading_fold() (or heading_fuse()) at least every 8 ticks. */
 void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still, uint16_t cal_samples, float dt);
-/* Pull the heading toward compass10 (deg*10, clockwise from north) at gain (1/s), dt (s). */
+/* Round what heading_update() integrated since the last fold into the fixed-point angle
+ * (the float heading is re-derived from it, so its rounding does not accumulate). */
+void heading_fold(heading_t *h);
+/* Pull the heading toward compass10 (deg*10, clockwise from north; whole turns above
+ * 3599 are taken off) by gain (1/s) * dt (s) of the shortest-way error, dt the time since
+ * the last fusion step; then fold. Fixed-point error: no float wrap, no trig, no division. */
 void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt);
 /* Set the heading to deg (any value; wrapped into 0..360). */
 void heading_set(heading_t *h, float deg);

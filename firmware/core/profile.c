@@ -16,31 +16,39 @@
 static float profile_brake_speed(const profile_t *p, float d)
 {
     float dv = p->k_dvp;
-    float s, m, r;
+    float s, m, m1, x;
     if (d <= 0.0f) {
         return 0.0f;
     }
     s = d * p->k_inv_dt; /* u/s: sum of the speed terms */
-    /* smallest whole m with dv*m*(m+1)/2 >= s */
-    m = ceilf((sqrtf(1.0f + s * p->k_8_dvp) - 1.0f) * 0.5f);
+    /* smallest whole m with dv*m*(m+1)/2 >= s: m >= (sqrt(1 + 8s/dv) - 1)/2, written
+       sqrt(1/4 + 2s/dv) - 1/2 (one multiply less) */
+    m = ceilf(sqrtf(0.25f + s * p->k_2_dvp) - 0.5f);
     if (m < 1.0f) {
         m = 1.0f;
     }
-    r = (s - dv * m * (m - 1.0f) * 0.5f) / m;
-    /* the square root is rounded: m may be one off either way */
-    if (r > dv) {
+    /* the smallest term r = x / m, x = s - dv*m*(m-1)/2 (dv/2 is k_half_dvp, exact) */
+    m1 = m - 1.0f;
+    x = s - p->k_half_dvp * m * m1;
+    /* the square root is rounded: m may be one off either way (0 < r <= dv says it is
+       right). Checked before the division and corrected by the difference of the sums,
+       dv*m, so a tick pays one division (~500 AVR cycles) however m comes out */
+    if (x > dv * m) {
+        x -= dv * m;
+        m1 = m;
         m += 1.0f;
-        r = (s - dv * m * (m - 1.0f) * 0.5f) / m;
-    } else if (r <= 0.0f && m > 1.0f) {
-        m -= 1.0f;
-        r = (s - dv * m * (m - 1.0f) * 0.5f) / m;
+    } else if (x <= 0.0f && m > 1.0f) {
+        m = m1;
+        m1 = m - 1.0f;
+        x += dv * m;
     }
-    if (r < 0.0f) {
-        r = 0.0f;
-    } else if (r > dv) {
-        r = dv;
+    x /= m; /* now r */
+    if (x < 0.0f) {
+        x = 0.0f;
+    } else if (x > dv) {
+        x = dv;
     }
-    return r + (m - 1.0f) * dv;
+    return x + m1 * dv;
 }
 
 /* Refresh the per-(amax, dt) constants when either changed. */
@@ -51,8 +59,9 @@ static void profile_constants(profile_t *p, float dt)
         p->k_dt = dt;
         p->k_dv = p->amax * dt;
         p->k_dvp = p->k_dv * (1.0f - PROFILE_BRAKE_MARGIN);
+        p->k_half_dvp = 0.5f * p->k_dvp;
         p->k_inv_dt = 1.0f / dt;
-        p->k_8_dvp = 8.0f / p->k_dvp;
+        p->k_2_dvp = 2.0f / p->k_dvp;
         p->k_2ap = 2.0f * p->amax * (1.0f - PROFILE_BRAKE_MARGIN);
     }
 }
@@ -148,7 +157,8 @@ uint8_t profile_track(profile_t *p, float lead, float vel_meas, float window, fl
 
 float profile_step(profile_t *p, float dt)
 {
-    float dv, dir, u, goal, brake, reach, d;
+    float dv, u, goal, brake, reach, d;
+    uint8_t neg; /* 1: the target is toward smaller positions */
 
     if (!p->moving) {
         return 0.0f;
@@ -163,9 +173,10 @@ float profile_step(profile_t *p, float dt)
         p->moving = 0u;
         return 0.0f;
     }
-    /* work in the direction of the target: u = speed toward it */
-    dir = (p->togo > 0.0f || (p->togo == 0.0f && p->vel > 0.0f)) ? 1.0f : -1.0f;
-    u = p->vel * dir;
+    /* work in the direction of the target: u = speed toward it (a sign flip, not a
+       multiply by -1: the same bits) */
+    neg = (uint8_t)!(p->togo > 0.0f || (p->togo == 0.0f && p->vel > 0.0f));
+    u = neg ? -p->vel : p->vel;
     goal = p->vmax;
     /* the braking curve can only bind within (v + dv)^2 / (2 amax) of the target, v the
        larger of vmax and the present speed: skip its square root while far away */
@@ -183,7 +194,7 @@ float profile_step(profile_t *p, float dt)
     } else {
         u = goal;
     }
-    p->vel = u * dir;
+    p->vel = neg ? -u : u;
     {
         /* togo -= vel*dt, compensated so thousands of ticks add no drift */
         float y = -p->vel * dt - p->togo_c;

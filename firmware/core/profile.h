@@ -26,8 +26,9 @@ typedef struct {
     float k_dt;     /* s: dt the constants are for */
     float k_dv;     /* u/s: amax * dt */
     float k_dvp;    /* u/s: the braking curve's step, k_dv less the margin */
+    float k_half_dvp; /* u/s: k_dvp / 2 */
     float k_inv_dt; /* 1/s */
-    float k_8_dvp;  /* s/u: 8 / k_dvp */
+    float k_2_dvp;  /* s/u: 2 / k_dvp */
     float k_2ap;    /* u/s^2: 2 * amax less the margin */
     uint8_t moving; /* 1 while the reference moves or has not reached the target */
 } profile_t;

@@ -1,5 +1,5 @@
 /* Unit tests of the firmware modules one by one: heading, odom, wheel, servo, dio,
- * watchdog, motion rules, config. */
+ * watchdog, motion rules, config; and the tick's schedule of the parts (fw.c). */
 #include <string.h>
 
 #include "check.h"
@@ -9,6 +9,7 @@
 #include "motion.h"
 #include "odom.h"
 #include "servo.h"
+#include "sim_hal.h"
 #include "turn.h"
 #include "watchdog.h"
 #include "wheel.h"
@@ -24,46 +25,93 @@ static void test_wrap(void)
     CHECK_NEAR(heading_wrap180(181.0f), -179.0, 1e-4);
 }
 
+/* n ticks of heading_update at 1 kHz with a fold every 4th, as fw.c does at 1 kHz. */
+static void hdg_ticks(heading_t *h, int16_t raw, uint8_t still, int n)
+{
+    int i;
+    for (i = 0; i < n; i++) {
+        heading_update(h, raw, -1.0f / 131.0f, still, 1000u, 0.001f); /* CCW-positive gyro, 131 LSB per deg/s */
+        if (i % 4 == 3) {
+            heading_fold(h);
+        }
+    }
+}
+
 static void test_heading(void)
 {
     heading_t h;
     int i;
-    float dps = -1.0f / 131.0f; /* default: CCW-positive gyro, 131 LSB per deg/s */
     heading_reset(&h);
     /* 1 s of standstill with a bias of 50 LSB: calibrated */
-    for (i = 0; i < 1000; i++) {
-        heading_update(&h, 50, dps, 1u, 1000u, 0.001f);
-    }
+    hdg_ticks(&h, 50, 1u, 1000);
     CHECK(!h.calibrating);
     CHECK_NEAR(h.bias, 50.0, 1e-3);
     /* turn clockwise at 90 deg/s for 1 s (gyro reads -90*131 + bias) */
-    for (i = 0; i < 1000; i++) {
-        heading_update(&h, (int16_t)(50 - 90 * 131), dps, 0u, 1000u, 0.001f);
-    }
+    hdg_ticks(&h, (int16_t)(50 - 90 * 131), 0u, 1000);
     CHECK_NEAR(heading_deg(&h), 90.0, 0.01);
     CHECK(heading_deg10(&h) == 900u);
     /* counter-clockwise 100 deg: wraps through 0 to 350 */
-    for (i = 0; i < 1000; i++) {
-        heading_update(&h, (int16_t)(50 + 100 * 131), dps, 0u, 1000u, 0.001f);
-    }
+    hdg_ticks(&h, (int16_t)(50 + 100 * 131), 0u, 1000);
     CHECK_NEAR(heading_deg(&h), 350.0, 0.01);
     CHECK(heading_deg10(&h) == 3500u);
     /* standstill bias tracking: the bias moves to 60, the heading does not drift */
-    for (i = 0; i < 20000; i++) {
-        heading_update(&h, 60, dps, 1u, 1000u, 0.001f);
-    }
+    hdg_ticks(&h, 60, 1u, 20000);
     CHECK_NEAR(h.bias, 60.0, 0.1);
     CHECK_NEAR(heading_deg(&h), 350.0, 0.01);
+    /* 100 000 ticks (100 s) at 36.3 deg/s, folded every 4th: 3630 deg, no drift (the rate
+       from the bias as estimated: the float low-pass settles within ~4e-3 LSB) */
+    heading_set(&h, 0.0f);
+    hdg_ticks(&h, (int16_t)(60 - 4755), 0u, 100000);
+    CHECK_NEAR(heading_deg(&h), fmod((4755.0 - 60.0 + (double)h.bias) / 131.0 * 100.0, 360.0), 1e-3);
     /* compass fusion pulls the shortest way across 0/360 */
     heading_set(&h, 355.0f);
     for (i = 0; i < 5000; i++) {
         heading_fuse(&h, 50u, 1.0f, 0.001f); /* compass 5.0 deg */
     }
     CHECK(heading_deg(&h) < 10.0f && heading_deg(&h) > 4.0f);
+    /* a compass reading of whole turns above 3599 is the same bearing: 365.0 = 5.0 deg */
+    heading_set(&h, 345.0f);
+    heading_fuse(&h, 3650u, 0.5f, 1.0f);
+    CHECK_NEAR(heading_deg(&h), 355.0, 1e-3); /* half of the 20 deg clockwise */
     heading_set(&h, -90.0f);
     CHECK(heading_deg10(&h) == 2700u);
     heading_set(&h, 359.99f);
     CHECK(heading_deg10(&h) == 0u); /* rounds to 3600 -> 0, never 3600 */
+}
+
+/* Between folds the heading (deg and deg*10) already holds the ticks' turn, across 0/360
+   both ways; a fold keeps it; fusion pulls from the heading now, not the last fold. */
+static void test_heading_fold(void)
+{
+    heading_t h;
+    heading_reset(&h);
+    hdg_ticks(&h, 0, 1u, 1000); /* calibrated, bias 0 */
+    heading_set(&h, 359.9f);
+    /* 2 ticks clockwise at 90 deg/s, no fold: 359.9 + 0.18 = 0.08 */
+    heading_update(&h, -90 * 131, -1.0f / 131.0f, 0u, 1000u, 0.001f);
+    heading_update(&h, -90 * 131, -1.0f / 131.0f, 0u, 1000u, 0.001f);
+    CHECK_NEAR(heading_deg(&h), 0.08, 1e-4);
+    CHECK(heading_deg10(&h) == 1u);
+    heading_fold(&h);
+    CHECK_NEAR(heading_deg(&h), 0.08, 1e-4);
+    CHECK(heading_deg10(&h) == 1u);
+    /* 1 tick counter-clockwise at 180 deg/s: 0.08 - 0.18 = 359.9 */
+    heading_update(&h, 180 * 131, -1.0f / 131.0f, 0u, 1000u, 0.001f);
+    CHECK_NEAR(heading_deg(&h), 359.9, 1e-4);
+    CHECK(heading_deg10(&h) == 3599u);
+    /* unfolded 90 deg (1 s at 90 deg/s, one fold only at the end of the next step), then
+       a full-gain fusion (gain * dt = 1) to a compass of 45.0: the heading is 45 exactly */
+    heading_set(&h, 0.0f);
+    {
+        int i;
+        for (i = 0; i < 1000; i++) {
+            heading_update(&h, -90 * 131, -1.0f / 131.0f, 0u, 1000u, 0.001f);
+        }
+    }
+    CHECK_NEAR(heading_deg(&h), 90.0, 1e-2);
+    heading_fuse(&h, 450u, 1.0f, 1.0f);
+    CHECK_NEAR(heading_deg(&h), 45.0, 1e-4);
+    CHECK(heading_deg10(&h) == 450u);
 }
 
 static void test_heading_moving_calibration(void)
@@ -406,11 +454,86 @@ static void test_config(void)
     CHECK(c.dio_direction == 0x00FFu);
 }
 
+/* The tick's schedule (fw.c): the forward axis, turn axis, wheel loops (with the heading
+   fold) and X/Y step each run once per axis period of axis_ticks ticks, on their own tick
+   of it: 4 ticks above 500 Hz (ticks 0, 1, 2, 3), 2 above 250 Hz (0, 0, 1, 1), else 1. Each
+   axis step moves the reference speed by accel * dt_axis. */
+static void test_fw_schedule(void)
+{
+    static fw_t fw;
+    static struct hal h;
+    static const uint16_t rate[3] = {1000u, 500u, 250u};     /* Hz */
+    static const uint8_t ticks[3] = {4u, 2u, 1u};            /* axis_ticks */
+    static const uint8_t when[3][4] = {{0u, 1u, 2u, 3u}, {0u, 0u, 1u, 1u}, {0u, 0u, 0u, 0u}}; /* fwd turn wheels xy */
+    int k, i;
+    for (k = 0; k < 3; k++) {
+        navkit_micro_cfg_geometry_t g;
+        navkit_micro_cfg_motion_t m;
+        navkit_micro_cfg_io_t io;
+        navkit_micro_cmd_t c;
+        float dt_axis = (float)ticks[k] / (float)rate[k]; /* s */
+        int n_fwd = 0, n_turn = 0, n_wheels = 0, n_fold = 0, n_xy = 0;
+        sim_init(&h);
+        fw_init(&fw, &h);
+        navkit_micro_cfg_geometry_defaults(&g);
+        navkit_micro_cfg_motion_defaults(&m);
+        navkit_micro_cfg_io_defaults(&io);
+        g.control_rate = rate[k];
+        sim_configure_with(&fw, &h, &g, &m, &io);
+        CHECK(fw.cfg.axis_ticks == ticks[k]);
+        CHECK_NEAR(fw.cfg.dt_axis, dt_axis, 1e-9);
+        sim_run(&fw, &h, rate[k]); /* 1 s: gyro calibration */
+        sim_cmd_init(&c, 10u);
+        c.fwd_cmd = NAVKIT_FWD_CMD_START;
+        c.distance = 1000;
+        c.speed = 300;
+        c.accel = 300;
+        c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+        c.turn_distance = 900;
+        c.turn_rate = 450;
+        c.turn_accel = 900;
+        sim_cmd(&fw, &h, &c);
+        for (i = 0; i < 60; i++) { /* all accelerating: the plant keeps up (no re-plan pull) */
+            uint8_t phase = fw.phase;
+            float v = fw.fwd.prof.vel, w = fw.turn.ax.prof.vel; /* mm/s, deg/s */
+            int16_t duty = fw.duty_l;
+            int32_t q = fw.hdg.q;
+            float x_frac = fw.odom.x_frac;
+            sim_run(&fw, &h, 1);
+            if (fw.fwd.prof.vel != v) {
+                CHECK(phase == when[k][0]);
+                CHECK_NEAR(fw.fwd.prof.vel - v, 300.0 * dt_axis, 1e-3); /* accelerating */
+                n_fwd++;
+            }
+            if (fw.turn.ax.prof.vel != w) {
+                CHECK(phase == when[k][1]);
+                CHECK_NEAR(fw.turn.ax.prof.vel - w, 90.0 * dt_axis, 1e-3);
+                n_turn++;
+            }
+            if (fw.duty_l != duty) {
+                CHECK(phase == when[k][2]);
+                n_wheels++;
+            }
+            if (fw.hdg.q != q) {
+                CHECK(phase == when[k][2]);
+                n_fold++;
+            }
+            if (fw.odom.x_frac != x_frac) {
+                CHECK(phase == when[k][3]);
+                n_xy++;
+            }
+        }
+        CHECK(n_fwd == 60 / ticks[k] && n_turn == 60 / ticks[k]);
+        CHECK(n_wheels >= 60 / ticks[k] - 2 && n_fold >= 60 / ticks[k] / 2 && n_xy >= 2);
+    }
+}
+
 int main(void)
 {
     test_wrap();
     test_heading();
     test_heading_moving_calibration();
+    test_heading_fold();
     test_odom();
     test_odom_long_run_precision();
     test_wheel();
@@ -421,5 +544,6 @@ int main(void)
     test_motion_rules();
     test_turn_hdg_shortest();
     test_config();
+    test_fw_schedule();
     CHECK_DONE();
 }
