@@ -1,21 +1,52 @@
-/* Cycle count of fw_tick() and the deepest stack on an ATmega2560 at 16 MHz, run in simavr
- * by avr_size.cmake (MODE=cycles). Timer 1 counts CPU clocks; the wires are stubs and a
- * crude plant moves the encoders with the duty. The three configs and then micro_cmd
- * frames (a forward move and a turn at once: both axes busy, the worst case) arrive through
- * the UART stub every 100 ticks, so fw_link_poll() decodes them and encodes a micro_data
- * reply (the deepest call chain). Mean and max cycles of fw_tick over 2000 ticks, and the
- * stack depth (bytes below RAMEND ever written, found by painting the free RAM first) go
- * out on UART0, which simavr prints. */
-#include <avr/io.h>
+/* Cycle counts of fw_tick() and fw_link_poll() and the deepest stack on an ATmega2560 at
+ * 16 MHz, run in simavr by avr_size.cmake (MODE=cycles). Timer 1 counts CPU clocks; the
+ * wires are stubs and a crude plant moves the encoders with the duty and the gyro with
+ * the wheel difference.
+ *
+ * Scenarios, 2000 ticks each after the three configs and 1100 ticks of gyro calibration:
+ *   fwd_turn at 1 kHz:    a forward move and an encoder turn at once (both axes busy, both
+ *                         braking before the end: the braking curve is an axis's dearest step);
+ *   fwd_hdgsel at 1 kHz:  a forward move and HdgSel with compass fusion (compass_weight 500);
+ *   fwd_hdgsel at 500 Hz: the same at 500 Hz, where two parts share each tick (fw.c).
+ * A micro_cmd arrives through the UART stub every 100 ticks (a start, then modifies of
+ * the forward move), so fw_link_poll() decodes it and encodes a micro_data reply (the
+ * deepest call chain).
+ *
+ * The link poll is timed whole, and its parts on the same bytes: frame parsing (with the
+ * CRC) in the poll's 16-byte chunks, decoding, the micro_cmd range check, the telemetry
+ * snapshot (link_telemetry()) and encoding the reply; the rest is applying the frame plus
+ * the UART stub calls and the loop around them. Parsing, decoding, checking and encoding
+ * touch only the link's own buffers; applying and the snapshot touch the state the tick
+ * uses (docs/firmware.md, AVR budget: how the AVR target runs the two).
+ *
+ * Printed on UART0 (simavr shows it), parsed by avr_size.cmake:
+ *   tick <scenario> <rate> Hz: mean M max X period P phases P0 P1 P2 P3 (max per tick of
+ *     the axis period; P = 16 MHz / rate)
+ *   <scenario> <rate> Hz configured: 1 moved: N turned: D (counts, heading deg*10)
+ *   poll <frame>: max P parse A decode B check C snapshot T encode E rest R
+ *   stack bytes: S */
 #include <avr/interrupt.h>
+#include <avr/io.h>
 #include <avr/sleep.h>
 #include <stdio.h>
 
 #include "fw.h"
 
+/* mm: the forward move, short enough that it brakes to a stop within the 2 s (300 mm/s,
+   300 mm/s^2: 1 s up, 1 s down): the braking curve is the axis's dearest step */
+#define FWD_MM 300
+#define RX_CHUNK 16u /* bytes per hal_uart_read, as link_poll asks (LINK_RX_CHUNK) */
+#define F_CPU_HZ 16000000ul
+/* gyro LSB per count of (right - left) wheel difference in one tick of 1 ms, default
+   geometry: 0.157 mm/count over a 300 mm track is 0.030 deg, i.e. 30 deg/s, times 131 LSB
+   per deg/s */
+#define GYRO_LSB_PER_DIFF_1KHZ 3930L
+
 struct hal {
     int32_t enc_l, enc_r;
     int16_t gyro;
+    int16_t gyro_per_diff; /* LSB per count of wheel difference in one tick */
+    uint16_t compass;
     uint8_t rx[4u * NAVKIT_MAX_FRAME_BYTES]; /* frames waiting for fw_link_poll() */
     uint16_t rx_len, rx_pos;
 };
@@ -29,14 +60,18 @@ static fw_t fw;
 int32_t hal_enc_left(hal_t *h) { return h->enc_l; }
 int32_t hal_enc_right(hal_t *h) { return h->enc_r; }
 int16_t hal_gyro_raw(hal_t *h) { return h->gyro; }
-uint16_t hal_compass(hal_t *h) { (void)h; return 0u; }
+uint16_t hal_compass(hal_t *h) { return h->compass; }
 uint16_t hal_adc(hal_t *h, uint8_t ch) { (void)h; return ch; }
 uint16_t hal_sonar_echo(hal_t *h, uint8_t i) { (void)h; return i; }
 uint16_t hal_dio_in(hal_t *h) { (void)h; return 0u; }
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
-    h->enc_l += l / 2000;
-    h->enc_r += r / 2000;
+    int16_t dl = (int16_t)(l / 2000), dr = (int16_t)(r / 2000); /* counts this tick */
+    int16_t diff = (int16_t)(dr - dl);
+    h->enc_l += dl;
+    h->enc_r += dr;
+    /* counter-clockwise positive: the right wheel ahead turns the robot left */
+    h->gyro = (int16_t)((diff > 4) ? 32000 : (diff < -4) ? -32000 : diff * h->gyro_per_diff);
 }
 void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us) { (void)h, (void)i, (void)us; }
 void hal_dio_write(hal_t *h, uint16_t dir, uint16_t out) { (void)h, (void)dir, (void)out; }
@@ -61,33 +96,193 @@ static int uart_put(char c, FILE *f)
 }
 static FILE uart = FDEV_SETUP_STREAM(uart_put, NULL, _FDEV_SETUP_WRITE);
 
-/* Queue one encoded frame for the UART stub. */
-static void send(uint16_t n)
+/* Per frame kind, the largest of each: the poll, its parts, and the rest (applying + glue). */
+typedef struct {
+    const char *name;
+    uint16_t poll, parse, decode, check, snapshot, encode, rest;
+} poll_cost_t;
+
+static poll_cost_t cost_cmd = {"micro_cmd", 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+static poll_cost_t cost_cfg = {"micro_cfg", 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+
+/* the probes' own state, static so it neither counts as core RAM nor deepens the stack */
+static navkit_parser_t probe_parser;
+static union {
+    navkit_micro_cmd_t cmd;
+    navkit_micro_cfg_geometry_t geo;
+    navkit_micro_cfg_motion_t mot;
+    navkit_micro_cfg_io_t io;
+} probe_msg;
+static navkit_micro_data_t probe_data;
+static uint8_t probe_buf[NAVKIT_MICRO_DATA_BYTES];
+
+static uint16_t max16(uint16_t a, uint16_t b)
+{
+    return (a > b) ? a : b;
+}
+
+/* Hand the one queued frame to fw_link_poll() and time it against its parts, measured on
+   the same bytes: before the poll, parsing in the poll's chunks, decoding, and for a
+   micro_cmd its range check; after it, a telemetry snapshot and its encoding (as the
+   reply's, in the same state). */
+static void poll_timed(poll_cost_t *c)
+{
+    const uint8_t *frame = NULL;
+    size_t flen = 0u;
+    uint16_t off, n, t0, parse, decode, check = 0u, poll, snap, encode, type;
+    int got = 0;
+    navkit_parser_init(&probe_parser, NAVKIT_DIR_TO_MICRO);
+    t0 = TCNT1;
+    for (off = 0u; off < board.rx_len; off = (uint16_t)(off + n)) {
+        n = (uint16_t)((board.rx_len - off < RX_CHUNK) ? board.rx_len - off : RX_CHUNK);
+        (void)navkit_parser_feed(&probe_parser, board.rx + off, n);
+        got |= navkit_parser_next(&probe_parser, &frame, &flen);
+    }
+    parse = (uint16_t)(TCNT1 - t0);
+    type = got ? navkit_frame_type(frame) : 0u;
+    t0 = TCNT1;
+    switch (type) {
+    case NAVKIT_MSG_TYPE_MICRO_CMD:
+        (void)navkit_micro_cmd_decode(frame, flen, &probe_msg.cmd);
+        break;
+    case NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY:
+        (void)navkit_micro_cfg_geometry_decode(frame, flen, &probe_msg.geo);
+        break;
+    case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION:
+        (void)navkit_micro_cfg_motion_decode(frame, flen, &probe_msg.mot);
+        break;
+    default:
+        (void)navkit_micro_cfg_io_decode(frame, flen, &probe_msg.io);
+        break;
+    }
+    decode = (uint16_t)(TCNT1 - t0);
+    if (type == NAVKIT_MSG_TYPE_MICRO_CMD) {
+        t0 = TCNT1;
+        (void)navkit_micro_cmd_check(&probe_msg.cmd, NULL);
+        check = (uint16_t)(TCNT1 - t0);
+    }
+    t0 = TCNT1;
+    fw_link_poll(&fw);
+    poll = (uint16_t)(TCNT1 - t0);
+    t0 = TCNT1;
+    link_telemetry(&fw, &probe_data);
+    snap = (uint16_t)(TCNT1 - t0);
+    t0 = TCNT1;
+    (void)navkit_micro_data_encode(&probe_data, probe_buf, sizeof probe_buf);
+    encode = (uint16_t)(TCNT1 - t0);
+    if (!got) {
+        printf("no frame in the probe's parser\n");
+        return;
+    }
+    c->poll = max16(c->poll, poll);
+    c->parse = max16(c->parse, parse);
+    c->decode = max16(c->decode, decode);
+    c->check = max16(c->check, check);
+    c->snapshot = max16(c->snapshot, snap);
+    c->encode = max16(c->encode, encode);
+    c->rest = max16(c->rest, (uint16_t)(poll - parse - decode - check - snap - encode));
+}
+
+static void print_cost(const poll_cost_t *c)
+{
+    printf("poll %s: max %u parse %u decode %u check %u snapshot %u encode %u rest %u\n", c->name, c->poll,
+           c->parse, c->decode, c->check, c->snapshot, c->encode, c->rest);
+}
+
+/* Queue one encoded frame of n bytes (already written at rx + rx_len) for the UART stub. */
+static void queue(uint16_t n)
 {
     board.rx_len = (uint16_t)(board.rx_len + n);
 }
 
-/* Queue a micro_cmd: forward 1000 mm and turn 90 deg at once (1 = start, 3 = modify). */
-static void send_cmd(uint16_t tag, uint16_t code)
+static void queue_reset(void)
+{
+    board.rx_pos = board.rx_len = 0u;
+}
+
+/* Queue a micro_cmd: forward FWD_MM with fwd_code (1 = start, 3 = modify), and turn_code
+   with turn_distance (deg*10: encoder turn 1, HdgSel 10 heading, 0 none). */
+static void send_cmd(uint16_t tag, uint16_t fwd_code, uint16_t turn_code, int16_t turn_distance)
 {
     navkit_micro_cmd_t c;
     navkit_micro_cmd_defaults(&c);
     c.time_tag = tag;
-    c.fwd_cmd = code;
+    c.fwd_cmd = fwd_code;
     c.speed = 300;
-    c.distance = 1000;
-    c.turn_cmd = code;
+    c.distance = FWD_MM;
+    c.turn_cmd = turn_code;
     c.turn_rate = 450;
-    c.turn_distance = 900;
+    c.turn_distance = turn_distance;
     c.mc_datalog_cmd = NAVKIT_MC_DATALOG_TURN_PROFILE;
-    board.rx_pos = board.rx_len = 0u;
-    send((uint16_t)navkit_micro_cmd_encode(&c, board.rx, sizeof board.rx));
+    queue_reset();
+    queue((uint16_t)navkit_micro_cmd_encode(&c, board.rx, sizeof board.rx));
+}
+
+/* Reset, then the three configs, one poll each (compass_weight: 1/1000 per s, rate: Hz),
+   then 1100 ticks at rest (the gyro calibration takes 1 s). */
+static void configure(uint16_t compass_weight, uint16_t rate)
+{
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    uint16_t i;
+    fw_init(&fw, &board);
+    board.enc_l = board.enc_r = 0;
+    board.gyro = 0;
+    board.gyro_per_diff = (int16_t)(GYRO_LSB_PER_DIFF_1KHZ * 1000L / (long)rate);
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    navkit_micro_cfg_io_defaults(&io);
+    g.compass_weight = compass_weight;
+    g.control_rate = rate;
+    queue_reset();
+    queue((uint16_t)navkit_micro_cfg_geometry_encode(&g, board.rx, sizeof board.rx));
+    poll_timed(&cost_cfg);
+    queue_reset();
+    queue((uint16_t)navkit_micro_cfg_motion_encode(&m, board.rx, sizeof board.rx));
+    poll_timed(&cost_cfg);
+    queue_reset();
+    queue((uint16_t)navkit_micro_cfg_io_encode(&io, board.rx, sizeof board.rx));
+    poll_timed(&cost_cfg);
+    for (i = 0u; i < 1100u; i++) {
+        fw_tick(&fw);
+    }
+}
+
+/* 2000 ticks at rate (Hz) with a micro_cmd every 100 (turn_code/turn_distance with the
+   first, forward modifies after it); prints the tick's cycles. */
+static void run(const char *name, uint16_t rate, uint16_t turn_code, int16_t turn_distance)
+{
+    uint16_t i, t0, dt, max = 0u, phase_max[4] = {0u, 0u, 0u, 0u};
+    uint32_t sum = 0u;
+    uint8_t phase;
+    for (i = 0u; i < 2000u; i++) {
+        if (i % 100u == 0u) {
+            if (i == 0u) {
+                send_cmd(1u, NAVKIT_FWD_CMD_START, turn_code, turn_distance);
+            } else {
+                send_cmd((uint16_t)(1u + i / 100u), NAVKIT_FWD_CMD_MODIFY, NAVKIT_TURN_CMD_NONE, 0);
+            }
+            poll_timed(&cost_cmd);
+        }
+        board.gyro = (int16_t)(board.gyro + (int16_t)(i & 7u)); /* noise */
+        phase = (uint8_t)(fw.phase & 3u);
+        t0 = TCNT1;
+        fw_tick(&fw);
+        dt = (uint16_t)(TCNT1 - t0);
+        sum += dt;
+        max = max16(max, dt);
+        phase_max[phase] = max16(phase_max[phase], dt);
+    }
+    printf("tick %s %u Hz: mean %lu max %u period %lu phases %u %u %u %u\n", name, rate, (unsigned long)(sum / 2000u),
+           max, F_CPU_HZ / rate, phase_max[0], phase_max[1], phase_max[2], phase_max[3]);
+    printf("%s %u Hz configured: %u moved: %ld turned: %u\n", name, rate,
+           (unsigned)((fw_status(&fw) & NAVKIT_MICRO_STATUS_CONFIGURED) != 0u), (long)board.enc_l,
+           heading_deg10(&fw.hdg));
 }
 
 int main(void)
 {
-    uint16_t i, t0, dt, max = 0u;
-    uint32_t sum = 0u;
     uint8_t *p;
     /* paint the free RAM between .bss and this frame; what is not paint later was stack */
     for (p = &__heap_start; p < (uint8_t *)SP - 32; p++) {
@@ -96,43 +291,21 @@ int main(void)
     UCSR0B = (1 << TXEN0);
     stdout = &uart;
     TCCR1B = 1; /* timer 1 at the CPU clock */
-    fw_init(&fw, &board);
-    {
-        navkit_micro_cfg_geometry_t g;
-        navkit_micro_cfg_motion_t m;
-        navkit_micro_cfg_io_t io;
-        navkit_micro_cfg_geometry_defaults(&g);
-        navkit_micro_cfg_motion_defaults(&m);
-        navkit_micro_cfg_io_defaults(&io);
-        send((uint16_t)navkit_micro_cfg_geometry_encode(&g, board.rx, sizeof board.rx));
-        send((uint16_t)navkit_micro_cfg_motion_encode(&m, board.rx + board.rx_len, sizeof board.rx - board.rx_len));
-        send((uint16_t)navkit_micro_cfg_io_encode(&io, board.rx + board.rx_len, sizeof board.rx - board.rx_len));
-    }
-    fw_link_poll(&fw);
-    for (i = 0u; i < 1100u; i++) {
-        fw_tick(&fw);
-    }
-    send_cmd(1u, NAVKIT_FWD_CMD_START);
-    for (i = 0u; i < 2000u; i++) {
-        if (i % 100u == 0u) {
-            send_cmd((uint16_t)(2u + i / 100u), (i == 0u) ? NAVKIT_FWD_CMD_START : NAVKIT_FWD_CMD_MODIFY);
-        }
-        fw_link_poll(&fw);
-        board.gyro = (int16_t)(i & 7u);
-        t0 = TCNT1;
-        fw_tick(&fw);
-        dt = (uint16_t)(TCNT1 - t0);
-        sum += dt;
-        if (dt > max) {
-            max = dt;
-        }
-    }
+
+    board.compass = 0u;
+    configure(0u, 1000u);
+    run("fwd_turn", 1000u, NAVKIT_TURN_CMD_TURN, 450); /* turn 45 deg clockwise: done in ~1.5 s */
+    board.compass = 100u; /* 10 deg: fusion has an error to pull */
+    configure(500u, 1000u);
+    run("fwd_hdgsel", 1000u, NAVKIT_TURN_CMD_HDG_SEL, 450); /* HdgSel 45 deg */
+    configure(500u, 500u);
+    run("fwd_hdgsel", 500u, NAVKIT_TURN_CMD_HDG_SEL, 450);
+
     for (p = &__heap_start; *p == STACK_PAINT; p++) {
     }
-    printf("fw_tick cycles: mean %lu max %u\n", (unsigned long)(sum / 2000u), max);
+    print_cost(&cost_cmd);
+    print_cost(&cost_cfg);
     printf("stack bytes: %u\n", (unsigned)((uint8_t *)RAMEND + 1 - p));
-    printf("configured: %u moved: %ld\n", (unsigned)((fw_status(&fw) & NAVKIT_MICRO_STATUS_CONFIGURED) != 0u),
-           (long)board.enc_l);
     cli();
     sleep_mode(); /* simavr ends the run here */
     return 0;
