@@ -4,6 +4,8 @@
  * instances can live in one process (the FMU does exactly that). A target:
  *   fw_init(&fw, &hal);                       power-on / reset
  *   every fw_tick_period_us(&fw):  fw_link_poll(&fw); fw_tick(&fw);
+ * (or, where a poll may take longer than a tick: the timer counts due ticks, the main loop
+ * runs fw_tick() for each and fw_link_poll() when none is due; hal.h, ordering contract).
  * The tick rate comes from micro_cfg_geometry.control_rate (1 kHz by default) and may
  * change when that config arrives, so read fw_tick_period_us() before every tick.
  */

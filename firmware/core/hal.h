@@ -5,10 +5,16 @@
  * functions are explicit "wires", one per signal, in the style of simavr's IRQs.
  *
  * Ordering contract (the core keeps it; a target may rely on it):
- *   1. The target calls fw_link_poll() between control ticks (never inside one). Only
- *      fw_link_poll() calls hal_uart_*; it drains the UART RX until hal_uart_read()
- *      returns 0, and writes a whole micro_data frame only when hal_uart_tx_free()
- *      says it fits (otherwise that frame is skipped, never half-sent).
+ *   1. The target calls fw_link_poll() between control ticks: never inside one, and a
+ *      tick never pre-empts it (the poll applies commands and configs to the state the
+ *      tick uses and reads that state for micro_data). Only fw_link_poll() calls
+ *      hal_uart_*; it drains the UART RX until hal_uart_read() returns 0, and writes a
+ *      whole micro_data frame only when hal_uart_tx_free() says it fits (otherwise that
+ *      frame is skipped, never half-sent). A poll that handles a frame can take longer
+ *      than a tick (on a 16 MHz AVR ~37 000 cycles, 2.3 ticks at 1 kHz): such a target
+ *      counts due ticks in its timer interrupt and runs fw_tick() for each from its main
+ *      loop, fw_link_poll() when none is due; the delayed ticks then run late, back to
+ *      back, none lost (docs/firmware.md, AVR budget).
  *   2. The target calls fw_tick() once per control period (fw_tick_period_us()).
  *      fw_tick() calls every input wire (hal_enc_*, hal_gyro_raw, hal_compass,
  *      hal_adc, hal_sonar_echo, hal_dio_in) at its start, exactly once each, and
