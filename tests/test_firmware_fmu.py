@@ -13,6 +13,7 @@ import re
 import shutil
 import tempfile
 import tomllib
+from xml.etree import ElementTree
 
 import pytest
 
@@ -22,7 +23,7 @@ from fmpy.fmi3 import FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 from navkit import protocol  # noqa: E402
-from navkit.paths import build_dir, repo_root  # noqa: E402
+from navkit.paths import build_dir, repo_root, spec_path  # noqa: E402
 
 FMU = build_dir() / "fmus" / "navkit_firmware.fmu"
 MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"
@@ -192,6 +193,18 @@ def test_description_matches_the_c_table(md):
                  for v in md.modelVariables}
     assert described == _c_table()
     assert described["battery_voltage"][3:] == ("V", 12.0) and described["baud"][4] == 115200.0
+
+
+def test_description_names_the_spec(unzipped, md):
+    """The description names the protocol spec the firmware was built from: its file, in
+    the description attribute and in the org.navkit.spec annotation, with the spec hash of
+    this checkout's spec (a stale FMU built from another spec fails here)."""
+    spec_file = spec_path().relative_to(repo_root()).as_posix()
+    root = ElementTree.parse(f"{unzipped}/modelDescription.xml").getroot()
+    specs = root.findall("./Annotations/Annotation[@type='org.navkit.spec']/Spec")
+    assert [s.attrib for s in specs] == [{"file": spec_file, "spec_hash": f"0x{protocol.SPEC_HASH:08x}",
+                                          "sha256": protocol.SPEC.hash_hex}]
+    assert md.description.endswith(f"; protocol spec {spec_file}, spec_hash 0x{protocol.SPEC_HASH:08x}")
 
 
 def test_step_size_is_the_default_control_tick(md):
