@@ -59,6 +59,16 @@ def test_decode_rejects_a_crc_good_frame_outside_the_spec(capsys, tmp_path):
     assert rc == 0 and len(lines) == 1
 
 
+def test_decode_and_encode_refuse_a_value_that_is_no_code(capsys):
+    rc, _, err = _run(capsys, "proto", "encode", "micro_cmd", "fwd_cmd=2")
+    assert rc == 2 and "micro_cmd.fwd_cmd: 2 is not a fwd_cmd code (none=0, start=1," in err
+    rc, lines, _ = _run(capsys, "proto", "encode", "micro_cmd", "fwd_cmd=2", "--loose")
+    assert rc == 0
+    rc, lines, _ = _run(capsys, "proto", "decode", lines[0])
+    assert rc == 1 and lines[0].startswith("error: byte offset 0: ")
+    assert "rejected: micro_cmd.fwd_cmd: 2 is not a fwd_cmd code" in lines[0]
+
+
 # ------------------------------------------------------------ decode: hex input
 
 def test_decode_takes_spaced_colon_and_0x_hex(capsys):

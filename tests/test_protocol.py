@@ -209,7 +209,7 @@ def test_golden_frames_byte_for_byte():
     frames = vectors.read_frames()
     assert len(frames) >= 6 * len(p.SPEC.messages)
     cases = {case for _, case, _, _, _ in frames}
-    assert cases == {"defaults", "min", "max", "random", "below", "above"}
+    assert cases == {"defaults", "min", "max", "random", "below", "above", "nonmember"}
     assert sum(v != "ok" for _, _, v, _, _ in frames) >= 20
     for name, case, verdict, data, fields in frames:
         if p.SPEC.messages[name].framed:
@@ -299,6 +299,40 @@ def test_errors_name_the_array_element_and_the_valid_fields():
         p.check("micro_cmd", {"speeed": 7})
     names = ", ".join(f.name for f in p.SPEC.messages["micro_cmd"].fields)
     assert str(e.value) == f"micro_cmd: unknown field 'speeed' (fields: {names})"
+
+
+def test_coded_fields_take_only_their_enum_codes():
+    """A field with `enum` (units other than "bits") takes only its codes, range first;
+    a bit-mask field (dg_control, units "bits") any value in its range."""
+    coded = [(m, f) for m in p.SPEC.messages.values() for f in m.fields if f.coded]
+    assert {f"{m.name}.{f.name}" for m, f in coded} >= {"micro_cmd.fwd_cmd", "micro_cmd.turn_cmd",
+                                                        "lisp_cmd.fwd_cmd", "lisp_cmd.turn_mode"}
+    for m, f in coded:
+        codes = set(p.SPEC.enums[f.enum].values.values())
+        for v in range(f.min, min(f.max, f.min + 300) + 1):
+            fields = {**p.defaults(m.name), f.name: v}
+            if v in codes:
+                p.check(m.name, fields)
+            else:
+                with pytest.raises(p.ProtocolError, match=rf"^{m.name}.{f.name}: {v} is not a {f.enum} code \("):
+                    p.check(m.name, fields)
+    with pytest.raises(p.ProtocolError) as e:
+        p.check("micro_cmd", {"fwd_cmd": 2})
+    assert str(e.value) == "micro_cmd.fwd_cmd: 2 is not a fwd_cmd code (none=0, start=1, modify=3, stop=5, " \
+                           "contest_hallway=100, contest_start_circle=101, explore=105)"
+    assert e.value.field == "fwd_cmd"
+    with pytest.raises(p.ProtocolError, match=r"fwd_cmd: 7 is outside 0..5"):   # the range comes first
+        p.check("micro_cmd", {"fwd_cmd": 7})
+    for v in (13, 15, 20, 23, 25):    # reserved by the seed: valid codes, the firmware refuses and counts them
+        p.check("micro_cmd", {"turn_cmd": v})
+    with pytest.raises(p.ProtocolError, match="lisp_cmd.fwd_cmd: 50 is not a fwd_cmd code"):
+        p.check("lisp_cmd", {"fwd_cmd": 50})
+    assert not p.SPEC.messages["micro_cmd"].field("dg_control").coded
+    for v in range(4):
+        p.check("micro_cmd", {"dg_control": v})
+    assert p.decode_frame(p.encode_frame("micro_cmd", {"turn_cmd": 2}, strict=False))[1]["turn_cmd"] == 2
+    with pytest.raises(p.ProtocolError, match="micro_cmd.turn_cmd: 2 is not a turn_cmd code"):
+        p.encode_frame("micro_cmd", {"turn_cmd": 2})
 
 
 def test_decode_frame_reasons_follow_the_c_order():

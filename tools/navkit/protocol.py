@@ -89,6 +89,7 @@ class _Layout:
     zero: dict = field(default_factory=dict)    # every field 0 (tuples for arrays)
     limits: dict = field(default_factory=dict)  # name -> (count, min, max, type min, type max)
     zero_bad: tuple = ()                        # fields whose 0 is outside min..max
+    codes: dict = field(default_factory=dict)   # coded field (Field.coded) name -> its enum
 
 
 def _layout(m: Message) -> _Layout:
@@ -112,7 +113,8 @@ def _layout(m: Message) -> _Layout:
     zero = {f.name: (0,) * f.count if f.count > 1 else 0 for f in m.fields}
     limits = {f.name: (f.count, f.min, f.max, TYPES[f.type][2], TYPES[f.type][3]) for f in m.fields}
     zero_bad = tuple(f.name for f in m.fields if not f.min <= 0 <= f.max)
-    return _Layout(m, struct.Struct(fmt), slots, zero, limits, zero_bad)
+    codes = {f.name: SPEC.enums[f.enum] for f in m.fields if f.coded}
+    return _Layout(m, struct.Struct(fmt), slots, zero, limits, zero_bad, codes)
 
 
 _LAYOUTS = {m.name: _layout(m) for m in SPEC.messages.values()}
@@ -141,8 +143,9 @@ def defaults(name: str) -> dict:
 
 
 def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
-    """All field values of the message: `fields` checked (type range, and with strict
-    the spec range), the rest 0. An array element is named with its index:
+    """All field values of the message: `fields` checked (type range; with strict also
+    the spec range and, for a coded field, enum membership), the rest 0. An array
+    element is named with its index:
     `micro_cfg_io.servo_center[2]: 400 is outside 500..2500`."""
     m = lay.message
     full = dict(lay.zero)
@@ -158,12 +161,16 @@ def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
             elems = v
         else:
             elems = (v,)
+        enum = lay.codes.get(k) if strict else None
         for i, e in enumerate(elems):
-            if e.__class__ is not int or not lo <= e <= hi:
+            if e.__class__ is not int or not lo <= e <= hi or (enum and e not in enum.values.values()):
                 where = f"{m.name}.{k}[{i}]" if count > 1 else f"{m.name}.{k}"
                 if e.__class__ is not int:
                     raise ProtocolError(f"{where}: {e!r} is not an integer", k)
-                raise ProtocolError(f"{where}: {e} is outside {lo}..{hi}", k)
+                if not lo <= e <= hi:
+                    raise ProtocolError(f"{where}: {e} is outside {lo}..{hi}", k)
+                names = ", ".join(f"{n}={c}" for n, c in enum.values.items())
+                raise ProtocolError(f"{where}: {e} is not a {enum.name} code ({names})", k)
         full[k] = v
     if strict:
         for k in lay.zero_bad:
@@ -175,9 +182,10 @@ def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
 
 def check(name: str, fields: dict) -> None:
     """Raise ProtocolError naming the field (also as its `field`) if any value of
-    `fields` is outside its spec range (or unknown, or not an integer); fields are
-    checked in the order given, so for a whole message in spec order the field named is
-    the one the C navkit_<msg>_check() reports."""
+    `fields` is outside its spec range, or is not one of its enum's codes (a coded field:
+    `enum` and units other than "bits"; range first, then the code), or is unknown or
+    not an integer. Fields are checked in the order given, so for a whole message in
+    spec order the field named is the one the C navkit_<msg>_check() reports."""
     _values(_message(name), fields, strict=True)
 
 
@@ -196,7 +204,8 @@ def encode_frame(name: str, fields: dict | None = None, *, time_tag: int | None 
     (so `encode_frame(n, defaults(n), time_tag=k)` works; the CLI refuses both).
 
     Range checks: by default (strict=True) every value must be within its spec
-    min..max, as navkit_<msg>_check() would require. With strict=False values only need
+    min..max and a coded field's value one of its enum's codes, as check() and
+    navkit_<msg>_check() require. With strict=False values only need
     to fit their type: that is what the C navkit_<msg>_encode() does, which never
     range-checks (to build out-of-range test frames)."""
     lay = _message(name)
