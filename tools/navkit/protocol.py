@@ -21,7 +21,6 @@ import binascii
 import struct
 from dataclasses import dataclass, field
 
-from navkit.gen import RCOMM_MAGIC, RCOMM_VERSION, rcomm_layout
 from navkit.paths import spec_path
 from navkit.spec import TYPES, Message, load
 
@@ -35,7 +34,12 @@ __all__ = [
 
 SPEC = load(spec_path())
 SPEC_HASH: int = SPEC.hash
-RCOMM_OFFSETS, RCOMM_SIZE = rcomm_layout(SPEC)
+# The rcomm region (SPEC.rcomm, from [links.rcomm]): magic and layout version of its
+# header, byte offset of each message's slot, and its size in bytes.
+RCOMM_MAGIC: int = SPEC.rcomm.magic
+RCOMM_VERSION: int = SPEC.rcomm.version
+RCOMM_OFFSETS: dict = dict(SPEC.rcomm.slots)
+RCOMM_SIZE: int = SPEC.rcomm.size
 
 DIR_TO_MICRO = "host_to_micro"
 DIR_TO_HOST = "micro_to_host"
