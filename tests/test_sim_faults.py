@@ -35,6 +35,11 @@ kind = "kill_host"
     assert coast <= v0 * (0.1 + WATCHDOG_S + 0.05) + v0 ** 2 / (2 * WATCHDOG_DECEL) + 30, coast
     assert r.summary["host"]["state"] == "killed"
     assert not r.micro_between(4.0), "no host, no frames: the micro stays silent"
+    frames = r.messages("/host/frame")
+    assert len(frames) == r.summary["frames"] + 1 == 36, "35 ticks, then the host is gone"
+    assert all(m["host"] == "running" for t, m in frames[:-1])
+    assert frames[-1] == (3.5, {"frame": 35, "t": 3.5, "rx_bytes": frames[-1][1]["rx_bytes"],
+                                "tx_bytes": 0, "host": "killed"})
 
 
 def test_micro_reset_config_again_and_no_motion_until_a_new_command(tmp_path_factory):
@@ -149,6 +154,9 @@ distance = 500
     frames = [m for t, m in r.messages("/host/frame")]
     assert any(m["flags"] & 2 for m in frames), "the host saw its port closed"
     assert not (frames[-1]["flags"] & 2), "and open again"
+    assert [m["t"] for m in frames if m["host"] == "unplugged"] == \
+        pytest.approx([3.0 + 0.1 * i for i in range(10)]), "unplugged from 3.0 s for 1.0 s"
+    assert all(m["host"] == "running" for m in frames if not 3.0 <= m["t"] < 3.95)
     d6 = r.truth_at(6.0)["distance_mm"]
     assert abs(r.truth[-1]["distance_mm"] - (d6 + 500)) <= 15, "commands flow again"
     assert r.summary["watchdog_stops"] >= 1

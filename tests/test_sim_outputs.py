@@ -315,7 +315,12 @@ distance = 200
 """, realtime=True)
     s = r.summary
     assert s["mode"] == "realtime"
-    assert not r.messages("/host/frame"), "no lockstep frames in real time"
+    # /host/frame: the host's own frames as seen at the harness's once-per-frame reads
+    frames = [m for _, m in r.messages("/host/frame")]
+    assert len(frames) >= 20 and all("flags" not in m and m["host"] == "running" for m in frames)
+    numbers = [m["frame"] for m in frames]
+    assert numbers == sorted(set(numbers)) and numbers[-1] + 1 == s["frames"]
+    assert sum(m["tx_bytes"] for m in frames) > 0 and sum(m["rx_bytes"] for m in frames) > 0
     assert r.messages("/planner/data")
     assert 0.7 < s["realtime_factor"] <= 1.1, s["wall_time_s"]
     assert abs(r.truth[-1]["distance_mm"] - 200) <= 15, "the command reached the micro"
@@ -323,6 +328,41 @@ distance = 200
     from test_sim_chunks import chunk_spans
     spans = chunk_spans(r.out / "run.mcap")
     assert len(spans) >= 3 and all(t1 - t0 <= 1_000_000_000 for t0, t1 in spans), spans
+
+
+QUIT = """
+duration_s = 2.0
+[[fault]]
+t = 0.5
+kind = "unplug"
+duration_s = 0.3
+[[key]]
+t = 1.2
+key = "Q"
+"""
+
+
+@pytest.mark.parametrize("realtime", [False, True])
+def test_host_frame_states(tmp_path_factory, realtime):
+    """/host/frame's `host`: running, unplugged while the port is unplugged, and one
+    message `exited` at the first frame after the host quit (key Q), in lockstep and in
+    real time (where the frames are the host's own, read once per frame)."""
+    r = run_mission(tmp_path_factory, "quit-rt" if realtime else "quit", QUIT,
+                    realtime=realtime)
+    states = [(round(t, 3), m["host"]) for t, m in r.messages("/host/frame")]
+    expect = ([(round(0.1 * i, 3), "running") for i in range(5)]
+              + [(round(0.1 * i, 3), "unplugged") for i in range(5, 8)]
+              + [(round(0.1 * i, 3), "running") for i in range(8, 13)] + [(1.3, "exited")])
+    if realtime:      # the host's own clock: a frame may land a 5 ms chunk late or be missed
+        assert states[-1][1] == "exited" and 1.2 < states[-1][0] <= 1.5, states
+        assert [h for _, h in states[:-1]].count("exited") == 0
+        assert {h for t, h in states if 0.55 <= t < 0.75} == {"unplugged"}, states
+        assert {h for t, h in states if t < 0.45 or 0.85 <= t < 1.2} == {"running"}, states
+    else:
+        assert states == expect
+        assert r.messages("/host/frame")[12][1]["flags"] & 1, "quitting in its last frame"
+        assert r.summary["frames"] == 13
+    assert r.summary["host"]["state"] == "exited"
 
 
 def test_a_killed_run_keeps_what_came_before(tmp_path):

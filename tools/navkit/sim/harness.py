@@ -694,6 +694,7 @@ class _Run:
         # The objects made so far (modules, FMU descriptions) never become garbage: keep
         # the collector from walking them again at every full collection of the loop.
         gc.freeze()
+        gone = False            # the /host/frame saying the host is gone is written
         loop0 = pc()
         for k in range(n_frames):
             t_ns = k * frame_ns
@@ -715,15 +716,20 @@ class _Run:
                     self.host_state = "exited"
                     self.proc.wait()
                     self._event(t_ns, "host_exited", {"status": self.proc.returncode})
+                    log.frame(k, t_ns, self.rx_count, 0, None, b"", None, "exited")
+                    gone = True
                 else:
                     tx_bytes, flags = done
                     host_bytes = port.read_exact(tx_bytes)
                     times["pty"] += pc() - t2
                     log.frame(k, t_ns, self.rx_count, tx_bytes, flags, host_bytes,
-                              lisp_raw())
+                              lisp_raw(), "running" if self.unplug_until is None else "unplugged")
                     if flags & 1:
                         self.host_state = "exited"
                 self.frames += 1
+            elif not gone:             # the first frame without the host
+                log.frame(k, t_ns, self.rx_count, 0, None, b"", None, self.host_state)
+                gone = True
             host_bytes = self._to_micro(host_bytes)
             # The frame's FMU chunk runs in two calls: the micro answers within the first
             # tens of ms, so its bytes go to the pty while the rest of the chunk computes
@@ -762,6 +768,8 @@ class _Run:
         self.log.truth(array.array("d", self.coupler.sample()).tobytes())
         wall0 = time.monotonic()
         next_frame_ns = 0
+        rx = tx_host = 0        # bytes to / from the host's port since the last /host/frame
+        last_frame, gone = None, False
         for c in range(n_chunks):
             t_ns = c * chunk_ns
             self._expire(t_ns)
@@ -771,12 +779,13 @@ class _Run:
             if self.host_state == "running" and self.proc.poll() is not None:
                 self.host_state = "exited"
             host_bytes = self.port.read_available()
+            tx_host += len(host_bytes)
             self.log.host(t_ns, host_bytes)
             host_bytes = self._to_micro(host_bytes)
             tx, rows = self.coupler.run_raw(chunk_steps, host_bytes)
             self.log.truth(rows)
             self.log.micro(t_ns + chunk_ns, tx)
-            self._to_host(tx)
+            rx += self._to_host(tx)
             if t_ns >= next_frame_ns:
                 if self.host_state == "running":
                     if self.silent_until is None:
@@ -784,7 +793,18 @@ class _Run:
                     raw = self._lisp_raw()
                     self.log.lisp(t_ns, raw)
                     if raw is not None:      # the host's own frame counter
-                        self.frames = self.protocol.from_bytes("lisp_data", raw)["frame"] + 1
+                        frame = self.protocol.from_bytes("lisp_data", raw)["frame"]
+                        self.frames = frame + 1
+                        if frame != last_frame:
+                            self.log.frame(frame, t_ns, rx, tx_host, None, b"", None,
+                                           "running" if self.unplug_until is None
+                                           else "unplugged")
+                            rx = tx_host = 0
+                            last_frame = frame
+                elif not gone:           # the first frame without the host
+                    self.log.frame(self.frames, t_ns, rx, tx_host, None, b"", None,
+                                   self.host_state)
+                    gone = True
                 next_frame_ns += round(self.frame_s * 1e9)
                 # the next frame's chunk ends about then (the log splits finer if need be)
                 self.log.end_frame(next_frame_ns + chunk_ns)

@@ -16,7 +16,8 @@ import resource
 import struct
 from pathlib import Path
 
-__all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS"]
+__all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS",
+           "HOST_STATES"]
 
 TRUTH_SCHEMA = {
     "title": "navkit.truth",
@@ -36,17 +37,31 @@ TRUTH_SCHEMA = {
     },
 }
 
+HOST_STATES = ("running", "unplugged", "killed", "exited")
+
 FRAME_SCHEMA = {
     "title": "navkit.host_frame",
-    "description": "One lockstep host frame: tick sent, done received.",
+    "description": "One host frame as the harness saw it. Lockstep: every tick the host "
+                   "answered (tick sent, done received). Real time: every new host frame "
+                   "counter the harness saw in lisp_data at its once-per-frame read (the "
+                   "host runs on its own clock, so a frame between two reads is not seen). "
+                   "Once the host is gone: one message (host killed or exited, no flags) at "
+                   "the first frame without it.",
     "type": "object",
     "properties": {
-        "frame": {"type": "integer"},
+        "frame": {"type": "integer", "description": "host frame number: the tick's k in "
+                  "lockstep, lisp_data.frame in real time; the first frame without the "
+                  "host once it is gone"},
         "t": {"type": "number", "description": "simulated time of the frame, s"},
-        "rx_bytes": {"type": "integer", "description": "bytes written to the host's port before the tick"},
-        "tx_bytes": {"type": "integer", "description": "bytes the host wrote in the frame"},
-        "flags": {"type": "integer", "description": "bit 0 quitting, bit 1 port closed"},
-        "host": {"type": "string", "description": "running, killed, exited or unplugged"},
+        "rx_bytes": {"type": "integer", "description": "bytes written to the host's port "
+                     "since the previous message (lockstep: before the tick)"},
+        "tx_bytes": {"type": "integer", "description": "bytes the host wrote since the "
+                     "previous message (lockstep: in the frame)"},
+        "flags": {"type": "integer", "description": "the done message's flags, bit 0 "
+                  "quitting, bit 1 port closed (lockstep frames the host answered only)"},
+        "host": {"type": "string", "enum": list(HOST_STATES),
+                 "description": "running; unplugged: running, its port unplugged (fault "
+                 "unplug); killed: by the fault kill_host; exited: ended on its own"},
     },
 }
 
@@ -353,6 +368,11 @@ class _Decoder:
         self.width = width
         self.row_struct = struct.Struct(f"={width}d")
         self.first_t = struct.Struct("=d").unpack_from     # a row's time (s) at an offset
+        # /host/frame text per host state, with and without the done message's flags
+        head = b'{"frame":%d,"t":%r,"rx_bytes":%d,"tx_bytes":%d'
+        self.frame_text = {h: head + b',"host":"%s"}' % h.encode() for h in HOST_STATES}
+        self.frame_text_flags = {h: head + b',"flags":%%d,"host":"%s"}' % h.encode()
+                                 for h in HOST_STATES}
         self.last_micro_raw = None     # decoded by finish()
         # micro_data and micro_cmd are written every frame: their text from the bytes
         self.fast = _frame_texts(protocol)
@@ -401,12 +421,14 @@ class _Decoder:
     def handle(self, item) -> None:
         kind = item[0]
         rec = self.rec
-        if kind == "F":          # host frame: (F, k, t_ns, rx, tx, flags, host_bytes, lisp_raw)
-            _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw = item
+        if kind == "F":   # host frame: (F, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host)
+            _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host = item
             rec.reserve(t_ns, t_ns)
-            self.write_frame(t_ns, (
-                b'{"frame":%d,"t":%r,"rx_bytes":%d,"tx_bytes":%d,"flags":%d,"host":"running"}'
-                % (k, t_ns / 1e9, rx, tx, flags)))
+            if flags is None:
+                self.write_frame(t_ns, self.frame_text[host] % (k, t_ns / 1e9, rx, tx))
+            else:
+                self.write_frame(t_ns, self.frame_text_flags[host] % (k, t_ns / 1e9, rx, tx,
+                                                                       flags))
             if lisp_raw is not None:
                 self.lisp(t_ns, lisp_raw)
             if host_bytes:
@@ -672,10 +694,13 @@ class RunLog:
         if self._proc is not None:
             self._spin.value = 1 if on else 0
 
-    def frame(self, k, t_ns, rx, tx, flags, host_bytes, lisp_raw) -> None:
-        """Lockstep frame k at t_ns: tick's rx_bytes, done's tx_bytes and flags, the
-        host's bytes and the raw lisp_data read after it (or None)."""
-        self._items.append(("F", k, t_ns, rx, tx, flags, host_bytes, lisp_raw))
+    def frame(self, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host) -> None:
+        """Host frame k at t_ns (a /host/frame message): bytes written to the host's port
+        and bytes it wrote since the last one (lockstep: the tick's rx_bytes, the done's
+        tx_bytes), the done's flags (None: no done message), the host's bytes and the raw
+        lisp_data read after it (b"" / None: logged apart, or none) and the host's state
+        (one of HOST_STATES)."""
+        self._items.append(("F", k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host))
 
     def host(self, t_ns, data) -> None:
         """Bytes the host sent (real-time mode)."""
