@@ -1,13 +1,15 @@
 /* Unit tests of the trapezoidal profile (profile_*) and seeded property tests.
  *
  * Property run: random moves with random modifications, reversals and stops mid-move;
- * every tick the reference must stay within its acceleration limit (and within its speed
- * limit unless decelerating toward a lowered one), never be NaN, never overshoot a
- * target it could reach without overshoot, and come to rest on the target in bounded
- * time. A second run drives a motion_ axis (profile + re-planning from the measured state)
- * against a plant that lags and may not reach the speed: it must settle within the stop
- * tolerance in bounded time, with stops (which must never reverse), the stop latch, and
- * "forever" targets modified to near ones. Seed and count: --seed N --count MOVES (the
+ * every tick the reference must stay within its acceleration limit and within its speed
+ * limit (above a lowered limit only while decelerating to it at the full rate:
+ * |v| <= max(vmax, |v_prev| - amax*dt)), never be NaN, never overshoot a target it could
+ * reach without overshoot, and come to rest on the target in bounded time. A second run
+ * drives a motion_ axis (profile + re-planning from the measured state) against a plant
+ * that lags and may not reach the speed: the reference keeps the same acceleration and
+ * speed limits on every tick it is not pulled back to the plant (motion_t.limited), and
+ * the axis must settle within the stop tolerance in bounded time, with stops (which must
+ * never reverse), the stop latch, and "forever" targets modified to near ones. Seed and count: --seed N --count MOVES (the
  * second run does a tenth of the count); ctest runs the short default, a long run is
  * the binary run by hand (docs/firmware.md). */
 #include <stdint.h>
@@ -248,7 +250,7 @@ static double rng_uniform(double lo, double hi)
 /* Figures of the whole run, reported at the end. */
 static struct {
     double accel_excess; /* largest (|dv| - amax dt) / (amax dt) */
-    double speed_excess; /* largest (|v| - vmax) / vmax while speeding up */
+    double speed_excess; /* largest (|v| - limit) / limit, limit = max(vmax, |v_prev| - amax dt) */
     double final_err;    /* u: largest |position - target| at rest */
     double tracked_err;  /* u: the same for the tracked run */
 } prop_stats;
@@ -265,6 +267,21 @@ static void prop_note_tracked(double err)
     if (err > prop_stats.tracked_err) {
         prop_stats.tracked_err = err;
     }
+}
+
+/* u/s: the most |v| may be after a tick from prev (u/s) with limit vmax (u/s) and velocity
+   step dv = amax*dt (u/s): vmax, or less than |prev| by dv when above it. */
+static double prop_speed_limit(double vmax, double prev, double dv)
+{
+    double decel = fabs(prev) - dv;
+    return (decel > vmax) ? decel : vmax;
+}
+
+/* 1 when a velocity step from prev to v (u/s) breaks the acceleration limit dv = amax*dt
+   (u/s), allowing for single-precision rounding of the velocity itself. */
+static int prop_accel_broken(double prev, double v, double dv)
+{
+    return fabs(v - prev) > dv * (1.0 + 1e-4) + 4e-7 * fabs(v) + 1e-6;
 }
 
 /* One random move; returns 0 when every property held. */
@@ -285,7 +302,7 @@ static int prop_case(unsigned long idx)
     profile_init(&p, (float)vmax, (float)amax);
     profile_retarget(&p, (float)target, (float)vmax, (float)amax);
     for (;;) {
-        double prev = p.vel, v, D;
+        double prev = p.vel, v, D, vlim;
         /* maybe modify or stop mid-move */
         if (mods > 0 && p.moving && (rng_next() % 400u) == 0u) {
             mods--;
@@ -324,18 +341,20 @@ static int prop_case(unsigned long idx)
         if (v != v || p.togo != p.togo) {
             bad |= 1; /* NaN */
         }
-        /* limit plus single-precision rounding of the velocity itself */
-        if (fabs(v - prev) > amax * dt * (1.0 + 1e-4) + 4e-7 * fabs(v) + 1e-6) {
+        if (prop_accel_broken(prev, v, amax * dt)) {
             bad |= 2; /* acceleration limit */
         }
         if ((fabs(v - prev) - amax * dt) / (amax * dt) > prop_stats.accel_excess) {
             prop_stats.accel_excess = (fabs(v - prev) - amax * dt) / (amax * dt);
         }
-        if (fabs(v) > fabs(prev) && (fabs(v) - p.vmax) / p.vmax > prop_stats.speed_excess) {
-            prop_stats.speed_excess = (fabs(v) - p.vmax) / p.vmax;
+        /* speed limit on every tick: above a lowered vmax only while decelerating to it by
+           the full amax*dt, so holding a speed above the limit fails */
+        vlim = prop_speed_limit(p.vmax, prev, amax * dt);
+        if ((fabs(v) - vlim) / vlim > prop_stats.speed_excess) {
+            prop_stats.speed_excess = (fabs(v) - vlim) / vlim;
         }
-        if (fabs(v) > p.vmax * (1.0 + 1e-5) + 1e-5 && fabs(v) > fabs(prev)) {
-            bad |= 4; /* speed limit (decelerating to a lowered limit is allowed) */
+        if (fabs(v) > vlim * (1.0 + 1e-5) + 1e-5) {
+            bad |= 4;
         }
         if (feasible && p.togo * dir0 < -(1e-2 + 1e-6 * fabs(target))) { /* 10 um: far below one encoder count */
             bad |= 8; /* overshoot */
@@ -388,7 +407,7 @@ static int prop_tracked_case(unsigned long idx)
     bound = forever ? 1e9 : fabs(target) / vc + 2.0 * vmax / amax + 10.0 * tau + 2.0;
     limit = (long)(bound / dt);
     for (k = 0; k < limit; k++) {
-        double sp;
+        double sp, ref_prev; /* u/s: reference speed out, and before the tick */
         if (mods > 0 && (rng_next() % 2000u) == 0u) {
             mods--;
             if (!latched && (rng_next() % 4u) == 0u) {
@@ -422,10 +441,21 @@ static int prop_tracked_case(unsigned long idx)
             limit = k + (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau + fabs(vel) / amax + 2.0) /
                                dt);
         }
+        ref_prev = m.prof.vel;
         sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, (float)tol, 10.0f, (float)dt);
         if (sp != sp) {
             bad |= 1;
             break;
+        }
+        /* the reference's own limits, on every tick it was not pulled back to the plant */
+        if (!m.limited) {
+            double dv = (double)m.prof.amax * dt;
+            if (prop_accel_broken(ref_prev, m.prof.vel, dv)) {
+                bad |= 32;
+            }
+            if (fabs(m.prof.vel) > prop_speed_limit(m.prof.vmax, ref_prev, dv) * (1.0 + 1e-5) + 1e-5) {
+                bad |= 64;
+            }
         }
         if (latched && sp * stop_dir < 0.0) {
             bad |= 16; /* a stop sent the robot back */
@@ -512,7 +542,7 @@ int main(int argc, char **argv)
         }
     }
     printf("property: seed %llu, %lu moves, %lu failed; max |accel| excess %.3g of amax, max speed excess %.3g "
-           "of vmax, max final error %.3g u\n",
+           "of the limit, max final error %.3g u\n",
            seed, i, failed, prop_stats.accel_excess, prop_stats.speed_excess, prop_stats.final_err);
     CHECK(failed == 0);
     failed = 0;
