@@ -27,7 +27,9 @@ __all__ = ["host_binary", "require_host", "Micro", "Host", "FRAME_US"]
 FRAME_US = 100_000          # simulated frame period, us
 _TICK = struct.Struct("<IIQII")
 _DONE = struct.Struct("<IIII")
-_OK_BITS = {"micro_cfg_geometry": 1 << 9, "micro_cfg_motion": 1 << 10, "micro_cfg_io": 1 << 11}
+_STATUS = protocol.SPEC.enums["micro_status"].values   # bit numbers
+_OK_BITS = {f"micro_cfg_{c}": 1 << _STATUS[f"cfg_{c}_ok"] for c in ("geometry", "motion", "io")}
+_REJECT_RANGE = 1 << protocol.SPEC.enums["reject"].values["range"]
 
 
 def host_binary() -> Path:
@@ -52,7 +54,7 @@ class Micro:
         self.cfg: set[str] = set()
         self.refuse: set[str] = set()   # config messages it refuses (as a field out of range)
         self.rejected = 0               # micro_data.cmd_rejected
-        self.last_reject = 0            # micro_data.last_reject: 0x8000 | msg_type of a refused config
+        self.last_reject = 0            # micro_data.last_reject: reject.range bit | msg_type of a refused config
         self.tag = 0
         self.fields: dict = {}          # extra micro_data fields
         self.received: list = []        # (name, fields) of every frame the host sent
@@ -65,7 +67,7 @@ class Micro:
     def status(self) -> int:
         """micro_data.status bits: configured + one bit per config message accepted."""
         s = sum(_OK_BITS[c] for c in self.cfg)
-        return s | (1 if len(self.cfg) == 3 else 0)
+        return s | ((1 << _STATUS["configured"]) if len(self.cfg) == 3 else 0)
 
     def handle(self, msgs: list) -> None:
         """Take the host's frames; configs carrying our spec hash are accepted, but
@@ -74,7 +76,7 @@ class Micro:
             self.received.append((name, f))
             if name in self.refuse:
                 self.rejected = (self.rejected + 1) & 0xFFFF
-                self.last_reject = 0x8000 | f["msg_type"]
+                self.last_reject = _REJECT_RANGE | f["msg_type"]
             elif name in _OK_BITS and f["spec_hash"] == self.spec_hash:
                 self.cfg.add(name)
 

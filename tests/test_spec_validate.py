@@ -161,6 +161,23 @@ def test_a_broken_spec_fails_the_codec_import_with_a_spec_error(tmp_path):
     assert r.stdout.startswith(f"LINE {line} {spec}:{line}: micro_data.status: flag micro_status.hdg_hold"), r.stdout
 
 
+@pytest.mark.parametrize("argv", [["proto", "decode", "a5ff"], ["gen", "--print-hash"]])
+def test_the_cli_names_a_broken_specs_line_without_a_traceback(tmp_path, argv):
+    """`navkit proto ...` (whose codec loads the spec at import) and `navkit gen` on a broken
+    spec: one line `navkit CMD: FILE:LINE: ...` and exit 1."""
+    tree = tmp_path / "repo"
+    shutil.copytree(repo_root() / "tools" / "navkit", tree / "tools" / "navkit",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    (tree / "protocol").mkdir()
+    spec = tree / "protocol" / "navkit.toml"
+    spec.write_text(spec_path().read_text().replace("hdg_hold = 12 }", "hdg_hold = 20 }"))
+    r = subprocess.run([sys.executable, "-m", "navkit", *argv], capture_output=True, text=True, cwd=tmp_path,
+                       env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
+    line = _line_of(spec, '{ name = "status", word = 7')
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.startswith(f"navkit {argv[0]}: {spec}:{line}: micro_data.status:"), r.stderr
+
+
 @pytest.mark.parametrize("args,only,others", [
     (["--print-hash", "--c-out", "OUT"], "--print-hash", "--c-out"),
     (["--print-hash", "--docs-out", "OUT/p.md"], "--print-hash", "--docs-out"),

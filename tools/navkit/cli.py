@@ -37,8 +37,13 @@ def main(argv=None) -> int:
     name = argv[0]
     if name not in SUBCOMMANDS:
         parser.error(f"unknown command {name!r} (choose from {', '.join(SUBCOMMANDS)})")
-    module = importlib.import_module(SUBCOMMANDS[name][0])
-    sub_parser = argparse.ArgumentParser(prog=f"navkit {name}", description=SUBCOMMANDS[name][1])
-    module.add_arguments(sub_parser)
-    args = sub_parser.parse_args(argv[1:])
-    return int(module.run(args) or 0)
+    from navkit.spec import SpecError
+    try:
+        module = importlib.import_module(SUBCOMMANDS[name][0])
+        sub_parser = argparse.ArgumentParser(prog=f"navkit {name}", description=SUBCOMMANDS[name][1])
+        module.add_arguments(sub_parser)
+        args = sub_parser.parse_args(argv[1:])
+        return int(module.run(args) or 0)
+    except SpecError as e:  # a broken spec (navkit.protocol loads it at import): file:line, no traceback
+        print(f"navkit {name}: {e}", file=sys.stderr)
+        return 1

@@ -30,17 +30,6 @@ def rcomm_layout(spec: Spec) -> tuple[dict[str, int], int]:
     return dict(spec.rcomm.slots), spec.rcomm.size
 
 
-def __getattr__(name: str) -> int:
-    """RCOMM_MAGIC and RCOMM_VERSION of the default spec, for `navkit.protocol`'s import
-    of them (it should read SPEC.rcomm.magic and .version; then this goes). Loaded once."""
-    if name in ("RCOMM_MAGIC", "RCOMM_VERSION"):
-        from navkit.paths import spec_path
-        rcomm = load(spec_path()).rcomm
-        globals().update(RCOMM_MAGIC=rcomm.magic, RCOMM_VERSION=rcomm.version)
-        return globals()[name]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def spec_label(spec: Spec) -> str:
     """The spec's path as generated files name it: relative to the repository when the
     spec is inside it (`protocol/navkit.toml`), else absolute."""
