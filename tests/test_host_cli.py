@@ -157,6 +157,7 @@ def test_closed_stdin_gives_no_keys(host_factory):
     (["--rate", "0.05"], "not a rate in 0.1..1000 Hz"),
     (["--rate", "0x10"], "--rate: 0x10: not a rate in 0.1..1000 Hz"),
     (["--lockstep-fd", "3"], "--lockstep-fd needs --clock lockstep"),
+    (["--rate", "4"], "--rate 4: a frame of 250 ms at 4 Hz needs [micro_cfg_motion] watchdog_timeout above two frames"),
     (["--port", "a", "--port", "/nonexistent"], "--port: given twice"),
     (["--record", "--record"], "--record: given twice"),
     (["-h", "--help"], "--help: given twice"),

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <climits>
@@ -336,6 +337,16 @@ void check_servo_limits(const IniFile &ini, const Config &c)
     }
 }
 
+// The frame against the micro's watchdog, named at the later of the two keys' lines.
+void check_frame_watchdog(const IniFile &ini, const Config &c)
+{
+    const std::string why = frame_watchdog_error(c.exec.frame_rate_hz, c.micro.motion.watchdog_timeout);
+    if (!why.empty()) {
+        const int lrate = ini.line("executive", "frame_rate_hz"), lwd = ini.line("micro_cfg_motion", "watchdog_timeout");
+        ini.fail(std::max(lrate, lwd), std::string(lrate > lwd ? "frame_rate_hz" : "watchdog_timeout") + ": " + why);
+    }
+}
+
 // Each GP2D12's valid range must be non-empty, named at its max_mm line.
 void check_ir(const IniFile &ini, const Config &c)
 {
@@ -348,6 +359,20 @@ void check_ir(const IniFile &ini, const Config &c)
 }
 
 }  // namespace
+
+std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms)
+{
+    const double frame_ms = 1000.0 / frame_rate_hz;
+    if (2.0 * frame_ms < static_cast<double>(watchdog_timeout_ms)) {
+        return "";
+    }
+    char why[200];
+    std::snprintf(why, sizeof why,
+                  "a frame of %g ms at %g Hz needs [micro_cfg_motion] watchdog_timeout above two frames "
+                  "(%g ms), not %u ms: one lost frame would stop the robot",
+                  frame_ms, frame_rate_hz, 2.0 * frame_ms, watchdog_timeout_ms);
+    return why;
+}
 
 std::string ini_parse_int(const std::string &v, bool hex_ok, long *out)
 {
@@ -479,6 +504,7 @@ void Ini::load_file(const std::string &path, Config &cfg)
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
         check_servo_limits(ini, cfg);
+        check_frame_watchdog(ini, cfg);
     } else {
         check_ir(ini, cfg);
     }

@@ -56,6 +56,11 @@ int main(int argc, char **argv)
     }
     if (o.rate_hz > 0) {
         cfg.exec.frame_rate_hz = o.rate_hz;
+        const std::string why = frame_watchdog_error(o.rate_hz, cfg.micro.motion.watchdog_timeout);
+        if (!why.empty()) {
+            std::fprintf(stderr, "navkit-host: --rate %g: %s\n", o.rate_hz, why.c_str());
+            return 2;
+        }
     }
     if (!o.shm.empty()) {
         cfg.exec.shm_name = o.shm;

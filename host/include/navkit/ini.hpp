@@ -38,6 +38,11 @@ struct ExecutiveCfg {
 std::string ini_parse_int(const std::string &v, bool hex_ok, long *out);
 std::string ini_parse_real(const std::string &v, double *out);
 
+// The frame rate against the micro's watchdog (real-time clock; in lockstep the driver
+// checks its own frame): the watchdog must outlast two frames, so that one lost or
+// corrupted frame does not stop the robot. "" if it does, else why not.
+std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms);
+
 // Checks of [executive] values (and of --shm, --log-dir): "" if v is fine, else why not.
 // A POSIX shared-memory name: '/' then 1..NAME_MAX characters, no other '/'.
 std::string shm_name_error(const std::string &v);

@@ -187,6 +187,20 @@ TEST_F(IniFiles, FrameRateRangeIsTheCommandLines)
     EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: frame_rate_hz: 0.05 is outside 0.1..1000");
 }
 
+TEST_F(IniFiles, WatchdogMustOutlastTwoFrames)
+{
+    // 5 Hz: 200 ms frames, two of them 400 ms, the default watchdog 300 ms: refused at the later key
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 5\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: frame_rate_hz: a frame of 200 ms at 5 Hz needs [micro_cfg_motion] "
+                              "watchdog_timeout above two frames (400 ms), not 300 ms: one lost frame would stop the robot");
+    write("NavAndControl.ini", "[micro_cfg_motion]\nwatchdog_timeout = 200\n");
+    EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: watchdog_timeout: a frame of 100 ms at 10 Hz needs [micro_cfg_motion] "
+                              "watchdog_timeout above two frames (200 ms), not 200 ms: one lost frame would stop the robot");
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 5\n[micro_cfg_motion]\nwatchdog_timeout = 401\n");
+    EXPECT_EQ(error(), "");
+    EXPECT_EQ(frame_watchdog_error(10.0, 201), "");
+}
+
 TEST_F(IniFiles, SignsMustBePlusOrMinusOne)
 {
     // the spec's range is -1..1, but the micro refuses 0 (firmware/core/config.c)

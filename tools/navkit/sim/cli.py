@@ -10,6 +10,7 @@ the run.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 __all__ = ["add_arguments", "run", "DEFAULT_MISSION"]
@@ -36,7 +37,8 @@ def add_arguments(parser) -> None:
                         help="plant FMU to use instead of <build>/fmus/navkit_plant.fmu: FMI 3.0 "
                         "co-simulation with the variable names of docs/internals.md")
     parser.add_argument("--frame-ms", type=float, default=None,
-                        help="host frame period in ms (default: from NavAndControl.ini)")
+                        help="host frame period in ms, a whole number; the micro's watchdog_timeout must "
+                        "outlast two frames (default: from NavAndControl.ini)")
     parser.add_argument("--no-plot", action="store_true", help="skip plot.png")
 
 
@@ -47,6 +49,9 @@ def run(args) -> int:
     from navkit.sim.harness import run as run_sim
     from navkit.sim.mission import MissionError, load
 
+    if args.frame_ms is not None and not (math.isfinite(args.frame_ms) and args.frame_ms > 0):
+        print(f"navkit sim: --frame-ms {args.frame_ms:g}: not a positive number of ms")
+        return 2
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     try:
         mission = load(mission_path)
@@ -57,7 +62,7 @@ def run(args) -> int:
     out = args.out or build / "sim" / mission.name
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
                       config_dir=args.config, build=build, plant_fmu=args.plant,
-                      frame_s=args.frame_ms / 1000 if args.frame_ms else None,
+                      frame_s=args.frame_ms / 1000 if args.frame_ms is not None else None,
                       plot=not args.no_plot)
     try:
         s = run_sim(opts)

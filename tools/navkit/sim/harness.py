@@ -34,7 +34,7 @@ from pathlib import Path
 
 from navkit.sim.mission import COMMAND_FIELDS, Mission, MissionError
 
-__all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period",
+__all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period", "check_frame",
            "git_revision"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
@@ -81,18 +81,41 @@ def fmu_paths(build: Path) -> tuple[Path, Path]:
     return build / "fmus" / f"{_FW_NAME}.fmu", build / "fmus" / f"{_PLANT_NAME}.fmu"
 
 
-def frame_period(config_dir: Path) -> float:
-    """The host frame period (s): 1 / `[executive] frame_rate_hz` of
-    `config_dir`/NavAndControl.ini, else 0.1 s (the seed's 100 ms frame, the host's default)."""
+def _ini_number(config_dir: Path, section: str, key: str, default: float) -> float:
+    """`[section] key` of `config_dir`/NavAndControl.ini as a number, else `default` (a
+    malformed file is the host's to report, with its file:line, when it starts)."""
     import configparser
 
     ini = configparser.ConfigParser(inline_comment_prefixes=(";", "#"), strict=False)
     try:
         ini.read(Path(config_dir) / "NavAndControl.ini")
-        rate = ini.getfloat("executive", "frame_rate_hz", fallback=10.0)
+        return ini.getfloat(section, key, fallback=default)
     except (configparser.Error, ValueError):
-        rate = 10.0
+        return default
+
+
+def frame_period(config_dir: Path) -> float:
+    """The host frame period (s): 1 / `[executive] frame_rate_hz` of
+    `config_dir`/NavAndControl.ini, else 0.1 s (the seed's 100 ms frame, the host's default)."""
+    rate = _ini_number(config_dir, "executive", "frame_rate_hz", 10.0)
     return 1.0 / rate if rate > 0 else 0.1
+
+
+def check_frame(frame_s: float, config_dir: Path, source: str) -> int:
+    """The FMU steps (of STEP_S) in a host frame of `frame_s` s, which must be a whole
+    number of them and leave the micro's watchdog (`[micro_cfg_motion] watchdog_timeout`,
+    ms) more than two frames, as the host demands of its own rate; else SimError naming
+    `source` (the option or the INI key the period came from)."""
+    steps = round(frame_s / STEP_S)
+    if steps < 1 or abs(steps * STEP_S - frame_s) > 1e-9:
+        raise SimError(f"{source}: a frame of {frame_s * 1000:g} ms is not a whole number of the "
+                       f"FMUs' {STEP_S * 1000:g} ms steps")
+    watchdog_ms = _ini_number(config_dir, "micro_cfg_motion", "watchdog_timeout", 300.0)
+    if not 2 * frame_s * 1000 < watchdog_ms:
+        raise SimError(f"{source}: a frame of {frame_s * 1000:g} ms needs [micro_cfg_motion] watchdog_timeout "
+                       f"above two frames ({2 * frame_s * 1000:g} ms) in {Path(config_dir) / 'NavAndControl.ini'}, "
+                       f"not {watchdog_ms:g} ms: one lost frame would stop the robot")
+    return steps
 
 
 _REVISION = re.compile(r"[0-9a-f]{40}")
@@ -366,7 +389,8 @@ class _Run:
         self.out = Path(opts.out)
         self.plant_fmu = Path(opts.plant_fmu) if opts.plant_fmu else fmu_paths(self.build)[1]
         self.frame_s = opts.frame_s or frame_period(self.config_dir)
-        self.steps_per_frame = max(1, round(self.frame_s / STEP_S))
+        self.steps_per_frame = check_frame(self.frame_s, self.config_dir,
+                                           "--frame-ms" if opts.frame_s else "[executive] frame_rate_hz")
         self.frame_s = self.steps_per_frame * STEP_S
         self.protocol = protocol
         self.noise_rng = random.Random(f"navkit-noise-{opts.seed}")
