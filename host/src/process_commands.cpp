@@ -52,6 +52,7 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
         if (navkit_lisp_cmd_check(&p.cmd, &bad) != NAVKIT_OK) {
             a.planner_rejected = true;  // a rejected message changes nothing
             a.rejected_field = bad;
+            a.rejected_time_tag = p.cmd.time_tag;
         } else {
             planner_active_ = static_cast<uint16_t>(p.cmd.dio_active & kDioMask);
             planner_dio_ = static_cast<uint16_t>(p.cmd.dio_command & kDioMask);

@@ -179,6 +179,33 @@ TEST(Navigation, ValuesThatDoNotFitTheMicroAreRejected)
     EXPECT_EQ(Navigation::convert(c, 0, 0, &m), NAVKIT_NAV_RESULT_REJECTED);
 }
 
+TEST(Navigation, EveryNewCommandIsAcknowledgedWithItsVerdict)
+{
+    // lisp_data.ack_time_tag + nav_result: the verdict on each new command, obeyed or not
+    ConsoleCfg cc;
+    Navigation n(cc);
+    n.init();
+    Arbitration a;
+    a.planner_new = true;
+    a.planner = lisp();
+    a.planner.time_tag = 100;
+    a.planner.fwd_cmd = 1;
+    EXPECT_TRUE(n.update(a, 0).is_new);
+    EXPECT_EQ(n.ack_time_tag(), 100);
+    EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_OK);
+    a.planner.time_tag = 200;
+    a.planner.speed = 40000;  // does not fit micro_cmd.speed
+    EXPECT_FALSE(n.update(a, 0).is_new);
+    EXPECT_EQ(n.ack_time_tag(), 200);
+    EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
+    Arbitration r;  // out of lisp_cmd's own range: refused by ProcessCommands
+    r.planner_rejected = true;
+    r.rejected_time_tag = 300;
+    EXPECT_FALSE(n.update(r, 0).is_new);
+    EXPECT_EQ(n.ack_time_tag(), 300);
+    EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
+}
+
 TEST(Navigation, UpdateDioOnlyChangeIsANeutralNewCommand)
 {
     ConsoleCfg cc;

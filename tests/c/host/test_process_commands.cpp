@@ -137,6 +137,7 @@ TEST(ProcessCommands, OutOfRangeCommandIsRejectedAndChangesNothing)
     EXPECT_TRUE(a.planner_rejected);
     EXPECT_FALSE(a.planner_new);
     EXPECT_EQ(a.rejected_field, NAVKIT_LISP_CMD_FIELD_TURN_MODE);
+    EXPECT_EQ(a.rejected_time_tag, p.cmd.time_tag);
     EXPECT_EQ(a.dio, 0b1);
 }
 
