@@ -162,18 +162,35 @@ static void link_cmd_run(fw_t *fw, const navkit_micro_cmd_t *c)
     l->mc_datalog = c->mc_datalog_cmd;
 }
 
+/* Reject code of a checked micro_cmd refused because the micro is unconfigured: its
+   fwd_cmd, else its turn_cmd, else reject.unconfigured | msg_type (spec flags reject). */
+static uint16_t link_unconfigured_code(const navkit_micro_cmd_t *c)
+{
+    if (c->fwd_cmd != NAVKIT_FWD_CMD_NONE) {
+        return c->fwd_cmd;
+    }
+    if (c->turn_cmd != NAVKIT_TURN_CMD_NONE) {
+        return c->turn_cmd;
+    }
+    return (uint16_t)(NAVKIT_REJECT_UNCONFIGURED | NAVKIT_MSG_TYPE_MICRO_CMD);
+}
+
 /* One decoded micro_cmd: the time-tag rules (docs/firmware.md "Time tags"), then run,
-   refuse, or keep pending. */
+   refuse, or keep pending. Only a command refused for want of the configs is ever
+   pending, so a command that ran never runs again on a repeated tag. */
 static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
 {
     link_t *l = &fw->link;
     uint16_t code;
     uint8_t first = (uint8_t)!l->have_tag;
     if (!first && c->time_tag == l->last_tag) {
-        /* a repeat: handled already, unless it waited only for the configs */
+        /* a repeat: handled already, unless it waited only for the configs; a watchdog
+           stop since the configs drops it (a repeat never resumes motion) */
         if (l->tag_pending && config_complete(&fw->cfg)) {
             l->tag_pending = 0u;
-            link_cmd_run(fw, c);
+            if (!fw->wd_stop) {
+                link_cmd_run(fw, c);
+            }
         }
         return;
     }
@@ -182,10 +199,11 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
     l->tag_pending = 0u;
     code = link_cmd_check(c);
     if (code == 0u && !config_complete(&fw->cfg)) {
-        code = (c->fwd_cmd != NAVKIT_FWD_CMD_NONE) ? c->fwd_cmd : c->turn_cmd;
-        /* refused only for want of the configs: its repeat runs once they are in, except
+        /* every micro_cmd is refused whole while unconfigured (servos, DIO, dg_control
+           and the datalog selection too); its repeat runs once the configs are in, except
            the first command after a reset, which may be the host repeating what the micro
-           ran before it reset (a stale command must never move the robot) */
+           ran before it reset (a stale command must never run again) */
+        code = link_unconfigured_code(c);
         l->tag_pending = (uint8_t)!first;
     }
     if (code != 0u) {

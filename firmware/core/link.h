@@ -3,8 +3,9 @@
  * Bytes from hal_uart_read() go through the generated frame parser. Per valid frame:
  *   - micro_cmd: feeds the watchdog; a new time tag is handled once (executed, or
  *     refused and counted), a repeated one is not re-executed; one refused only because
- *     the micro is unconfigured runs when repeated after the configs, unless it was the
- *     first micro_cmd since reset (maybe a stale repeat of what ran before the reset);
+ *     the micro is unconfigured runs (once) when repeated after the configs, unless it
+ *     was the first micro_cmd since reset (maybe a stale repeat of what ran before the
+ *     reset) or a watchdog stop came in between (a repeat never resumes motion);
  *   - micro_cfg_*: feeds the watchdog; applied, or refused (wrong spec_hash: counted in
  *     rx_schema_mismatch; out of range: counted in cmd_rejected); a frame of another
  *     spec's length never reaches here: the parser counts it in its schema_mismatch,
@@ -15,8 +16,10 @@
  * last_reject = the code, as the spec's flags `reject` describe it) for an unknown or
  * unimplemented fwd_cmd or turn_cmd, for a HdgSel heading outside -3600..3600 (deg*10;
  * last_reject = 10), for a field out of its spec range (last_reject =
- * NAVKIT_REJECT_RANGE | 1), and while unconfigured (last_reject = fwd_cmd, or turn_cmd
- * when fwd_cmd is 0). A refused config counts in cmd_rejected with last_reject =
+ * NAVKIT_REJECT_RANGE | 1), and, every micro_cmd, while unconfigured (last_reject =
+ * fwd_cmd, or turn_cmd when fwd_cmd is 0, or NAVKIT_REJECT_UNCONFIGURED | 1 when both
+ * are 0: servos, DIO, dg_control and the datalog selection wait for the configs too).
+ * A refused config counts in cmd_rejected with last_reject =
  * NAVKIT_REJECT_RANGE | its msg_type (or in rx_schema_mismatch for a wrong spec_hash).
  * A fwd_cmd/turn_cmd 3 with no 1 to modify is refused with its code; a 3 after a stop
  * latch is ignored without counting (the latch shows in the status).
@@ -40,7 +43,7 @@ typedef struct {
     uint16_t last_reject;    /* code of the last refused command */
     uint16_t mc_datalog;     /* NAVKIT_MC_DATALOG_* selection */
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
-    uint8_t tag_pending;     /* last_tag was refused only for want of the configs: its repeat runs */
+    uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
 } link_t;
 
 /* Empty parser, zero counters, no time tag seen. */

@@ -907,6 +907,163 @@ static void test_time_tags_across_reset(void)
     CHECK(data().cmd_rejected == 3);
 }
 
+/* Send micro_cfg_geometry and micro_cfg_motion (defaults), not micro_cfg_io. */
+static void configure_two_of_three(void)
+{
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    g.time_tag = 1;
+    m.time_tag = 2;
+    sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+    sim_send(&h, buf, navkit_micro_cfg_motion_encode(&m, buf, sizeof buf));
+    fw_link_poll(&fw);
+}
+
+static void test_unconfigured_refuses_every_command(void)
+{
+    /* while unconfigured a micro_cmd without fwd_cmd/turn_cmd is refused whole too: no
+       servo, DIO, dg_set, x/y or datalog selection runs, and none runs twice */
+    navkit_micro_cmd_t first, c;
+    navkit_micro_data_t d;
+    const uint16_t unconfigured = NAVKIT_REJECT_UNCONFIGURED | NAVKIT_MSG_TYPE_MICRO_CMD;
+    int k;
+    sim_init(&h);
+    h.gyro_bias = 12; /* so the heading datalog's bias word would show (120) */
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1100);
+    /* the first command after reset: a servo 4 scan (-90..90 deg) */
+    first = cmd();
+    first.rc4_param0 = 900;
+    first.rc4_param1 = 900;
+    first.rc4_param2 = -900;
+    host_run(&first, 0.3);
+    d = data();
+    CHECK(d.cmd_rejected == 1 && d.last_reject == unconfigured);
+    CHECK(d.ack_time_tag == 0);
+    /* a new one: servo 2 GoTo, DIO, dg_set, x/y, the heading datalog */
+    c = cmd();
+    c.rc2_param0 = 1000;
+    c.rc2_param1 = 600;
+    c.rc2_param2 = 9999;
+    c.dio_command = 0x00FF;
+    c.dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
+    c.dg_set = 1000;
+    c.x_set = 500;
+    c.y_set = 700;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    host_run(&c, 0.3);
+    /* then 5 s of silence: nothing started, so nothing goes on (no watchdog yet) */
+    sim_run(&fw, &h, 5000);
+    sim_cmd(&fw, &h, &c);
+    d = data();
+    CHECK(d.cmd_rejected == 2 && d.last_reject == unconfigured && d.ack_time_tag == 0);
+    CHECK(h.servo_us[4] == 0u && h.servo_us[2] == 0u && d.servo_pos[4] == 0 && d.servo_pos[2] == 0);
+    CHECK(d.heading == 0u && d.x == 0 && d.y == 0);
+    CHECK(h.dio_dir == 0u && h.dio_out == 0u);
+    for (k = 0; k < 4; k++) {
+        CHECK(d.mc_datalog[k] == 0);
+    }
+    /* with 2 of the 3 configs a motion command is refused with its code, nothing moves */
+    configure_two_of_three();
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 100;
+    c.rc2_param0 = 1000;
+    c.rc2_param1 = 600;
+    c.rc2_param2 = 9999;
+    c.dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
+    c.dg_set = 1000;
+    c.x_set = 500;
+    c.y_set = 700;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    host_run(&c, 0.5);
+    d = data();
+    CHECK(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK && d.status & NAVKIT_MICRO_STATUS_CFG_MOTION_OK);
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_CONFIGURED));
+    CHECK(d.cmd_rejected == 3 && d.last_reject == NAVKIT_FWD_CMD_START && d.ack_time_tag == 0);
+    CHECK(h.dist_mm == 0.0 && h.duty_l == 0 && h.servo_us[2] == 0u && d.x == 0);
+    /* the third config: the pending command's repeat runs, once */
+    sim_configure(&fw, &h);
+    host_run(&c, 1.5);
+    d = data();
+    CHECK(d.ack_time_tag == c.time_tag && d.cmd_rejected == 3);
+    CHECK_NEAR(h.dist_mm, 100.0, 5.0);
+    CHECK(d.servo_pos[2] == 600 && h.servo_us[4] == 0u);
+    CHECK_NEAR(d.mc_datalog[2], 120.0, 5.0);
+    CHECK(fw.link.mc_datalog == NAVKIT_MC_DATALOG_HEADING);
+    /* the state moves on; the same tag again must not set heading, X/Y or servo 2 back */
+    heading_set(&fw.hdg, 45.0f);
+    odom_set_xy(&fw.odom, 1234, 4321);
+    c.rc2_param1 = -300; /* a changed repeat: still the same tag */
+    host_run(&c, 1.0);
+    d = data();
+    CHECK_NEAR(d.heading, 450.0, 2.0);
+    CHECK(d.x == 1234 && d.y == 4321);
+    CHECK(d.servo_pos[2] == 600);
+    CHECK_NEAR(h.dist_mm, 100.0, 5.0);
+    /* the stale first command's tag again, now configured: a new tag (not the last), it runs */
+    host_run(&first, 0.2);
+    CHECK(fw.servo[4].mode == SERVO_SCAN);
+}
+
+static void test_unconfigured_first_command_never_runs(void)
+{
+    /* the first command after reset, refused while unconfigured, is repeated after the
+       configs: it does not run (possibly stale), whatever it holds */
+    navkit_micro_cmd_t first;
+    navkit_micro_data_t d;
+    boot();
+    first = cmd();
+    first.dg_control = NAVKIT_DG_CONTROL_SET_XY;
+    first.x_set = 500;
+    first.y_set = 700;
+    first.rc2_param0 = 1000;
+    first.rc2_param1 = 600;
+    first.rc2_param2 = 9999;
+    host_run(&first, 0.3);
+    sim_configure(&fw, &h);
+    host_run(&first, 1.0);
+    d = data();
+    CHECK(d.cmd_rejected == 1 && d.ack_time_tag == 0);
+    CHECK(d.x == 0 && d.y == 0 && h.servo_us[2] == 0u);
+}
+
+static void test_pending_dropped_by_watchdog(void)
+{
+    /* a command refused while unconfigured, the configs, then 0.3 s of silence: the
+       watchdog stops; the pending command's repeat must not run (a repeat never resumes) */
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    boot();
+    c = cmd();
+    host_run(&c, 0.1); /* the first command after reset */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 300;
+    host_run(&c, 0.2);
+    sim_configure(&fw, &h);
+    sim_run(&fw, &h, 400);
+    CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    host_run(&c, 1.0);
+    d = data();
+    CHECK(h.dist_mm == 0.0 && d.ack_time_tag == 0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    /* a new fwd 1 resumes */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 300;
+    host_run(&c, 2.5);
+    d = data();
+    CHECK_NEAR(h.dist_mm, 300.0, 5.0);
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
+}
+
 int main(void)
 {
     test_unconfigured();
@@ -926,5 +1083,8 @@ int main(void)
     test_datalog_selections();
     test_servo_slot_without_command();
     test_time_tags_across_reset();
+    test_unconfigured_refuses_every_command();
+    test_unconfigured_first_command_never_runs();
+    test_pending_dropped_by_watchdog();
     CHECK_DONE();
 }
