@@ -1064,6 +1064,55 @@ static void test_pending_dropped_by_watchdog(void)
     CHECK(!(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
 }
 
+static void test_watchdog_hdg_sel(void)
+{
+    /* a watchdog stop during a HdgSel: the repeated HdgSel, a turn 3 and a fwd 3 do not
+       resume; a HdgSel with a new tag does (a new start, like turn 1) */
+    navkit_micro_cmd_t c, m;
+    navkit_micro_data_t d;
+    double yaw;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_rate = 200; /* 20 deg/s to heading 90 */
+    c.turn_distance = 900;
+    host_run(&c, 1.5);
+    CHECK(h.yaw_deg > 10.0 && h.yaw_deg < 40.0);
+    sim_run(&fw, &h, 2300); /* silence: the watchdog stops the turn */
+    d = data();
+    CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    CHECK(fabs(h.v_l - h.v_r) < 0.5);
+    yaw = h.yaw_deg;
+    host_run(&c, 1.0); /* the same tag again */
+    m = cmd();
+    m.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    m.turn_rate = 200;
+    m.turn_distance = 900;
+    host_run(&m, 1.0);
+    m = cmd();
+    m.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
+    m.speed = 200;
+    m.distance = 500;
+    host_run(&m, 1.0);
+    d = data();
+    CHECK_NEAR(h.yaw_deg, yaw, 0.2);
+    CHECK_NEAR(h.dist_mm, 0.0, 1.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_HDG_ACTIVE));
+    /* a new HdgSel: resumes and clears the flag */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_rate = 300;
+    c.turn_distance = 900;
+    host_run(&c, 5.0);
+    d = data();
+    CHECK(!(d.status & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
+    CHECK(d.status & NAVKIT_MICRO_STATUS_HDG_HOLD);
+    CHECK_NEAR(h.yaw_deg, 90.0, 1.0);
+    CHECK(d.watchdog_stops == 1);
+}
+
 int main(void)
 {
     test_unconfigured();
@@ -1086,5 +1135,6 @@ int main(void)
     test_unconfigured_refuses_every_command();
     test_unconfigured_first_command_never_runs();
     test_pending_dropped_by_watchdog();
+    test_watchdog_hdg_sel();
     CHECK_DONE();
 }
