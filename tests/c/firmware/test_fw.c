@@ -122,6 +122,10 @@ static void test_forward_move(void)
         }
         if (i == 10) {
             CHECK(d.mc_datalog[0] > 150); /* reference speed while accelerating (default 300 mm/s^2) */
+            /* 1.1 s in: ~67 mm ramping to 200 mm/s, then cruising: ~850 mm to go */
+            CHECK(d.mc_datalog[1] > 780 && d.mc_datalog[1] < 920); /* reference to go, mm */
+            CHECK_NEAR(d.mc_datalog[2], d.mc_datalog[1], 30.0);    /* measured to go, mm */
+            CHECK(d.mc_datalog[3] == 0x1);                         /* moving only */
         }
     }
     d = data();
@@ -129,6 +133,7 @@ static void test_forward_move(void)
     CHECK_NEAR(h.dist_mm, 1000.0, 5.0);
     CHECK_NEAR(d.distance, 1000.0, 5.0);
     CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_DONE);
+    CHECK(d.mc_datalog[1] == 0 && abs(d.mc_datalog[2]) <= 5 && d.mc_datalog[3] == 0x2); /* done */
     CHECK_NEAR(d.x, 1000.0, 6.0);
     CHECK_NEAR(d.y, 0.0, 3.0);
     CHECK(d.ack_time_tag == c.time_tag);
@@ -141,7 +146,11 @@ static void test_forward_move(void)
     c.fwd_cmd = NAVKIT_FWD_CMD_MODIFY;
     c.speed = 200;
     c.distance = 1300;
-    host_run(&c, 3.0);
+    host_run(&c, 0.5);
+    d = data();
+    CHECK(d.fwd_speed > 50); /* moving, but mc_datalog_cmd 0 (none): the words are 0 */
+    CHECK(d.mc_datalog[0] == 0 && d.mc_datalog[1] == 0 && d.mc_datalog[2] == 0 && d.mc_datalog[3] == 0);
+    host_run(&c, 2.5);
     d = data();
     CHECK_NEAR(h.dist_mm, 1300.0, 5.0);
     CHECK_NEAR(d.distance, 1300.0, 5.0);
@@ -291,6 +300,16 @@ static void test_turns(void)
     d = data();
     CHECK_NEAR(h.yaw_deg, 135.0, 2.0);
     CHECK_NEAR(d.distance, -600.0, 5.0);
+    /* dg_control set_xy alone: X/Y set, the heading (135 deg) kept although dg_set is given */
+    c = cmd();
+    c.dg_control = NAVKIT_DG_CONTROL_SET_XY;
+    c.dg_set = 3500;
+    c.x_set = -400;
+    c.y_set = 250;
+    host_run(&c, 0.2);
+    d = data();
+    CHECK(d.x == -400 && d.y == 250);
+    CHECK_NEAR(d.heading, 1350.0, 20.0);
     /* HdgSel across 0/360: set the heading to 350, select 10 -> 20 deg clockwise */
     c = cmd();
     c.dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
@@ -631,6 +650,28 @@ static void test_turn_modify_stop_latch(void)
     CHECK(w.max_yaw < 181.0);
     CHECK_NEAR(h.yaw_deg, 180.0, 1.0);
     CHECK_NEAR(d.turn_progress, 1800.0, 10.0);
+    CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_DONE);
+    /* restart after done: turn 3 to 270 deg from the same reference */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    c.turn_rate = 450;
+    c.turn_distance = 2700;
+    host_run(&c, 1.5);
+    CHECK(h.yaw_deg > 200.0 && h.yaw_deg < 260.0);
+    CHECK(!(data().status & NAVKIT_MICRO_STATUS_TURN_DONE));
+    /* reverse while turning: turn 3 to 90 deg, behind: slows, turns back, ends at 90 */
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_MODIFY;
+    c.turn_rate = 450;
+    c.turn_distance = 900;
+    at_stop = h.yaw_deg;
+    memset(&w, 0, sizeof w);
+    host_watch(&c, 6.0, &w);
+    d = data();
+    CHECK(w.max_yaw > at_stop + 1.0); /* braked first */
+    CHECK(w.min_ref_w < -40.0);       /* then the reference ran back at ~45 deg/s */
+    CHECK_NEAR(h.yaw_deg, 90.0, 1.0);
+    CHECK_NEAR(d.turn_progress, 900.0, 10.0);
     CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_DONE);
     /* turn 1 again, then turn 5 at 180 deg/s^2: stops short, latched */
     c = cmd();
