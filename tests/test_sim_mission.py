@@ -101,7 +101,7 @@ def test_sim_cli_rejects_bad_mission(tmp_path: Path, capsys):
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
     rc = cli.run(parser.parse_args(["--mission", str(p), "--out", str(tmp_path / "o")]))
-    out = capsys.readouterr().out
+    out = capsys.readouterr().err
     assert rc == 1
     assert "bad.toml: [[command]] #1: unknown key 'sped'" in out
     assert not (tmp_path / "o").exists()
@@ -190,7 +190,7 @@ def test_sim_cli_reports_a_plant_refusal_without_a_traceback(tmp_path: Path, cap
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
     rc = cli.run(parser.parse_args(["--mission", str(p), "--out", str(tmp_path / "o")]))
-    out = capsys.readouterr().out
+    out = capsys.readouterr().err
     assert rc == 1
     assert out.startswith(f"navkit sim: {p}: [plant]: key 'mass_kg'"), out
     assert "Traceback" not in out

@@ -117,7 +117,7 @@ def test_summary_fields(tmp_path_factory):
     assert "crc_errors" in s["link"] and "resyncs" in s["link"]
     assert "overruns" in s["host"] and s["host"]["config_downloads"] >= 1
     assert s["planner"] == {"commands": 1, "accepted": 1, "rejected": 0, "not_implemented": 0,
-                            "unacknowledged": 0, "refused": []}
+                            "planner_timeout": 0, "unacknowledged": 0, "refused": []}
 
 
 REFUSED = """
@@ -157,7 +157,7 @@ def test_commands_the_host_refuses_are_counted_and_warned_about(tmp_path_factory
     p = r.summary["planner"]
     where = lambda i: f"{r.out / 'refused.toml'}: [[command]] #{i}"  # noqa: E731
     assert p == {"commands": 4, "accepted": 1, "rejected": 1, "not_implemented": 1,
-                 "unacknowledged": 1, "refused": [
+                 "planner_timeout": 0, "unacknowledged": 1, "refused": [
                      {"command": 1, "t": 0.5, "where": where(1), "nav_result": "not_implemented",
                       "reason": "fwd_cmd 105 (explore) is a high-level code; the rest of the "
                                 "command applies"},
@@ -353,11 +353,11 @@ def test_host_frame_states(tmp_path_factory, realtime):
     expect = ([(round(0.1 * i, 3), "running") for i in range(5)]
               + [(round(0.1 * i, 3), "unplugged") for i in range(5, 8)]
               + [(round(0.1 * i, 3), "running") for i in range(8, 13)] + [(1.3, "exited")])
-    if realtime:      # the host's own clock: a frame may land a 5 ms chunk late or be missed
-        assert states[-1][1] == "exited" and 1.2 < states[-1][0] <= 1.5, states
-        assert [h for _, h in states[:-1]].count("exited") == 0
-        assert {h for t, h in states if 0.55 <= t < 0.75} == {"unplugged"}, states
-        assert {h for t, h in states if t < 0.45 or 0.85 <= t < 1.2} == {"running"}, states
+    if realtime:      # the host's own clock: frames may land late or be missed on a busy machine
+        runs = [h for i, (_, h) in enumerate(states) if i == 0 or states[i - 1][1] != h]
+        assert runs == ["running", "unplugged", "running", "exited"], states
+        assert all(0.5 <= t < 1.2 for t, h in states if h == "unplugged"), states
+        assert states[-1][0] > 1.2, "exited after the Q key"
     else:
         assert states == expect
         assert r.messages("/host/frame")[12][1]["flags"] & 1, "quitting in its last frame"
@@ -485,7 +485,7 @@ def test_a_seed_the_plant_cannot_take_is_refused(seed, tmp_path, capsys):
     mission.write_text("duration_s = 0.3\n")
     assert main(["sim", "--mission", str(mission), "--out", str(tmp_path / "out"),
                  "--seed", str(seed), "--no-plot"]) == 1
-    out = capsys.readouterr().out
+    out = capsys.readouterr().err
     assert out == (f"navkit sim: --seed {seed}: outside -2147483648..2147483647, the values "
                    f"of the plant FMU's seed parameter (Int32, "
                    f"{build_dir() / 'fmus' / 'navkit_plant.fmu'})\n")
@@ -497,3 +497,20 @@ def test_the_seeds_at_the_ends_of_the_plants_range_run(seed, tmp_path_factory):
     r = run_mission(tmp_path_factory, "seed-ends", "duration_s = 0.3\n", seed=seed)
     assert r.metadata["seed"] == str(seed) and r.summary["seed"] == seed
     assert r.truth[-1]["t"] == pytest.approx(0.3)
+
+
+def test_a_relative_config_folder_is_the_callers(tmp_path, monkeypatch, capsys):
+    """`--config cfg` names a folder relative to where navkit runs, although the host runs
+    in the output folder."""
+    import shutil
+
+    from navkit.cli import main
+    from navkit.paths import repo_root
+
+    require_build()
+    shutil.copytree(repo_root() / "config", tmp_path / "cfg")
+    (tmp_path / "m.toml").write_text("duration_s = 0.3\n")
+    monkeypatch.chdir(tmp_path)
+    assert main(["sim", "--mission", "m.toml", "--out", "out", "--config", "cfg", "--no-plot"]) == 0, \
+        capsys.readouterr().err
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["frames"] == 3

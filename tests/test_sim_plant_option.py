@@ -98,7 +98,7 @@ def test_missing_and_mistyped_variables_are_named(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
     (tmp_path / "m.toml").write_text(MISSION)
     assert _cli("--mission", tmp_path / "m.toml", "--out", tmp_path / "out", "--plant", broken) == 1
-    assert "missing motor_right_duty" in capsys.readouterr().out
+    assert "missing motor_right_duty" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 
 

@@ -11,6 +11,7 @@ the run.
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 __all__ = ["add_arguments", "run", "DEFAULT_MISSION"]
@@ -43,20 +44,21 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    """Run the mission; 0 on success, 1 with a message on error."""
+    """Run the mission; 0 on success; 1 (a bad mission, config or run) or 2 (a bad option)
+    with one line on stderr."""
     from navkit.paths import build_dir, repo_root
     from navkit.sim.harness import SimError, SimOptions
     from navkit.sim.harness import run as run_sim
     from navkit.sim.mission import MissionError, load
 
     if args.frame_ms is not None and not (math.isfinite(args.frame_ms) and args.frame_ms > 0):
-        print(f"navkit sim: --frame-ms {args.frame_ms:g}: not a positive number of ms")
+        print(f"navkit sim: --frame-ms {args.frame_ms:g}: not a positive number of ms", file=sys.stderr)
         return 2
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     try:
         mission = load(mission_path)
     except MissionError as e:
-        print(f"navkit sim: {e}")
+        print(f"navkit sim: {e}", file=sys.stderr)
         return 1
     build = args.build or build_dir()
     out = args.out or build / "sim" / mission.name
@@ -67,7 +69,7 @@ def run(args) -> int:
     try:
         s = run_sim(opts)
     except (MissionError, SimError) as e:
-        print(f"navkit sim: {e}")
+        print(f"navkit sim: {e}", file=sys.stderr)
         return 1
     t = s.get("truth") or {}
     print(f"mission   {mission.path}  (seed {args.seed}, {s['mode']})")

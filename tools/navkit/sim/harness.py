@@ -110,7 +110,10 @@ def check_frame(frame_s: float, config_dir: Path, source: str) -> int:
     if steps < 1 or abs(steps * STEP_S - frame_s) > 1e-9:
         raise SimError(f"{source}: a frame of {frame_s * 1000:g} ms is not a whole number of the "
                        f"FMUs' {STEP_S * 1000:g} ms steps")
-    watchdog_ms = _ini_number(config_dir, "micro_cfg_motion", "watchdog_timeout", 300.0)
+    from navkit import protocol
+
+    watchdog_ms = _ini_number(config_dir, "micro_cfg_motion", "watchdog_timeout",
+                              protocol.defaults("micro_cfg_motion")["watchdog_timeout"])
     if not 2 * frame_s * 1000 < watchdog_ms:
         raise SimError(f"{source}: a frame of {frame_s * 1000:g} ms needs [micro_cfg_motion] watchdog_timeout "
                        f"above two frames ({2 * frame_s * 1000:g} ms) in {Path(config_dir) / 'NavAndControl.ini'}, "
@@ -385,12 +388,14 @@ class _Run:
         self.command_index = {id(c): i + 1 for i, c in enumerate(self.m.commands)}  # [[command]] #
         self.git_revision = git_revision()      # before the run's wall clock starts
         self.build = _build(opts)
-        self.config_dir = Path(opts.config_dir) if opts.config_dir else repo_root() / "config"
+        # absolute: the host runs in the output folder
+        self.config_dir = (Path(opts.config_dir) if opts.config_dir else repo_root() / "config").resolve()
         self.out = Path(opts.out)
         self.plant_fmu = Path(opts.plant_fmu) if opts.plant_fmu else fmu_paths(self.build)[1]
         self.frame_s = opts.frame_s or frame_period(self.config_dir)
-        self.steps_per_frame = check_frame(self.frame_s, self.config_dir,
-                                           "--frame-ms" if opts.frame_s else "[executive] frame_rate_hz")
+        self.steps_per_frame = check_frame(
+            self.frame_s, self.config_dir,
+            "--frame-ms" if opts.frame_s else f"{self.config_dir / 'NavAndControl.ini'}: [executive] frame_rate_hz")
         self.frame_s = self.steps_per_frame * STEP_S
         self.protocol = protocol
         self.noise_rng = random.Random(f"navkit-noise-{opts.seed}")
@@ -909,12 +914,13 @@ def _refusal(cmd: dict, result: str) -> str:
 def _planner_summary(planner: dict | None) -> dict:
     """summary.json `planner` from the log's verdicts: commands written, how many the host
     accepted, rejected, did not implement or never acknowledged, and `refused`, one entry
-    per rejected or not-implemented command ([[command]] index, t in s, nav_result,
-    reason)."""
+    per command not accepted ([[command]] index, t in s, nav_result, reason). Each
+    nav_result of the spec but ok has its count (rejected, not_implemented,
+    planner_timeout)."""
     from navkit import protocol
 
     names = {c: n for n, c in protocol.SPEC.enums["nav_result"].values.items()}
-    out = {"commands": 0, "accepted": 0, "rejected": 0, "not_implemented": 0,
+    out = {"commands": 0, "accepted": 0, **{n: 0 for n in names.values() if n != "ok"},
            "unacknowledged": 0, "refused": []}
     if not planner:
         return out
@@ -925,8 +931,7 @@ def _planner_summary(planner: dict | None) -> dict:
         if result == "ok":
             out["accepted"] += 1
             continue
-        if result in out:
-            out[result] += 1
+        out[result] = out.get(result, 0) + 1   # a code the spec does not name: under its number
         out["refused"].append({"command": index, "t": t, "where": where,
                                "nav_result": result, "reason": _refusal(cmd, result)})
     return out
@@ -962,7 +967,7 @@ def run(opts: SimOptions) -> dict:
     summary = r.summary(wall)
     (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     for ref in summary["planner"]["refused"]:
-        verdict = "not implemented" if ref["nav_result"] == "not_implemented" else "rejected"
+        verdict = ref["nav_result"].replace("_", " ")
         print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
               f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
     if opts.plot:
