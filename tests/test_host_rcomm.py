@@ -12,11 +12,11 @@ from test_host_util import Micro, host_factory  # noqa: F401  (fixture)
 pytestmark = pytest.mark.timeout(60)
 
 
-def _region(name: str, magic=protocol.RCOMM_MAGIC, spec=protocol.SPEC_HASH) -> str:
+def _region(name: str, magic=protocol.SPEC.rcomm.magic, spec=protocol.SPEC_HASH) -> str:
     path = "/dev/shm" + name
     with open(path, "wb") as f:
-        f.write(struct.pack("<III", magic, protocol.RCOMM_VERSION, spec))
-        f.write(bytes(protocol.RCOMM_SIZE - 12))
+        f.write(struct.pack("<III", magic, protocol.SPEC.rcomm.version, spec))
+        f.write(bytes(protocol.SPEC.rcomm.size - 12))
     return path
 
 
@@ -57,7 +57,7 @@ def test_seqlock_write_and_torn_read(shm_name):
         assert c.read_data() is None, "never written"
         c.write_cmd({"time_tag": 9, "fwd_cmd": 1, "distance": -5})
         assert c.read_cmd()["distance"] == -5
-        off = protocol.RCOMM_OFFSETS["lisp_cmd"]
+        off = protocol.SPEC.rcomm.slots["lisp_cmd"]
         with open("/dev/shm" + shm_name, "r+b") as f:
             f.seek(off)
             seq = struct.unpack("<I", f.read(4))[0]
@@ -71,7 +71,7 @@ def test_seqlock_write_and_torn_read(shm_name):
 
 def test_still_read_is_the_seqlock_read_in_one_copy(shm_name):
     _region(shm_name)
-    off = protocol.RCOMM_OFFSETS["lisp_data"]
+    off = protocol.SPEC.rcomm.slots["lisp_data"]
     data = protocol.to_bytes("lisp_data", {"time_tag": 7, "distance": -123, "heading": 2700})
     with rcomm.Client(shm_name) as c, open("/dev/shm" + shm_name, "r+b") as f:
         assert c.read_data_raw_still() is None, "never written"

@@ -357,6 +357,9 @@ def test_decode_frame_reasons_follow_the_c_order():
     events = parser.feed(data) + parser.flush()
     assert parser.stats["unknown_type"] == 1
     assert events[0].reason == "wrong direction: micro_data is a to-host message"
+    parser = p.Parser()
+    events = parser.feed(bytes(unknown)) + parser.flush()
+    assert events[0].reason == "unknown message type 99", "the parser names the type as decode_frame does"
 
 
 def test_decoded_fields_are_in_spec_order():

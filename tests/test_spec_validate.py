@@ -89,6 +89,17 @@ def test_broken_spec_is_refused_at_its_line(tmp_path, old, new, needle, after, r
     _refused(path, _line_of(path, needle, after), reason)
 
 
+def test_a_spec_without_the_planner_links_region_is_refused(tmp_path):
+    """The codec and the rcomm client need the one unframed link's region: without it the
+    spec is refused at [links], not an AttributeError at import."""
+    text = spec_path().read_text()
+    start = text.index("[links.rcomm]")
+    end = text.index("\n[", start + 1)
+    path = tmp_path / "navkit.toml"
+    path.write_text(text[:start] + text[end + 1:])
+    _refused(path, _line_of(path, "[links.serial]"), "[links]: no unframed (shared-memory) link")
+
+
 def test_a_field_list_that_is_no_array_names_its_line(tmp_path):
     text = spec_path().read_text()
     at = text.index("field = [", text.index('name = "emotion"'))  # the last message
@@ -362,10 +373,3 @@ def test_generated_check_refuses_non_codes_of_coded_fields_only():
     assert "m->mc_datalog_cmd > 5u" in body and "m->mc_datalog_cmd !=" not in body
     data = src.split("int navkit_lisp_data_check(")[1].split("\n}\n")[0]
     assert "m->nav_result != 0L && m->nav_result != 1L" in data
-
-
-def test_codec_rcomm_constants_are_the_specs():
-    from navkit import protocol
-    r = protocol.SPEC.rcomm
-    assert (protocol.RCOMM_MAGIC, protocol.RCOMM_VERSION) == (r.magic, r.version) == (0x43524B4E, 1)
-    assert (protocol.RCOMM_OFFSETS, protocol.RCOMM_SIZE) == (r.slots, r.size)

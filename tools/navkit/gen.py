@@ -19,15 +19,7 @@ from pathlib import Path
 from navkit.spec import TYPES, Message, Spec, load
 
 __all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs",
-           "rcomm_layout", "write_outputs", "spec_label"]
-
-
-def rcomm_layout(spec: Spec) -> tuple[dict[str, int], int]:
-    """Byte offset of each rcomm message's slot and the region's size in bytes, as the
-    spec's unframed link lays them out (`spec.rcomm`, from [links.rcomm])."""
-    if spec.rcomm is None:
-        return {}, 0
-    return dict(spec.rcomm.slots), spec.rcomm.size
+           "write_outputs", "spec_label"]
 
 
 def spec_label(spec: Spec) -> str:
@@ -63,10 +55,6 @@ def _clit(v: int, ftype: str) -> str:
     return f"{v}L" if TYPES[ftype][1] else f"{v}UL"
 
 
-def _units(f) -> str:
-    return f.units if f.scale == 1 else f"{f.units} x {f.scale:g}"
-
-
 def _range(f) -> str:
     lo, hi = TYPES[f.type][2], TYPES[f.type][3]
     if (f.min, f.max) == (lo, hi):
@@ -80,7 +68,7 @@ def _cell(text: str) -> str:
 
 
 def _field_comment(f) -> str:
-    bits = [x for x in (_units(f) and f"[{_units(f)}]", _range(f) and f"range {_range(f)}",
+    bits = [x for x in (f.raw_units and f"[{f.raw_units}]", _range(f) and f"range {_range(f)}",
                         f.default is not None and f"default {f.default}",
                         f.enum and f"enum {f.enum}", f.flags and f"flags {f.flags}",
                         f.special and f"special {f.special}") if x]
@@ -156,21 +144,20 @@ def emit_c_header(spec: Spec) -> str:
             out.append(f"void navkit_{m.name}_store(const navkit_{m.name}_t *m, uint8_t bytes[NAVKIT_{up}_BYTES]);")
             out.append(f"void navkit_{m.name}_load(const uint8_t bytes[NAVKIT_{up}_BYTES], navkit_{m.name}_t *m);\n")
     r = spec.rcomm
-    if r is not None:
-        out.append(f"/* rcomm shared-memory layout ([links.{r.link}]): header words, then one slot per\n"
-                   " * message (uint32 seqlock sequence, then the message's words); byte offsets. */")
-        text = f" /* '{r.magic_text}' */" if r.magic_text else ""
-        out.append(f"#define NAVKIT_RCOMM_MAGIC 0x{r.magic:08X}UL{text}")
-        out.append(f"#define NAVKIT_RCOMM_VERSION {r.version}u /* layout version */")
-        for word, off in r.header.items():
-            out.append(f"#define NAVKIT_RCOMM_{word.upper()}_OFFSET {off}u /* header word (uint32) */")
-        out.append(f"#define NAVKIT_RCOMM_HEADER_BYTES {r.header_bytes}u /* the first slot starts here */")
-        out.append(f"#define NAVKIT_RCOMM_SLOT_ALIGN {r.slot_align}u /* every slot starts at a multiple */")
-        out.append(f"#define NAVKIT_RCOMM_SLOT_WORDS_OFFSET {r.slot_words_at}u /* a slot's words, after its seq at +0 */")
-        for name, off in r.slots.items():
-            out.append(f"#define NAVKIT_RCOMM_{name.upper()}_OFFSET {off}u /* slot: seq at +0, words at "
-                       f"+{r.slot_words_at} */")
-        out.append(f"#define NAVKIT_RCOMM_SIZE {r.size}u\n")
+    out.append(f"/* rcomm shared-memory layout ([links.{r.link}]): header words, then one slot per\n"
+               " * message (uint32 seqlock sequence, then the message's words); byte offsets. */")
+    text = f" /* '{r.magic_text}' */" if r.magic_text else ""
+    out.append(f"#define NAVKIT_RCOMM_MAGIC 0x{r.magic:08X}UL{text}")
+    out.append(f"#define NAVKIT_RCOMM_VERSION {r.version}u /* layout version */")
+    for word, off in r.header.items():
+        out.append(f"#define NAVKIT_RCOMM_{word.upper()}_OFFSET {off}u /* header word (uint32) */")
+    out.append(f"#define NAVKIT_RCOMM_HEADER_BYTES {r.header_bytes}u /* the first slot starts here */")
+    out.append(f"#define NAVKIT_RCOMM_SLOT_ALIGN {r.slot_align}u /* every slot starts at a multiple */")
+    out.append(f"#define NAVKIT_RCOMM_SLOT_WORDS_OFFSET {r.slot_words_at}u /* a slot's words, after its seq at +0 */")
+    for name, off in r.slots.items():
+        out.append(f"#define NAVKIT_RCOMM_{name.upper()}_OFFSET {off}u /* slot: seq at +0, words at "
+                   f"+{r.slot_words_at} */")
+    out.append(f"#define NAVKIT_RCOMM_SIZE {r.size}u\n")
     out.append("#ifdef __cplusplus\n}\n#endif\n#endif /* NAVKIT_PROTO_H */\n")
     return "\n".join(out)
 
@@ -363,7 +350,7 @@ def emit_docs(spec: Spec) -> str:
                 extra.append("special values: " + ", ".join(
                     f"{v} = {k}" for k, v in spec.enums[f.special].values.items()) + f" (see {f.special})")
             doc = f.doc + (f" ({'; '.join(extra)})" if extra else "")
-            rows.append((f.word, f"| {word} | `{f.name}` | {typ} | {_cell(_units(f))} | {_range(f)} | {_cell(doc)} |"))
+            rows.append((f.word, f"| {word} | `{f.name}` | {typ} | {_cell(f.raw_units)} | {_range(f)} | {_cell(doc)} |"))
         out += [r for _, r in sorted(rows)]
         out.append("")
     out.append("## Enums and flags\n")
@@ -373,16 +360,15 @@ def emit_docs(spec: Spec) -> str:
         out += [f"| `{k}` | {v} |" for k, v in e.values.items()]
         out.append("")
     r = spec.rcomm
-    if r is not None:
-        out.append(f"## {r.link} shared-memory layout\n")
-        out.append(f"{r.doc}\n")
-        out.append("| byte offset | what |\n| --- | --- |")
-        values = {"magic": f" `0x{r.magic:08X}`" + (f" ('{r.magic_text}')" if r.magic_text else ""),
-                  "version": f" {r.version} (layout version)"}
-        out += [f"| {off} | `{word}`{values.get(word, '')} |" for word, off in sorted(r.header.items(), key=lambda x: x[1])]
-        out += [f"| {off} | `{n}` slot: uint32 seqlock sequence, its words from +{r.slot_words_at} |"
-                for n, off in r.slots.items()]
-        out += [f"| {r.size} | end (slots start at multiples of {r.slot_align}, the first at {r.header_bytes}) |", ""]
+    out.append(f"## {r.link} shared-memory layout\n")
+    out.append(f"{r.doc}\n")
+    out.append("| byte offset | what |\n| --- | --- |")
+    values = {"magic": f" `0x{r.magic:08X}`" + (f" ('{r.magic_text}')" if r.magic_text else ""),
+              "version": f" {r.version} (layout version)"}
+    out += [f"| {off} | `{word}`{values.get(word, '')} |" for word, off in sorted(r.header.items(), key=lambda x: x[1])]
+    out += [f"| {off} | `{n}` slot: uint32 seqlock sequence, its words from +{r.slot_words_at} |"
+            for n, off in r.slots.items()]
+    out += [f"| {r.size} | end (slots start at multiples of {r.slot_align}, the first at {r.header_bytes}) |", ""]
     out.append("## How the seed's slips were resolved\n")
     out.append("| seed (rev 8/18/05) | navkit |\n| --- | --- |")
     out += [f"| {_cell(s['slip'])} | {_cell(s['resolution'])} |" for s in spec.seed_slips]

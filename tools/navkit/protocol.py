@@ -27,19 +27,12 @@ from navkit.spec import TYPES, Message, load
 __all__ = [
     "SPEC", "SPEC_HASH", "ProtocolError", "crc16", "defaults", "check", "encode_frame",
     "decode_frame", "pack_words", "unpack_words", "to_bytes", "from_bytes", "Parser",
-    "Frame", "Reject", "DIR_TO_MICRO", "DIR_TO_HOST", "RCOMM_MAGIC", "RCOMM_VERSION",
-    "RCOMM_OFFSETS", "RCOMM_SIZE", "ERR_CRC", "ERR_TYPE", "ERR_LENGTH", "ERR_SCHEMA",
+    "Frame", "Reject", "DIR_TO_MICRO", "DIR_TO_HOST", "ERR_CRC", "ERR_TYPE", "ERR_LENGTH", "ERR_SCHEMA",
     "STATS", "foreign_frame",
 ]
 
 SPEC = load(spec_path())
 SPEC_HASH: int = SPEC.hash
-# The rcomm region (SPEC.rcomm, from [links.rcomm]): magic and layout version of its
-# header, byte offset of each message's slot, and its size in bytes.
-RCOMM_MAGIC: int = SPEC.rcomm.magic
-RCOMM_VERSION: int = SPEC.rcomm.version
-RCOMM_OFFSETS: dict = dict(SPEC.rcomm.slots)
-RCOMM_SIZE: int = SPEC.rcomm.size
 
 DIR_TO_MICRO = "host_to_micro"
 DIR_TO_HOST = "micro_to_host"
@@ -409,7 +402,7 @@ class Parser:
             m = _BY_ID.get(msg_type)
             if m is None or (self.direction is not None and m.direction != self.direction):
                 self.stats["unknown_type"] += 1
-                self._drop(1, ERR_TYPE if m is None else _wrong_direction(m), events)
+                self._drop(1, f"{ERR_TYPE} {msg_type}" if m is None else _wrong_direction(m), events)
                 continue
             if words != m.words:
                 # contract 5: maybe a whole frame of another spec version

@@ -104,6 +104,12 @@ class Field:
         return TYPES[self.type][1]
 
     @property
+    def raw_units(self) -> str:
+        """The units of its raw (wire) value, as docs/protocol.md writes them: 'mm/s',
+        'deg x 0.1' (units times scale)."""
+        return self.units if self.scale == 1 else f"{self.units} x {self.scale:g}"
+
+    @property
     def coded(self) -> bool:
         """Its value must be one of its enum's values (checked beside its range): a field
         with `enum` whose units are not "bits". A bit set such as micro_cmd.dg_control
@@ -194,7 +200,7 @@ class Spec:
     enums: dict[str, Enum]
     messages: dict[str, Message]
     seed_slips: list[dict]
-    rcomm: Rcomm | None = None  # the shared-memory region, if the spec has an unframed link
+    rcomm: Rcomm | None = None  # the shared-memory region of the (one, required) unframed link
     hash: int = 0           # uint32: first 4 bytes of the canonical model's sha256
     hash_hex: str = ""      # the full sha256, hex
     canonical: str = field(default="", repr=False)
@@ -287,7 +293,8 @@ class _Builder:
         return value
 
     def tables(self, value, line: int, what: str) -> list:
-        """`value` if it is an array of tables, else fail (naming the first bad entry)."""
+        """`value` if it is an array, else fail; its entries are checked where they are read
+        (`table`), each at its own line."""
         if not isinstance(value, list):
             self.fail(line, what, f"must be an array of tables, not {_toml_kind(value)} {value!r}")
         return value
@@ -334,6 +341,9 @@ class _Builder:
                 self.fail(self.lines.find(r"^framing\s*=", lline) or lline, f"links.{lname}.framing",
                           f"unknown framing {link['framing']!r} (known: serial; omit the key for an "
                           "unframed link)")
+        if shared is None:
+            self.fail(self.lines.find(r"^\[?links\b") or 1, "[links]",
+                      "no unframed (shared-memory) link: the planner link's rcomm region needs one")
         slips = self.tables(d.get("seed_slip", []), self.lines.find(r"^\[*seed_slip\b") or 1, "seed_slip")
         for k, slip in enumerate(slips):
             span = self.lines.block_span("[[seed_slip]]", k)
@@ -382,7 +392,7 @@ class _Builder:
         for m in messages.values():
             if m.framed and (msg_type is None or msg_type.values.get(m.name) != m.id):
                 self.fail(m.line, m.name, f"enum msg_type must map {m.name} = {m.id}")
-        rcomm = self.rcomm(shared[0], links[shared[0]], shared[1], messages) if shared else None
+        rcomm = self.rcomm(shared[0], links[shared[0]], shared[1], messages)
         spec = Spec(self.path, head.get("name", "navkit"), version,
                     head.get("doc", ""), dict(framing), dict(links), enums, messages,
                     list(slips), rcomm)

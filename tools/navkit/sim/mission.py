@@ -173,11 +173,6 @@ def _command(where: str, entry: dict, duration: float) -> Command:
     return Command(t, fields, where)
 
 
-def _raw_units(f) -> str:
-    """A spec field's raw units, as docs/protocol.md writes them: 'mm/s', 'deg x 0.1'."""
-    return f.units if f.scale == 1 else f"{f.units} x {f.scale:g}"
-
-
 def _check_host_conversion(where: str, fields: dict) -> None:
     """MissionError naming the key if the host would refuse this lisp_cmd while making
     its micro_cmd (host/src/navigation.cpp, Navigation::convert; docs/host.md): the host
@@ -215,7 +210,7 @@ def _check_host_conversion(where: str, fields: dict) -> None:
         v = value(k)
         if not f.min <= v <= f.max:
             raise MissionError(f"{where}: key {k!r}: {v} is outside {f.min}..{f.max} "
-                               f"({_raw_units(f)}), the range of micro_cmd.{f.name} the host "
+                               f"({f.raw_units}), the range of micro_cmd.{f.name} the host "
                                f"copies it to for {why_k}: the host would drop the command")
     if mode_name == "heading_select":
         f = lisp.field("turn_distance")
@@ -223,7 +218,7 @@ def _check_host_conversion(where: str, fields: dict) -> None:
         v = value("turn_distance")
         if not 0 <= v <= full:
             raise MissionError(f"{where}: key 'turn_distance': {v} is outside 0..{full} "
-                               f"({_raw_units(f)}), the headings the host takes for {why}: "
+                               f"({f.raw_units}), the headings the host takes for {why}: "
                                f"the host would drop the command")
 
 
