@@ -17,8 +17,11 @@ debs=(
 # The major version N of the clang that Debian's `clang` package brings (it depends on
 # clang-N): the installed one, else the one apt would install; empty if apt cannot tell.
 clang_major() {
-  { dpkg-query -W -f='${Depends}' clang 2>/dev/null || apt-cache depends clang 2>/dev/null; } |
-    grep -o 'clang-[0-9]\+' | head -n 1 | cut -d- -f2 || true
+  local n
+  n=$(dpkg-query -W -f='${Status} ${Depends}' clang 2>/dev/null | grep '^install ok installed' |
+        grep -o 'clang-[0-9]\+' | head -n 1 | cut -d- -f2 || true)
+  [[ -n $n ]] || n=$(apt-cache depends clang 2>/dev/null | grep -o 'clang-[0-9]\+' | head -n 1 | cut -d- -f2 || true)
+  echo "$n"
 }
 
 missing=()

@@ -20,15 +20,16 @@ def _tool(folder: Path, name: str, body: str) -> None:
     path.chmod(0o755)
 
 
-def _run(tmp_path: Path, *, uid: int, installed: set, clang_dep: str | None, apt_dep: str | None):
+def _run(tmp_path: Path, *, uid: int, installed: set, clang_dep: str | None, apt_dep: str | None,
+         clang_status: str = "install ok installed"):
     """Run setup.sh with dpkg-query knowing `installed` (and the installed `clang`
-    depending on `clang_dep`), apt-cache knowing `apt_dep` as clang's dependency;
+    depending on `clang_dep`, its dpkg status `clang_status`), apt-cache knowing `apt_dep` as clang's dependency;
     returns (returncode, stderr + stdout, apt-get calls)."""
     bin_ = tmp_path / "bin"
     bin_.mkdir()
     log = tmp_path / "apt-get.log"
     cases = "".join(f"  *' {p}') echo 'install ok installed'; exit 0;;\n" for p in sorted(installed))
-    depends = (f"case \"$*\" in *Depends*' clang') echo '{clang_dep} (>= 1~)'; exit 0;; esac\n"
+    depends = (f"case \"$*\" in *Depends*' clang') echo '{clang_status} {clang_dep} (>= 1~)'; exit 0;; esac\n"
                if clang_dep else "")
     _tool(bin_, "dpkg-query", depends + 'case " $*" in\n' + cases + "esac\nexit 1\n")
     _tool(bin_, "apt-cache", f"echo clang\necho '  Depends: {apt_dep}'\n" if apt_dep else "exit 100\n")
@@ -50,6 +51,16 @@ def test_fuzzer_packages_follow_the_installed_clang(tmp_path):
     assert rc == 1 and calls == []
     missing = out.split("missing Debian packages (run as root, or install them):")[1].split()
     assert missing == ["libclang-rt-19-dev", "libfuzzer-19-dev"]
+
+
+def test_a_removed_clangs_dpkg_record_does_not_decide(tmp_path):
+    """dpkg still knows a removed clang (config files left) depending on clang-13: apt's
+    candidate decides, as when dpkg knows none."""
+    rc, out, calls = _run(tmp_path, uid=1000, installed=BASE, clang_dep="clang-13", apt_dep="clang-16",
+                          clang_status="deinstall ok config-files")
+    assert rc == 1 and calls == []
+    missing = out.split("missing Debian packages (run as root, or install them):")[1].split()
+    assert missing == ["clang", "libclang-rt-16-dev", "libfuzzer-16-dev"]
 
 
 def test_without_clang_the_candidate_decides_and_root_installs_once(tmp_path):
