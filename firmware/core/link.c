@@ -184,11 +184,16 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
     uint16_t code;
     uint8_t first = (uint8_t)!l->have_tag;
     if (!first && c->time_tag == l->last_tag) {
-        /* a repeat: handled already, unless it waited only for the configs; a watchdog
-           stop since the configs drops it (a repeat never resumes motion) */
+        /* a repeat: handled already, unless it waited only for the configs; then it is
+           handled once, as it comes now (the same tag may carry changed content): checked
+           like a new command and refused if that fails, else run unless a watchdog stop
+           since the configs drops it (a repeat never resumes motion) */
         if (l->tag_pending && config_complete(&fw->cfg)) {
             l->tag_pending = 0u;
-            if (!fw->wd_stop) {
+            code = link_cmd_check(c);
+            if (code != 0u) {
+                link_reject(l, code);
+            } else if (!fw->wd_stop) {
                 link_cmd_run(fw, c);
             }
         }

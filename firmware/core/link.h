@@ -3,9 +3,11 @@
  * Bytes from hal_uart_read() go through the generated frame parser. Per valid frame:
  *   - micro_cmd: feeds the watchdog; a new time tag is handled once (executed, or
  *     refused and counted), a repeated one is not re-executed; one refused only because
- *     the micro is unconfigured runs (once) when repeated after the configs, unless it
- *     was the first micro_cmd since reset (maybe a stale repeat of what ran before the
- *     reset) or a watchdog stop came in between (a repeat never resumes motion);
+ *     the micro is unconfigured is handled once more at its first repeat after the configs,
+ *     as that repeat holds it (checked like a new command: refused and counted if it
+ *     fails, else run), unless it was the first micro_cmd since reset (maybe a stale
+ *     repeat of what ran before the reset; never runs) or a watchdog stop came in
+ *     between (not run: a repeat never resumes motion);
  *   - micro_cfg_*: feeds the watchdog; applied, or refused (wrong spec_hash: counted in
  *     rx_schema_mismatch; out of range: counted in cmd_rejected); a frame of another
  *     spec's length never reaches here: the parser counts it in its schema_mismatch,

@@ -1073,6 +1073,54 @@ static void test_unconfigured_first_command_never_runs(void)
     CHECK(d.x == 0 && d.y == 0 && h.servo_us[2] == 0u);
 }
 
+/* A command refused while unconfigured, repeated after the configs (same tag) with
+   changed content that fails the content check: refused with its code and counted, none
+   of it runs (the checked original would have); the tag is used up, so a further repeat is
+   neither counted nor run. */
+static void pending_repeat_refused(uint16_t code_field, uint16_t expect_reject)
+{
+    navkit_micro_cmd_t c;
+    navkit_micro_data_t d;
+    boot();
+    c = cmd();
+    host_run(&c, 0.1); /* the first command after reset: never pending */
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 100;
+    host_run(&c, 0.2);
+    sim_configure(&fw, &h);
+    d = data();
+    CHECK(d.cmd_rejected == 2 && d.ack_time_tag == 0);
+    /* the repeat: a heading and a datalog selection besides the move and the failing field */
+    c.dg_control = NAVKIT_DG_CONTROL_SET_HEADING;
+    c.dg_set = 1200;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    if (code_field) {
+        c.fwd_cmd = code_field; /* not a fwd_cmd the micro implements */
+    } else {
+        c.mc_datalog_cmd = 77; /* outside the spec's range (0..5) */
+    }
+    host_run(&c, 1.0);
+    d = data();
+    CHECK(d.cmd_rejected == 3 && d.last_reject == expect_reject);
+    CHECK(d.ack_time_tag == 0);
+    CHECK(d.heading == 0u && fw.link.mc_datalog == NAVKIT_MC_DATALOG_NONE);
+    CHECK(h.dist_mm == 0.0 && h.duty_l == 0 && !(d.status & NAVKIT_MICRO_STATUS_FWD_DONE));
+    /* the tag is used up: its content fixed, the same tag still does not run */
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    host_run(&c, 1.0);
+    d = data();
+    CHECK(d.cmd_rejected == 3 && d.ack_time_tag == 0 && h.dist_mm == 0.0 && d.heading == 0u);
+}
+
+static void test_pending_repeat_checked(void)
+{
+    pending_repeat_refused(2u, 2u);
+    pending_repeat_refused(0u, NAVKIT_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD);
+}
+
 static void test_pending_dropped_by_watchdog(void)
 {
     /* a command refused while unconfigured, the configs, then 0.3 s of silence: the
@@ -1175,6 +1223,7 @@ int main(void)
     test_time_tags_across_reset();
     test_unconfigured_refuses_every_command();
     test_unconfigured_first_command_never_runs();
+    test_pending_repeat_checked();
     test_pending_dropped_by_watchdog();
     test_watchdog_hdg_sel();
     CHECK_DONE();
