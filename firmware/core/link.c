@@ -256,6 +256,9 @@ static uint8_t link_frame(fw_t *fw, const uint8_t *frame, size_t len)
                 for (i = 0u; i < SERVO_COUNT; i++) {
                     servo_retime(&fw->servo[i], fw->cfg.control_rate);
                 }
+                /* axis_ticks may have changed: the axis period starts again at its first
+                   tick (fw_t.phase must stay below axis_ticks, or a tick runs no part) */
+                fw->phase = 0u;
             }
             link_cfg_result(&fw->link, r, type);
         }

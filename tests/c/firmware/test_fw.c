@@ -1121,6 +1121,46 @@ static void test_pending_repeat_checked(void)
     pending_repeat_refused(0u, NAVKIT_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD);
 }
 
+static void test_control_rate_change_mid_period(void)
+{
+    /* a micro_cfg_geometry from 1 kHz (4 ticks per axis period) to 250 Hz (1) arriving on
+       the last tick of a period: the next tick runs every part (forward axis, wheel loops),
+       none is skipped */
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cmd_t c;
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    float togo, integ;
+    int k;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 200;
+    c.distance = 1000;
+    host_run(&c, 0.5);
+    while (fw.phase != 3u) {
+        sim_run(&fw, &h, 1);
+    }
+    navkit_micro_cfg_geometry_defaults(&g);
+    g.control_rate = 250;
+    g.time_tag = 4;
+    sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+    fw_link_poll(&fw);
+    CHECK(fw.cfg.axis_ticks == 1u && fw.phase == 0u);
+    togo = fw.fwd.prof.togo;
+    integ = fw.wheel_l.integ;
+    sim_run(&fw, &h, 1);
+    CHECK(fw.fwd.prof.togo < togo - 0.5f); /* mm: 200 mm/s for 4 ms is 0.8 mm */
+    CHECK(fw.wheel_l.integ != integ);
+    CHECK(fw.phase == 0u);
+    /* and the move ends on its target at 250 Hz (a frame every 100 ms: 25 ticks) */
+    for (k = 0; k < 80; k++) {
+        sim_cmd(&fw, &h, &c);
+        sim_run(&fw, &h, 25);
+    }
+    CHECK_NEAR(h.dist_mm, 1000.0, 5.0);
+}
+
 static void test_pending_dropped_by_watchdog(void)
 {
     /* a command refused while unconfigured, the configs, then 0.3 s of silence: the
@@ -1224,6 +1264,7 @@ int main(void)
     test_unconfigured_refuses_every_command();
     test_unconfigured_first_command_never_runs();
     test_pending_repeat_checked();
+    test_control_rate_change_mid_period();
     test_pending_dropped_by_watchdog();
     test_watchdog_hdg_sel();
     CHECK_DONE();
