@@ -9,9 +9,13 @@
  * that lags and may not reach the speed: the reference keeps the same acceleration and
  * speed limits on every tick it is not pulled back to the plant (motion_t.limited), and
  * the axis must settle within the stop tolerance in bounded time, with stops (which must
- * never reverse), the stop latch, and "forever" targets modified to near ones. Seed and count: --seed N --count MOVES (the
- * second run does a tenth of the count); ctest runs the short default, a long run is
- * the binary run by hand (docs/firmware.md). */
+ * never reverse), the stop latch, and "forever" targets modified to near ones.
+ * Seed and count: --seed N (0..2^64-1) --count MOVES (1..1e9; the second run does a tenth
+ * of the count, rounded up, so at least one); anything else exits with 2 and a message
+ * naming the argument. ctest runs the short default, a long run is the binary run by
+ * hand (docs/firmware.md). */
+#include <errno.h>
+#include <limits.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -487,27 +491,47 @@ static int prop_tracked_case(unsigned long idx)
     return bad;
 }
 
-/* Parse "--seed N" / "--count N"; returns 0, or prints what is wrong and returns 1. */
+#define PROP_COUNT_MAX 1000000000ul /* moves per run at most (2 million take ~90 s) */
+
+/* An unsigned integer option value (decimal, 0x hex or 0 octal), the whole text, starting
+ * with a digit (no sign, no blank), within lo..hi; else a message naming the option and
+ * the value, and 0. */
+static int prop_arg(const char *prog, const char *opt, const char *text, unsigned long long lo,
+                    unsigned long long hi, unsigned long long *out)
+{
+    char *end;
+    errno = 0;
+    *out = strtoull(text, &end, 0);
+    if (text[0] < '0' || text[0] > '9' || *end != '\0' || errno == ERANGE || *out < lo || *out > hi) {
+        fprintf(stderr, "%s: %s: '%s' is not an integer in %llu..%llu\n", prog, opt, text, lo, hi);
+        return 0;
+    }
+    return 1;
+}
+
+/* Parse "--seed N" (0..2^64-1) / "--count N" (1..PROP_COUNT_MAX moves); returns 0, or
+   prints what is wrong and returns 1. */
 static int parse_args(int argc, char **argv, unsigned long long *seed, unsigned long *count)
 {
     int i;
-    for (i = 1; i < argc; i++) {
-        char *end = 0;
+    unsigned long long v;
+    for (i = 1; i < argc; i += 2) {
         if (i + 1 >= argc || (strcmp(argv[i], "--seed") != 0 && strcmp(argv[i], "--count") != 0)) {
             fprintf(stderr, "%s: argument %d '%s': usage: %s [--seed N] [--count MOVES]\n", argv[0], i, argv[i],
                     argv[0]);
             return 1;
         }
         if (strcmp(argv[i], "--seed") == 0) {
-            *seed = strtoull(argv[i + 1], &end, 0);
+            if (!prop_arg(argv[0], "--seed", argv[i + 1], 0u, ULLONG_MAX, &v)) {
+                return 1;
+            }
+            *seed = v;
         } else {
-            *count = strtoul(argv[i + 1], &end, 0);
+            if (!prop_arg(argv[0], "--count", argv[i + 1], 1u, PROP_COUNT_MAX, &v)) {
+                return 1;
+            }
+            *count = (unsigned long)v;
         }
-        if (end == argv[i + 1] || *end != '\0') {
-            fprintf(stderr, "%s: argument %d '%s %s': not a whole number\n", argv[0], i + 1, argv[i], argv[i + 1]);
-            return 1;
-        }
-        i++;
     }
     return 0;
 }
@@ -546,7 +570,8 @@ int main(int argc, char **argv)
            seed, i, failed, prop_stats.accel_excess, prop_stats.speed_excess, prop_stats.final_err);
     CHECK(failed == 0);
     failed = 0;
-    for (i = 0; i < count / 10u; i++) {
+    /* a tenth as many tracked moves, rounded up: every count runs at least one */
+    for (i = 0; i < (count + 9u) / 10u; i++) {
         if (prop_tracked_case(i)) {
             failed++;
             if (failed >= 10) {
