@@ -3,8 +3,6 @@
 
 #include "fw.h"
 
-#define LINK_RX_CHUNK 16u /* bytes read from the UART per call */
-
 void link_reset(link_t *l)
 {
     navkit_parser_init(&l->parser, NAVKIT_DIR_TO_MICRO);

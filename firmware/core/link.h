@@ -35,6 +35,11 @@
 
 struct fw;
 
+/* bytes: the most link_poll() asks of one hal_uart_read() call (its buffer on the stack);
+   it reads chunk after chunk until the UART is empty, so this bounds the stack, not the
+   bytes per poll */
+#define LINK_RX_CHUNK 16u
+
 typedef struct {
     navkit_parser_t parser;  /* frame parser and its counters */
     uint16_t last_tag;       /* time tag of the last handled micro_cmd */

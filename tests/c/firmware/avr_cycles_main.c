@@ -13,11 +13,12 @@
  * deepest call chain).
  *
  * The link poll is timed whole, and its parts on the same bytes: frame parsing (with the
- * CRC) in the poll's 16-byte chunks, decoding, the micro_cmd range check, the telemetry
- * snapshot (link_telemetry()) and encoding the reply; the rest is applying the frame plus
- * the UART stub calls and the loop around them. Parsing, decoding, checking and encoding
- * touch only the link's own buffers; applying and the snapshot touch the state the tick
- * uses (docs/firmware.md, AVR budget: how the AVR target runs the two).
+ * CRC) in the poll's chunks (LINK_RX_CHUNK bytes, link.h), decoding, the micro_cmd range
+ * check, the telemetry snapshot (link_telemetry()) and encoding the reply; the rest is
+ * applying the frame plus the UART stub calls and the loop around them. Parsing,
+ * decoding, checking and encoding touch only the link's own buffers; applying and the
+ * snapshot touch the state the tick uses (docs/firmware.md, AVR budget: how the AVR
+ * target runs the two).
  *
  * Printed on UART0 (simavr shows it), parsed by avr_size.cmake:
  *   tick <scenario> <rate> Hz: mean M max X period P phases P0 P1 P2 P3 (max per tick of
@@ -35,7 +36,6 @@
 /* mm: the forward move, short enough that it brakes to a stop within the 2 s (300 mm/s,
    300 mm/s^2: 1 s up, 1 s down): the braking curve is the axis's dearest step */
 #define FWD_MM 300
-#define RX_CHUNK 16u /* bytes per hal_uart_read, as link_poll asks (LINK_RX_CHUNK) */
 #define F_CPU_HZ 16000000ul
 /* gyro LSB per count of (right - left) wheel difference in one tick of 1 ms, default
    geometry: 0.157 mm/count over a 300 mm track is 0.030 deg, i.e. 30 deg/s, times 131 LSB
@@ -134,7 +134,7 @@ static void poll_timed(poll_cost_t *c)
     navkit_parser_init(&probe_parser, NAVKIT_DIR_TO_MICRO);
     t0 = TCNT1;
     for (off = 0u; off < board.rx_len; off = (uint16_t)(off + n)) {
-        n = (uint16_t)((board.rx_len - off < RX_CHUNK) ? board.rx_len - off : RX_CHUNK);
+        n = (uint16_t)((board.rx_len - off < LINK_RX_CHUNK) ? board.rx_len - off : LINK_RX_CHUNK);
         (void)navkit_parser_feed(&probe_parser, board.rx + off, n);
         got |= navkit_parser_next(&probe_parser, &frame, &flen);
     }
