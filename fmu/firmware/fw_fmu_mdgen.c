@@ -3,14 +3,20 @@
  * fixedInternalStepSize (and the default experiment's step) is the control tick of the
  * firmware's reset configuration (config_reset(): the spec's default control_rate); a
  * micro_cfg_geometry with another control_rate changes the tick the FMU steps at. The
- * protocol spec the firmware was built from (its file, spec_hash and sha256, from the
- * generated header) is named in the description attribute and in a vendor annotation
- * (type "org.navkit.spec"). */
+ * protocol spec the firmware was built from is named in the description attribute and in
+ * a vendor annotation (type "org.navkit.spec"): its file, repository-relative, from the
+ * build (FWFMU_SPEC_FILE, defined by fmu/firmware/CMakeLists.txt from the spec the
+ * protocol code is generated from), its spec_hash and sha256 from the generated header
+ * (NAVKIT_SPEC_HASH, NAVKIT_SPEC_SHA256). */
 #include <stdio.h>
 #include <string.h>
 
 #include "config.h"
 #include "fw_fmu_model.h"
+
+#ifndef FWFMU_SPEC_FILE
+#error "FWFMU_SPEC_FILE (the protocol spec, repository-relative) comes from fmu/firmware/CMakeLists.txt"
+#endif
 
 /* Causality and variability as attribute text; `initial` for outputs. */
 static void var_attrs(FILE *f, const char *caus, const char *var)

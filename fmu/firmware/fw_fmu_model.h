@@ -16,9 +16,6 @@
 #define FWFMU_DESCRIPTION \
     "navkit reference firmware (firmware/core) on a simulated micro: control ticks at the configured rate, UART at the baud parameter"
 #define FWFMU_DEFAULT_BAUD 115200u
-/* The protocol spec (repository-relative) the generated header the firmware speaks was made
-   from; the description names it with NAVKIT_SPEC_HASH and NAVKIT_SPEC_SHA256. */
-#define FWFMU_SPEC_FILE "protocol/navkit.toml"
 
 /* X(vr, name, causality, variability, unit, start, field, description)
  *   causality: independent | input | output | parameter;
