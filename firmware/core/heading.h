@@ -6,11 +6,13 @@
  * (status gyro_calibrating), then tracked by a slow low-pass whenever the robot stands
  * still; while it stands still the heading does not integrate gyro noise.
  *
- * Cost on a 16 MHz AVR (no FPU): heading_update() runs every tick, so it only adds the
- * tick's angle to the residual and to the float heading (~1 200 cycles); heading_fold()
- * rounds the residual into the fixed-point angle and re-derives the float heading from
- * it, once per axis period with the wheel loops (fw.c: every 4th tick above 500 Hz,
- * every 2nd above 250 Hz, else every tick).
+ * Cost on a 16 MHz AVR (no FPU; worst cycles, ctest firmware_avr_cycles, docs/firmware.md
+ * AVR budget): heading_update() runs every tick, so it only adds the tick's angle to the
+ * residual and to the float heading (1 461 cycles); heading_fold() (1 274) rounds the
+ * residual into the fixed-point angle and re-derives the float heading from it, or
+ * heading_fuse() (2 251, its fold included) does so with compass fusion, once per axis
+ * period on the wheel loops' tick, right after heading_update() (fw.c: every 4th tick
+ * above 500 Hz, every 2nd above 250 Hz, else every tick).
  */
 #ifndef NAVKIT_HEADING_H
 #define NAVKIT_HEADING_H

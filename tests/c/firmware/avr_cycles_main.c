@@ -24,7 +24,11 @@
  *   tick <scenario> <rate> Hz: mean M max X period P phases P0 P1 P2 P3 (max per tick of
  *     the axis period; P = 16 MHz / rate)
  *   <scenario> <rate> Hz configured: 1 moved: N turned: D (counts, heading deg*10)
- *   poll <frame>: max P parse A decode B check C snapshot T encode E rest R
+ *   poll <frame>: max P parse A decode B check C snapshot T encode E rest R snapshot_max S
+ *     (the parts of the worst poll P: A + B + C + T + E + R = P; S the largest snapshot
+ *     of any poll, the part a pre-empting tick would have to wait for)
+ *   heading: update U fold F fuse S (worst cycles of heading_update(), heading_fold(),
+ *     heading_fuse() with its fold)
  *   stack bytes: S */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -96,14 +100,16 @@ static int uart_put(char c, FILE *f)
 }
 static FILE uart = FDEV_SETUP_STREAM(uart_put, NULL, _FDEV_SETUP_WRITE);
 
-/* Per frame kind, the largest of each: the poll, its parts, and the rest (applying + glue). */
+/* Per frame kind, the worst poll and its parts as measured with it: parsing, decoding,
+   checking, snapshot, encoding, and the rest (applying + glue), which add up to it; and
+   the largest snapshot of any poll. */
 typedef struct {
     const char *name;
-    uint16_t poll, parse, decode, check, snapshot, encode, rest;
+    uint16_t poll, parse, decode, check, snapshot, encode, rest, snapshot_max;
 } poll_cost_t;
 
-static poll_cost_t cost_cmd = {"micro_cmd", 0u, 0u, 0u, 0u, 0u, 0u, 0u};
-static poll_cost_t cost_cfg = {"micro_cfg", 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+static poll_cost_t cost_cmd = {"micro_cmd", 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+static poll_cost_t cost_cfg = {"micro_cfg", 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
 
 /* the probes' own state, static so it neither counts as core RAM nor deepens the stack */
 static navkit_parser_t probe_parser;
@@ -114,11 +120,44 @@ static union {
     navkit_micro_cfg_io_t io;
 } probe_msg;
 static navkit_micro_data_t probe_data;
+static poll_cost_t probe_cost; /* this poll and its parts */
 static uint8_t probe_buf[NAVKIT_MICRO_DATA_BYTES];
 
 static uint16_t max16(uint16_t a, uint16_t b)
 {
     return (a > b) ? a : b;
+}
+
+/* The heading's three steps, worst cycles each over the whole run: heading_update() (the
+   gyro integration of every tick, moving or standing still), heading_fold() and
+   heading_fuse() (compass fusion, its fold included), timed on copies of the state the
+   next tick starts from, so the run itself is not changed. */
+static struct {
+    uint16_t update, fold, fuse;
+} cost_hdg;
+static heading_t probe_hdg;
+
+static void heading_timed(void)
+{
+    uint16_t t0, dt;
+    uint8_t still;
+    for (still = 0u; still < 2u; still++) {
+        probe_hdg = fw.hdg;
+        t0 = TCNT1;
+        heading_update(&probe_hdg, board.gyro, fw.cfg.gyro_dps_per_lsb, still, fw.cfg.control_rate, fw.cfg.dt);
+        dt = (uint16_t)(TCNT1 - t0);
+        cost_hdg.update = max16(cost_hdg.update, dt);
+    }
+    probe_hdg = fw.hdg;
+    t0 = TCNT1;
+    heading_fold(&probe_hdg);
+    dt = (uint16_t)(TCNT1 - t0);
+    cost_hdg.fold = max16(cost_hdg.fold, dt);
+    probe_hdg = fw.hdg;
+    t0 = TCNT1;
+    heading_fuse(&probe_hdg, board.compass, 0.5f, fw.cfg.dt_axis); /* gain 1/s: compass_weight 500 */
+    dt = (uint16_t)(TCNT1 - t0);
+    cost_hdg.fuse = max16(cost_hdg.fuse, dt);
 }
 
 /* Hand the one queued frame to fw_link_poll() and time it against its parts, measured on
@@ -129,7 +168,7 @@ static void poll_timed(poll_cost_t *c)
 {
     const uint8_t *frame = NULL;
     size_t flen = 0u;
-    uint16_t off, n, t0, parse, decode, check = 0u, poll, snap, encode, type;
+    uint16_t off, n, t0, type;
     int got = 0;
     navkit_parser_init(&probe_parser, NAVKIT_DIR_TO_MICRO);
     t0 = TCNT1;
@@ -138,7 +177,7 @@ static void poll_timed(poll_cost_t *c)
         (void)navkit_parser_feed(&probe_parser, board.rx + off, n);
         got |= navkit_parser_next(&probe_parser, &frame, &flen);
     }
-    parse = (uint16_t)(TCNT1 - t0);
+    probe_cost.parse = (uint16_t)(TCNT1 - t0);
     type = got ? navkit_frame_type(frame) : 0u;
     t0 = TCNT1;
     switch (type) {
@@ -155,38 +194,40 @@ static void poll_timed(poll_cost_t *c)
         (void)navkit_micro_cfg_io_decode(frame, flen, &probe_msg.io);
         break;
     }
-    decode = (uint16_t)(TCNT1 - t0);
+    probe_cost.decode = (uint16_t)(TCNT1 - t0);
+    probe_cost.check = 0u;
     if (type == NAVKIT_MSG_TYPE_MICRO_CMD) {
         t0 = TCNT1;
         (void)navkit_micro_cmd_check(&probe_msg.cmd, NULL);
-        check = (uint16_t)(TCNT1 - t0);
+        probe_cost.check = (uint16_t)(TCNT1 - t0);
     }
     t0 = TCNT1;
     fw_link_poll(&fw);
-    poll = (uint16_t)(TCNT1 - t0);
+    probe_cost.poll = (uint16_t)(TCNT1 - t0);
     t0 = TCNT1;
     link_telemetry(&fw, &probe_data);
-    snap = (uint16_t)(TCNT1 - t0);
+    probe_cost.snapshot = (uint16_t)(TCNT1 - t0);
     t0 = TCNT1;
     (void)navkit_micro_data_encode(&probe_data, probe_buf, sizeof probe_buf);
-    encode = (uint16_t)(TCNT1 - t0);
+    probe_cost.encode = (uint16_t)(TCNT1 - t0);
     if (!got) {
         printf("no frame in the probe's parser\n");
         return;
     }
-    c->poll = max16(c->poll, poll);
-    c->parse = max16(c->parse, parse);
-    c->decode = max16(c->decode, decode);
-    c->check = max16(c->check, check);
-    c->snapshot = max16(c->snapshot, snap);
-    c->encode = max16(c->encode, encode);
-    c->rest = max16(c->rest, (uint16_t)(poll - parse - decode - check - snap - encode));
+    c->snapshot_max = max16(c->snapshot_max, probe_cost.snapshot);
+    if (probe_cost.poll > c->poll) { /* the worst poll so far: its own parts, which add up to it */
+        probe_cost.rest = (uint16_t)(probe_cost.poll - probe_cost.parse - probe_cost.decode - probe_cost.check -
+                                     probe_cost.snapshot - probe_cost.encode);
+        probe_cost.name = c->name;
+        probe_cost.snapshot_max = c->snapshot_max;
+        *c = probe_cost;
+    }
 }
 
 static void print_cost(const poll_cost_t *c)
 {
-    printf("poll %s: max %u parse %u decode %u check %u snapshot %u encode %u rest %u\n", c->name, c->poll,
-           c->parse, c->decode, c->check, c->snapshot, c->encode, c->rest);
+    printf("poll %s: max %u parse %u decode %u check %u snapshot %u encode %u rest %u snapshot_max %u\n", c->name,
+           c->poll, c->parse, c->decode, c->check, c->snapshot, c->encode, c->rest, c->snapshot_max);
 }
 
 /* Queue one encoded frame of n bytes (already written at rx + rx_len) for the UART stub. */
@@ -266,6 +307,7 @@ static void run(const char *name, uint16_t rate, uint16_t turn_code, int16_t tur
             poll_timed(&cost_cmd);
         }
         board.gyro = (int16_t)(board.gyro + (int16_t)(i & 7u)); /* noise */
+        heading_timed();
         phase = (uint8_t)(fw.phase & 3u);
         t0 = TCNT1;
         fw_tick(&fw);
@@ -305,6 +347,7 @@ int main(void)
     }
     print_cost(&cost_cmd);
     print_cost(&cost_cfg);
+    printf("heading: update %u fold %u fuse %u\n", cost_hdg.update, cost_hdg.fold, cost_hdg.fuse);
     printf("stack bytes: %u\n", (unsigned)((uint8_t *)RAMEND + 1 - p));
     cli();
     sleep_mode(); /* simavr ends the run here */
