@@ -321,6 +321,15 @@ void check_micro(const IniFile &ini, const Config &c)
     ini.fail(ini.line(sec, name), name + ": outside the spec's range (docs/protocol.md, " + sec + ")");
 }
 
+// "file:line: key" of the later of two keys' lines (a pair of values that do not fit
+// together is named where the second of them was written).
+std::string later_key(const IniFile &ini, const std::string &sec_a, const std::string &key_a,
+                      const std::string &sec_b, const std::string &key_b)
+{
+    const int la = ini.line(sec_a, key_a), lb = ini.line(sec_b, key_b);
+    return ini.path + ":" + std::to_string(std::max(la, lb)) + ": " + (la > lb ? key_a : key_b);
+}
+
 // What the micro refuses beyond the spec's ranges (firmware/core/config.c config_io):
 // each servo's servo_min above its servo_max, named at the later of the two keys' lines.
 void check_servo_limits(const IniFile &ini, const Config &c)
@@ -328,22 +337,10 @@ void check_servo_limits(const IniFile &ini, const Config &c)
     const navkit_micro_cfg_io_t &io = c.micro.io;
     for (int i = 0; i < 8; i++) {
         if (io.servo_min[i] > io.servo_max[i]) {
-            const int lmin = ini.line("micro_cfg_io", "servo_min"), lmax = ini.line("micro_cfg_io", "servo_max");
-            ini.fail(std::max(lmin, lmax), std::string(lmin > lmax ? "servo_min" : "servo_max") + ": servo " +
-                                               std::to_string(i) + "'s servo_min " + std::to_string(io.servo_min[i]) +
-                                               " is above its servo_max " + std::to_string(io.servo_max[i]) +
-                                               " (the micro refuses it)");
+            throw ConfigError(later_key(ini, "micro_cfg_io", "servo_min", "micro_cfg_io", "servo_max") + ": servo " +
+                              std::to_string(i) + "'s servo_min " + std::to_string(io.servo_min[i]) +
+                              " is above its servo_max " + std::to_string(io.servo_max[i]) + " (the micro refuses it)");
         }
-    }
-}
-
-// The frame against the micro's watchdog, named at the later of the two keys' lines.
-void check_frame_watchdog(const IniFile &ini, const Config &c)
-{
-    const std::string why = frame_watchdog_error(c.exec.frame_rate_hz, c.micro.motion.watchdog_timeout);
-    if (!why.empty()) {
-        const int lrate = ini.line("executive", "frame_rate_hz"), lwd = ini.line("micro_cfg_motion", "watchdog_timeout");
-        ini.fail(std::max(lrate, lwd), std::string(lrate > lwd ? "frame_rate_hz" : "watchdog_timeout") + ": " + why);
     }
 }
 
@@ -389,7 +386,7 @@ std::string ini_parse_int(const std::string &v, bool hex_ok, long *out)
     errno = 0;
     const long x = std::strtol(v.c_str() + (hex ? 2 : 0), nullptr, hex ? 16 : 10);  // base 10: never octal
     if (errno) {
-        return "'" + v + "' is too large";
+        return "'" + v + "' is out of range";
     }
     *out = x;
     return "";
@@ -424,7 +421,7 @@ std::string ini_parse_real(const std::string &v, double *out)
     }
     const double x = std::strtod(v.c_str(), nullptr);
     if (!std::isfinite(x)) {
-        return "'" + v + "' is too large";
+        return "'" + v + "' is out of range";
     }
     *out = x;
     return "";
@@ -504,7 +501,7 @@ void Ini::load_file(const std::string &path, Config &cfg)
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
         check_servo_limits(ini, cfg);
-        check_frame_watchdog(ini, cfg);
+        cfg.exec.rate_watchdog_at = later_key(ini, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
     } else {
         check_ir(ini, cfg);
     }

@@ -56,10 +56,16 @@ int main(int argc, char **argv)
     }
     if (o.rate_hz > 0) {
         cfg.exec.frame_rate_hz = o.rate_hz;
-        const std::string why = frame_watchdog_error(o.rate_hz, cfg.micro.motion.watchdog_timeout);
-        if (!why.empty()) {
+    }
+    if (!o.lockstep) {  // the rate in use against the micro's watchdog
+        const std::string why = frame_watchdog_error(cfg.exec.frame_rate_hz, cfg.micro.motion.watchdog_timeout);
+        if (!why.empty() && o.rate_hz > 0) {
             std::fprintf(stderr, "navkit-host: --rate %g: %s\n", o.rate_hz, why.c_str());
             return 2;
+        }
+        if (!why.empty()) {
+            std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.rate_watchdog_at.c_str(), why.c_str());
+            return 1;
         }
     }
     if (!o.shm.empty()) {

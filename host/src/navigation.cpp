@@ -148,7 +148,7 @@ NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> headi
     if (a.timeout_started) {
         result_ = NAVKIT_NAV_RESULT_PLANNER_TIMEOUT;
     }
-    if (a.planner_rejected) {  // judged like any new command: lisp_data acknowledges its tag
+    if (a.planner_rejected || a.planner_dropped) {  // judged like any new command: acknowledged
         result_ = NAVKIT_NAV_RESULT_REJECTED;
         ack_ = a.rejected_time_tag;
     }

@@ -61,6 +61,9 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
                 a.planner_new = true;
                 a.planner = p.cmd;
                 owner_ = Owner::planner;
+            } else {
+                a.planner_dropped = true;  // not obeyed while safety holds
+                a.rejected_time_tag = p.cmd.time_tag;
             }
         }
     } else if (p.have && navkit_lisp_cmd_check(&p.cmd, nullptr) == NAVKIT_OK) {
@@ -74,7 +77,11 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
     if (c.teleop == Teleop::stop) {
         // the console's stop always wins, like safety's: one stop (a planner command of
         // this same frame is dropped); the planner is obeyed again on its next new command
-        a.planner_new = false;
+        if (a.planner_new) {
+            a.planner_new = false;
+            a.planner_dropped = true;
+            a.rejected_time_tag = a.planner.time_tag;
+        }
         a.teleop_new = true;
         a.teleop = Teleop::stop;
         owner_ = Owner::console;

@@ -235,6 +235,11 @@ void RobotMain(Robot &r)
         r.console.print("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),
                         navkit_lisp_cmd_field_name(arb.rejected_field));
     }
+    if (arb.planner_dropped) {
+        r.console.print("planner command %d not obeyed: %s", static_cast<int>(arb.rejected_time_tag),
+                        arb.teleop == Teleop::stop ? "the console's stop key came in the same frame"
+                                                   : "a safety stop holds");
+    }
     r.owner = arb.owner;
     // 6. navigation: a heading hold needs the micro's heading of this moment, so only
     // fresh data of a micro of our spec counts (none yet, offline: the hold is rejected)

@@ -29,6 +29,9 @@ struct ExecutiveCfg {
     std::string log_dir = ".";
     bool record = false;             // start the datalog at start-up
     int dio_default = 0;             // levels of the DIO bits no planner owns (12 bits)
+    // "file:line: key" of the later of frame_rate_hz and [micro_cfg_motion] watchdog_timeout
+    // (where a pair that does not fit together is named; see frame_watchdog_error)
+    std::string rate_watchdog_at;
 };
 
 // Numbers of the INI files and the command line. Integers are decimal: [+-]digits (a
@@ -38,9 +41,10 @@ struct ExecutiveCfg {
 std::string ini_parse_int(const std::string &v, bool hex_ok, long *out);
 std::string ini_parse_real(const std::string &v, double *out);
 
-// The frame rate against the micro's watchdog (real-time clock; in lockstep the driver
-// checks its own frame): the watchdog must outlast two frames, so that one lost or
-// corrupted frame does not stop the robot. "" if it does, else why not.
+// The frame rate against the micro's watchdog: the watchdog must outlast two frames, so
+// that one lost or corrupted frame does not stop the robot. "" if it does, else why not.
+// main checks the rate in use (--rate or the INI's) with the real-time clock only; in
+// lockstep the driver checks its own frame (navkit sim --frame-ms).
 std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms);
 
 // Checks of [executive] values (and of --shm, --log-dir): "" if v is fine, else why not.

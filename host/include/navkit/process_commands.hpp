@@ -53,7 +53,8 @@ struct Arbitration {
     navkit_lisp_cmd_t planner{};
     bool planner_rejected = false;   // a new planner command failed the range check
     int rejected_field = -1;
-    int32_t rejected_time_tag = 0;   // its time tag (ms), acknowledged with nav_result rejected
+    bool planner_dropped = false;    // a new planner command a console or safety stop dropped
+    int32_t rejected_time_tag = 0;   // the tag (ms) of either, acknowledged with nav_result rejected
     bool teleop_new = false;         // pass arb.teleop to Navigation
     Teleop teleop = Teleop::none;
     TeleopIgnored teleop_ignored = TeleopIgnored::no;  // a teleop key was ignored, and why

@@ -204,6 +204,13 @@ TEST(Navigation, EveryNewCommandIsAcknowledgedWithItsVerdict)
     EXPECT_FALSE(n.update(r, 0).is_new);
     EXPECT_EQ(n.ack_time_tag(), 300);
     EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
+    Arbitration d;  // dropped by a console or safety stop
+    d.planner_dropped = true;
+    d.rejected_time_tag = 400;
+    d.stop = true;
+    EXPECT_TRUE(n.update(d, 0).is_new) << "the stop goes out";
+    EXPECT_EQ(n.ack_time_tag(), 400);
+    EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
 }
 
 TEST(Navigation, UpdateDioOnlyChangeIsANeutralNewCommand)

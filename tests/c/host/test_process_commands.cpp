@@ -159,6 +159,7 @@ TEST(ProcessCommands, ConsoleStopAlwaysWinsThenThePlannersNextNewCommand)
     a = pc.update(planner(2), stop, {}, 400000);
     EXPECT_TRUE(a.teleop_new && a.teleop == Teleop::stop && !a.planner_new)
         << "a new planner command in the stop's frame is dropped";
+    EXPECT_TRUE(a.planner_dropped && a.rejected_time_tag == 2) << "and acknowledged as not obeyed";
     a = pc.update(planner(3), {}, {}, 500000);
     EXPECT_TRUE(a.planner_new) << "its next new command is obeyed";
     EXPECT_EQ(a.owner, Owner::planner);
@@ -178,4 +179,7 @@ TEST(ProcessCommands, TeleopKeysIgnoredDuringSafetySayWhy)
     EXPECT_FALSE(a.teleop_new);
     EXPECT_EQ(a.teleop_ignored, TeleopIgnored::safety);
     EXPECT_TRUE(pc.update(PlannerInput{}, stop, bad, 200000).teleop_new) << "a stop is always taken";
+    a = pc.update(planner(7), {}, bad, 300000);
+    EXPECT_FALSE(a.planner_new) << "not obeyed while safety holds";
+    EXPECT_TRUE(a.planner_dropped && a.rejected_time_tag == 7) << "but acknowledged as not obeyed";
 }

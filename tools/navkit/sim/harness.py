@@ -907,7 +907,8 @@ def _refusal(cmd: dict, result: str) -> str:
         return ("heading hold (turn_mode 11) needs the micro's current heading and the host "
                 "had none (no fresh micro_data: micro offline); the command was dropped")
     if result == "rejected":
-        return "a value does not fit the micro command the host makes of it; the command was dropped"
+        return ("the command was dropped: a value does not fit the micro command the host makes "
+                "of it, or a console stop key (space) came in the same frame (see host.log)")
     return f"lisp_data.nav_result = {result}"
 
 
