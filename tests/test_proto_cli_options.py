@@ -20,8 +20,8 @@ def _c_tool(name: str) -> str:
 
 
 @pytest.mark.parametrize("args,message", [
-    (["--count", "0"], "argument --count: must be at least 1 case, not 0"),
-    (["--count", "-3"], "argument --count: must be at least 1 case, not -3"),
+    (["--count", "0"], "argument --count: must be at least 1, not 0"),
+    (["--count", "-3"], "argument --count: must be at least 1, not -3"),
     (["--count", "many"], "argument --count: 'many' is not an integer"),
     (["--seconds", "-1"], "argument --seconds: must be a positive, finite time in s, not -1"),
     (["--seconds", "0"], "argument --seconds: must be a positive, finite time in s, not 0"),

@@ -9,7 +9,7 @@ import argparse
 import importlib
 import sys
 
-__all__ = ["main", "SUBCOMMANDS"]
+__all__ = ["main", "SUBCOMMANDS", "positive_int"]
 
 # name -> (module, one-line help)
 SUBCOMMANDS = {
@@ -22,6 +22,17 @@ SUBCOMMANDS = {
     "bench-host": ("navkit.host_bench", "benchmark the host's real-time frame loop (start error, drift, CPU)"),
     "bench-sim": ("navkit.sim_bench", "benchmark the co-simulation (real-time factor, time shares, memory)"),
 }
+
+
+def positive_int(text: str) -> int:
+    """argparse type of a count option: an integer of at least 1 (decimal or 0x)."""
+    try:
+        n = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {n}")
+    return n
 
 
 def main(argv=None) -> int:

@@ -6,26 +6,17 @@ figures come from the `navkit-proto-bench` binary in the build folder."""
 
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 import time
 
+from navkit.cli import positive_int
+
 __all__ = ["add_arguments", "run"]
 
 
-def _positive(text: str) -> int:
-    try:
-        n = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {n}")
-    return n
-
-
 def add_arguments(parser) -> None:
-    parser.add_argument("--frames", type=_positive, default=50000,
+    parser.add_argument("--frames", type=positive_int, default=50000,
                         help="frames per Python measurement, >= 1 (default %(default)s; C runs 40x that)")
 
 

@@ -20,6 +20,8 @@ import random
 import sys
 import time
 
+from navkit.cli import positive_int
+
 __all__ = ["add_arguments", "run", "CParser", "ShimMissing", "shim_path", "mutated_stream",
            "check_case"]
 
@@ -148,16 +150,6 @@ def check_case(rng: random.Random) -> str | None:
     return None
 
 
-def _count(text: str) -> int:
-    try:
-        n = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1 case, not {n}")
-    return n
-
-
 def _seconds(text: str) -> float:
     try:
         s = float(text)
@@ -171,7 +163,7 @@ def _seconds(text: str) -> float:
 def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=1, help="random seed (default %(default)s)")
     runs = parser.add_mutually_exclusive_group()
-    runs.add_argument("--count", type=_count, default=2000,
+    runs.add_argument("--count", type=positive_int, default=2000,
                       help="cases to run, >= 1 (default %(default)s)")
     runs.add_argument("--seconds", type=_seconds, help="run for this long (s, > 0) instead of --count")
 
