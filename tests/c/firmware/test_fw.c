@@ -963,6 +963,20 @@ static void configure_two_of_three(void)
     fw_link_poll(&fw);
 }
 
+/* Everything of a micro_cmd but motion: servo 2 GoTo 60 deg, heading 100 deg and X/Y
+   500/700 mm set, the heading datalog selected. */
+static void set_all_but_motion(navkit_micro_cmd_t *c)
+{
+    c->rc2_param0 = 1000;
+    c->rc2_param1 = 600;
+    c->rc2_param2 = 9999;
+    c->dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
+    c->dg_set = 1000;
+    c->x_set = 500;
+    c->y_set = 700;
+    c->mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+}
+
 static void test_unconfigured_refuses_every_command(void)
 {
     /* while unconfigured a micro_cmd without fwd_cmd/turn_cmd is refused whole too: no
@@ -986,15 +1000,8 @@ static void test_unconfigured_refuses_every_command(void)
     CHECK(d.ack_time_tag == 0);
     /* a new one: servo 2 GoTo, DIO, dg_set, x/y, the heading datalog */
     c = cmd();
-    c.rc2_param0 = 1000;
-    c.rc2_param1 = 600;
-    c.rc2_param2 = 9999;
+    set_all_but_motion(&c);
     c.dio_command = 0x00FF;
-    c.dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
-    c.dg_set = 1000;
-    c.x_set = 500;
-    c.y_set = 700;
-    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
     host_run(&c, 0.3);
     /* then 5 s of silence: nothing started, so nothing goes on (no watchdog yet) */
     sim_run(&fw, &h, 5000);
@@ -1013,14 +1020,7 @@ static void test_unconfigured_refuses_every_command(void)
     c.fwd_cmd = NAVKIT_FWD_CMD_START;
     c.speed = 200;
     c.distance = 100;
-    c.rc2_param0 = 1000;
-    c.rc2_param1 = 600;
-    c.rc2_param2 = 9999;
-    c.dg_control = NAVKIT_DG_CONTROL_SET_BOTH;
-    c.dg_set = 1000;
-    c.x_set = 500;
-    c.y_set = 700;
-    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    set_all_but_motion(&c);
     host_run(&c, 0.5);
     d = data();
     CHECK(d.status & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK && d.status & NAVKIT_MICRO_STATUS_CFG_MOTION_OK);
