@@ -4,9 +4,6 @@
 #define CONFIG_PI 3.14159265f
 #define CONFIG_RAD_TO_DEG 57.29577951f
 #define CONFIG_STILL_S 0.25f /* s: quiet encoders for this long = standing still */
-/* Hz: the axes, wheel loops and X/Y run at most at this rate up to a 1 kHz tick: every 4th
-   tick above 2 * this, every 2nd above this (fw.c: the AVR time budget) */
-#define CONFIG_AXIS_RATE_MAX 250u
 
 static uint8_t config_sign_ok(int16_t s)
 {
@@ -59,9 +56,6 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     c->compass_gain = 0.001f * (float)m->compass_weight;
     c->control_rate = m->control_rate;
     c->dt = 1.0f / (float)m->control_rate;
-    c->axis_ticks = (uint8_t)((m->control_rate > 2u * CONFIG_AXIS_RATE_MAX) ? 4u
-                               : (m->control_rate > CONFIG_AXIS_RATE_MAX) ? 2u : 1u);
-    c->dt_axis = c->dt * (float)c->axis_ticks;
     c->tick_us = (uint32_t)((1000000ul + m->control_rate / 2u) / m->control_rate);
     c->tick_ms = (uint16_t)(c->tick_us / 1000u);
     c->tick_us_rem = (uint16_t)(c->tick_us % 1000u);
@@ -76,6 +70,7 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     c->odom.sign_l = (int8_t)m->enc_left_sign;
     c->odom.sign_r = (int8_t)m->enc_right_sign;
     c->odom.xy_ticks = (uint8_t)((m->control_rate >= 200u) ? m->control_rate / 100u : 1u); /* ~10 ms */
+    c->dt_fold = c->dt * (float)c->odom.xy_ticks;
     c->motor_left_sign = (int8_t)m->motor_left_sign;
     c->motor_right_sign = (int8_t)m->motor_right_sign;
     config_derive(c);

@@ -37,8 +37,7 @@ typedef struct {
     float gyro_dps_per_lsb;   /* deg/s per LSB, gyro_sign folded in (clockwise positive) */
     float compass_gain;       /* 1/s: compass fusion gain, 0 = gyro only */
     float dt;                 /* s: control tick */
-    float dt_axis;            /* s: period of the motion axes and wheel loops, axis_ticks * dt */
-    uint8_t axis_ticks;       /* ticks per axis/wheel-loop period: 4 above 500 Hz, 2 above 250 Hz, else 1 */
+    float dt_fold;            /* s: period of the heading fold or compass fusion, odom.xy_ticks * dt (~10 ms) */
     uint32_t tick_us;         /* us: control tick, rounded */
     uint16_t tick_ms;         /* ms: whole milliseconds of tick_us */
     uint16_t tick_us_rem;     /* us: tick_us beyond tick_ms */

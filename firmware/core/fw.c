@@ -6,16 +6,6 @@
 #define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
 /* mm/s: wheel setpoints below this (both together) count as "commanded to stand" */
 #define FW_STILL_SP_MM_S 0.5f
-/* The four heavy parts of a tick, in their order within an axis period (config_t.axis_ticks
-   ticks): with 4 ticks (above 500 Hz) each part has a tick of its own; with 2 (251-500 Hz)
-   forward + turn share the first and wheels + X/Y the second; with 1 all run every tick.
-   So the axes and wheel loops run at 250 Hz at the default 1 kHz and at 500 Hz, and a
-   16 MHz AVR's worst tick pays for one part (two at 500 Hz) besides the every-tick work. */
-#define FW_PART_FWD 0u
-#define FW_PART_TURN 1u
-#define FW_PART_WHEELS 2u
-#define FW_PART_XY 3u
-#define FW_PARTS 4u
 
 void fw_init(fw_t *fw, hal_t *hal)
 {
@@ -36,8 +26,6 @@ void fw_init(fw_t *fw, hal_t *hal)
     watchdog_reset(&fw->wd);
     fw->sp_l = 0.0f;
     fw->sp_r = 0.0f;
-    fw->v_fwd = 0.0f;
-    fw->w_turn = 0.0f;
     fw->duty_l = 0;
     fw->duty_r = 0;
     for (i = 0u; i < FW_ADC_CHANNELS; i++) {
@@ -54,7 +42,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->wd_stop = 0u;
     fw->limited = 0u;
     fw->servo_next = 0u;
-    fw->phase = 0u;
+    fw->chore = 0u;
 }
 
 uint32_t fw_tick_period_us(const fw_t *fw)
@@ -118,8 +106,8 @@ void fw_watchdog_stop(fw_t *fw)
     uint8_t i;
     /* the same wheel deceleration for the turn: mm/s^2 at the wheel -> deg/s^2 */
     float turn_decel = fw->cfg.watchdog_decel * fw->cfg.wheel_deg_per_mm;
-    motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt_axis);
-    turn_stop(&fw->turn, turn_decel, fw->cfg.dt_axis);
+    motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt);
+    turn_stop(&fw->turn, turn_decel, fw->cfg.dt);
     for (i = 0u; i < SERVO_COUNT; i++) {
         servo_hold(&fw->servo[i]);
     }
@@ -152,14 +140,6 @@ static void fw_sample(fw_t *fw, int32_t *enc_l, int32_t *enc_r)
     fw->dio.in = (uint16_t)(hal_dio_in(fw->hal) & DIO_MASK);
 }
 
-/* The parts that run on this tick, bit FW_PART_* set: FW_PARTS / axis_ticks parts per tick
-   (4, 2, 1 for axis_ticks 1, 2, 4), in their order. */
-static uint8_t fw_parts_due(const fw_t *fw)
-{
-    uint8_t n = (uint8_t)(FW_PARTS >> (fw->cfg.axis_ticks >> 1u));
-    return (uint8_t)(((1u << n) - 1u) << (fw->phase * n));
-}
-
 /* duty (-1..1) -> hal_motor units with the motor sign, rounded half away from zero */
 static int16_t fw_duty_e4(float duty, int8_t sign)
 {
@@ -172,12 +152,15 @@ void fw_tick(fw_t *fw)
 {
     const config_t *c = &fw->cfg;
     float dt = c->dt;
-    float half;
+    float v_fwd, w_turn, half; /* mm/s, deg/s, mm/s */
     int32_t raw_l, raw_r;
-    uint8_t still, i, driven, due;
+    uint8_t still, i, fold;
 
     fw_sample(fw, &raw_l, &raw_r);
-    due = fw_parts_due(fw);
+    /* the chores (estimation only, nothing re-planned): the heading fold on the first tick
+       of the ~10 ms chore period, the X/Y step when due on any other (on every tick when
+       the period is one tick), so a tick pays for at most one of them */
+    fold = (uint8_t)(fw->chore == 0u);
 
     /* estimation */
     odom_count(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
@@ -187,12 +170,11 @@ void fw_tick(fw_t *fw)
     still = (uint8_t)(fw->odom.still_ticks > 0u && (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks) &&
                       fabsf(fw->sp_l) + fabsf(fw->sp_r) < FW_STILL_SP_MM_S);
     heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
-    /* once per axis period, in the wheel loops' tick (the lightest of the four): fold the
-       integrated angle into the fixed-point heading, with compass fusion over dt_axis if
-       enabled (the pull is slow, gain <= 1/s, and the compass slower still) */
-    if (due & (1u << FW_PART_WHEELS)) {
+    /* fold the integrated angle into the fixed-point heading, with compass fusion over
+       dt_fold if enabled (the pull is slow, gain <= 1/s, and the compass slower still) */
+    if (fold) {
         if ((c->sensor_enable & NAVKIT_SENSOR_ENABLE_COMPASS) && c->compass_gain > 0.0f && !fw->hdg.calibrating) {
-            heading_fuse(&fw->hdg, fw->compass, c->compass_gain, c->dt_axis);
+            heading_fuse(&fw->hdg, fw->compass, c->compass_gain, c->dt_fold);
         } else {
             heading_fold(&fw->hdg);
         }
@@ -203,40 +185,31 @@ void fw_tick(fw_t *fw)
         fw_watchdog_stop(fw);
     }
 
-    /* motion: forward + turn -> wheel setpoints -> wheel loops, each part on its tick of
-       the axis period (FW_PART_*), with dt_axis */
-    if (due & (1u << FW_PART_FWD)) {
-        fw->v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r),
-                                CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance,
-                                CONFIG_DONE_VTOL_MM_S, c->dt_axis);
-    }
-    if (due & (1u << FW_PART_TURN)) {
-        fw->w_turn = turn_tick(&fw->turn, fw_turn_angle(fw),
-                               (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s, heading_deg(&fw->hdg),
-                               c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
-                               c->dt_axis);
-    }
-    driven = (uint8_t)(motion_active(&fw->fwd) || turn_active(&fw->turn));
-    if (!driven) {
+    /* motion, every tick: forward + turn re-planned from the measured state -> wheel
+       setpoints -> wheel loops */
+    v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM,
+                        CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
+    w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s,
+                       heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol,
+                       c->turn_vtol, dt);
+    if (!(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
         fw->sp_l = 0.0f;
         fw->sp_r = 0.0f;
         fw->duty_l = 0;
         fw->duty_r = 0;
         wheel_reset(&fw->wheel_l);
         wheel_reset(&fw->wheel_r);
-    } else if (due & (1u << FW_PART_WHEELS)) {
-        half = fw->w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
-        fw->sp_l = fw->v_fwd + half;
-        fw->sp_r = fw->v_fwd - half;
-        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, c->dt_axis),
-                                c->motor_left_sign);
-        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, c->dt_axis),
-                                c->motor_right_sign);
+    } else {
+        half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
+        fw->sp_l = v_fwd + half;
+        fw->sp_r = v_fwd - half;
+        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, dt), c->motor_left_sign);
+        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, dt), c->motor_right_sign);
     }
-    if ((due & (1u << FW_PART_XY)) && odom_xy_due(&fw->odom, &c->odom)) {
+    if ((!fold || c->odom.xy_ticks == 1u) && odom_xy_due(&fw->odom, &c->odom)) {
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
-    fw->phase = (uint8_t)((fw->phase + 1u < c->axis_ticks) ? fw->phase + 1u : 0u);
+    fw->chore = (uint8_t)((fw->chore + 1u < c->odom.xy_ticks) ? fw->chore + 1u : 0u);
     fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated ||
                             fw->wheel_r.saturated);
 

@@ -46,9 +46,7 @@ typedef struct fw {
     watchdog_t wd;
     float sp_l;          /* mm/s: left wheel speed setpoint of the last tick */
     float sp_r;          /* mm/s: right wheel speed setpoint */
-    float v_fwd;         /* mm/s: forward reference speed of the last forward-axis step */
-    float w_turn;        /* deg/s: turn reference rate of the last turn-axis step */
-    int16_t duty_l;      /* duty*1e4, motor sign applied: left output, held between loop steps */
+    int16_t duty_l;      /* duty*1e4, motor sign applied: left output of the last tick */
     int16_t duty_r;      /* duty*1e4, motor sign applied: right output */
     uint16_t adc[FW_ADC_CHANNELS]; /* counts: ADC sample of the last tick (0 if disabled) */
     uint16_t sonar[4];   /* us: sonar echoes of the last tick (0 if disabled) */
@@ -60,7 +58,8 @@ typedef struct fw {
     uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;  /* servo whose pulse width is refreshed next */
-    uint8_t phase;       /* tick within the axis period, 0..config_t.axis_ticks-1 (FW_PART_* in fw.c) */
+    uint8_t chore;       /* tick within the chore period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
+                            the X/Y step on another (fw.c) */
 } fw_t;
 
 /* Power-on reset: unconfigured, spec defaults loaded, all outputs off/safe. */

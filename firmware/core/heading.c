@@ -90,6 +90,17 @@ void heading_fold(heading_t *h)
     heading_wrap_q(h);
 }
 
+float heading_wrap180_near(float deg)
+{
+    if (deg >= 180.0f) {
+        return deg - 360.0f;
+    }
+    if (deg < -180.0f) {
+        return deg + 360.0f;
+    }
+    return deg;
+}
+
 float heading_wrap180(float deg)
 {
     return deg - 360.0f * floorf(deg * (1.0f / 360.0f) + 0.5f);

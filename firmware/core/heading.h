@@ -8,11 +8,11 @@
  *
  * Cost on a 16 MHz AVR (no FPU; worst cycles, ctest firmware_avr_cycles, docs/firmware.md
  * AVR budget): heading_update() runs every tick, so it only adds the tick's angle to the
- * residual and to the float heading (1 461 cycles); heading_fold() (1 274) rounds the
+ * residual and to the float heading (1 348 cycles); heading_fold() (1 290) rounds the
  * residual into the fixed-point angle and re-derives the float heading from it, or
- * heading_fuse() (2 251, its fold included) does so with compass fusion, once per axis
- * period on the wheel loops' tick, right after heading_update() (fw.c: every 4th tick
- * above 500 Hz, every 2nd above 250 Hz, else every tick).
+ * heading_fuse() (2 241, its fold included) does so with compass fusion, once per chore
+ * period of ~10 ms on its first tick, right after heading_update() (fw.c: every 10th tick
+ * at 1 kHz, every 4th at 400 Hz, every tick below 200 Hz).
  */
 #ifndef NAVKIT_HEADING_H
 #define NAVKIT_HEADING_H
@@ -52,5 +52,9 @@ float heading_deg(const heading_t *h);
 uint16_t heading_deg10(const heading_t *h);
 /* deg wrapped into -180 <= result < 180 (shortest way). */
 float heading_wrap180(float deg);
+/* deg within -540..540 (as between two headings of 0..360, or one plus half that) wrapped
+ * into -180 <= result < 180 by one whole turn at most: two compares, no floor (~1/3 of
+ * heading_wrap180() on an AVR), for the every-tick users. */
+float heading_wrap180_near(float deg);
 
 #endif /* NAVKIT_HEADING_H */

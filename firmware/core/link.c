@@ -65,7 +65,7 @@ static void link_fwd(fw_t *fw, const navkit_micro_cmd_t *c)
         link_modify_result(&fw->link, motion_modify(&fw->fwd, (float)c->distance, speed, accel), c->fwd_cmd);
         break;
     case NAVKIT_FWD_CMD_STOP:
-        motion_stop(&fw->fwd, accel, cfg->dt_axis);
+        motion_stop(&fw->fwd, accel, cfg->dt);
         break;
     default: /* NAVKIT_FWD_CMD_NONE */
         break;
@@ -87,7 +87,7 @@ static void link_turn(fw_t *fw, const navkit_micro_cmd_t *c)
         link_modify_result(&fw->link, turn_modify(&fw->turn, target, rate, accel), c->turn_cmd);
         break;
     case NAVKIT_TURN_CMD_STOP:
-        turn_stop(&fw->turn, accel, cfg->dt_axis);
+        turn_stop(&fw->turn, accel, cfg->dt);
         break;
     case NAVKIT_TURN_CMD_HDG_SEL:
         turn_hdg_select(&fw->turn, fw->odom.enc_l, fw->odom.enc_r, fw_turn_angle(fw), target, heading_deg(&fw->hdg),
@@ -254,9 +254,9 @@ static uint8_t link_frame(fw_t *fw, const uint8_t *frame, size_t len)
                 for (i = 0u; i < SERVO_COUNT; i++) {
                     servo_retime(&fw->servo[i], fw->cfg.control_rate);
                 }
-                /* axis_ticks may have changed: the axis period starts again at its first
-                   tick (fw_t.phase must stay below axis_ticks, or a tick runs no part) */
-                fw->phase = 0u;
+                /* odom.xy_ticks may have changed: the chore period starts again at its
+                   first tick (fw_t.chore must stay below xy_ticks, or no fold comes) */
+                fw->chore = 0u;
             }
             link_cfg_result(&fw->link, r, type);
         }

@@ -3,6 +3,8 @@
 
 #include <math.h>
 
+#include "heading.h"
+
 #define ODOM_DEG_TO_RAD 0.01745329252f
 
 void odom_reset(odom_t *o)
@@ -41,19 +43,6 @@ static float odom_lowpass(float v, int32_t d, const odom_geom_t *g)
         return v - v * g->speed_alpha;
     }
     return v + ((float)d * g->speed_per_count - v) * g->speed_alpha;
-}
-
-/* deg (-540..540, as between two headings of 0..360 and their midpoint) wrapped into
-   -180..180 by whole turns, without the floor of heading_wrap180(). */
-static float odom_wrap180(float deg)
-{
-    if (deg >= 180.0f) {
-        return deg - 360.0f;
-    }
-    if (deg < -180.0f) {
-        return deg + 360.0f;
-    }
-    return deg;
 }
 
 /* Sine and cosine of deg (-180..180): one library call for the component nearer zero,
@@ -114,7 +103,7 @@ void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg)
     /* one X/Y step along the heading at its middle */
     float ds = (float)o->xy_sum * (0.5f * g->mm_per_count); /* mm */
     float c, sn;
-    odom_sincos(odom_wrap180(o->xy_h0 + 0.5f * odom_wrap180(heading_deg - o->xy_h0)), &sn, &c);
+    odom_sincos(heading_wrap180_near(o->xy_h0 + 0.5f * heading_wrap180_near(heading_deg - o->xy_h0)), &sn, &c);
     odom_accumulate(&o->x, &o->x_frac, ds * c);
     odom_accumulate(&o->y, &o->y_frac, -ds * sn);
     o->xy_sum = 0;

@@ -60,8 +60,9 @@ float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float 
                 float tol, float vtol, float dt)
 {
     if (t->hdg) {
-        /* re-aim the axis at the gyro heading every tick: target = here + heading error */
-        float err = heading_wrap180(t->hdg_target - heading_now);
+        /* re-aim the axis at the gyro heading every tick: target = here + heading error
+           (both headings 0..360: the near wrap is enough) */
+        float err = heading_wrap180_near(t->hdg_target - heading_now);
         float target = meas + err;
         float vmax = kp * fabsf(err);
         if (vmax > t->hdg_rate) {

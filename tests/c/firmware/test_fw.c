@@ -1123,9 +1123,9 @@ static void test_pending_repeat_checked(void)
 
 static void test_control_rate_change_mid_period(void)
 {
-    /* a micro_cfg_geometry from 1 kHz (4 ticks per axis period) to 250 Hz (1) arriving on
-       the last tick of a period: the next tick runs every part (forward axis, wheel loops),
-       none is skipped */
+    /* a micro_cfg_geometry from 1 kHz (a chore period of 10 ticks) to 250 Hz (2) arriving on
+       the last tick of a period: the chore period starts again at its first tick (the fold)
+       rather than running past the new period; the move goes on at the new rate */
     navkit_micro_cfg_geometry_t g;
     navkit_micro_cmd_t c;
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
@@ -1138,7 +1138,7 @@ static void test_control_rate_change_mid_period(void)
     c.speed = 200;
     c.distance = 1000;
     host_run(&c, 0.5);
-    while (fw.phase != 3u) {
+    while (fw.chore != 9u) {
         sim_run(&fw, &h, 1);
     }
     navkit_micro_cfg_geometry_defaults(&g);
@@ -1146,13 +1146,13 @@ static void test_control_rate_change_mid_period(void)
     g.time_tag = 4;
     sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
     fw_link_poll(&fw);
-    CHECK(fw.cfg.axis_ticks == 1u && fw.phase == 0u);
+    CHECK(fw.cfg.odom.xy_ticks == 2u && fw.chore == 0u);
     togo = fw.fwd.prof.togo;
     integ = fw.wheel_l.integ;
     sim_run(&fw, &h, 1);
     CHECK(fw.fwd.prof.togo < togo - 0.5f); /* mm: 200 mm/s for 4 ms is 0.8 mm */
     CHECK(fw.wheel_l.integ != integ);
-    CHECK(fw.phase == 0u);
+    CHECK(fw.chore == 1u);
     /* and the move ends on its target at 250 Hz (a frame every 100 ms: 25 ticks) */
     for (k = 0; k < 80; k++) {
         sim_cmd(&fw, &h, &c);

@@ -183,11 +183,11 @@ static void test_forever_then_modify(void)
     double maxpos, pos;
     long back;
     /* forward: 2e9 mm, then 1000 mm (used to reach 1024 and back up) */
-    pos = forever_then_modify(2e9, 3.0, 1000.0, 300.0, 300.0, 0.004, &maxpos, &back);
+    pos = forever_then_modify(2e9, 3.0, 1000.0, 300.0, 300.0, 0.001, &maxpos, &back);
     CHECK_NEAR(pos, 1000.0, 1.0);
     CHECK(maxpos < 1001.0 && back == 0);
     /* turn: 2e8 deg (turn_distance 2e9 deg*10), then 90 deg (used to reach 96 and back) */
-    pos = forever_then_modify(2e8, 1.0, 90.0, 45.0, 90.0, 0.004, &maxpos, &back);
+    pos = forever_then_modify(2e8, 1.0, 90.0, 45.0, 90.0, 0.001, &maxpos, &back);
     CHECK_NEAR(pos, 90.0, 0.4);
     CHECK(maxpos < 90.4 && back == 0);
 }
@@ -291,7 +291,7 @@ static int prop_accel_broken(double prev, double v, double dv)
 /* One random move; returns 0 when every property held. */
 static int prop_case(unsigned long idx)
 {
-    /* s: 0.004 is the firmware's axis period at its default 1 kHz tick (axis_ticks 4) */
+    /* s: 0.001 is the firmware's default tick (1 kHz), 0.004 250 Hz */
     static const double dts[] = {0.001, 0.0005, 0.002, 0.004, 0.01};
     profile_t p;
     double dt = dts[rng_next() % 5u];
