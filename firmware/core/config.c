@@ -17,6 +17,7 @@ static void config_derive(config_t *c)
     c->turn_vwindow = CONFIG_TRACK_VWINDOW_MM_S * c->wheel_deg_per_mm;
     c->turn_tol = c->stop_tolerance * c->wheel_deg_per_mm;
     c->turn_vtol = CONFIG_DONE_VTOL_MM_S * c->wheel_deg_per_mm;
+    wheel_gains_tick(&c->wheel, c->dt);
 }
 
 void config_reset(config_t *c)
@@ -48,7 +49,8 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     }
     if (navkit_micro_cfg_geometry_check(m, 0) != NAVKIT_OK || !config_sign_ok(m->enc_left_sign) ||
         !config_sign_ok(m->enc_right_sign) || !config_sign_ok(m->motor_left_sign) ||
-        !config_sign_ok(m->motor_right_sign) || !config_sign_ok(m->gyro_sign)) {
+        !config_sign_ok(m->motor_right_sign) || !config_sign_ok(m->gyro_sign) ||
+        m->control_rate > CONFIG_RATE_MAX) {
         return CONFIG_ERR_RANGE;
     }
     c->mm_per_count = CONFIG_PI * 0.01f * (float)m->wheel_diameter / (float)m->counts_per_rev;

@@ -20,11 +20,19 @@
 #define CONFIG_TRACK_VWINDOW_MM_S 50.0f /* mm/s: its speed lead when pulled back */
 #define CONFIG_DONE_VTOL_MM_S 10.0f     /* mm/s: "stopped" for done */
 
+/* Highest control_rate (Hz) this build accepts; a micro_cfg_geometry above it is refused
+ * (CONFIG_ERR_RANGE) like one outside the spec's 100..2000. A target whose tick cannot
+ * keep up sets its own with -DCONFIG_RATE_MAX=...: a 16 MHz AVR re-plans both axes every
+ * tick in float at up to 400 Hz (docs/firmware.md, AVR budget). */
+#ifndef CONFIG_RATE_MAX
+#define CONFIG_RATE_MAX 2000u
+#endif
+
 /* Result of config_*(). */
 typedef enum {
     CONFIG_OK = 0,        /* applied */
     CONFIG_ERR_HASH = 1,  /* spec_hash differs from the firmware's: refused */
-    CONFIG_ERR_RANGE = 2  /* a field out of range (or a sign of 0): refused */
+    CONFIG_ERR_RANGE = 2  /* a field out of range (or a sign of 0, or control_rate above CONFIG_RATE_MAX): refused */
 } config_result_t;
 
 typedef struct {
@@ -75,7 +83,7 @@ typedef struct {
 void config_reset(config_t *c);
 /* 1 when all three config messages have been applied since reset. */
 uint8_t config_complete(const config_t *c);
-/* Apply micro_cfg_geometry. */
+/* Apply micro_cfg_geometry (control_rate at most CONFIG_RATE_MAX). */
 config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *m);
 /* Apply micro_cfg_motion. */
 config_result_t config_motion(config_t *c, const navkit_micro_cfg_motion_t *m);

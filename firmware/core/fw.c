@@ -158,8 +158,9 @@ void fw_tick(fw_t *fw)
 
     fw_sample(fw, &raw_l, &raw_r);
     /* the chores (estimation only, nothing re-planned): the heading fold on the first tick
-       of the ~10 ms chore period, the X/Y step when due on any other (on every tick when
-       the period is one tick), so a tick pays for at most one of them */
+       of the ~10 ms chore period, the X/Y step when due on any other, so at 200 Hz and
+       above a tick pays for at most one of them (below, the period is one tick and both
+       run every tick) */
     fold = (uint8_t)(fw->chore == 0u);
 
     /* estimation */

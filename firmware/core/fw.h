@@ -6,8 +6,9 @@
  *   every fw_tick_period_us(&fw):  fw_link_poll(&fw); fw_tick(&fw);
  * (or, where a poll may take longer than a tick: the timer counts due ticks, the main loop
  * runs fw_tick() for each and fw_link_poll() when none is due; hal.h, ordering contract).
- * The tick rate comes from micro_cfg_geometry.control_rate (1 kHz by default) and may
- * change when that config arrives, so read fw_tick_period_us() before every tick.
+ * The tick rate comes from micro_cfg_geometry.control_rate (1 kHz by default, at most the
+ * target's CONFIG_RATE_MAX, config.h: a 16 MHz AVR builds with 400 Hz) and may change when
+ * that config arrives, so read fw_tick_period_us() before every tick.
  */
 #ifndef NAVKIT_FW_H
 #define NAVKIT_FW_H

@@ -10,8 +10,9 @@
  *      tick uses and reads that state for micro_data). Only fw_link_poll() calls
  *      hal_uart_*; it drains the UART RX until hal_uart_read() returns 0, and writes a
  *      whole micro_data frame only when hal_uart_tx_free() says it fits (otherwise that
- *      frame is skipped, never half-sent). A poll that handles a frame can take longer
- *      than a tick (on a 16 MHz AVR ~37 000 cycles, 2.3 ticks at 1 kHz): such a target
+ *      frame is skipped, never half-sent). A poll that handles a frame can take most of
+ *      a tick period or more (on a 16 MHz AVR ~37 000 cycles, 0.93 of its 400 Hz period,
+ *      so poll plus tick overrun it): such a target
  *      counts due ticks in its timer interrupt and runs fw_tick() for each from its main
  *      loop, fw_link_poll() when none is due; the delayed ticks then run late, back to
  *      back, none lost (docs/firmware.md, AVR budget).

@@ -255,7 +255,8 @@ static uint8_t link_frame(fw_t *fw, const uint8_t *frame, size_t len)
                     servo_retime(&fw->servo[i], fw->cfg.control_rate);
                 }
                 /* odom.xy_ticks may have changed: the chore period starts again at its
-                   first tick (fw_t.chore must stay below xy_ticks, or no fold comes) */
+                   first tick (a chore count left at or above a shorter xy_ticks would
+                   put the next fold one tick late) */
                 fw->chore = 0u;
             }
             link_cfg_result(&fw->link, r, type);

@@ -47,7 +47,8 @@ void odom_reset(odom_t *o);
 /* Every tick: counts, wheel speeds, standstill, the X/Y step in progress; raw_l/raw_r
  * (counts, raw sign), heading_deg (deg, clockwise, 0..360). */
 void odom_count(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
-/* 1 when the X/Y step in progress has xy_ticks ticks or more (it may wait a few ticks). */
+/* 1 when the X/Y step in progress has xy_ticks ticks or more (fw.c runs it on the next
+ * tick that is not a fold's, so it waits one tick at most). */
 uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g);
 /* The X/Y half: finish the step in progress at heading_deg (deg, clockwise, 0..360). */
 void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg);

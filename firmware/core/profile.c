@@ -5,11 +5,6 @@
 
 /* u: below this the reference is on the target */
 #define PROFILE_EPS_POS 1e-4f
-/* The braking curve is planned at (1 - margin) * amax. Following a curve that needs
-   exactly amax is marginally stable in single precision (a rounding error above the
-   curve can only grow once the limit clamps); the margin lets every tick correct it. */
-#define PROFILE_BRAKE_MARGIN 2e-3f
-
 /* Largest speed (u/s, >= 0) from which decelerating by k_dvp per tick, one tick at a time
  * of dt, covers exactly d (u, >= 0): the terms are r, r+dv, ..., r+(m-1)dv with
  * 0 < r <= dv and their sum times dt equal to d. */

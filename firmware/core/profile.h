@@ -15,6 +15,12 @@
 
 #include <stdint.h>
 
+/* The braking curve (and a stop) is planned at (1 - margin) * amax: a stop takes
+   amax*dt*(1 - margin) off the reference speed per tick. Following a curve that needs
+   exactly amax is marginally stable in single precision (a rounding error above the
+   curve can only grow once the limit clamps); the margin lets every tick correct it. */
+#define PROFILE_BRAKE_MARGIN 2e-3f
+
 typedef struct {
     float togo;  /* u: reference distance still to go, + toward the target */
     float togo_c; /* u: compensation of togo's rounding (Kahan): the exact distance to go is togo - togo_c */

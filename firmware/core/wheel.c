@@ -9,6 +9,11 @@ void wheel_reset(wheel_t *w)
     w->saturated = 0u;
 }
 
+void wheel_gains_tick(wheel_gains_t *g, float dt)
+{
+    g->kd_dt = g->kd / dt;
+}
+
 float wheel_update(wheel_t *w, const wheel_gains_t *g, float sp, float meas, float dt)
 {
     float e = sp - meas;
@@ -25,8 +30,8 @@ float wheel_update(wheel_t *w, const wheel_gains_t *g, float sp, float meas, flo
         w->integ = integ;
     }
     out = g->kff * sp + g->kp * e + w->integ;
-    if (g->kd != 0.0f) {
-        out += g->kd * (e - w->prev_err) / dt;
+    if (g->kd_dt != 0.0f) {
+        out += g->kd_dt * (e - w->prev_err);
     }
     w->prev_err = e;
     w->saturated = 0u;

@@ -16,6 +16,7 @@ typedef struct {
     float kd;        /* duty/(mm/s^2): derivative of the speed error */
     float i_limit;   /* duty: clamp on the integral term */
     float pwm_limit; /* duty: clamp on the output, 0 < pwm_limit <= 1 */
+    float kd_dt;     /* duty/(mm/s): kd / dt for the tick dt, set by wheel_gains_tick() */
 } wheel_gains_t;
 
 typedef struct {
@@ -27,8 +28,11 @@ typedef struct {
 
 /* Zero the loop (integral, memory and output). */
 void wheel_reset(wheel_t *w);
-/* One tick: speed setpoint sp (mm/s), measured speed meas (mm/s), tick dt (s);
- * returns the duty (-pwm_limit..pwm_limit, + = forward). */
+/* Derive the per-tick gains for a tick of dt (s): after kd or dt changes, before
+ * wheel_update() (no division per tick). */
+void wheel_gains_tick(wheel_gains_t *g, float dt);
+/* One tick: speed setpoint sp (mm/s), measured speed meas (mm/s), tick dt (s, the one
+ * given to wheel_gains_tick()); returns the duty (-pwm_limit..pwm_limit, + = forward). */
 float wheel_update(wheel_t *w, const wheel_gains_t *g, float sp, float meas, float dt);
 
 #endif /* NAVKIT_WHEEL_H */

@@ -16,13 +16,14 @@ static void boot(void)
     sim_run(&fw, &h, 1100); /* gyro calibration */
 }
 
-/* The host: repeat command c (same time tag) every 100 ms for `seconds`. */
+/* The host: repeat command c (same time tag) every 100 ms (control_rate / 10 ticks) for
+   `seconds`. */
 static void host_run(const navkit_micro_cmd_t *c, double seconds)
 {
     long frames = (long)(seconds * 10.0 + 0.5), f;
     for (f = 0; f < frames; f++) {
         sim_cmd(&fw, &h, c);
-        sim_run(&fw, &h, 100);
+        sim_run(&fw, &h, (long)fw.cfg.control_rate / 10);
     }
 }
 
@@ -1138,9 +1139,10 @@ static void test_control_rate_change_mid_period(void)
     c.speed = 200;
     c.distance = 1000;
     host_run(&c, 0.5);
-    while (fw.chore != 9u) {
+    for (k = 0; k < 20 && fw.chore != 9u; k++) {
         sim_run(&fw, &h, 1);
     }
+    CHECK(fw.chore == 9u); /* within 20 ticks: the period is 10 */
     navkit_micro_cfg_geometry_defaults(&g);
     g.control_rate = 250;
     g.time_tag = 4;
@@ -1242,6 +1244,104 @@ static void test_watchdog_hdg_sel(void)
     CHECK(d.watchdog_stops == 1);
 }
 
+/* Boot, configure at control_rate `rate` (Hz) and cruise: the host sends start command c
+   every 100 ms for 2 s. */
+static void cruise_at(uint16_t rate, const navkit_micro_cmd_t *c)
+{
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    boot();
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    navkit_micro_cfg_io_defaults(&io);
+    g.control_rate = rate;
+    sim_configure_with(&fw, &h, &g, &m, &io);
+    host_run(c, 2.0);
+}
+
+/* A stop from cruise, tick by tick: the stop command `stop` (fwd 5 or turn 5, repeated
+ * every 100 ms), or with stop NULL the host silent until the watchdog stops (within the
+ * timeout plus 100 ms). v0 (u/s) is the reference speed *vel before the stop's first tick
+ * (the one after the command, or the one the watchdog trips in). From that tick on, while
+ * the speed before the tick is above decel*dt (decel in u/s^2), each tick must take
+ * decel*dt off it (less the braking curve's margin, PROFILE_BRAKE_MARGIN), and the reference
+ * must rest (speed 0) within ceil(v0 / (decel*dt)) + 2 ticks. */
+static void stop_braking(const float *vel, double decel, const navkit_micro_cmd_t *stop)
+{
+    const long per_frame = (long)fw.cfg.control_rate / 10; /* ticks per 100 ms */
+    const double dv = decel * fw.cfg.dt;                   /* u/s per tick */
+    const double drop = dv * (1.0 - PROFILE_BRAKE_MARGIN); /* u/s per tick, the margin less */
+    double v0 = *vel, prev, worst = 0.0;                   /* u/s */
+    long n, limit;
+    if (stop) {
+        sim_cmd(&fw, &h, stop);
+        sim_run(&fw, &h, 1);
+    } else {
+        limit = (long)fw.cfg.watchdog_timeout_ms * fw.cfg.control_rate / 1000 + per_frame;
+        for (n = 0; n < limit && !(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP); n++) {
+            v0 = *vel;
+            sim_run(&fw, &h, 1);
+        }
+        CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    }
+    CHECK(v0 > 10.0 * dv); /* cruising at the stop */
+    limit = (long)ceil(v0 / dv) + 2;
+    prev = v0;
+    for (n = 1;; n++) { /* n ticks of the stop have run */
+        if (prev > dv && fabs(prev - *vel - drop) > worst) {
+            worst = fabs(prev - *vel - drop);
+        }
+        if (n >= limit || *vel == 0.0f) {
+            break;
+        }
+        prev = *vel;
+        if (stop && n % per_frame == 0) {
+            sim_cmd(&fw, &h, stop);
+        }
+        sim_run(&fw, &h, 1);
+    }
+    CHECK_NEAR(worst, 0.0, 5e-4 * dv); /* a quarter of the margin; float rounding stays below 1e-4 u/s */
+    CHECK(*vel == 0.0f);
+}
+
+static void test_stop_braking_dt(void)
+{
+    /* a stop plans its braking for the tick's dt, at 1 kHz and at 250 Hz (dt 1 and 4 ms) */
+    static const uint16_t rates[] = {1000u, 250u}; /* Hz */
+    navkit_micro_cmd_t c, s;
+    unsigned k;
+    for (k = 0; k < sizeof rates / sizeof rates[0]; k++) {
+        /* forward at 300 mm/s: the watchdog stop (500 mm/s^2), then a fwd 5 at 600 mm/s^2 */
+        c = cmd();
+        c.fwd_cmd = NAVKIT_FWD_CMD_START;
+        c.speed = 300;
+        c.distance = 2000000000;
+        cruise_at(rates[k], &c);
+        stop_braking(&fw.fwd.prof.vel, 500.0, NULL);
+        c.time_tag = ++tag;
+        cruise_at(rates[k], &c);
+        s = cmd();
+        s.fwd_cmd = NAVKIT_FWD_CMD_STOP;
+        s.accel = 600;
+        stop_braking(&fw.fwd.prof.vel, 600.0, &s);
+        /* turning at 45 deg/s: a turn 5 at 120 deg/s^2, then the watchdog stop (500 mm/s^2
+           at the wheel, 150 mm from the centre: 191 deg/s^2) */
+        c = cmd();
+        c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+        c.turn_rate = 450;
+        c.turn_distance = 2000000000;
+        cruise_at(rates[k], &c);
+        s = cmd();
+        s.turn_cmd = NAVKIT_TURN_CMD_STOP;
+        s.turn_accel = 1200;
+        stop_braking(&fw.turn.ax.prof.vel, 120.0, &s);
+        c.time_tag = ++tag;
+        cruise_at(rates[k], &c);
+        stop_braking(&fw.turn.ax.prof.vel, 500.0 / (0.5 * h.track_mm) * 57.29577951308232, NULL);
+    }
+}
+
 int main(void)
 {
     test_unconfigured();
@@ -1267,5 +1367,6 @@ int main(void)
     test_control_rate_change_mid_period();
     test_pending_dropped_by_watchdog();
     test_watchdog_hdg_sel();
+    test_stop_braking_dt();
     CHECK_DONE();
 }
