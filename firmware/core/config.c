@@ -25,9 +25,13 @@ void config_reset(config_t *c)
     navkit_micro_cfg_geometry_t g;
     navkit_micro_cfg_motion_t m;
     navkit_micro_cfg_io_t io;
+    *c = (config_t){0}; /* config_derive() reads both halves before both are applied */
     navkit_micro_cfg_geometry_defaults(&g);
     navkit_micro_cfg_motion_defaults(&m);
     navkit_micro_cfg_io_defaults(&io);
+    if (g.control_rate > CONFIG_RATE_MAX) {
+        g.control_rate = CONFIG_RATE_MAX; /* a target below the spec's default 1 kHz starts at its ceiling */
+    }
     (void)config_geometry(c, &g);
     (void)config_motion(c, &m);
     (void)config_io(c, &io);

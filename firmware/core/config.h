@@ -27,6 +27,9 @@
 #ifndef CONFIG_RATE_MAX
 #define CONFIG_RATE_MAX 2000u
 #endif
+#if CONFIG_RATE_MAX < 100 || CONFIG_RATE_MAX > 2000
+#error "CONFIG_RATE_MAX must be within the spec's control_rate range, 100..2000 Hz"
+#endif
 
 /* Result of config_*(). */
 typedef enum {
@@ -79,7 +82,7 @@ typedef struct {
     uint16_t received;
 } config_t;
 
-/* Spec defaults, nothing received. */
+/* Spec defaults (control_rate at most CONFIG_RATE_MAX), nothing received. */
 void config_reset(config_t *c);
 /* 1 when all three config messages have been applied since reset. */
 uint8_t config_complete(const config_t *c);

@@ -204,8 +204,8 @@ void fw_tick(fw_t *fw)
         half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
         fw->sp_l = v_fwd + half;
         fw->sp_r = v_fwd - half;
-        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l, dt), c->motor_left_sign);
-        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r, dt), c->motor_right_sign);
+        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l), c->motor_left_sign);
+        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r), c->motor_right_sign);
     }
     if ((!fold || c->odom.xy_ticks == 1u) && odom_xy_due(&fw->odom, &c->odom)) {
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));

@@ -11,13 +11,14 @@ void wheel_reset(wheel_t *w)
 
 void wheel_gains_tick(wheel_gains_t *g, float dt)
 {
+    g->ki_dt = g->ki * dt;
     g->kd_dt = g->kd / dt;
 }
 
-float wheel_update(wheel_t *w, const wheel_gains_t *g, float sp, float meas, float dt)
+float wheel_update(wheel_t *w, const wheel_gains_t *g, float sp, float meas)
 {
     float e = sp - meas;
-    float integ = w->integ + g->ki * e * dt;
+    float integ = w->integ + g->ki_dt * e;
     float out;
 
     if (integ > g->i_limit) {

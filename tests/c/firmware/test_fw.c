@@ -446,6 +446,37 @@ static void test_watchdog_stop(void)
     CHECK_NEAR(d.distance, 100.0, 5.0);
 }
 
+/* The configured watchdog_timeout, not the default 300 ms: at 1000 ms and at 150 ms the
+   robot goes on until the timeout since the last frame and stops at it (ms = ticks at 1 kHz). */
+static void test_watchdog_timeout_config(void)
+{
+    static const uint16_t timeout[] = {1000u, 150u}; /* ms */
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    navkit_micro_cmd_t c;
+    unsigned k;
+    for (k = 0; k < sizeof timeout / sizeof timeout[0]; k++) {
+        boot();
+        navkit_micro_cfg_geometry_defaults(&g);
+        navkit_micro_cfg_motion_defaults(&m);
+        navkit_micro_cfg_io_defaults(&io);
+        m.watchdog_timeout = timeout[k];
+        sim_configure_with(&fw, &h, &g, &m, &io);
+        c = cmd();
+        c.fwd_cmd = NAVKIT_FWD_CMD_START;
+        c.speed = 300;
+        c.distance = 2000000000;
+        host_run(&c, 1.0); /* a frame every 100 ms: no trip even at 150 ms */
+        CHECK(!(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
+        /* silence: the last frame came 100 ticks ago */
+        sim_run(&fw, &h, (long)timeout[k] - 102);
+        CHECK(!(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP));
+        sim_run(&fw, &h, 2);
+        CHECK(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP);
+    }
+}
+
 static void test_servo_dio_sensors(void)
 {
     navkit_micro_cmd_t c;
@@ -625,6 +656,42 @@ static void test_limits_and_signs(void)
     host_run(&c, 3.0);
     CHECK(fw.turn.ax.prof.vmax == 45.0f);
     CHECK_NEAR(h.yaw_deg, 90.0, 1.0);
+}
+
+/* A command's 0 takes the configured default (micro_cfg_motion), here not the spec's:
+   forward accel 250 mm/s^2 and speed 150 mm/s, turn 120 deg/s^2 and 30 deg/s. */
+static void test_zero_takes_configured_default(void)
+{
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    navkit_micro_cmd_t c;
+    boot();
+    navkit_micro_cfg_geometry_defaults(&g);
+    navkit_micro_cfg_motion_defaults(&m);
+    navkit_micro_cfg_io_defaults(&io);
+    m.default_accel = 250;
+    m.default_speed = 150;
+    m.default_turn_accel = 1200;
+    m.default_turn_rate = 300;
+    sim_configure_with(&fw, &h, &g, &m, &io);
+    c = cmd();
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.distance = 5000;
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_distance = 3600;
+    CHECK_NEAR(ramp_slope(&c, &fw.fwd.prof.vel, 0.1, 0.4), 250.0, 5.0);
+    host_run(&c, 1.0);
+    CHECK(fw.fwd.prof.vmax == 150.0f && fw.turn.ax.prof.vmax == 30.0f);
+    CHECK_NEAR(fw.fwd.prof.vel, 150.0, 0.5);
+    boot();
+    sim_configure_with(&fw, &h, &g, &m, &io);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_distance = 3600;
+    CHECK_NEAR(ramp_slope(&c, &fw.turn.ax.prof.vel, 0.05, 0.2), 120.0, 2.5);
+    host_run(&c, 1.0);
+    CHECK_NEAR(fw.turn.ax.prof.vel, 30.0, 0.5);
 }
 
 static void test_turn_modify_stop_latch(void)
@@ -1319,7 +1386,6 @@ static void test_stop_braking_dt(void)
         c.distance = 2000000000;
         cruise_at(rates[k], &c);
         stop_braking(&fw.fwd.prof.vel, 500.0, NULL);
-        c.time_tag = ++tag;
         cruise_at(rates[k], &c);
         s = cmd();
         s.fwd_cmd = NAVKIT_FWD_CMD_STOP;
@@ -1336,7 +1402,6 @@ static void test_stop_braking_dt(void)
         s.turn_cmd = NAVKIT_TURN_CMD_STOP;
         s.turn_accel = 1200;
         stop_braking(&fw.turn.ax.prof.vel, 120.0, &s);
-        c.time_tag = ++tag;
         cruise_at(rates[k], &c);
         stop_braking(&fw.turn.ax.prof.vel, 500.0 / (0.5 * h.track_mm) * 57.29577951308232, NULL);
     }
@@ -1351,9 +1416,11 @@ int main(void)
     test_speed_limited_plant();
     test_turns();
     test_watchdog_stop();
+    test_watchdog_timeout_config();
     test_servo_dio_sensors();
     test_forever_then_modify();
     test_limits_and_signs();
+    test_zero_takes_configured_default();
     test_turn_modify_stop_latch();
     test_watchdog_turn_and_safe_state();
     test_hdg_hold_keeps_bias_fresh();

@@ -229,41 +229,41 @@ static void test_odom_long_run_precision(void)
 
 static void test_wheel(void)
 {
-    wheel_gains_t g = {0.0018f, 0.004f, 0.04f, 0.0f, 0.5f, 0.8f, 0.0f};
+    wheel_gains_t g = {.kff = 0.0018f, .kp = 0.004f, .ki = 0.04f, .i_limit = 0.5f, .pwm_limit = 0.8f};
     wheel_t w;
     float d;
     int i;
     wheel_gains_tick(&g, 0.001f);
     wheel_reset(&w);
     /* feed-forward + P at zero error */
-    d = wheel_update(&w, &g, 100.0f, 100.0f, 0.001f);
+    d = wheel_update(&w, &g, 100.0f, 100.0f);
     CHECK_NEAR(d, 0.18, 1e-5);
     /* saturates at pwm_limit */
-    d = wheel_update(&w, &g, 1000.0f, 0.0f, 0.001f);
+    d = wheel_update(&w, &g, 1000.0f, 0.0f);
     CHECK_NEAR(d, 0.8, 1e-6);
     CHECK(w.saturated);
     /* anti-windup: a stalled wheel does not wind the integral while saturated */
     for (i = 0; i < 10000; i++) {
-        wheel_update(&w, &g, 1000.0f, 0.0f, 0.001f);
+        wheel_update(&w, &g, 1000.0f, 0.0f);
     }
     CHECK(w.integ < 0.05f);
     /* integral clamp */
     wheel_reset(&w);
     for (i = 0; i < 100000; i++) {
-        wheel_update(&w, &g, 10.0f, 0.0f, 0.001f);
+        wheel_update(&w, &g, 10.0f, 0.0f);
     }
     CHECK(w.integ <= 0.5f + 1e-6f);
     /* kd: a step in error gives a derivative kick */
     {
-        wheel_gains_t gd = {0.0f, 0.0f, 0.0f, 0.00001f, 0.5f, 1.0f, 0.0f};
+        wheel_gains_t gd = {.kd = 0.00001f, .i_limit = 0.5f, .pwm_limit = 1.0f};
         wheel_gains_tick(&gd, 0.001f);
         wheel_reset(&w);
-        d = wheel_update(&w, &gd, 10.0f, 0.0f, 0.001f);
+        d = wheel_update(&w, &gd, 10.0f, 0.0f);
         CHECK_NEAR(d, 0.00001 * 10.0 / 0.001, 1e-5);
         /* at 250 Hz the same step gives a quarter of the kick */
         wheel_gains_tick(&gd, 0.004f);
         wheel_reset(&w);
-        d = wheel_update(&w, &gd, 10.0f, 0.0f, 0.004f);
+        d = wheel_update(&w, &gd, 10.0f, 0.0f);
         CHECK_NEAR(d, 0.00001 * 10.0 / 0.004, 1e-5);
     }
 }
@@ -317,9 +317,9 @@ static void test_servo_goto(void)
 static void test_servo_scan(void)
 {
     servo_t s;
-    int i, lo = 0, hi = 0, reversals = 0, prev = 0, dir = 0;
+    int i, lo = 0, hi = 0, reversals = 0, prev = 0, dir = 0, first_dir = 0;
     servo_reset(&s);
-    /* seed example: scan between +80 and -90 deg at 30 deg/s */
+    /* seed example: scan between +80 and -90 deg at 30 deg/s, toward param1 (+80) first */
     servo_command(&s, &cal, 300, 800, -900, 1000u);
     for (i = 0; i < 30000; i++) {
         int p, d;
@@ -337,9 +337,13 @@ static void test_servo_scan(void)
         }
         if (d != 0) {
             dir = d;
+            if (first_dir == 0) {
+                first_dir = d;
+            }
         }
         prev = p;
     }
+    CHECK(first_dir == 1);
     CHECK(hi == 800 && lo == -900);
     /* 30 s at 30 deg/s over a 170 deg span (first leg 80 deg): about 5 reversals */
     CHECK(reversals >= 4 && reversals <= 6);
@@ -470,7 +474,8 @@ static void test_config(void)
     g.control_rate = 500;
     CHECK(config_geometry(&c, &g) == CONFIG_OK);
     CHECK(c.tick_us == 2000u && c.odom.sign_l == -1 && c.odom.xy_ticks == 5u && c.still_ticks == 125u);
-    /* the build's ceiling (the spec's 2000 here; the AVR cycles test runs a 400 Hz one) */
+    /* the build's ceiling (the spec's 2000 here; firmware_rate_ceiling and the AVR cycles
+       test build a 400 Hz one) */
     g.control_rate = (uint16_t)(CONFIG_RATE_MAX + 1u);
     CHECK(config_geometry(&c, &g) == CONFIG_ERR_RANGE && c.control_rate == 500u && c.tick_us == 2000u);
     g.control_rate = CONFIG_RATE_MAX;
@@ -483,10 +488,12 @@ static void test_config(void)
     m.watchdog_timeout = 300;
     m.wheel_kd = 10; /* 1e-5 duty/(mm/s^2) */
     CHECK(config_motion(&c, &m) == CONFIG_OK);
-    CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 500.0, 1e-9); /* kd / dt at 500 Hz */
+    CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 500.0, 1e-9);   /* kd / dt at 500 Hz */
+    CHECK_NEAR(c.wheel.ki_dt, 0.04 / 500.0, 1e-9);   /* ki * dt (ki 400 = 0.04 duty/mm) */
     g.control_rate = 250;
     CHECK(config_geometry(&c, &g) == CONFIG_OK);
-    CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 250.0, 1e-9); /* a new rate re-derives it */
+    CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 250.0, 1e-9); /* a new rate re-derives both */
+    CHECK_NEAR(c.wheel.ki_dt, 0.04 / 250.0, 1e-9);
     CHECK(!config_complete(&c));
     navkit_micro_cfg_io_defaults(&io);
     io.servo_min[3] = 100;
