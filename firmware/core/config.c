@@ -17,7 +17,7 @@ static void config_derive(config_t *c)
     c->turn_vwindow = CONFIG_TRACK_VWINDOW_MM_S * c->wheel_deg_per_mm;
     c->turn_tol = c->stop_tolerance * c->wheel_deg_per_mm;
     c->turn_vtol = CONFIG_DONE_VTOL_MM_S * c->wheel_deg_per_mm;
-    wheel_gains_tick(&c->wheel, c->dt);
+    wheel_gains_set_dt(&c->wheel, c->dt);
 }
 
 void config_reset(config_t *c)

@@ -9,7 +9,7 @@ void wheel_reset(wheel_t *w)
     w->saturated = 0u;
 }
 
-void wheel_gains_tick(wheel_gains_t *g, float dt)
+void wheel_gains_set_dt(wheel_gains_t *g, float dt)
 {
     g->ki_dt = g->ki * dt;
     g->kd_dt = g->kd / dt;

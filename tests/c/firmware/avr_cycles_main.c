@@ -294,6 +294,7 @@ static void configure(uint16_t compass_weight, uint16_t rate)
     navkit_micro_cfg_io_defaults(&io);
     g.compass_weight = compass_weight;
     g.control_rate = rate;
+    m.wheel_kd = 10; /* 1e-5 duty/(mm/s^2): the budget covers the wheel loops' derivative term */
     poll_cfg(navkit_micro_cfg_geometry_encode(&g, board.rx, sizeof board.rx));
     poll_cfg(navkit_micro_cfg_motion_encode(&m, board.rx, sizeof board.rx));
     poll_cfg(navkit_micro_cfg_io_encode(&io, board.rx, sizeof board.rx));

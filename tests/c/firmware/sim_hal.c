@@ -20,7 +20,7 @@ int32_t hal_enc_right(hal_t *h) { return (int32_t)floor(h->enc_r); }
 int16_t hal_gyro_raw(hal_t *h)
 {
     /* the plant's yaw rate (clockwise) as a CCW-positive reading */
-    double w_cw = (h->v_l - h->v_r) / h->track_mm * 57.29577951308232;
+    double w_cw = (h->v_l - h->v_r) / h->track_mm * SIM_RAD_TO_DEG;
     return (int16_t)lround(-w_cw * h->lsb_per_dps) + h->gyro_bias;
 }
 uint16_t hal_compass(hal_t *h) { return h->compass; }
@@ -126,7 +126,7 @@ void sim_run(fw_t *fw, struct hal *h, long n)
         sim_wheel(&h->v_r, h->duty_r, h, dt);
         h->enc_l += h->v_l * dt / h->mm_per_count;
         h->enc_r += h->v_r * dt / h->mm_per_count;
-        h->yaw_deg += (h->v_l - h->v_r) / h->track_mm * 57.29577951308232 * dt;
+        h->yaw_deg += (h->v_l - h->v_r) / h->track_mm * SIM_RAD_TO_DEG * dt;
         h->dist_mm += 0.5 * (h->v_l + h->v_r) * dt;
     }
 }

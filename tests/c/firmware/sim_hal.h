@@ -11,6 +11,7 @@
 #include "fw.h"
 
 #define SIM_UART_CAP 4096u
+#define SIM_RAD_TO_DEG 57.29577951308232 /* deg per rad */
 
 struct hal {
     /* inputs the firmware reads */

@@ -1392,7 +1392,7 @@ static void test_stop_braking_dt(void)
         s.accel = 600;
         stop_braking(&fw.fwd.prof.vel, 600.0, &s);
         /* turning at 45 deg/s: a turn 5 at 120 deg/s^2, then the watchdog stop (500 mm/s^2
-           at the wheel, 150 mm from the centre: 191 deg/s^2) */
+           at the wheel, half the plant's track from the centre: ~191 deg/s^2) */
         c = cmd();
         c.turn_cmd = NAVKIT_TURN_CMD_TURN;
         c.turn_rate = 450;
@@ -1403,7 +1403,7 @@ static void test_stop_braking_dt(void)
         s.turn_accel = 1200;
         stop_braking(&fw.turn.ax.prof.vel, 120.0, &s);
         cruise_at(rates[k], &c);
-        stop_braking(&fw.turn.ax.prof.vel, 500.0 / (0.5 * h.track_mm) * 57.29577951308232, NULL);
+        stop_braking(&fw.turn.ax.prof.vel, 500.0 / (0.5 * h.track_mm) * SIM_RAD_TO_DEG, NULL);
     }
 }
 

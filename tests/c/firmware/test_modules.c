@@ -233,7 +233,7 @@ static void test_wheel(void)
     wheel_t w;
     float d;
     int i;
-    wheel_gains_tick(&g, 0.001f);
+    wheel_gains_set_dt(&g, 0.001f);
     wheel_reset(&w);
     /* feed-forward + P at zero error */
     d = wheel_update(&w, &g, 100.0f, 100.0f);
@@ -256,12 +256,12 @@ static void test_wheel(void)
     /* kd: a step in error gives a derivative kick */
     {
         wheel_gains_t gd = {.kd = 0.00001f, .i_limit = 0.5f, .pwm_limit = 1.0f};
-        wheel_gains_tick(&gd, 0.001f);
+        wheel_gains_set_dt(&gd, 0.001f);
         wheel_reset(&w);
         d = wheel_update(&w, &gd, 10.0f, 0.0f);
         CHECK_NEAR(d, 0.00001 * 10.0 / 0.001, 1e-5);
         /* at 250 Hz the same step gives a quarter of the kick */
-        wheel_gains_tick(&gd, 0.004f);
+        wheel_gains_set_dt(&gd, 0.004f);
         wheel_reset(&w);
         d = wheel_update(&w, &gd, 10.0f, 0.0f);
         CHECK_NEAR(d, 0.00001 * 10.0 / 0.004, 1e-5);
