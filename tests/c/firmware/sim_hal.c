@@ -78,14 +78,19 @@ void sim_configure_with(fw_t *fw, struct hal *h, navkit_micro_cfg_geometry_t *g,
     fw_link_poll(fw);
 }
 
+void sim_cfg_defaults(navkit_micro_cfg_geometry_t *g, navkit_micro_cfg_motion_t *m, navkit_micro_cfg_io_t *io)
+{
+    navkit_micro_cfg_geometry_defaults(g);
+    navkit_micro_cfg_motion_defaults(m);
+    navkit_micro_cfg_io_defaults(io);
+}
+
 void sim_configure(fw_t *fw, struct hal *h)
 {
     navkit_micro_cfg_geometry_t g;
     navkit_micro_cfg_motion_t m;
     navkit_micro_cfg_io_t io;
-    navkit_micro_cfg_geometry_defaults(&g);
-    navkit_micro_cfg_motion_defaults(&m);
-    navkit_micro_cfg_io_defaults(&io);
+    sim_cfg_defaults(&g, &m, &io);
     sim_configure_with(fw, h, &g, &m, &io);
 }
 

@@ -46,6 +46,8 @@ struct hal {
 void sim_init(struct hal *h);
 /* Queue bytes for the firmware's UART. */
 void sim_send(struct hal *h, const uint8_t *data, size_t len);
+/* The three config messages with the spec's defaults. */
+void sim_cfg_defaults(navkit_micro_cfg_geometry_t *g, navkit_micro_cfg_motion_t *m, navkit_micro_cfg_io_t *io);
 /* Send the three given config messages (their time tags set to 1..3). */
 void sim_configure_with(fw_t *fw, struct hal *h, navkit_micro_cfg_geometry_t *g, navkit_micro_cfg_motion_t *m,
                         navkit_micro_cfg_io_t *io);

@@ -458,9 +458,7 @@ static void test_watchdog_timeout_config(void)
     unsigned k;
     for (k = 0; k < sizeof timeout / sizeof timeout[0]; k++) {
         boot();
-        navkit_micro_cfg_geometry_defaults(&g);
-        navkit_micro_cfg_motion_defaults(&m);
-        navkit_micro_cfg_io_defaults(&io);
+        sim_cfg_defaults(&g, &m, &io);
         m.watchdog_timeout = timeout[k];
         sim_configure_with(&fw, &h, &g, &m, &io);
         c = cmd();
@@ -667,9 +665,7 @@ static void test_zero_takes_configured_default(void)
     navkit_micro_cfg_io_t io;
     navkit_micro_cmd_t c;
     boot();
-    navkit_micro_cfg_geometry_defaults(&g);
-    navkit_micro_cfg_motion_defaults(&m);
-    navkit_micro_cfg_io_defaults(&io);
+    sim_cfg_defaults(&g, &m, &io);
     m.default_accel = 250;
     m.default_speed = 150;
     m.default_turn_accel = 1200;
@@ -788,9 +784,7 @@ static void test_watchdog_turn_and_safe_state(void)
     navkit_micro_data_t d;
     double at_trip;
     boot();
-    navkit_micro_cfg_geometry_defaults(&g);
-    navkit_micro_cfg_motion_defaults(&m);
-    navkit_micro_cfg_io_defaults(&io);
+    sim_cfg_defaults(&g, &m, &io);
     io.dio_safe_state = 0x0A5; /* bit 8 and up are inputs: only 0xA5 can show */
     sim_configure_with(&fw, &h, &g, &m, &io);
     sim_run(&fw, &h, 1);
@@ -857,9 +851,7 @@ static void test_compass_fusion_closed_loop(void)
     navkit_micro_cfg_io_t io;
     long f;
     boot();
-    navkit_micro_cfg_geometry_defaults(&g);
-    navkit_micro_cfg_motion_defaults(&m);
-    navkit_micro_cfg_io_defaults(&io);
+    sim_cfg_defaults(&g, &m, &io);
     g.compass_weight = 500; /* 0.5 per s */
     sim_configure_with(&fw, &h, &g, &m, &io);
     c = cmd();
@@ -1319,9 +1311,7 @@ static void cruise_at(uint16_t rate, const navkit_micro_cmd_t *c)
     navkit_micro_cfg_motion_t m;
     navkit_micro_cfg_io_t io;
     boot();
-    navkit_micro_cfg_geometry_defaults(&g);
-    navkit_micro_cfg_motion_defaults(&m);
-    navkit_micro_cfg_io_defaults(&io);
+    sim_cfg_defaults(&g, &m, &io);
     g.control_rate = rate;
     sim_configure_with(&fw, &h, &g, &m, &io);
     host_run(c, 2.0);

@@ -527,9 +527,7 @@ static void test_fw_schedule(void)
         int n_fwd = 0, n_turn = 0, n_wheels = 0, n_fold = 0, n_xy = 0, n_first = 0;
         sim_init(&h);
         fw_init(&fw, &h);
-        navkit_micro_cfg_geometry_defaults(&g);
-        navkit_micro_cfg_motion_defaults(&m);
-        navkit_micro_cfg_io_defaults(&io);
+        sim_cfg_defaults(&g, &m, &io);
         g.control_rate = rate[k];
         sim_configure_with(&fw, &h, &g, &m, &io);
         CHECK(fw.cfg.odom.xy_ticks == chores[k]);

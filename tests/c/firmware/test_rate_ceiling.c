@@ -44,9 +44,7 @@ static void test_config_above_ceiling(void)
     sim_init(&h);
     fw_init(&fw, &h);
     sim_run(&fw, &h, 450); /* gyro calibration */
-    navkit_micro_cfg_geometry_defaults(&g);
-    navkit_micro_cfg_motion_defaults(&m);
-    navkit_micro_cfg_io_defaults(&io);
+    sim_cfg_defaults(&g, &m, &io);
     sim_configure_with(&fw, &h, &g, &m, &io); /* control_rate 1000: refused */
     CHECK(!(fw_status(&fw) & NAVKIT_MICRO_STATUS_CONFIGURED));
     CHECK(!(fw.cfg.received & NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK) && fw.cfg.control_rate == 400u);
