@@ -35,7 +35,8 @@ void heading_reset(heading_t *h);
 /* One tick: raw (LSB, counter-clockwise positive as read), dps_per_lsb (deg/s per LSB,
  * sign included so that the result is clockwise positive), still (1 = the robot stands
  * still), cal_samples (samples for the start-up calibration, i.e. ticks in 1 s), dt (s).
- * Call heading_fold() (or heading_fuse()) at least every ~10 ms (fw.c: every odom.xy_ticks ticks, up to 20 at 2 kHz): the turn between folds must stay under 360 deg. */
+ * Call heading_fold() (or heading_fuse()) at least every ~10 ms (fw.c: every odom.xy_ticks
+ * ticks, up to 20 at 2 kHz): the turn between folds must stay under 360 deg. */
 void heading_update(heading_t *h, int16_t raw, float dps_per_lsb, uint8_t still, uint16_t cal_samples, float dt);
 /* Round what heading_update() integrated since the last fold into the fixed-point angle
  * (the float heading is re-derived from it, so its rounding does not accumulate). */
@@ -52,9 +53,9 @@ float heading_deg(const heading_t *h);
 uint16_t heading_deg10(const heading_t *h);
 /* deg wrapped into -180 <= result < 180 (shortest way). */
 float heading_wrap180(float deg);
-/* deg with -540 <= deg < 540 (as between two headings of 0..360, or one plus half that) wrapped
- * into -180 <= result < 180 by one whole turn at most: two compares, no floor (~1/3 of
- * heading_wrap180() on an AVR), for the every-tick users. */
+/* deg with -540 <= deg < 540 (as between two headings of 0..360, or one plus half that)
+ * wrapped into -180 <= result < 180 by one whole turn at most: two compares, no floor (~1/3
+ * of heading_wrap180() on an AVR), for the every-tick users. */
 float heading_wrap180_near(float deg);
 
 #endif /* NAVKIT_HEADING_H */

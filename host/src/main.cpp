@@ -59,11 +59,11 @@ int main(int argc, char **argv)
     }
     if (!o.lockstep) {  // the rate in use against the micro's watchdog
         const std::string why = frame_watchdog_error(cfg.exec.frame_rate_hz, cfg.micro.motion.watchdog_timeout);
-        if (!why.empty() && o.rate_hz > 0) {
-            std::fprintf(stderr, "navkit-host: --rate %g: %s\n", o.rate_hz, why.c_str());
-            return 2;
-        }
-        if (!why.empty()) {
+        if (!why.empty()) {  // named where the rate came from: the command line (usage) or the INI
+            if (o.rate_hz > 0) {
+                std::fprintf(stderr, "navkit-host: --rate %g: %s\n", o.rate_hz, why.c_str());
+                return 2;
+            }
             std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.rate_watchdog_at.c_str(), why.c_str());
             return 1;
         }
