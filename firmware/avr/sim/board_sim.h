@@ -1,0 +1,126 @@
+/* board_sim.h: the Arduino Mega 2560 of firmware/avr/board.h simulated in simavr, as wires
+ * (prefix board_sim_). Library target navkit_board_sim (links libsimavr).
+ *
+ * One board_sim_t is one board: an ATmega2560 at 16 MHz running a navkit image (the ELF or
+ * the Intel HEX of <build>/firmware/avr/), loaded at flash address 0 (no bootloader), plus
+ * models of the parts board.h wires to it: two quadrature encoders, the analog inputs, an
+ * MPU-6050-class gyro and a CMPS03-class compass on TWI, four SRF04 sonars, the DIO pins,
+ * the motor driver's PWM/DIR pins, eight RC servo pins and UART0. Instances are independent
+ * (no shared state), but one instance must be used from one thread at a time.
+ *
+ * Time is the AVR's cycle count (16 000 000 cycles per second). Ordering:
+ *   - an input set now takes effect from the current cycle (board_sim_cycles()) on; the
+ *     image sees it the next time it samples that input (the gyro and compass at the next
+ *     TWI read of that part, the ADC at its next conversion of that channel, a sonar at its
+ *     next echo, encoder and DIO levels at once on the pins);
+ *   - outputs are what the pins show up to the current cycle;
+ *   - board_sim_run_until() is the only call that advances time.
+ * So a co-simulation step is: set inputs, run_until(end of step), read outputs.
+ */
+#ifndef NAVKIT_BOARD_SIM_H
+#define NAVKIT_BOARD_SIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define BOARD_SIM_F_CPU_HZ 16000000u /* Hz: the board's clock; cycles per simulated second */
+
+typedef struct board_sim board_sim_t;
+
+/* Cycle counts of the image's own markers (GPIOR0, firmware/avr/board.h: BOARD_PROF_*):
+ * fw_tick() and fw_link_poll() each from their first to their last instruction, interrupts
+ * taken inside them included. */
+typedef struct {
+    uint32_t ticks;                /* fw_tick() calls completed */
+    uint32_t tick_worst_cycles;    /* cycles: the longest fw_tick() */
+    uint32_t tick_mean_cycles;     /* cycles: mean fw_tick(), rounded down; 0 if no tick */
+    uint32_t polls;                /* fw_link_poll() calls completed */
+    uint32_t poll_worst_cycles;    /* cycles: the longest fw_link_poll() */
+    uint32_t poll_mean_cycles;     /* cycles: mean fw_link_poll(); 0 if no poll */
+    uint64_t tick_total_cycles;    /* cycles: all fw_tick() together (CPU share = this / cycles) */
+    uint64_t poll_total_cycles;    /* cycles: all fw_link_poll() together */
+    uint32_t resets;               /* resets of the core after the first start (any cause) */
+    uint32_t watchdog_resets;      /* of which by the hardware watchdog */
+    uint16_t stack_min_sp;         /* the lowest stack pointer seen (a data address; RAMEND = 0x21FF) */
+    uint16_t stack_max_bytes;      /* bytes: deepest stack, RAMEND - stack_min_sp */
+} board_sim_profile_t;
+
+/* A board running image_path (.elf, or .hex/.ihex: Intel HEX) from reset. On failure
+ * returns NULL and writes a one-line reason naming the file into err (err_len bytes,
+ * NUL-terminated; err may be NULL). */
+board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len);
+/* Free the board (NULL is fine). */
+void board_sim_free(board_sim_t *b);
+/* Run the core until its cycle count reaches `cycle` (cycles since board_sim_new(); a cycle
+ * at or before the current one returns at once). Returns 0, or -1 if the core stopped
+ * (crashed, or executed `sleep` with interrupts off); board_sim_error() says why. */
+int board_sim_run_until(board_sim_t *b, uint64_t cycle);
+/* Cycles executed since board_sim_new() (16 MHz). */
+uint64_t board_sim_cycles(const board_sim_t *b);
+/* Why the core stopped (an empty string while it runs). */
+const char *board_sim_error(const board_sim_t *b);
+
+/* ---- inputs, effective from the current cycle ---- */
+
+/* Encoder positions, x4 quadrature counts (the image's raw hal_enc_* sign). The A/B edges
+ * from the positions on the pins now to these are spread evenly over (now, by_cycle]; a new
+ * call replaces edges not yet made (from wherever the pins are). by_cycle <= now: the edges
+ * come BOARD_SIM_ENC_MIN_EDGE_CYCLES apart from now. Edges closer than
+ * BOARD_SIM_ENC_MIN_EDGE_CYCLES are spread to that spacing (the board's guaranteed rate,
+ * docs/avr.md), so the pins lag the request instead of the board losing counts. */
+#define BOARD_SIM_ENC_MIN_EDGE_CYCLES 320u /* cycles: 20 us, 50 000 edges/s per encoder */
+void board_sim_set_encoders(board_sim_t *b, int32_t left_counts, int32_t right_counts, uint64_t by_cycle);
+/* Voltage at the analog pin of hal channel ch (0..4: IR 0-3, battery after the board's
+ * divider), mV (0..5000, the 5.0 V AVcc reference; above is read as 5000). Other ch: ignored. */
+void board_sim_set_adc_mv(board_sim_t *b, uint8_t ch, uint16_t mv);
+/* The gyro part's yaw-rate register (GYRO_ZOUT, 131 LSB per deg/s, counter-clockwise +),
+ * LSB: what hal_gyro_raw() returns once the image has read it. */
+void board_sim_set_gyro_raw(board_sim_t *b, int16_t lsb);
+/* The compass part's bearing register, deg*10 (0..3599, clockwise from north). */
+void board_sim_set_compass(board_sim_t *b, uint16_t deg10);
+/* Sonar i (0..3): the echo pulse width, us, the SRF04 gives after the image's next trigger
+ * of it; 0 = no echo (the part's 36 ms no-object pulse, which the image reports as 0). */
+void board_sim_set_sonar_echo_us(board_sim_t *b, uint8_t i, uint16_t us);
+/* Levels driven onto the 12 DIO pins from outside, bit n = DIO n (a pin the image drives
+ * as an output shows the image's level instead). */
+void board_sim_set_dio_in(board_sim_t *b, uint16_t levels);
+
+/* ---- outputs, measured at the pins ---- */
+
+/* Motor drive from the timer's PWM compare registers and the DIR pins, duty*1e4
+ * (-10000..10000; + = DIR pin low, the image's hal_motor sign). */
+void board_sim_motor_duty(const board_sim_t *b, int16_t *left_e4, int16_t *right_e4);
+/* Servo i (0..7): width of the last complete high pulse on its pin, us (rounded to the
+ * nearest); 0 = no pulse yet, or none for longer than 100 ms (the image stopped driving it). */
+uint16_t board_sim_servo_pulse_us(const board_sim_t *b, uint8_t i);
+/* DIO pins: dir bit n = 1 if the image drives DIO n as an output; levels = the pin levels
+ * (outputs as driven, inputs as set by board_sim_set_dio_in()). */
+void board_sim_dio(const board_sim_t *b, uint16_t *dir, uint16_t *levels);
+
+/* ---- UART0 (the micro link), 8N1 at the baud rate the image programs (115200) ---- */
+
+/* Queue len bytes towards the image's RX pin. They arrive one byte per 10 bit times as the
+ * core runs; the queue holds BOARD_SIM_UART_QUEUE bytes, a write beyond that drops the
+ * excess (counted in board_sim_uart_dropped()). */
+#define BOARD_SIM_UART_QUEUE 65536u /* bytes */
+void board_sim_uart_write(board_sim_t *b, const uint8_t *buf, size_t len);
+/* Copy up to cap bytes the image has sent (oldest first) into buf; returns how many. The
+ * board keeps up to BOARD_SIM_UART_QUEUE unread bytes; older ones are dropped (counted). */
+size_t board_sim_uart_read(board_sim_t *b, uint8_t *buf, size_t cap);
+/* Bytes dropped by either queue of this side (the image's own ring buffers are its affair). */
+uint32_t board_sim_uart_dropped(const board_sim_t *b);
+
+/* ---- profiling from the running image ---- */
+
+/* Counts since board_sim_new(), across resets. */
+void board_sim_profile(const board_sim_t *b, board_sim_profile_t *out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* NAVKIT_BOARD_SIM_H */
