@@ -63,6 +63,8 @@ class SimOptions:
     pin_cpu: bool = True               # lockstep: harness and host share one CPU
     host_args: list = field(default_factory=list)
     progress: bool = False
+    log_inline: bool = False           # decode and write run.mcap in this process, no log
+                                       # worker (a sweep's runs: one CPU each, no children)
 
 
 def _build(opts: SimOptions) -> Path:
@@ -463,7 +465,8 @@ class _Run:
                 "plant_fmu": self.fmus.plant_md.modelName,
                 "firmware_fmu": self.fmus.fw_md.modelName}
         # fork the log worker before any pty, socket or child process exists
-        self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width)
+        self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width,
+                          inline=self.opts.log_inline)
         self.port = Port(self.tmp / "ttyNAVKIT")
         cmd = [str(host), "--port", str(self.port.link), "--shm", self.shm,
                "--config", str(self.config_dir), "--log-dir", str(self.out.resolve())]

@@ -19,6 +19,9 @@ A mission is a TOML file::
     kind = "unplug"                # kill_host | micro_reset | unplug | line_noise | planner_silent
     duration_s = 1.0               # unplug, line_noise, planner_silent (optional)
     ber = 1e-3                     # line_noise: bit error rate per bit
+    [expect]                       # optional: where the robot should end (final /truth row);
+    x_mm = 500.0                   # `navkit sweep` reports each run's error from these
+    heading_deg = 90.0             # (keys of EXPECT_KEYS)
 
 Every error (unknown key, bad value, a time or a fault's end past the duration) is a
 MissionError naming the file, the entry and the key. A bad value is also one the host
@@ -35,7 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["MissionError", "Command", "Key", "Fault", "Mission", "load", "loads",
-           "FAULT_KINDS", "COMMAND_FIELDS", "RESERVED_PLANT_KEYS"]
+           "FAULT_KINDS", "COMMAND_FIELDS", "RESERVED_PLANT_KEYS", "EXPECT_KEYS"]
 
 # lisp_cmd fields a mission may set (time_tag and msg_type are the planner's own).
 COMMAND_FIELDS = ("fwd_cmd", "accel", "speed", "distance", "turn_mode", "turn_accel",
@@ -57,6 +60,15 @@ RESERVED_PLANT_KEYS = {
     "seed": "the run's seed: `navkit sim --seed N` (SimOptions.seed), recorded in the metadata",
     "world_file": "the mission's top-level `world = \"NAME.txt\"` key (config/worlds/ or "
                   "beside the mission)",
+}
+
+
+# [expect] key -> what it is: the final /truth row's value the mission expects
+EXPECT_KEYS = {
+    "x_mm": "x, mm (start pose frame, x forward)",
+    "y_mm": "y, mm (left)",
+    "heading_deg": "heading, deg clockwise from the start heading, 0..360",
+    "distance_mm": "signed path length along the body axis, mm",
 }
 
 
@@ -112,6 +124,7 @@ class Mission:
     commands: list = field(default_factory=list)
     keys: list = field(default_factory=list)
     faults: list = field(default_factory=list)
+    expect: dict = field(default_factory=dict)     # EXPECT_KEYS key -> value (mm, deg)
 
     @property
     def name(self) -> str:
@@ -285,7 +298,7 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise MissionError(f"{path}: not valid TOML: {e}") from None
-    known = ("duration_s", "world", "plant", "command", "key", "fault")
+    known = ("duration_s", "world", "plant", "command", "key", "fault", "expect")
     for k in doc:
         if k not in known:
             raise MissionError(f"{path}: unknown top-level key {k!r} (known: {', '.join(known)})")
@@ -308,6 +321,15 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
         if isinstance(v, float) and not math.isfinite(v):
             raise MissionError(f"{path}: [plant]: key {k!r}: {v!r} is not finite")
     m.plant = dict(plant)
+    expect = doc.get("expect", {})
+    if not isinstance(expect, dict):
+        raise MissionError(f"{path}: key 'expect' must be a table of final /truth values "
+                           f"({', '.join(EXPECT_KEYS)})")
+    for k, v in expect.items():
+        if k not in EXPECT_KEYS:
+            raise MissionError(f"{path}: [expect]: unknown key {k!r} (one of "
+                               f"{', '.join(EXPECT_KEYS)})")
+        m.expect[k] = _num(f"{path}: [expect]", k, v)
     for table, parse, out in (("command", _command, m.commands), ("key", _key, m.keys),
                               ("fault", _fault, m.faults)):
         entries = doc.get(table, [])

@@ -1,0 +1,298 @@
+"""`navkit sweep`: --vary ranges, grids and random points; sweeps on a real Dask
+LocalCluster and on a scheduler and worker started here (loopback), deterministic per
+seed whatever the worker count, a failing run reported without losing the others,
+Ctrl-C, bad options. Each run is a real co-simulation (host, firmware and plant FMUs)."""
+
+import csv
+import io
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from navkit.sweep.plan import SweepError, check_varies, grid, parse_vary, sample
+from test_sim_util import require_build
+
+# 500 mm forward and a heading select to 90 deg in 6 s; [expect] gives the table its errors
+MISSION = """
+duration_s = 6.0
+[expect]
+x_mm = 500.0
+y_mm = 0.0
+heading_deg = 90.0
+[[command]]
+t = 0.2
+fwd_cmd = "start"
+accel = 600
+speed = 400
+distance = 500
+[[command]]
+t = 2.5
+turn_mode = "heading_select"
+turn_rate = 900
+turn_distance = 900
+"""
+
+PARAMS = {"mass_kg": "Float64", "friction_coulomb_n": "Float64",
+          "encoder_counts_per_rev": "Int32"}
+
+
+def _navkit(*args, timeout=120, **kw):
+    return subprocess.run([sys.executable, "-m", "navkit", *args], capture_output=True,
+                          text=True, timeout=timeout, **kw)
+
+
+def _table(path: Path) -> list:
+    return list(csv.DictReader(io.StringIO(Path(path).read_text())))
+
+
+# ------------------------------------------------------------------ plan (no build needed)
+
+@pytest.mark.parametrize("text, why", [
+    ("mass_kg", "expected KEY=LO:HI"),
+    ("mass_kg=14:10", "LO 14 is above HI 10"),
+    ("mass_kg=10:14:0", "N must be at least 1"),
+    ("mass_kg=10:14:2.5", "not a whole number"),
+    ("mass_kg=ten:14", "LO 'ten' is not a number"),
+    ("mass_kg=10:inf", "not finite"),
+    ("mass_kg=12:12:3", "3 points between equal ends"),
+    ("=1:2", "expected KEY=LO:HI"),
+])
+def test_parse_vary_refuses(text, why):
+    with pytest.raises(SweepError) as e:
+        parse_vary(text)
+    assert str(e.value).startswith(f"--vary {text!r}: ") and why in str(e.value)
+
+
+def test_grid_points_and_integers():
+    v = [parse_vary("mass_kg=10:14:3"), parse_vary("encoder_counts_per_rev=1000:1001:4")]
+    pts = grid(v, PARAMS)
+    # 3 masses (ends exact) x 2 distinct whole counts (4 points round to 1000, 1000, 1001, 1001)
+    assert [p["mass_kg"] for p in pts] == [10.0, 10.0, 12.0, 12.0, 14.0, 14.0]
+    assert [p["encoder_counts_per_rev"] for p in pts] == [1000, 1001] * 3
+    assert all(isinstance(p["encoder_counts_per_rev"], int) for p in pts)
+    assert grid([parse_vary("mass_kg=9:11")], PARAMS) == [{"mass_kg": x} for x in (9.0, 10.0, 11.0)]
+    assert grid([], PARAMS) == [{}]
+
+
+def test_latin_hypercube_and_uniform():
+    v = [parse_vary("mass_kg=10:20"), parse_vary("friction_coulomb_n=0:1")]
+    n = 50
+    pts = sample(v, PARAMS, n, "lhs", seed=7)
+    assert pts == sample(v, PARAMS, n, "lhs", seed=7), "a function of the seed"
+    assert pts != sample(v, PARAMS, n, "lhs", seed=8)
+    for key, lo, hi in (("mass_kg", 10, 20), ("friction_coulomb_n", 0, 1)):
+        strata = sorted(int((p[key] - lo) / (hi - lo) * n) for p in pts)
+        assert strata == list(range(n)), f"one {key} in each of the {n} strata"
+    u = sample(v, PARAMS, n, "uniform", seed=7)
+    assert u == sample(v, PARAMS, n, "uniform", seed=7) and u != pts
+    assert all(10 <= p["mass_kg"] <= 20 and 0 <= p["friction_coulomb_n"] <= 1 for p in u)
+    with pytest.raises(SweepError, match=r"--vary 'mass_kg=10:20:3': ':N' is the grid's"):
+        sample([parse_vary("mass_kg=10:20:3")], PARAMS, 4)
+
+
+def test_check_varies_names_the_key():
+    with pytest.raises(SweepError, match=r"--vary 'mas_kg=1:2': key 'mas_kg' is not a numeric "
+                                         r"parameter of the plant FMU p.fmu \(did you mean mass_kg\?\)"):
+        check_varies([parse_vary("mas_kg=1:2")], PARAMS, "p.fmu")
+    with pytest.raises(SweepError, match=r"key 'seed' is set by the harness.*--seeds N"):
+        check_varies([parse_vary("seed=1:2")], PARAMS, "p.fmu")
+    with pytest.raises(SweepError, match=r"key 'mass_kg' is varied twice"):
+        check_varies([parse_vary("mass_kg=1:2"), parse_vary("mass_kg=3:4")], PARAMS, "p.fmu")
+    with pytest.raises(SweepError, match=r"integer \(Int32\) and 1000.2..1000.8 holds no whole"):
+        check_varies([parse_vary("encoder_counts_per_rev=1000.2:1000.8")], PARAMS, "p.fmu")
+
+
+def test_mission_expect_table():
+    from navkit.sim.mission import MissionError, loads
+
+    m = loads(MISSION, "m.toml")
+    assert m.expect == {"x_mm": 500.0, "y_mm": 0.0, "heading_deg": 90.0}
+    with pytest.raises(MissionError, match=r"m.toml: \[expect\]: unknown key 'z_mm' \(one of x_mm"):
+        loads("duration_s = 1.0\n[expect]\nz_mm = 1.0\n", "m.toml")
+    with pytest.raises(MissionError, match=r"m.toml: \[expect\]: key 'x_mm': 'a' is not a finite"):
+        loads("duration_s = 1.0\n[expect]\nx_mm = 'a'\n", "m.toml")
+
+
+# ------------------------------------------------------------------ sweeps (real runs)
+
+@pytest.fixture(scope="module")
+def mission_file(tmp_path_factory):
+    require_build()
+    p = tmp_path_factory.mktemp("sweep-mission") / "short.toml"
+    p.write_text(MISSION)
+    return p
+
+
+# mass -12 kg: the plant FMU refuses it at initialisation, so those runs fail
+VARY = ["--vary", "mass_kg=-12:12:2", "--vary", "friction_coulomb_n=2:4:2"]
+
+
+@pytest.fixture(scope="module")
+def local_tables(mission_file, tmp_path_factory):
+    """The same 4-point x 1-seed sweep (2 of its runs fail) on 1 and on 2 workers."""
+    out = {}
+    for workers in (1, 2):
+        d = tmp_path_factory.mktemp(f"sweep-w{workers}")
+        p = _navkit("sweep", "--mission", str(mission_file), *VARY, "--out", str(d),
+                    "--workers", str(workers), "--keep", "failed")
+        out[workers] = (d, p)
+    return out
+
+
+def test_sweep_deterministic_and_survives_failing_runs(local_tables):
+    d1, p1 = local_tables[1]
+    d2, p2 = local_tables[2]
+    for p in (p1, p2):
+        assert p.returncode == 1, p.stdout + p.stderr        # some runs failed
+        assert "Traceback" not in p.stderr, p.stderr
+        assert "4 runs" in p.stdout and "2 failed" in p.stdout, p.stdout
+    text = (d1 / "results.csv").read_text()
+    assert text == (d2 / "results.csv").read_text(), "same table on 1 and 2 workers"
+    rows = _table(d1 / "results.csv")
+    assert [r["run"] for r in rows] == ["0", "1", "2", "3"]
+    assert [(float(r["mass_kg"]), float(r["friction_coulomb_n"])) for r in rows] == \
+        [(-12, 2), (-12, 4), (12, 2), (12, 4)]
+    for r in rows[:2]:
+        assert r["status"] == "failed" and r["x_mm"] == ""
+        assert "[plant]: key 'mass_kg'" in r["error"] and "-12" in r["error"], r["error"]
+        # reported with its parameters as it happened, and its folder kept
+        assert f"run {r['run']} (seed 1, mass_kg=-12, friction_coulomb_n={float(r['friction_coulomb_n']):g}) " \
+               f"failed: " in p1.stderr, p1.stderr
+        assert (d1 / "runs" / f"{int(r['run']):04d}").is_dir()
+    for r in rows[2:]:
+        assert r["status"] == "ok" and r["error"] == "", r
+        assert abs(float(r["err_x_mm"])) < 15 and abs(float(r["err_heading_deg"])) < 2, r
+        assert abs(float(r["x_mm"]) - 500 - float(r["err_x_mm"])) < 1e-6
+        assert float(r["err_pos_mm"]) >= abs(float(r["err_x_mm"]))
+        assert r["watchdog_stops"] == "0" and r["planner_accepted"] == "2", r
+        assert int(r["h2m_sent"]) > 50 and r["h2m_received"] == r["h2m_sent"], r
+        assert r["crc_errors"] == "0" and r["host_state"] == "running", r
+        assert float(r["odo_err_mm"]) < 20, r
+        assert not (d1 / "runs" / f"{int(r['run']):04d}").exists(), "ok runs not kept"
+    # more Coulomb friction, same mass: the runs differ (the figures are the runs')
+    assert rows[2]["x_mm"] != rows[3]["x_mm"] or rows[2]["odo_heading_deg"] != rows[3]["odo_heading_deg"]
+    assert (d1 / "summary.png").stat().st_size > 10_000
+
+
+def test_sweep_api_seeds_and_keep(mission_file, tmp_path):
+    """The Python API: results in run order, per-seed figures, kept folders, an extract
+    function's figures."""
+    from navkit.sweep import RunSpec, run_sweep
+
+    runs = [RunSpec(plant={"mass_kg": 14.0}, seed=s) for s in (3, 4, 3)]
+    res = run_sweep(mission_file, runs, tmp_path, workers=2, progress=False, keep="all",
+                    extract=_extract_mcap_size)
+    assert [r.index for r in res] == [0, 1, 2] and [r.spec.seed for r in res] == [3, 4, 3]
+    assert all(r.ok and r.out == tmp_path / "runs" / f"{r.index:04d}" for r in res)
+    assert all((r.out / "run.mcap").exists() and r.figures["mcap_bytes"] > 0 for r in res)
+    assert res[0].figures == res[2].figures, "same spec, same figures"
+    assert res[0].figures != res[1].figures, "another seed, other noise"
+    x, y, hdg = res[0].final_pose
+    assert abs(x - 500) < 15 and abs(hdg - 90) < 2
+    assert "mcap_bytes" in _table(tmp_path / "results.csv")[0]
+
+
+def _extract_mcap_size(run_dir, summary):
+    return {"mcap_bytes": (Path(run_dir) / "run.mcap").stat().st_size}
+
+
+def test_sweep_on_a_scheduler(mission_file, local_tables, tmp_path):
+    """--scheduler: the same sweep on a scheduler and a worker started here with the dask
+    CLIs on 127.0.0.1 gives the same table as the LocalCluster."""
+    dask = Path(sys.executable).parent / "dask"
+    sched_file = tmp_path / "scheduler.json"
+    env = dict(os.environ)
+    procs = []
+    try:
+        procs.append(subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", "0",
+                                       "--no-dashboard", "--scheduler-file", str(sched_file)],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                      env=env, start_new_session=True))
+        deadline = time.monotonic() + 30
+        while not sched_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert sched_file.exists(), "the scheduler did not start"
+        import json
+
+        address = json.loads(sched_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        procs.append(subprocess.Popen([str(dask), "worker", address, "--nthreads", "1",
+                                       "--no-dashboard", "--host", "127.0.0.1"],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                      env=env, start_new_session=True))
+        out = tmp_path / "out"
+        p = _navkit("sweep", "--mission", str(mission_file), *VARY, "--out", str(out),
+                    "--scheduler", address)
+        assert p.returncode == 1 and "Traceback" not in p.stderr, p.stdout + p.stderr
+        assert (out / "results.csv").read_text() == \
+            (local_tables[1][0] / "results.csv").read_text()
+        assert address in (out / "sweep.json").read_text()
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (["--vary", "mas_kg=1:2"], 2, "--vary 'mas_kg=1:2': key 'mas_kg' is not a numeric parameter "
+                                  "of the plant FMU"),
+    (["--vary", "mass_kg=2:1"], 2, "--vary 'mass_kg=2:1': LO 2 is above HI 1"),
+    (["--vary", "world_file=1:2"], 2, "key 'world_file' is set by the harness"),
+    (["--samples", "3"], 2, "--samples: give the ranges to sample with --vary KEY=LO:HI"),
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], 2, "--workers: only for the LocalCluster"),
+])
+def test_bad_options(mission_file, tmp_path, args, code, message):
+    p = _navkit("sweep", "--mission", str(mission_file), "--out", str(tmp_path / "o"), *args)
+    assert p.returncode == code, p.stdout + p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("navkit sweep: "), p.stderr
+    assert message in p.stderr and "Traceback" not in p.stderr, p.stderr
+    assert not (tmp_path / "o").exists(), "nothing run"
+
+
+def test_bad_mission(tmp_path):
+    require_build()
+    bad = tmp_path / "bad.toml"
+    bad.write_text("duration_s = 1.0\nspeed = 3\n")
+    p = _navkit("sweep", "--mission", str(bad), "--out", str(tmp_path / "o"))
+    assert p.returncode == 1 and "Traceback" not in p.stderr
+    assert p.stderr.startswith(f"navkit sweep: {bad}: unknown top-level key 'speed'"), p.stderr
+
+
+def test_ctrl_c_keeps_the_finished_runs(tmp_path):
+    """SIGINT while runs are going: exit 130, the table of the runs that finished."""
+    require_build()
+    mission = tmp_path / "long.toml"
+    mission.write_text("duration_s = 40.0\n[[command]]\nt = 0.5\nfwd_cmd = \"start\"\n"
+                       "speed = 300\ndistance = 900\n")
+    out = tmp_path / "o"
+    proc = subprocess.Popen([sys.executable, "-m", "navkit", "sweep", "--mission", str(mission),
+                             "--seeds", "40", "--workers", "1", "--keep", "all", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not (out / "runs" / "0002" / "summary.json").exists():
+            assert time.monotonic() < deadline and proc.poll() is None, "no run finished"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, stdout + stderr
+    assert "Traceback" not in stderr, stderr
+    rows = _table(out / "results.csv")
+    assert 3 <= len(rows) < 40 and all(r["status"] == "ok" for r in rows), rows
+    assert [int(r["run"]) for r in rows] == list(range(len(rows)))
+    assert f"interrupted: {len(rows)} of 40 runs finished" in stderr, stderr
