@@ -405,19 +405,22 @@ def test_watchdog_stop(unzipped, md):
 
 
 def test_uart_runs_at_the_baud_rate(unzipped, md):
-    """At 9600 baud a 36-byte config frame needs 37.5 ms on the line, and the 126-byte
-    reply 131 ms: the reply starts after the frame arrived and ends ~170 ms later."""
+    """At 9600 baud a 36-byte config frame needs 37.5 ms on the line, and the micro_data
+    reply (n bytes) n * 1.04 ms: the reply starts after the frame arrived and ends that
+    much later."""
     m = Micro(unzipped, md, baud=9600)
     try:
         frame = protocol.encode_frame("micro_cfg_geometry", protocol.defaults("micro_cfg_geometry"), time_tag=1)
+        n = len(protocol.encode_frame("micro_data", protocol.defaults("micro_data"), time_tag=1))
+        reply_ms = n * 10 / 9.6
         got = []
-        for k in range(250):
+        for k in range(300):
             tx = m.step(0.001, frame if k == 0 else b"")
             got.extend((k, b) for b in tx)
         first, last = got[0][0], got[-1][0]
-        assert len(got) == 126
+        assert len(got) == n
         assert 36 <= first <= 40
-        assert 36 + 130 <= last <= 40 + 133
+        assert 36 + math.floor(reply_ms) - 1 <= last <= 40 + math.ceil(reply_ms) + 1
         assert protocol.decode_frame(bytes(b for _, b in got))[0] == "micro_data"
         # one 100 ms step at 115200 baud carries frame and reply in the same step
         m.fmu.reset()

@@ -11,6 +11,7 @@ void fw_init(fw_t *fw, hal_t *hal)
 {
     uint8_t i;
     fw->hal = hal;
+    fw->reset_cause = hal_reset_cause(hal);
     config_reset(&fw->cfg);
     link_reset(&fw->link);
     odom_reset(&fw->odom);

@@ -57,6 +57,7 @@ typedef struct fw {
     uint32_t ms;         /* ms: uptime */
     uint16_t us_frac;    /* us: uptime below one ms */
     uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
+    uint8_t reset_cause; /* NAVKIT_RESET_CAUSE_*: why the board last started (hal_reset_cause()) */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;  /* servo whose pulse width is refreshed next */
     uint8_t chore;       /* tick within the chore period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,

@@ -52,6 +52,12 @@ uint16_t hal_sonar_echo(hal_t *hal, uint8_t i);
 /* DIO pin levels, bit n = pin n (12 bits), as read from the port. */
 uint16_t hal_dio_in(hal_t *hal);
 
+/* ---- the start: read once, by fw_init() ---- */
+
+/* Why the board last started, a NAVKIT_RESET_CAUSE_* code (power-on, external reset,
+ * watchdog, brown-out, unknown), reported in micro_data.reset_cause. */
+uint8_t hal_reset_cause(hal_t *hal);
+
 /* ---- output wires: written at the end of each tick ---- */
 
 /* Motor PWM duty, units of 1e-4 (-10000..10000), + drives the wheel forward after the

@@ -392,6 +392,7 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     d->cmd_rejected = l->cmd_rejected;
     d->last_reject = l->last_reject;
     d->watchdog_stops = fw->watchdog_stops;
+    d->reset_cause = fw->reset_cause;
 }
 
 /* One micro_data back, whole or not at all. */

@@ -178,6 +178,7 @@ uint16_t hal_sonar_echo(hal_t *h, uint8_t i)
     return h->sonar_us[i];
 }
 uint16_t hal_dio_in(hal_t *h) { return (uint16_t)(h->dio_in & 0x0FFF); }
+uint8_t hal_reset_cause(hal_t *h) { (void)h; return NAVKIT_RESET_CAUSE_POWER_ON; } /* no reset pin, watchdog or supply */
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
     h->motor_left_duty = (double)l / 10000.0;

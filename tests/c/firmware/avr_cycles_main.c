@@ -74,6 +74,7 @@ uint16_t hal_compass(hal_t *h) { return h->compass; }
 uint16_t hal_adc(hal_t *h, uint8_t ch) { (void)h; return ch; }
 uint16_t hal_sonar_echo(hal_t *h, uint8_t i) { (void)h; return i; }
 uint16_t hal_dio_in(hal_t *h) { (void)h; return 0u; }
+uint8_t hal_reset_cause(hal_t *h) { (void)h; return NAVKIT_RESET_CAUSE_POWER_ON; }
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
     int16_t dl = (int16_t)(l / h->duty_per_count), dr = (int16_t)(r / h->duty_per_count); /* counts this tick */

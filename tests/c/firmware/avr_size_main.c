@@ -18,6 +18,7 @@ uint16_t hal_compass(hal_t *hal) { return hal->word; }
 uint16_t hal_adc(hal_t *hal, uint8_t ch) { return (uint16_t)(hal->word + ch); }
 uint16_t hal_sonar_echo(hal_t *hal, uint8_t i) { return (uint16_t)(hal->word + i); }
 uint16_t hal_dio_in(hal_t *hal) { return hal->word; }
+uint8_t hal_reset_cause(hal_t *hal) { return (uint8_t)hal->word; }
 void hal_motor(hal_t *hal, int16_t l, int16_t r) { hal->word = (uint16_t)(l + r); }
 void hal_servo_pulse(hal_t *hal, uint8_t i, uint16_t us) { hal->word = (uint16_t)(us + i); }
 void hal_dio_write(hal_t *hal, uint16_t dir, uint16_t out) { hal->word = (uint16_t)(dir ^ out); }

@@ -27,6 +27,7 @@ uint16_t hal_compass(hal_t *h) { return h->compass; }
 uint16_t hal_adc(hal_t *h, uint8_t ch) { return h->adc[ch]; }
 uint16_t hal_sonar_echo(hal_t *h, uint8_t i) { return h->sonar[i]; }
 uint16_t hal_dio_in(hal_t *h) { return h->dio_in; }
+uint8_t hal_reset_cause(hal_t *h) { (void)h; return NAVKIT_RESET_CAUSE_POWER_ON; }
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
     h->duty_l = l;
