@@ -180,10 +180,13 @@ def test_micro_cmd_keeps_the_seed_word_numbers():
                   "mc_datalog_cmd": 44, "rc7_param0": 45}
     for name, word in seed_words.items():
         assert m.field(name).byte_offset == 2 * word, name
+    # the seed's 16 lisp_cmd words keep their places; additions come after them
     lisp = [f.name for f in p.SPEC.messages["lisp_cmd"].fields]
-    assert lisp == ["time_tag", "msg_type", "fwd_cmd", "accel", "speed", "distance", "turn_mode",
-                    "turn_accel", "turn_rate", "turn_distance", "rc_servo_num", "rc_param0",
-                    "rc_param1", "rc_param2", "dio_active", "dio_command"]
+    assert lisp[:16] == ["time_tag", "msg_type", "fwd_cmd", "accel", "speed", "distance", "turn_mode",
+                         "turn_accel", "turn_rate", "turn_distance", "rc_servo_num", "rc_param0",
+                         "rc_param1", "rc_param2", "dio_active", "dio_command"]
+    assert [f.word for f in p.SPEC.messages["lisp_cmd"].fields] == list(range(len(lisp)))
+    assert all(f.word > 47 for f in m.fields if f.name.startswith("excite_"))
 
 
 # ------------------------------------------------------------ codec

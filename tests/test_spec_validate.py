@@ -52,7 +52,7 @@ def _refused(path: Path, line: int, reason: str) -> SpecError:
      "host_status.micro_online: values must be snake_case = integer, not boolean False"),
     ("id = 4\n", "id = true\n", "id = true", None, "micro_cfg_io.id: serial messages need an integer id, not True"),
     # a flag bit beyond the field's width (status is uint16) or above its max
-    ("hdg_hold = 12 }", "hdg_hold = 20 }", '{ name = "status", word = 7', None,
+    ("hdg_hold = 12,", "hdg_hold = 20,", '{ name = "status", word = 7', None,
      "micro_data.status: flag micro_status.hdg_hold is bit 20, beyond the 16 bits of uint16"),
     ("sonar3 = 7, compass = 8, battery = 9 }", "sonar3 = 7, compass = 8, battery = 10 }",
      '{ name = "sensor_enable"', None, "micro_cfg_io.sensor_enable: flag sensor_enable.battery (bit 10, 1024) "
@@ -164,7 +164,7 @@ def test_a_broken_spec_fails_the_codec_import_with_a_spec_error(tmp_path):
                     ignore=shutil.ignore_patterns("__pycache__"))
     (tree / "protocol").mkdir()
     spec = tree / "protocol" / "navkit.toml"
-    spec.write_text(spec_path().read_text().replace("hdg_hold = 12 }", "hdg_hold = 20 }"))
+    spec.write_text(spec_path().read_text().replace("hdg_hold = 12,", "hdg_hold = 20,"))
     code = ("from navkit.spec import SpecError\ntry:\n    import navkit.protocol\n"
             "except SpecError as e:\n    print('LINE', e.line, e)\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
@@ -183,7 +183,7 @@ def test_the_cli_names_a_broken_specs_line_without_a_traceback(tmp_path, argv):
                     ignore=shutil.ignore_patterns("__pycache__"))
     (tree / "protocol").mkdir()
     spec = tree / "protocol" / "navkit.toml"
-    spec.write_text(spec_path().read_text().replace("hdg_hold = 12 }", "hdg_hold = 20 }"))
+    spec.write_text(spec_path().read_text().replace("hdg_hold = 12,", "hdg_hold = 20,"))
     r = subprocess.run([sys.executable, "-m", "navkit", *argv], capture_output=True, text=True, cwd=tmp_path,
                        env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
     line = _line_of(spec, '{ name = "status", word = 7')
@@ -358,13 +358,14 @@ def test_coded_field_needs_codes_in_range(tmp_path, old, new, needle, reason):
 
 def test_generated_check_refuses_non_codes_of_coded_fields_only():
     """The C check has a membership test for every coded field whose range holds a
-    non-code (dg_control, a bit set, and mc_datalog_cmd, all of whose 0..5 are codes,
+    non-code (dg_control, a bit set, and mc_datalog_cmd, excite_mode and excite_wheels, all of whose ranges are codes,
     keep their range check); the codes the firmware receives and refuses (turn_cmd 13,
     15, 20, 23, 25) are codes, so they reach it."""
     from navkit.paths import build_dir
     spec = load(spec_path())
     cmd = spec.messages["micro_cmd"]
-    assert [f.name for f in cmd.fields if f.coded] == ["msg_type", "fwd_cmd", "turn_cmd", "mc_datalog_cmd"]
+    assert [f.name for f in cmd.fields if f.coded] == ["msg_type", "fwd_cmd", "turn_cmd", "mc_datalog_cmd",
+                                                         "excite_mode", "excite_wheels"]
     turn = cmd.field("turn_cmd")
     for code in (13, 15, 20, 23, 25):
         assert code in spec.enums["turn_cmd"].values.values() and turn.min <= code <= turn.max
@@ -372,6 +373,6 @@ def test_generated_check_refuses_non_codes_of_coded_fields_only():
     body = src.split("int navkit_micro_cmd_check(")[1].split("\n}\n")[0]
     assert "m->turn_cmd != 10u && m->turn_cmd != 13u" in body and "m->fwd_cmd != 3u && m->fwd_cmd != 5u" in body
     assert "m->dg_control > 3u" in body and "m->dg_control !=" not in body
-    assert "m->mc_datalog_cmd > 5u" in body and "m->mc_datalog_cmd !=" not in body
+    assert "m->mc_datalog_cmd > 6u" in body and "m->mc_datalog_cmd !=" not in body
     data = src.split("int navkit_lisp_data_check(")[1].split("\n}\n")[0]
     assert "m->nav_result != 0L && m->nav_result != 1L" in data

@@ -25,6 +25,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     }
     dio_reset(&fw->dio);
     watchdog_reset(&fw->wd);
+    excite_reset(&fw->excite);
     fw->sp_l = 0.0f;
     fw->sp_r = 0.0f;
     fw->duty_l = 0;
@@ -99,6 +100,9 @@ uint16_t fw_status(const fw_t *fw)
     if (fw->limited) {
         s |= NAVKIT_MICRO_STATUS_SPEED_LIMITED;
     }
+    if (excite_active(&fw->excite)) {
+        s |= NAVKIT_MICRO_STATUS_EXCITE_ACTIVE;
+    }
     return s;
 }
 
@@ -109,6 +113,7 @@ void fw_watchdog_stop(fw_t *fw)
     float turn_decel = fw->cfg.watchdog_decel * fw->cfg.wheel_deg_per_mm;
     motion_stop(&fw->fwd, fw->cfg.watchdog_decel, fw->cfg.dt);
     turn_stop(&fw->turn, turn_decel, fw->cfg.dt);
+    excite_stop(&fw->excite); /* open loop: duty 0 from the next tick */
     for (i = 0u; i < SERVO_COUNT; i++) {
         servo_hold(&fw->servo[i]);
     }
@@ -154,6 +159,7 @@ void fw_tick(fw_t *fw)
     const config_t *c = &fw->cfg;
     float dt = c->dt;
     float v_fwd, w_turn, half; /* mm/s, deg/s, mm/s */
+    float ex_l, ex_r;          /* duty: an excitation's wheel duties */
     int32_t raw_l, raw_r;
     uint8_t still, i, fold;
 
@@ -194,13 +200,20 @@ void fw_tick(fw_t *fw)
     w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s,
                        heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol,
                        c->turn_vtol, dt);
-    if (!(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
+    /* an excitation runs open loop: the loops idle (their duty shows the excitation's to
+       the datalog); with no excitation and no motion everything is 0 */
+    ex_l = 0.0f;
+    ex_r = 0.0f;
+    if (excite_tick(&fw->excite, c->wheel.pwm_limit, &ex_l, &ex_r) ||
+        !(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
         fw->sp_l = 0.0f;
         fw->sp_r = 0.0f;
-        fw->duty_l = 0;
-        fw->duty_r = 0;
         wheel_reset(&fw->wheel_l);
         wheel_reset(&fw->wheel_r);
+        fw->wheel_l.duty = ex_l;
+        fw->wheel_r.duty = ex_r;
+        fw->duty_l = fw_duty_e4(ex_l, c->motor_left_sign);
+        fw->duty_r = fw_duty_e4(ex_r, c->motor_right_sign);
     } else {
         half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
         fw->sp_l = v_fwd + half;

@@ -17,6 +17,7 @@
 
 #include "config.h"
 #include "dio.h"
+#include "excite.h"
 #include "hal.h"
 #include "heading.h"
 #include "link.h"
@@ -45,6 +46,7 @@ typedef struct fw {
     servo_t servo[SERVO_COUNT];
     dio_t dio;
     watchdog_t wd;
+    excite_t excite;     /* open-loop wheel excitation experiment (bypasses the wheel loops while active) */
     float sp_l;          /* mm/s: left wheel speed setpoint of the last tick */
     float sp_r;          /* mm/s: right wheel speed setpoint */
     int16_t duty_l;      /* duty*1e4, motor sign applied: left output of the last tick */

@@ -1,6 +1,8 @@
 /* link: the micro link. See link.h. */
 #include "link.h"
 
+#include <stddef.h>
+
 #include "fw.h"
 
 void link_reset(link_t *l)
@@ -124,7 +126,7 @@ static uint16_t link_cmd_check(const navkit_micro_cmd_t *c)
     if (c->turn_cmd == NAVKIT_TURN_CMD_HDG_SEL && (c->turn_distance < -3600 || c->turn_distance > 3600)) {
         return c->turn_cmd; /* HdgSel takes a heading of -360..360 deg */
     }
-    if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK) {
+    if (navkit_micro_cmd_check(c, 0) != NAVKIT_OK || excite_refused(c)) {
         return (uint16_t)(NAVKIT_REJECT_RANGE | NAVKIT_MSG_TYPE_MICRO_CMD);
     }
     return 0u;
@@ -135,12 +137,14 @@ static void link_cmd_run(fw_t *fw, const navkit_micro_cmd_t *c)
 {
     link_t *l = &fw->link;
     uint8_t i;
-    /* the eight servos' (param0, param1, param2) */
-    const int16_t rc[SERVO_COUNT][3] = {
-        {c->rc0_param0, c->rc0_param1, c->rc0_param2}, {c->rc1_param0, c->rc1_param1, c->rc1_param2},
-        {c->rc2_param0, c->rc2_param1, c->rc2_param2}, {c->rc3_param0, c->rc3_param1, c->rc3_param2},
-        {c->rc4_param0, c->rc4_param1, c->rc4_param2}, {c->rc5_param0, c->rc5_param1, c->rc5_param2},
-        {c->rc6_param0, c->rc6_param1, c->rc6_param2}, {c->rc7_param0, c->rc7_param1, c->rc7_param2},
+    /* where each servo's param0 sits in the command: param1 and param2 follow it (three
+       int16 fields in a row, words N, N+1, N+2); a table instead of 24 copies keeps the AVR
+       image small */
+    static const uint8_t rc_at[SERVO_COUNT] = {
+        offsetof(navkit_micro_cmd_t, rc0_param0), offsetof(navkit_micro_cmd_t, rc1_param0),
+        offsetof(navkit_micro_cmd_t, rc2_param0), offsetof(navkit_micro_cmd_t, rc3_param0),
+        offsetof(navkit_micro_cmd_t, rc4_param0), offsetof(navkit_micro_cmd_t, rc5_param0),
+        offsetof(navkit_micro_cmd_t, rc6_param0), offsetof(navkit_micro_cmd_t, rc7_param0),
     };
 
 
@@ -151,11 +155,23 @@ static void link_cmd_run(fw_t *fw, const navkit_micro_cmd_t *c)
     if (c->dg_control & NAVKIT_DG_CONTROL_SET_XY) {
         odom_set_xy(&fw->odom, c->x_set, c->y_set);
     }
+    if (c->fwd_cmd != NAVKIT_FWD_CMD_NONE || c->turn_cmd != NAVKIT_TURN_CMD_NONE) {
+        excite_stop(&fw->excite); /* any forward or turn command ends an experiment */
+    }
     link_fwd(fw, c);
     link_turn(fw, c);
+    if (c->excite_mode != NAVKIT_EXCITE_MODE_NONE) {
+        /* checked: no fwd_cmd or turn_cmd with it; the axes go idle with their
+           references here (distance and turn angle count from the experiment's start) */
+        motion_reset(&fw->fwd, fw->odom.enc_l, fw->odom.enc_r);
+        turn_reset(&fw->turn, fw->odom.enc_l, fw->odom.enc_r);
+        excite_start(&fw->excite, c, fw->cfg.control_rate);
+        fw->wd_stop = 0u;
+    }
     dio_command(&fw->dio, c->dio_command);
     for (i = 0u; i < SERVO_COUNT; i++) {
-        servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[i][0], rc[i][1], rc[i][2], fw->cfg.control_rate);
+        const int16_t *rc = (const int16_t *)(const void *)((const uint8_t *)c + rc_at[i]);
+        servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[0], rc[1], rc[2], fw->cfg.control_rate);
     }
     l->mc_datalog = c->mc_datalog_cmd;
 }
@@ -344,6 +360,12 @@ static void link_datalog(const fw_t *fw, int16_t w[4])
         w[2] = link_clamp16(fw->hdg.bias * 10.0f);
         w[3] = link_clamp16(heading_wrap180(0.1f * (float)fw->compass - heading_deg(&fw->hdg)) * 10.0f);
         break;
+    case NAVKIT_MC_DATALOG_WHEELS: /* duty e4 and speed mm/s of the left, then the right wheel */
+        w[0] = link_clamp16(fw->wheel_l.duty * 10000.0f);
+        w[1] = link_clamp16(fw->odom.v_l);
+        w[2] = link_clamp16(fw->wheel_r.duty * 10000.0f);
+        w[3] = link_clamp16(fw->odom.v_r);
+        break;
     default: /* NAVKIT_MC_DATALOG_NONE */
         break;
     }
@@ -383,6 +405,7 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     }
     d->dio_state = dio_state(&fw->dio);
     link_datalog(fw, d->mc_datalog);
+    d->mc_datalog_sel = l->mc_datalog;
     d->rx_good = (uint16_t)st->good;
     d->rx_bad_crc = (uint16_t)st->bad_crc;
     d->rx_unknown_type = (uint16_t)st->unknown_type;

@@ -356,8 +356,13 @@ def emit_docs(spec: Spec) -> str:
     out.append("## Enums and flags\n")
     for e in spec.enums.values():
         out.append(f"### {e.name} ({e.kind})\n\n{e.doc}\n")
-        out.append("| name | " + ("value" if e.kind == "enum" else "bit") + " |\n| --- | --- |")
-        out += [f"| `{k}` | {v} |" for k, v in e.values.items()]
+        if e.words:  # what each value selects: the names of the words, in word order
+            out.append("| name | value | words |\n| --- | --- | --- |")
+            out += [f"| `{k}` | {v} | {', '.join(f'`{w}`' for w in e.words.get(k, ())) or '-'} |"
+                    for k, v in e.values.items()]
+        else:
+            out.append("| name | " + ("value" if e.kind == "enum" else "bit") + " |\n| --- | --- |")
+            out += [f"| `{k}` | {v} |" for k, v in e.values.items()]
         out.append("")
     r = spec.rcomm
     out.append(f"## {r.link} shared-memory layout\n")

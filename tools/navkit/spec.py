@@ -33,7 +33,7 @@ _TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip
 _MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field"}
 _FIELD_KEYS = {"name", "word", "type", "count", "units", "scale", "min", "max",
                "default", "enum", "flags", "special", "doc"}
-_ENUM_KEYS = {"doc", "values"}
+_ENUM_KEYS = {"doc", "values", "words"}
 _FRAMING_KEYS = {"doc", "start_word", "length_word", "crc", "crc_doc", "max_frame_words",
                  "hash_word", "hash_doc"}
 _FRAMING_REQUIRED = ("start_word", "length_word", "max_frame_words", "hash_word")
@@ -158,6 +158,10 @@ class Enum:
     doc: str
     values: dict[str, int]
     line: int
+    # value name -> names of the data words that value selects (an enum that selects what
+    # a group of words carries, e.g. mc_datalog: which internal words fill micro_data's
+    # mc_datalog); each name is snake_case and ends in its unit; empty for most enums
+    words: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -375,7 +379,8 @@ class _Builder:
                         self.fail(vline, f"{ename}.{vname}", "flag bit must be 0..31")
                 if len(set(values.values())) != len(values):
                     self.fail(vline, ename, "two names share a value")
-                enums[ename] = Enum(ename, kind, e.get("doc", ""), dict(values), line)
+                words = self.enum_words(e, kind, ename, values, line)
+                enums[ename] = Enum(ename, kind, e.get("doc", ""), dict(values), line, words)
         messages, ids = {}, {}
         raws = self.tables(d.get("message", []), self.lines.find(r"^\[*message\b") or 1, "message")
         for k, raw in enumerate(raws):
@@ -490,6 +495,24 @@ class _Builder:
             self.fail(at("crc"), "framing.serial.crc",
                       f"unsupported {framing.get('crc')!r} (supported: {', '.join(sorted(_CRCS))})")
         return framing
+
+    def enum_words(self, e: dict, kind: str, ename: str, values: dict, line: int) -> dict:
+        """The checked `words` table of enum `ename` (value name -> tuple of word names)."""
+        if "words" not in e:
+            return {}
+        wline = self.lines.find(r"^\s*words\s*=", line) or line
+        if kind != "enum":
+            self.fail(wline, f"{ename}.words", "only an enum names words, not a flag set")
+        table = self.table(e["words"], wline, f"{ename}.words")
+        out = {}
+        for vname, names in table.items():
+            if vname not in values:
+                self.fail(wline, f"{ename}.words.{vname}", f"not a value of enum {ename}")
+            if (not isinstance(names, list) or not all(isinstance(n, str) and _NAME_RE.match(n) for n in names)
+                    or len(set(names)) != len(names)):
+                self.fail(wline, f"{ename}.words.{vname}", "must be a list of distinct snake_case names")
+            out[vname] = tuple(names)
+        return out
 
     def message(self, k: int, raw, links: dict, framing: dict, enums: dict) -> Message:
         """The k-th (0-based) [[message]]."""
@@ -643,7 +666,8 @@ def _seal(spec: Spec) -> None:
         "name": spec.name, "version": spec.version,
         "framing": {k: v for k, v in spec.framing.items() if not k.endswith("doc")},
         "links": {k: {kk: vv for kk, vv in v.items() if not kk.endswith("doc")} for k, v in spec.links.items()},
-        "enums": {e.name: [e.kind, e.values] for e in spec.enums.values()},
+        "enums": {e.name: [e.kind, e.values] + ([{k: list(v) for k, v in e.words.items()}] if e.words else [])
+                  for e in spec.enums.values()},
         "messages": [
             [m.name, m.link, m.direction, m.id, m.words,
              [[f.name, f.word, f.type, f.count, f.units, f.scale, f.min, f.max, f.default,
