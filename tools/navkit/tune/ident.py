@@ -1,0 +1,275 @@
+"""Identification of a wheel's speed response to its PWM duty (numpy least squares).
+
+Two model structures, both with a dead time L and a duty dead band d0 (Coulomb friction:
+the duty a wheel needs before it moves), from duty u (-1..1) to wheel speed y (mm/s):
+
+    FOPDT  y = K e^{-Ls} / (tau1 s + 1)                  * db(u)
+    SOPDT  y = K e^{-Ls} / ((tau1 s + 1)(tau2 s + 1))    * db(u)
+    db(u)  = sign(u) * max(|u| - d0, 0)
+
+K in mm/s per duty, tau1/tau2/L in s, d0 in duty. The data are samples at a fixed period
+Ts (s) with the duty held between samples (zero-order hold: an excitation must hold each
+level for at least one sample), starting at rest.
+
+The fit is output-error: the model is simulated over the whole record (exactly, with the
+dead time's fraction of a sample included by the modified z-transform) and its parameters
+move by Levenberg-Marquardt steps (numpy lstsq on a finite-difference Jacobian) to
+minimise the squared output error; the start comes from equation-error (ARX) least
+squares at every whole-sample delay. Fit quality: NRMSE = ||y - y_model|| / ||y - mean(y)||
+(0 = perfect, 1 = no better than the mean).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+__all__ = ["Model", "Fit", "IdentError", "simulate", "fit", "fit_both", "nrmse"]
+
+
+class IdentError(ValueError):
+    """Data that cannot be fitted (too short, no excitation, a model that does not converge)."""
+
+
+@dataclass(frozen=True)
+class Model:
+    """A wheel model; kind 'fopdt' or 'sopdt'. gain_mm_s (mm/s per duty), tau1_s and tau2_s
+    (s; tau2_s 0 for fopdt), delay_s (s), deadband (duty)."""
+
+    kind: str
+    gain_mm_s: float
+    tau1_s: float
+    tau2_s: float = 0.0
+    delay_s: float = 0.0
+    deadband: float = 0.0
+
+    def tf(self):
+        """The delay-free linear part as a python-control continuous TransferFunction
+        (duty -> mm/s)."""
+        import control
+
+        den = np.polymul([self.tau1_s, 1.0], [self.tau2_s, 1.0]) if self.kind == "sopdt" else [self.tau1_s, 1.0]
+        return control.tf([self.gain_mm_s], list(den))
+
+    def scaled(self, gain: float = 1.0, tau: float = 1.0, deadband: float = 1.0) -> "Model":
+        """The same structure with K, both time constants and d0 multiplied by the factors."""
+        return Model(self.kind, self.gain_mm_s * gain, self.tau1_s * tau, self.tau2_s * tau,
+                     self.delay_s, self.deadband * deadband)
+
+    def as_dict(self) -> dict:
+        """JSON-ready: the fields with their units in the names."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A fitted model and its quality: nrmse (1), the record's sample period ts_s (s) and
+    length n, and the model's output y_model (mm/s) at the samples."""
+
+    model: Model
+    nrmse: float
+    ts_s: float
+    n: int
+    y_model: np.ndarray
+
+
+def nrmse(y: np.ndarray, y_model: np.ndarray) -> float:
+    """||y - y_model|| / ||y - mean(y)|| (1); inf for a constant y."""
+    den = float(np.linalg.norm(y - np.mean(y)))
+    return float(np.linalg.norm(y - y_model)) / den if den > 0 else math.inf
+
+
+def _deadband(u: np.ndarray, d0: float) -> np.ndarray:
+    return np.sign(u) * np.maximum(np.abs(u) - d0, 0.0)
+
+
+def _ss(model: Model):
+    """Continuous state space (A, B, C) of the delay-free part."""
+    if model.kind == "sopdt":
+        a = np.array([[-1.0 / model.tau1_s, 0.0], [1.0 / model.tau2_s, -1.0 / model.tau2_s]])
+        b = np.array([[model.gain_mm_s / model.tau1_s], [0.0]])
+        c = np.array([[0.0, 1.0]])
+    else:
+        a = np.array([[-1.0 / model.tau1_s]])
+        b = np.array([[model.gain_mm_s / model.tau1_s]])
+        c = np.array([[1.0]])
+    return a, b, c
+
+
+def _expm(m: np.ndarray) -> np.ndarray:
+    """e^M of a small matrix: scaling and squaring of a 14-term Taylor series (the fit calls
+    this thousands of times on 2x2 and 3x3 matrices, where a general routine's set-up
+    dominates)."""
+    norm = float(np.abs(m).sum(axis=1).max())
+    s = max(0, int(math.ceil(math.log2(norm / 0.25))) if norm > 0.25 else 0)
+    a = m / (2.0 ** s)
+    term = np.eye(len(m))
+    e = term.copy()
+    for k in range(1, 15):
+        term = term @ a / k
+        e = e + term
+    for _ in range(s):
+        e = e @ e
+    return e
+
+
+def _hold(a: np.ndarray, b: np.ndarray, t: float):
+    """(e^{A t}, integral_0^t e^{A s} ds B) by one matrix exponential."""
+    expm = _expm
+    n = a.shape[0]
+    m = np.zeros((n + 1, n + 1))
+    m[:n, :n] = a * t
+    m[:n, n:] = b * t
+    e = expm(m)
+    return e[:n, :n], e[:n, n:]
+
+
+def discrete(model: Model, ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """(num, den) in powers of z^-1 of the model sampled at ts (s) with a held input,
+    dead time included (modified z-transform for its fraction of a sample)."""
+    from scipy.signal import ss2tf
+
+    a, b, c = _ss(model)
+    n_whole = int(math.floor(model.delay_s / ts + 1e-9))
+    frac = model.delay_s / ts - n_whole
+    if frac < 1e-9:
+        frac = 0.0
+    phi, _ = _hold(a, b, ts)
+    # over one sample the input is u[k-n-1] for frac*ts, then u[k-n] for the rest
+    e_rest, g_rest = _hold(a, b, (1.0 - frac) * ts)
+    _, g_first = _hold(a, b, frac * ts)
+    g_late = g_rest                 # multiplies u[k-n]
+    g_early = e_rest @ g_first      # multiplies u[k-n-1]
+    num_late, den = ss2tf(phi, g_late, c, np.zeros((1, 1)))
+    num_early, _ = ss2tf(phi, g_early, c, np.zeros((1, 1)))
+    ns = a.shape[0]
+    num = np.zeros(n_whole + ns + 2)
+    num[n_whole:n_whole + ns + 1] += num_late[0]
+    num[n_whole + 1:n_whole + ns + 2] += num_early[0]
+    return num, den
+
+
+def simulate(model: Model, u: np.ndarray, ts: float) -> np.ndarray:
+    """Model output (mm/s) at the samples of duty u (held for ts s each), from rest."""
+    from scipy.signal import lfilter
+
+    num, den = discrete(model, ts)
+    return lfilter(num, den, _deadband(np.asarray(u, float), model.deadband))
+
+
+def _arx_start(u: np.ndarray, y: np.ndarray, ts: float, max_delay: int) -> list[Model]:
+    """FOPDT starts from equation-error least squares y[k+1] = a y[k] + b u[k-n] + c sign(u[k-n])
+    for each whole-sample delay n (numpy lstsq)."""
+    starts = []
+    for n in range(0, max_delay + 1):
+        if len(y) - n - 1 < 10:
+            break
+        uk = u[:len(u) - n - 1]
+        phi = np.column_stack([y[n:-1], uk, np.sign(uk)])
+        theta, *_ = np.linalg.lstsq(phi, y[n + 1:], rcond=None)
+        a, b, c = (float(v) for v in theta)
+        if not (0.0 < a < 1.0) or b <= 0.0:
+            continue
+        tau = -ts / math.log(a)
+        d0 = min(max(-c / b, 0.0), 0.5)
+        starts.append(Model("fopdt", b / (1.0 - a), tau, 0.0, n * ts, d0))
+    return starts
+
+
+# parameter vectors: log K, log tau1, [log tau2], delay (s), dead band (duty)
+def _pack(m: Model) -> np.ndarray:
+    p = [math.log(m.gain_mm_s), math.log(m.tau1_s)]
+    if m.kind == "sopdt":
+        p.append(math.log(m.tau2_s))
+    return np.array(p + [m.delay_s, m.deadband])
+
+
+def _unpack(kind: str, p: np.ndarray) -> Model:
+    if kind == "sopdt":
+        return Model(kind, math.exp(p[0]), math.exp(p[1]), math.exp(p[2]), max(float(p[3]), 0.0),
+                     max(float(p[4]), 0.0))
+    return Model(kind, math.exp(p[0]), math.exp(p[1]), 0.0, max(float(p[2]), 0.0), max(float(p[3]), 0.0))
+
+
+def _refine(m: Model, u: np.ndarray, y: np.ndarray, ts: float, iters: int = 60) -> Model:
+    """Levenberg-Marquardt on the output error from model m."""
+    kind = m.kind
+    p = _pack(m)
+    steps = np.array([1e-4] * (len(p) - 2) + [ts * 1e-2, 1e-4])
+
+    def resid(q):
+        q = q.copy()
+        q[-2] = max(q[-2], 0.0)
+        q[-1] = max(q[-1], 0.0)
+        return simulate(_unpack(kind, q), u, ts) - y
+
+    r = resid(p)
+    cost = float(r @ r)
+    lam = 1e-3
+    for _ in range(iters):
+        jac = np.column_stack([(resid(p + np.eye(len(p))[i] * steps[i]) - r) / steps[i] for i in range(len(p))])
+        jtj = jac.T @ jac
+        g = jac.T @ r
+        improved = False
+        for _ in range(8):
+            a = jtj + lam * np.diag(np.diag(jtj) + 1e-12)
+            dp, *_ = np.linalg.lstsq(a, -g, rcond=None)
+            q = p + dp
+            q[-2] = max(q[-2], 0.0)
+            q[-1] = min(max(q[-1], 0.0), 0.9)
+            rq = resid(q)
+            cq = float(rq @ rq)
+            if math.isfinite(cq) and cq < cost:
+                improved = abs(cost - cq) > 1e-10 * cost
+                p, r, cost = q, rq, cq
+                lam = max(lam / 3.0, 1e-9)
+                break
+            lam *= 4.0
+        if not improved:
+            break
+    return _unpack(kind, p)
+
+
+def fit(u, y, ts: float, kind: str = "fopdt", max_delay_s: float = 0.1) -> Fit:
+    """Fit a `kind` model ('fopdt' or 'sopdt') to duty u (1) and speed y (mm/s) sampled every
+    ts (s) from rest; dead times up to max_delay_s (s) are searched. Raises IdentError."""
+    u = np.asarray(u, float)
+    y = np.asarray(y, float)
+    if kind not in ("fopdt", "sopdt"):
+        raise IdentError(f"unknown model kind {kind!r} (fopdt or sopdt)")
+    if len(u) != len(y) or len(u) < 20:
+        raise IdentError(f"need at least 20 samples of duty and speed, got {len(u)} and {len(y)}")
+    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+        raise IdentError("the record holds non-finite duty or speed values")
+    if np.ptp(u) < 1e-3 or np.ptp(y) < 1e-6:
+        raise IdentError("the record has no excitation (duty or speed constant)")
+    max_delay = max(1, int(round(max_delay_s / ts)))
+    starts = _arx_start(u, y, ts, max_delay)
+    if not starts:
+        raise IdentError("no stable first-order model fits the record (equation-error least squares "
+                         "found no pole in 0..1 with a positive gain)")
+    # the best few starts by simulation error, each refined
+    starts.sort(key=lambda m: nrmse(y, simulate(m, u, ts)))
+    best, best_e = None, math.inf
+    for s in starts[:3]:
+        cands = [s]
+        if kind == "sopdt":
+            cands = [Model("sopdt", s.gain_mm_s, 0.8 * s.tau1_s, max(0.2 * s.tau1_s, 0.3 * ts), s.delay_s, s.deadband),
+                     Model("sopdt", s.gain_mm_s, 0.5 * s.tau1_s, 0.5 * s.tau1_s, max(s.delay_s - ts, 0.0), s.deadband)]
+        for c in cands:
+            m = _refine(c, u, y, ts)
+            e = nrmse(y, simulate(m, u, ts))
+            if e < best_e:
+                best, best_e = m, e
+    if best is None or not math.isfinite(best_e):
+        raise IdentError(f"the {kind} fit did not converge")
+    if best.kind == "sopdt" and best.tau2_s > best.tau1_s:
+        best = Model("sopdt", best.gain_mm_s, best.tau2_s, best.tau1_s, best.delay_s, best.deadband)
+    return Fit(best, best_e, ts, len(u), simulate(best, u, ts))
+
+
+def fit_both(u, y, ts: float, max_delay_s: float = 0.1) -> dict:
+    """{'fopdt': Fit, 'sopdt': Fit} of the same record."""
+    return {k: fit(u, y, ts, k, max_delay_s) for k in ("fopdt", "sopdt")}
