@@ -20,7 +20,7 @@ pytestmark = [
     pytest.mark.skipif(not program().exists(), reason=f"{program()} not built: run make"),
 ]
 
-TEST_SPEED = 2.0    # simulated s per wall s: the bootloader waits ~0.5 s of wall time
+TEST_SPEED = 4.0    # simulated s per wall s: the bootloader waits ~0.25 s of wall time
 BOOT_GREETING = b"navkit-test\n"
 
 # The info block of interface 1 (36 bytes, little-endian) as C; {hash} {sig} {mcu} filled in.
@@ -212,7 +212,7 @@ def test_unbuilt_program_names_the_fix(tmp_path, monkeypatch):
     r = subprocess.run([sys.executable, "-m", "navkit", "simboard", "--link", str(tmp_path / "m")],
                        capture_output=True, text=True, env=env, timeout=20)
     assert r.returncode == 1
-    assert r.stderr.strip() == (f"navkit simboard: {tmp_path / 'nobuild'}/firmware/avr/simboard/"
+    assert r.stderr.strip() == (f"navkit simboard: {tmp_path / 'nobuild'}/firmware/avr-simboard/"
                                 "navkit-simboard is not built: run make")
     monkeypatch.setenv("NAVKIT_BUILD_DIR", str(tmp_path / "nobuild"))
     with pytest.raises(SimBoardError, match="not built: run make"):

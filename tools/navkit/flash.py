@@ -5,8 +5,9 @@
 
 Steps, each failing with one line that names the fix (exit status 1):
 1. the image: --hex FILE, else `<build>/firmware/avr/navkit-mega2560.hex`, built first
-   (`cmake --build <build>`); refused unless its image-info block (interface 1 of the
-   AVR image: magic "NAVKITIM" in its data) says ATmega2560 and this spec's hash;
+   (`cmake --build <build> --target navkit_avr_image`); refused unless its image-info
+   block (interface 1 of the AVR image: magic "NAVKITIM" in its data) says ATmega2560
+   and this spec's hash;
 2. the board: --port PATH, or with `auto` the one USB-serial device found under
    /dev/serial/by-id and /sys/class/tty/*/device (none: say so; several: list them);
    `$NAVKIT_DEV_ROOT` puts another root in front of /dev and /sys (tests);
@@ -17,9 +18,9 @@ Steps, each failing with one line that names the fix (exit status 1):
    `avrdude -c wiring -p atmega2560 -P PORT -b 115200 -D -U flash:w:IMAGE:i`
    (its own error text is shown when it fails);
 6. the board answers: the port is opened again (which resets the board; the
-   bootloader waits ~1 s), then the three config messages and a micro_cmd, built by
+   bootloader waits ~1 s), then a micro_cmd and the three config messages, built by
    navkit.protocol, until a micro_data comes back; its spec_hash must be this spec's,
-   and its fw_version and reset_cause are reported.
+   and its fw_version, reset_cause and configured state (or the refusal) are reported.
 """
 
 from __future__ import annotations
@@ -193,18 +194,20 @@ def check_image(path: Path) -> tuple[ImageInfo, int]:
 
 
 def _build_image(build: Path) -> Path:
-    """Bring `<build>/firmware/avr/navkit-mega2560.hex` up to date with cmake --build."""
+    """Bring `<build>/firmware/avr/navkit-mega2560.hex` up to date: cmake --build of the
+    AVR image's target (navkit_avr_image, firmware/avr/avr.cmake)."""
     image = build / "firmware" / "avr" / "navkit-mega2560.hex"
     if not (build / "CMakeCache.txt").exists():
         raise FlashError(f"{build}: not a configured build folder: run make (or give --hex FILE)")
-    print(f"navkit flash: building the image (cmake --build {build})", flush=True)
+    cmd = ["cmake", "--build", str(build), "--target", "navkit_avr_image"]
+    print(f"navkit flash: building the image ({' '.join(cmd)})", flush=True)
     try:
-        r = subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True)
+        r = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
         raise FlashError("cmake not found: run make (scripts/setup.sh installs it)") from None
     if r.returncode != 0:
         tail = "\n".join((r.stdout + r.stderr).strip().splitlines()[-20:])
-        raise FlashError(f"the build failed (cmake --build {build}):\n{tail}\nfix the errors above, then run make")
+        raise FlashError(f"the build failed ({' '.join(cmd)}):\n{tail}\nfix the errors above, then run make")
     if not image.exists():
         raise FlashError(f"{image}: not built (the AVR image needs gcc-avr and avr-libc: run make, "
                          "which runs scripts/setup.sh)")
@@ -400,15 +403,34 @@ def _micro_data_text(d: dict) -> str:
         names = {v: k for k, v in SPEC.enums["reset_cause"].values.items()}
         parts.append(f"reset_cause {names.get(d['reset_cause'], d['reset_cause'])}")
     bit = SPEC.enums["micro_status"].values["configured"]
-    parts.append("configured" if d["status"] >> bit & 1 else "not configured")
+    if d["status"] >> bit & 1:
+        parts.append("configured")
+    else:
+        parts.append("not configured" + _refusal(d["last_reject"]))
     return ", ".join(parts)
+
+
+def _refusal(last_reject: int) -> str:
+    """Why the last message was refused (micro_data.last_reject, flags `reject`), as
+    ' (MESSAGE refused: REASON)', or '' when nothing was."""
+    from navkit.protocol import SPEC
+    bits = SPEC.enums["reject"].values
+    types = {v: k for k, v in SPEC.enums["msg_type"].values.items()}
+    low = last_reject & ~(1 << bits["range"] | 1 << bits["unconfigured"])
+    if last_reject >> bits["range"] & 1:
+        return (f" ({types.get(low, low)} refused: a field outside the board's range, e.g. a "
+                "control_rate above its ceiling)")
+    if last_reject >> bits["unconfigured"] & 1:
+        return f" ({types.get(low, low)} refused: not configured)"
+    return f" (command {last_reject} refused)" if last_reject else ""
 
 
 def query_board(port: str, *, boot_wait: float = BOOT_WAIT_S,
                 timeout: float = ANSWER_TIMEOUT_S) -> dict:
-    """Open `port` (resetting the board), wait out the bootloader, then send the three
-    config messages (spec defaults) and a micro_cmd every 0.5 s until micro_data answers;
-    return the fields of the last micro_data of that round (the reply to the micro_cmd). FlashError when none comes in `timeout` s or it carries another spec hash."""
+    """Open `port` (resetting the board), wait out the bootloader, then send a micro_cmd
+    (no command) and the three config messages (spec defaults) every 0.5 s until
+    micro_data answers; return the fields of the last micro_data of that round (the
+    board skips a reply that does not fit its TX buffer, so not every frame gets one). FlashError when none comes in `timeout` s or it carries another spec hash."""
     import serial
     from navkit.protocol import (DIR_TO_HOST, SPEC_HASH, Frame, Parser, defaults,
                                  encode_frame)
@@ -424,11 +446,11 @@ def query_board(port: str, *, boot_wait: float = BOOT_WAIT_S,
         last = None
         while time.monotonic() < t_end:
             if last is None and time.monotonic() >= next_send:
+                tag += 1
+                s.write(encode_frame("micro_cmd", {}, time_tag=tag))
                 for name in names:
                     tag += 1
                     s.write(encode_frame(name, defaults(name), time_tag=tag))
-                tag += 1
-                s.write(encode_frame("micro_cmd", {}, time_tag=tag))
                 next_send = time.monotonic() + 0.5
             for ev in parser.feed(s.read(512)):
                 if isinstance(ev, Frame) and ev.name == "micro_data":

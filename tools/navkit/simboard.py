@@ -34,7 +34,7 @@ class SimBoardError(Exception):
 def program() -> Path:
     """The simboard program in the build folder (navkit.paths.build_dir())."""
     from navkit.paths import build_dir
-    return build_dir() / "firmware" / "avr" / "simboard" / "navkit-simboard"
+    return build_dir() / "firmware" / "avr-simboard" / "navkit-simboard"
 
 
 def _simavr_installed() -> bool:
