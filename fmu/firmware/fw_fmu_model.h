@@ -1,14 +1,18 @@
 /* fw_fmu_model.h: the whole contract of the firmware FMU in one header.
  *
  * modelIdentifier navkit_firmware, FMI 3.0 co-simulation. The variable table below is
- * the single source of truth: fw_fmu.c builds its getters and setters from it, and
- * fw_fmu_mdgen.c writes modelDescription.xml from it at build time, so the two cannot
- * drift apart (tests/test_firmware_fmu.py checks the packaged result with fmpy).
+ * the single source of truth: the FMI layer's table (fmu/fmi/fmil.h) is built from it
+ * (FWFMU_FMIL_ROWS), and fw_fmu_mdgen.c writes modelDescription.xml from it at build time,
+ * so the two cannot drift apart (tests/test_firmware_fmu.py checks the packaged result
+ * with fmpy). The AVR firmware FMU (fmu/firmware_avr, navkit_firmware_avr) has the same
+ * variables from the same table, and profiling outputs of its own.
  *
  * Names and units follow docs/internals.md ("Firmware FMU <-> plant FMU").
  */
 #ifndef NAVKIT_FW_FMU_MODEL_H
 #define NAVKIT_FW_FMU_MODEL_H
+
+#include <stdint.h>
 
 #define FWFMU_MODEL_IDENTIFIER "navkit_firmware"
 #define FWFMU_MODEL_NAME "navkit firmware"
@@ -24,36 +28,36 @@
  *   field: the instance member holding the value */
 #define FWFMU_FLOAT64_VARS(X)                                                                                \
     X(0, time, independent, continuous, "s", 0.0, time, "Simulation time")                                  \
-    X(1, motor_left_duty, output, discrete, "1", 0.0, hal.motor_left_duty,                                  \
+    X(1, motor_left_duty, output, discrete, "1", 0.0, io.motor_left_duty,                                  \
       "Left motor PWM duty -1..1, + drives the wheel forward (motor_left_sign applied)")                     \
-    X(2, motor_right_duty, output, discrete, "1", 0.0, hal.motor_right_duty, "Right motor PWM duty -1..1")  \
-    X(3, servo_pulse_0, output, discrete, "us", 0.0, hal.servo_pulse[0], "RC servo 0 pulse width, 0 = not driven") \
-    X(4, servo_pulse_1, output, discrete, "us", 0.0, hal.servo_pulse[1], "RC servo 1 pulse width, 0 = not driven") \
-    X(5, servo_pulse_2, output, discrete, "us", 0.0, hal.servo_pulse[2], "RC servo 2 pulse width, 0 = not driven") \
-    X(6, servo_pulse_3, output, discrete, "us", 0.0, hal.servo_pulse[3], "RC servo 3 pulse width, 0 = not driven") \
-    X(7, servo_pulse_4, output, discrete, "us", 0.0, hal.servo_pulse[4], "RC servo 4 pulse width, 0 = not driven") \
-    X(8, servo_pulse_5, output, discrete, "us", 0.0, hal.servo_pulse[5], "RC servo 5 pulse width, 0 = not driven") \
-    X(9, servo_pulse_6, output, discrete, "us", 0.0, hal.servo_pulse[6], "RC servo 6 pulse width, 0 = not driven") \
-    X(10, servo_pulse_7, output, discrete, "us", 0.0, hal.servo_pulse[7], "RC servo 7 pulse width, 0 = not driven") \
-    X(24, ir_voltage_0, input, continuous, "V", 0.0, hal.ir_voltage[0], "Sharp GP2D12 0 output (ADC ch0)")   \
-    X(25, ir_voltage_1, input, continuous, "V", 0.0, hal.ir_voltage[1], "Sharp GP2D12 1 output (ADC ch1)")   \
-    X(26, ir_voltage_2, input, continuous, "V", 0.0, hal.ir_voltage[2], "Sharp GP2D12 2 output (ADC ch2)")   \
-    X(27, ir_voltage_3, input, continuous, "V", 0.0, hal.ir_voltage[3], "Sharp GP2D12 3 output (ADC ch3)")   \
-    X(28, battery_voltage, input, continuous, "V", 12.0, hal.battery_voltage,                               \
+    X(2, motor_right_duty, output, discrete, "1", 0.0, io.motor_right_duty, "Right motor PWM duty -1..1")  \
+    X(3, servo_pulse_0, output, discrete, "us", 0.0, io.servo_pulse[0], "RC servo 0 pulse width, 0 = not driven") \
+    X(4, servo_pulse_1, output, discrete, "us", 0.0, io.servo_pulse[1], "RC servo 1 pulse width, 0 = not driven") \
+    X(5, servo_pulse_2, output, discrete, "us", 0.0, io.servo_pulse[2], "RC servo 2 pulse width, 0 = not driven") \
+    X(6, servo_pulse_3, output, discrete, "us", 0.0, io.servo_pulse[3], "RC servo 3 pulse width, 0 = not driven") \
+    X(7, servo_pulse_4, output, discrete, "us", 0.0, io.servo_pulse[4], "RC servo 4 pulse width, 0 = not driven") \
+    X(8, servo_pulse_5, output, discrete, "us", 0.0, io.servo_pulse[5], "RC servo 5 pulse width, 0 = not driven") \
+    X(9, servo_pulse_6, output, discrete, "us", 0.0, io.servo_pulse[6], "RC servo 6 pulse width, 0 = not driven") \
+    X(10, servo_pulse_7, output, discrete, "us", 0.0, io.servo_pulse[7], "RC servo 7 pulse width, 0 = not driven") \
+    X(24, ir_voltage_0, input, continuous, "V", 0.0, io.ir_voltage[0], "Sharp GP2D12 0 output (ADC ch0)")   \
+    X(25, ir_voltage_1, input, continuous, "V", 0.0, io.ir_voltage[1], "Sharp GP2D12 1 output (ADC ch1)")   \
+    X(26, ir_voltage_2, input, continuous, "V", 0.0, io.ir_voltage[2], "Sharp GP2D12 2 output (ADC ch2)")   \
+    X(27, ir_voltage_3, input, continuous, "V", 0.0, io.ir_voltage[3], "Sharp GP2D12 3 output (ADC ch3)")   \
+    X(28, battery_voltage, input, continuous, "V", 12.0, io.battery_voltage,                               \
       "Battery pack; the board divides it by 3 into ADC ch4 (10 bit, 5.0 V reference)")                    \
-    X(29, sonar_echo_0, input, discrete, "us", 0.0, hal.sonar_echo[0], "SRF04 0 echo pulse width, 0 = no echo") \
-    X(30, sonar_echo_1, input, discrete, "us", 0.0, hal.sonar_echo[1], "SRF04 1 echo pulse width, 0 = no echo") \
-    X(31, sonar_echo_2, input, discrete, "us", 0.0, hal.sonar_echo[2], "SRF04 2 echo pulse width, 0 = no echo") \
-    X(32, sonar_echo_3, input, discrete, "us", 0.0, hal.sonar_echo[3], "SRF04 3 echo pulse width, 0 = no echo")
+    X(29, sonar_echo_0, input, discrete, "us", 0.0, io.sonar_echo[0], "SRF04 0 echo pulse width, 0 = no echo") \
+    X(30, sonar_echo_1, input, discrete, "us", 0.0, io.sonar_echo[1], "SRF04 1 echo pulse width, 0 = no echo") \
+    X(31, sonar_echo_2, input, discrete, "us", 0.0, io.sonar_echo[2], "SRF04 2 echo pulse width, 0 = no echo") \
+    X(32, sonar_echo_3, input, discrete, "us", 0.0, io.sonar_echo[3], "SRF04 3 echo pulse width, 0 = no echo")
 
 #define FWFMU_INT32_VARS(X)                                                                                  \
-    X(11, dio_out, output, discrete, "", 0, hal.dio_out, "Levels the micro drives on its 12 DIO pins (output pins only), bitmask") \
-    X(12, dio_dir, output, discrete, "", 0, hal.dio_dir, "DIO directions, bitmask, 1 = output")             \
-    X(20, enc_left, input, discrete, "", 0, hal.enc_left, "Left encoder, quadrature-decoded counts (x4), + forward") \
-    X(21, enc_right, input, discrete, "", 0, hal.enc_right, "Right encoder, counts (x4), + forward")         \
-    X(22, gyro_raw, input, discrete, "", 0, hal.gyro_raw, "Yaw-rate gyro, LSB, counter-clockwise positive (z up), 16-bit range") \
-    X(23, compass_raw, input, discrete, "", 0, hal.compass_raw, "Compass bearing, deg*10, 0..3599, clockwise from north") \
-    X(33, dio_in, input, discrete, "", 0, hal.dio_in, "Levels external circuits drive on input pins, bitmask")
+    X(11, dio_out, output, discrete, "", 0, io.dio_out, "Levels the micro drives on its 12 DIO pins (output pins only), bitmask") \
+    X(12, dio_dir, output, discrete, "", 0, io.dio_dir, "DIO directions, bitmask, 1 = output")             \
+    X(20, enc_left, input, discrete, "", 0, io.enc_left, "Left encoder, quadrature-decoded counts (x4), + forward") \
+    X(21, enc_right, input, discrete, "", 0, io.enc_right, "Right encoder, counts (x4), + forward")         \
+    X(22, gyro_raw, input, discrete, "", 0, io.gyro_raw, "Yaw-rate gyro, LSB, counter-clockwise positive (z up), 16-bit range") \
+    X(23, compass_raw, input, discrete, "", 0, io.compass_raw, "Compass bearing, deg*10, 0..3599, clockwise from north") \
+    X(33, dio_in, input, discrete, "", 0, io.dio_in, "Levels external circuits drive on input pins, bitmask")
 
 #define FWFMU_UINT32_VARS(X)                                                                                 \
     X(50, baud, parameter, fixed, "", FWFMU_DEFAULT_BAUD, baud, "UART baud rate (10 bits per byte on the wire)")
@@ -65,8 +69,46 @@
 
 #define FWFMU_VR_SERIAL_RX 40u
 #define FWFMU_VR_SERIAL_TX 41u
+#define FWFMU_NUM_VRS 51u /* one past the highest value reference of the table */
 
 /* Units used by the table (for <UnitDefinitions>). */
 #define FWFMU_UNITS(X) X("1") X("s") X("us") X("V")
+
+/* The board's signals as the variables above see them, one struct for both firmware FMUs
+ * (navkit_firmware: the core's hal.h reads and writes it; navkit_firmware_avr: the pins of
+ * the simulated board). Units as in the table. */
+typedef struct {
+    /* inputs (set by the importer) */
+    int32_t enc_left, enc_right, gyro_raw, compass_raw, dio_in;
+    double ir_voltage[4], battery_voltage, sonar_echo[4];
+    /* outputs */
+    double motor_left_duty, motor_right_duty, servo_pulse[8];
+    int32_t dio_out, dio_dir;
+} fwfmu_io_t;
+
+/* The rows of the FMI layer's table (fmu/fmi/fmil.h) for the variables above, in a model
+ * whose fmil_model_t has the members io (fwfmu_io_t), time (double, s), baud (uint32_t)
+ * and serial_rx, serial_tx (fmil_binary_t). */
+#define FWFMU_CAUS_independent FMIL_INDEPENDENT
+#define FWFMU_CAUS_input FMIL_INPUT
+#define FWFMU_CAUS_output FMIL_OUTPUT
+#define FWFMU_CAUS_parameter FMIL_PARAMETER
+#define FWFMU_ROW(vr, name, caus, type, field) [vr] = {#name, type, FWFMU_CAUS_##caus, offsetof(fmil_model_t, field)},
+#define FWFMU_ROW_F64(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_F64, field)
+#define FWFMU_ROW_I32(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_I32, field)
+#define FWFMU_ROW_U32(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_U32, field)
+#define FWFMU_ROW_BIN(vr, name, caus, desc) FWFMU_ROW(vr, name, caus, FMIL_BIN, name)
+#define FWFMU_FMIL_ROWS                  \
+    FWFMU_FLOAT64_VARS(FWFMU_ROW_F64)    \
+    FWFMU_INT32_VARS(FWFMU_ROW_I32)      \
+    FWFMU_UINT32_VARS(FWFMU_ROW_U32)     \
+    FWFMU_BINARY_VARS(FWFMU_ROW_BIN)
+
+/* Every numeric variable of the table to its start value, in a model state pointed to by m. */
+#define FWFMU_START_ONE(vr, name, caus, var, unit, start, field, desc) (m)->field = start;
+#define FWFMU_START_VALUES(m)               \
+    FWFMU_FLOAT64_VARS(FWFMU_START_ONE)     \
+    FWFMU_INT32_VARS(FWFMU_START_ONE)       \
+    FWFMU_UINT32_VARS(FWFMU_START_ONE)
 
 #endif /* NAVKIT_FW_FMU_MODEL_H */

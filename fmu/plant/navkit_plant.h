@@ -143,9 +143,6 @@ F64(sonar_angle_deg_3, PARAMETER, 180.0, "deg", "Sonar 3 pointing angle, counter
 
 /* ---------------------------------------------------------------- variables */
 
-typedef enum { NP_F64, NP_I32, NP_STR } np_type_t;
-typedef enum { NP_INDEPENDENT, NP_PARAMETER, NP_INPUT, NP_OUTPUT } np_causality_t;
-
 #define NP_VR_ENTRY(name, caus, start, unit, desc) NP_VR_##name,
 /* Value references: NP_VR_<name>, in table order. */
 typedef enum { NP_VARIABLES(NP_VR_ENTRY, NP_VR_ENTRY, NP_VR_ENTRY) NP_NUM_VARS } np_vr_t;
@@ -159,17 +156,6 @@ typedef struct { NP_VARIABLES(NP_FIELD_F64, NP_FIELD_I32, NP_FIELD_STR) } np_val
 #undef NP_FIELD_F64
 #undef NP_FIELD_I32
 #undef NP_FIELD_STR
-
-/* One table entry as seen by the FMI wrappers. */
-typedef struct {
-  const char *name;
-  np_type_t type;
-  np_causality_t causality;
-  size_t offset;               /* bytes, of the field in np_values_t */
-} np_var_info_t;
-
-/* The variable table, indexed by value reference (NP_NUM_VARS entries). */
-extern const np_var_info_t np_vars[NP_NUM_VARS];
 
 /* ---------------------------------------------------------------- model state */
 

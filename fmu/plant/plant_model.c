@@ -15,13 +15,6 @@
 #define PI 3.14159265358979323846
 #define DEG (PI / 180.0)            /* rad per deg */
 
-/* ---------------------------------------------------------------- variable table */
-
-#define NP_INFO_F64(n, c, s, u, d) { #n, NP_F64, NP_##c, offsetof(np_values_t, n) },
-#define NP_INFO_I32(n, c, s, u, d) { #n, NP_I32, NP_##c, offsetof(np_values_t, n) },
-#define NP_INFO_STR(n, c, s, u, d) { #n, NP_STR, NP_##c, offsetof(np_values_t, n) },
-const np_var_info_t np_vars[NP_NUM_VARS] = { NP_VARIABLES(NP_INFO_F64, NP_INFO_I32, NP_INFO_STR) };
-
 void np_set_start_values(np_model_t *m) {
   np_release(m);
 #define NP_START_NUM(n, c, s, u, d) m->v.n = (s);

@@ -1,0 +1,55 @@
+/* fmil_model.h: the firmware FMU's config header for the FMI layer (fmu/fmi/fmil.h):
+ * its token and variables from fw_fmu_model.h, and its whole state: the core's fw_t, the
+ * simulated board behind hal.h (struct hal, fw_fmu.c) and the UART model. */
+#ifndef FWFMU_FMIL_MODEL_H
+#define FWFMU_FMIL_MODEL_H
+
+#include "fmil_types.h"
+#include "fw.h"
+#include "fw_fmu_model.h"
+
+#define FMIL_INSTANTIATION_TOKEN FWFMU_INSTANTIATION_TOKEN
+#define FMIL_NUM_VRS FWFMU_NUM_VRS
+
+#define FWFMU_RX_CAP 8192u    /* bytes: RX FIFO (host -> micro, not yet delivered), and serial_rx */
+#define FWFMU_TX_CAP 512u     /* bytes: the micro's TX FIFO */
+#define FWFMU_WIRE_CAP 16384u /* bytes: serial_tx of one doStep */
+
+/* The board the core runs on (its side of hal.h). */
+struct hal {
+    fwfmu_io_t *io;             /* the FMU's variables: inputs read, outputs written */
+    uint8_t rx[FWFMU_RX_CAP];   /* ring: bytes from the host */
+    uint32_t rx_head, rx_len;   /* ring start and fill */
+    uint32_t rx_ready;          /* of rx_len, bytes that have arrived at the micro */
+    uint64_t rx_credit;         /* bit-us: line time not yet used for a byte */
+    uint32_t rx_dropped;        /* bytes lost to a full RX FIFO */
+    uint8_t tx[FWFMU_TX_CAP];   /* ring: bytes the core queued */
+    uint32_t tx_head, tx_len;
+    uint64_t tx_credit;
+    uint8_t wire[FWFMU_WIRE_CAP]; /* serial_tx's bytes */
+    uint32_t baud;
+    /* conversions of the last input value seen (the core reads every channel every tick;
+     * inputs change far less often): a value that compares equal converts to the same
+     * counts (the only unequal bits that compare equal, +0 and -0, both give 0); NaN at
+     * power-on, so the first read converts */
+    double adc_v[5], sonar_v[4];       /* ADC: IR 0-3, battery */
+    uint16_t adc_counts[5], sonar_us[4];
+};
+
+typedef struct {
+    fwfmu_io_t io;
+    struct hal hal;
+    fw_t fw;
+    double time;               /* s: the `time` variable */
+    uint32_t baud;             /* the parameter (copied into hal when the model starts) */
+    fmil_binary_t serial_rx;   /* -> rx_stage: bytes for the next doStep */
+    fmil_binary_t serial_tx;   /* -> hal.wire: bytes of the last doStep */
+    uint8_t rx_stage[FWFMU_RX_CAP];
+    /* the last step size that passed the checks (NaN: none yet), the tick period it was
+     * checked with, and the ticks per step that follow from the two */
+    double step_h;             /* s */
+    uint32_t step_period_us;
+    uint64_t step_ticks;
+} fmil_model_t;
+
+#endif /* FWFMU_FMIL_MODEL_H */
