@@ -148,6 +148,21 @@ def test_erased_board_stays_in_the_bootloader(board):
     assert "0x1e,0x98,0x1" in r.stdout
 
 
+# Greets, then sleeps with interrupts off: a board that hangs until reset (simavr's core
+# stops: "done").
+HALT_C = ECHO_C.replace("    for (;;) {", "    SMCR = 1 << SE;\n    __asm__ volatile (\"cli\\n\\tsleep\");\n    for (;;) {")
+
+
+def test_a_stopped_core_waits_for_the_next_open(board, tmp_path):
+    halt = build_image(tmp_path, "halt", HALT_C)
+    assert "sleep" in (tmp_path / "halt.c").read_text()
+    assert avrdude(board.link, halt, "-D").returncode == 0
+    assert read_until(board.link, BOOT_GREETING, 5.0) == BOOT_GREETING
+    time.sleep(0.2)
+    assert "the AVR stopped (done)" in board.output()
+    assert read_until(board.link, BOOT_GREETING, 5.0) == BOOT_GREETING   # this open reset it
+
+
 def test_sigterm_saves_flash_and_removes_link(tmp_path, echo_image):
     link, flash = tmp_path / "mega", tmp_path / "flash.bin"
     b = SimBoard(link, flash, speed=TEST_SPEED)

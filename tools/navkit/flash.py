@@ -487,20 +487,28 @@ def flash(port: str, image: Path, *, verbose: bool = False, say=print) -> FlashR
 
 
 def _bench(image: Path) -> int:
-    """Flash `image` through a fresh simboard at real time; print seconds and bytes/s."""
+    """Flash `image` through a fresh simboard at real time; print seconds and bytes/s, and
+    how much of real time the simulation kept (below 1 the host was too slow or busy)."""
     import tempfile
     from navkit.simboard import SimBoard, SimBoardError
     with tempfile.TemporaryDirectory(prefix="navkit-flash-bench-") as tmp:
         link = Path(tmp) / "mega"
         try:
-            with SimBoard(link, Path(tmp) / "flash.bin"):
+            board = SimBoard(link, Path(tmp) / "flash.bin")
+            t0 = time.monotonic()
+            with board:
                 r = flash(str(link), image, say=lambda *_: None)
+            wall = time.monotonic() - t0
         except SimBoardError as e:
             raise FlashError(str(e)) from None
-    print(f"flash time through simboard (real time, {BAUD} bit/s, write + verify): "
-          f"{r.avrdude_s:.2f} s for {r.image_bytes} bytes = {r.image_bytes / r.avrdude_s:.0f} bytes/s")
-    print(f"board answered {r.answer_s:.2f} s after the port was opened again "
-          f"(bootloader wait {BOOT_WAIT_S} s included): {_micro_data_text(r.micro_data)}")
+        m = re.search(r"stopped after ([0-9.]+) s of simulated time", board.output())
+    print(f"flash time through simboard ({BAUD} bit/s, write + verify): {r.avrdude_s:.2f} s for "
+          f"{r.image_bytes} bytes = {r.image_bytes / r.avrdude_s:.0f} bytes/s")
+    print(f"board answered {r.answer_s:.2f} s after the port was opened again (bootloader wait "
+          f"{BOOT_WAIT_S} s included): {_micro_data_text(r.micro_data)}")
+    if m:
+        print(f"simboard ran {float(m.group(1)):.2f} s of simulated time in {wall:.2f} s "
+              f"({float(m.group(1)) / wall:.2f} of real time)")
     return 0
 
 

@@ -522,13 +522,10 @@ static int sb_run(sb_t *sb)
             /* as a board whose program ran away: nothing happens until the next reset */
             sb_say(sb, "the AVR stopped (%s) at pc 0x%05x; waiting for a reset (open the port)",
                    state == cpu_Done ? "done" : "crashed", sb->avr->pc);
-            while (!sb_stop && sb->open) {
-                sb_service_pty(sb);
+            unsigned resets = sb->resets;
+            while (!sb_stop && sb->resets == resets) {
                 sb_wait(sb, 0.005);
-            }
-            while (!sb_stop && !sb->open) {
-                sb_wait(sb, 0.005);
-                sb_service_pty(sb);
+                sb_service_pty(sb); /* resets the AVR when a client opens the port */
             }
             t0 = sb_wall();
             c0 = sb_cycles(sb);
