@@ -117,6 +117,22 @@ def test_board_that_never_answers(tmp_path, images):
 
 @needs_avr
 @needs_sim
+def test_board_going_away_while_waiting(tmp_path, images):
+    import threading
+    board = SimBoard(tmp_path / "mega", speed=TEST_SPEED)
+    board.start()
+    try:
+        assert avrdude(board.link, images["silent"], "-D").returncode == 0
+        threading.Timer(1.0, board.stop).start()
+        with pytest.raises(fl.FlashError, match=f"^port {board.link}: .*the board went away while navkit "
+                                                "waited for its answer"):
+            fl.query_board(str(board.link), boot_wait=0.5, timeout=5.0)
+    finally:
+        board.stop()
+
+
+@needs_avr
+@needs_sim
 @needs_real
 def test_real_image_with_navkit_flash(tmp_path):
     with SimBoard(tmp_path / "mega", tmp_path / "flash.bin", speed=TEST_SPEED) as board:

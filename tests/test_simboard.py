@@ -150,7 +150,8 @@ def test_erased_board_stays_in_the_bootloader(board):
 
 # Greets, then sleeps with interrupts off: a board that hangs until reset (simavr's core
 # stops: "done").
-HALT_C = ECHO_C.replace("    for (;;) {", "    SMCR = 1 << SE;\n    __asm__ volatile (\"cli\\n\\tsleep\");\n    for (;;) {")
+HALT_C = ECHO_C.replace("    for (;;) {",
+                        "    SMCR = 1 << SE;\n    __asm__ volatile (\"cli\\n\\tsleep\");\n    for (;;) {")
 
 
 def test_a_stopped_core_waits_for_the_next_open(board, tmp_path):
@@ -174,6 +175,24 @@ def test_sigterm_saves_flash_and_removes_link(tmp_path, echo_image):
         assert b.proc.wait(10) == 0
     assert not link.is_symlink()
     assert flash.read_bytes()[:2] != b"\xff\xff"      # the image's vector table is there
+
+
+def test_navkit_simboard_replaces_a_stale_link_and_ends_on_ctrl_c(tmp_path):
+    link = tmp_path / "mega"
+    link.symlink_to("/dev/pts/nonexistent")          # left by a killed run
+    p = subprocess.Popen([sys.executable, "-m", "navkit", "simboard", "--link", str(link), "--speed", "4"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = p.stdout.readline()                   # the program (exec'd) says where it is
+        assert first.startswith("simboard: ATmega2560 at 16000000 Hz, bootloader ")
+        assert first.rstrip().endswith(f"link {link} -> {os.readlink(link)}")
+        assert os.readlink(link).startswith("/dev/pts/") and Path(os.readlink(link)).exists()
+    finally:
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=10)
+    assert p.returncode == 0, err
+    assert "stopped after" in out
+    assert not link.is_symlink()
 
 
 def _simboard(tmp_path, *args):

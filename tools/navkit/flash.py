@@ -430,7 +430,17 @@ def query_board(port: str, *, boot_wait: float = BOOT_WAIT_S,
     """Open `port` (resetting the board), wait out the bootloader, then send a micro_cmd
     (no command) and the three config messages (spec defaults) every 0.5 s until
     micro_data answers; return the fields of the last micro_data of that round (the
-    board skips a reply that does not fit its TX buffer, so not every frame gets one). FlashError when none comes in `timeout` s or it carries another spec hash."""
+    board skips a reply that does not fit its TX buffer, so not every frame gets one).
+    FlashError when none comes in `timeout` s or it carries another spec hash."""
+    import serial
+    try:
+        return _query(port, boot_wait, timeout)
+    except (OSError, serial.SerialException) as e:
+        raise FlashError(f"port {port}: {e}: the board went away while navkit waited for its "
+                         "answer (unplugged? simboard stopped?)") from None
+
+
+def _query(port: str, boot_wait: float, timeout: float) -> dict:
     import serial
     from navkit.protocol import (DIR_TO_HOST, SPEC_HASH, Frame, Parser, defaults,
                                  encode_frame)
@@ -542,3 +552,7 @@ def run(args) -> int:
     except FlashError as e:
         print(f"navkit flash: {e}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("navkit flash: interrupted; if avrdude was writing, the board holds part of the "
+              "image: flash again (its bootloader is untouched)", file=sys.stderr)
+        return 130
