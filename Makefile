@@ -4,7 +4,7 @@ BUILD ?= build
 PY    := .venv/bin/python
 CMAKE_PRESET ?= default
 
-.PHONY: setup build sim test test-c test-py fuzz-build fuzz-corpus fuzz-short fuzz-long prop-long bench clean
+.PHONY: setup build sim test test-c test-py fuzz-build fuzz-corpus fuzz-short fuzz-long prop-long bench bench-sweep clean
 
 setup:
 	@scripts/setup.sh
@@ -62,6 +62,11 @@ bench: build
 	$(PY) -m navkit bench-proto
 	$(PY) -m navkit bench-host
 	$(PY) -m navkit bench-sim
+
+# Opt-in: `navkit sweep` runs per minute on a LocalCluster of 1 and of 2 workers (the demo
+# mission, 24 runs each), their ratio, and that both gave the same table.
+bench-sweep: build
+	$(PY) -m navkit sweep --bench
 
 clean:
 	rm -rf $(BUILD)

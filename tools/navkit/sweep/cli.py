@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -140,7 +141,8 @@ def run(args) -> int:
     files = "results.csv" + ("  summary.png" if not args.no_plot else "") + "  sweep.json"
     print(f"outputs   {out}/  {files}")
     print(f"runs      {len(results)} done, {len(failed)} failed, {stats['runs_wall_s']:.1f} s "
-          f"on {stats['workers']} workers = {stats['runs_per_minute']:.0f} runs/min")
+          f"on {stats['workers']} worker{'s' if stats['workers'] != 1 else ''} = "
+          f"{stats['runs_per_minute']:.0f} runs/min")
     if failed:
         from navkit.sweep.runner import describe
 
@@ -159,12 +161,14 @@ def bench(mission_path: Path, build: Path, n: int) -> int:
     same table."""
     from navkit.sim.mission import MissionError
     from navkit.sweep.plan import SweepError
-    from navkit.sweep.runner import RunSpec, sweep
+    from navkit.sweep.runner import RunSpec, default_workers, sweep
 
     runs = [RunSpec(seed=s) for s in range(1, n + 1)]
     rates, tables = {}, {}
     print(f"sweep benchmark: {mission_path}, {n} runs (seeds 1..{n}) per worker count, "
           f"LocalCluster on this machine ({build})")
+    print(f"  {default_workers()} CPUs, 1-minute load average before: {os.getloadavg()[0]:.2f} "
+          f"(other work on the CPUs skews the figures)")
     for workers in (1, 2):
         with tempfile.TemporaryDirectory(prefix="navkit-sweep-bench-") as tmp:
             try:

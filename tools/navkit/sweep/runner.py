@@ -20,8 +20,10 @@ import io
 import json
 import os
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -184,6 +186,23 @@ class _Progress:
             self.stream.flush()
 
 
+@contextlib.contextmanager
+def _ctrl_c():
+    """A threading.Event set by Ctrl-C (SIGINT) while in the block, in place of a
+    KeyboardInterrupt: one raised inside a distributed client call can leave that call
+    half done (and a traceback from its event loop). Outside the main thread, an event
+    nothing sets."""
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    old = signal.signal(signal.SIGINT, lambda _sig, _frame: stop.set())
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def default_workers() -> int:
     """The CPUs this process may run on."""
     try:
@@ -211,9 +230,18 @@ def _client(scheduler: str | None, workers: int | None):
         finally:
             client.close()
         return
-    cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                           processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+    # The workers are started with Ctrl-C ignored (a started Python keeps an ignored SIGINT
+    # ignored): on a terminal it reaches the whole process group, and the client alone
+    # stops the sweep, cancelling their tasks and closing them.
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                               processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, old)
     client = Client(cluster)
     try:
         yield client
@@ -272,7 +300,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     results, stats = [], {}
-    bar = _Progress(len(runs), progress)
+    bar = None
     t0 = time.perf_counter()
     interrupted = False
     try:
@@ -281,6 +309,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
 
             stats["cluster_start_s"] = round(time.perf_counter() - t0, 3)
             stats["workers"] = len(client.nthreads())
+            bar = _Progress(len(runs), progress)
             t1 = time.perf_counter()
             token = f"{os.getpid()}-{time.monotonic_ns()}"
             futures = [client.submit(run_one, m, spec, i, build=build, out=out, keep=keep,
@@ -288,24 +317,30 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
                                      pure=False, retries=0)
                        for i, spec in enumerate(runs)]
             index = {f.key: i for i, f in enumerate(futures)}
-            try:
-                for fut in as_completed(futures):
-                    try:
-                        r = fut.result()
-                    except Exception as e:  # noqa: BLE001 - e.g. KilledWorker: a worker died
-                        i = index[fut.key]
-                        r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {e} "
-                                      f"(the worker running it died)")
-                    results.append(r)
-                    bar.update(r)
-            except KeyboardInterrupt:
-                interrupted = True
-                client.cancel(futures, force=True)
+            with _ctrl_c() as stop:
+                pending = as_completed(futures)
+                while not pending.is_empty() and not stop.is_set():
+                    if not pending.has_ready():
+                        time.sleep(0.02)
+                        continue
+                    for fut in pending.next_batch(block=False):
+                        try:
+                            r = fut.result()
+                        except Exception as e:  # noqa: BLE001 - e.g. KilledWorker
+                            i = index[fut.key]
+                            r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {e} "
+                                          f"(the worker running it died)")
+                        results.append(r)
+                        bar.update(r)
+                if stop.is_set():
+                    interrupted = True
+                    client.cancel(futures, force=True)
             stats["runs_wall_s"] = round(time.perf_counter() - t1, 3)
     except KeyboardInterrupt:
         interrupted = True
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
     results.sort(key=lambda r: r.index)
     wall = stats.get("runs_wall_s")
     stats["runs_per_minute"] = round(len(results) / wall * 60, 1) if wall else None
