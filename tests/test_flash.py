@@ -236,6 +236,16 @@ def test_unconfigured_build_folder_names_make(tmp_path):
                         "(or give --hex FILE)\n")
 
 
+def test_failing_build_is_shown(tmp_path):
+    (tmp_path / "CMakeCache.txt").write_text("")   # configured, but no build system in it
+    r = navkit_flash(env=dict(os.environ, NAVKIT_BUILD_DIR=str(tmp_path)))
+    assert r.returncode == 1
+    assert r.stdout == f"navkit flash: building the image (cmake --build {tmp_path} --target navkit_avr_image)\n"
+    assert r.stderr.startswith(f"navkit flash: the build failed (cmake --build {tmp_path} --target "
+                               "navkit_avr_image):\n")
+    assert r.stderr.rstrip().endswith("fix the errors above, then run make")
+
+
 # ---- finding the board ----
 
 def _usb_tty(root: Path, tty: str, vid: str, pid: str, product: str, by_id: str | None = None) -> None:

@@ -333,7 +333,12 @@ def check_access(port: str) -> None:
     try:
         fd = os.open(port, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
     except PermissionError:
-        raise FlashError(permission_message(port, os.stat(port))) from None
+        try:
+            st = os.stat(port)
+        except OSError:
+            raise FlashError(f"cannot open {port}: permission denied, and its folder may not be "
+                             "searched: ask the admin, or give the device's /dev path") from None
+        raise FlashError(permission_message(port, st)) from None
     except OSError as e:
         if e.errno == errno.ENOENT:
             raise FlashError(f"port {port}: no such device (unplugged?)") from None

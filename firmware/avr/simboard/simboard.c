@@ -10,8 +10,9 @@
  *
  * DTR: a pty carries no modem lines, so the board's auto-reset (the Mega resets when a
  * host opens its USB-serial port and DTR falls) is stood in for by the open itself: when
- * the slave side goes from closed to open (the master's hang-up state clears) the AVR
- * gets an external reset (MCUSR.EXTRF) and starts in the bootloader, as on the board.
+ * the slave side goes from closed to open (the master's hang-up state clears, or inotify
+ * saw a close and an open in between two looks) the AVR gets an external reset
+ * (MCUSR.EXTRF set, RAM kept) and starts in the bootloader, as on the board.
  *
  * Time: simulated time is paced to the wall clock times --speed (1 = real time, the
  * default, so the bootloader's ~1 s wait and the baud rate are as on the board; 0 = as
@@ -96,7 +97,7 @@ static void sb_on_signal(int sig)
     sb_stop = 1;
 }
 
-/* One line on stdout (unless --quiet), flushed: the Python side waits for these. */
+/* One line on stdout (unless --quiet), flushed at once (a reader sees each event). */
 static void sb_say(const sb_t *sb, const char *fmt, ...)
 {
     va_list ap;
@@ -660,8 +661,9 @@ int main(int argc, char **argv)
     if (sb.watch >= 0) {
         close(sb.watch);
     }
-    sb_say(&sb, "stopped after %.3f s of simulated time (%u resets by port open)",
-           (double)sb_cycles(&sb) / SB_F_CPU, sb.resets);
+    sb_say(&sb, "stopped after %.3f s of simulated time (%u resets by port open; bytes dropped "
+           "by full queues: %llu to the image, %llu from it)", (double)sb_cycles(&sb) / SB_F_CPU,
+           sb.resets, (unsigned long long)sb.rx.lost, (unsigned long long)sb.tx.lost);
     avr_terminate(sb.avr);
     free(sb.saved);
     return status;
