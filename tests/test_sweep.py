@@ -201,6 +201,26 @@ def _extract_mcap_size(run_dir, summary):
     return {"mcap_bytes": (Path(run_dir) / "run.mcap").stat().st_size}
 
 
+def _kill_worker_on_seed_2(run_dir, summary):
+    """An extract function that kills the worker process running the seed-2 run."""
+    if summary["seed"] == 2:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return {}
+
+
+def test_a_dying_worker_fails_only_its_run(mission_file, tmp_path):
+    """A worker process killed under a run (as a crashing FMU would): that run fails
+    naming it, at once; the others finish on the restarted workers."""
+    from navkit.sweep import RunSpec, run_sweep
+
+    runs = [RunSpec(seed=s) for s in (1, 2, 3)]
+    res = run_sweep(mission_file, runs, tmp_path, workers=2, progress=False,
+                    extract=_kill_worker_on_seed_2, plot=False)
+    assert [r.status for r in res] == ["ok", "failed", "ok"], [r.error for r in res]
+    assert res[1].error.startswith("KilledWorker: the worker process running it died")
+    assert "KilledWorker" in _table(tmp_path / "results.csv")[1]["error"]
+
+
 def test_sweep_on_a_scheduler(mission_file, local_tables, tmp_path):
     """--scheduler: the same sweep on a scheduler and a worker started here with the dask
     CLIs on 127.0.0.1 gives the same table as the LocalCluster."""

@@ -218,6 +218,7 @@ def _client(scheduler: str | None, workers: int | None):
     when the scheduler cannot be reached."""
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -230,26 +231,37 @@ def _client(scheduler: str | None, workers: int | None):
         finally:
             client.close()
         return
-    # The workers are started with Ctrl-C ignored (a started Python keeps an ignored SIGINT
-    # ignored): on a terminal it reaches the whole process group, and the client alone
-    # stops the sweep, cancelling their tasks and closing them.
+    # - The workers start with Ctrl-C ignored (a started Python keeps an ignored SIGINT
+    #   ignored): on a terminal it reaches the whole process group, and the client alone
+    #   stops the sweep, cancelling their tasks and closing them.
+    # - A worker that dies under a run fails that run at once (allowed-failures 0) rather
+    #   than after the run has killed three more.
+    # - The scheduler runs in this process: its log line on such a death would only repeat
+    #   the run's failed row.
+    sched_log = logging.getLogger("distributed.scheduler")
+    level = sched_log.level
+    sched_log.setLevel(logging.CRITICAL)
     main = threading.current_thread() is threading.main_thread()
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
-        cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                               processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                cluster = LocalCluster(n_workers=workers or default_workers(),
+                                       threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=logging.ERROR)
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, old)
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            with contextlib.suppress(Exception):
+                client.close(timeout=10)
+            with contextlib.suppress(Exception):
+                cluster.close(timeout=10)
     finally:
-        if main:
-            signal.signal(signal.SIGINT, old)
-    client = Client(cluster)
-    try:
-        yield client
-    finally:
-        with contextlib.suppress(Exception):
-            client.close(timeout=10)
-        with contextlib.suppress(Exception):
-            cluster.close(timeout=10)
+        sched_log.setLevel(level)
 
 
 def _check_local(build: Path, runs: list) -> list:
@@ -328,8 +340,10 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
                             r = fut.result()
                         except Exception as e:  # noqa: BLE001 - e.g. KilledWorker
                             i = index[fut.key]
-                            r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {e} "
-                                          f"(the worker running it died)")
+                            why = ("the worker process running it died (a crash in the run? "
+                                   "see the worker's log)" if type(e).__name__ == "KilledWorker"
+                                   else str(e))
+                            r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {why}")
                         results.append(r)
                         bar.update(r)
                 if stop.is_set():
