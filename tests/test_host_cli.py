@@ -85,7 +85,8 @@ def test_keys_record_a_datalog_and_quit(host_factory):
     names = [p[0] for p in params]
     assert names[names.index("battery_v") + 1:][:8] == [f"servo{i}_deg" for i in range(8)]
     assert rows[-1][names.index("servo3_deg")] == -45.5, "calibrated servo position, deg"
-    assert names[-1] == "owner" and all(len(r) == len(names) for r in rows)
+    assert names[-7:] == ["owner", "micro_time_ms", "mc_datalog_sel"] + [f"mc_datalog{i}" for i in range(4)]
+    assert all(len(r) == len(names) for r in rows)
 
 
 def test_record_option_starts_the_datalog(host_factory):

@@ -176,6 +176,17 @@ Table nav_table(Config &c)
         {"log_dir", checked_key(&e.log_dir, log_dir_error)},
         {"record", bool_key(&e.record)},
         {"dio_default", mask_key(&e.dio_default, 0, 4095)},
+        {"mc_datalog", [&e](const std::string &v) -> std::string {
+             long x;
+             std::string why = ini_parse_int(v, false, &x);
+             if (why.empty()) {
+                 why = mc_datalog_error(x);
+             }
+             if (why.empty()) {
+                 e.mc_datalog = static_cast<int>(x);
+             }
+             return why;
+         }},
     };
     MicroCfg &m = c.micro;
     t["micro"] = {
@@ -459,6 +470,17 @@ std::string log_dir_error(const std::string &v)
     }
     if (access(v.c_str(), W_OK | X_OK) != 0) {
         return v + ": cannot create files in it (" + std::strerror(errno) + ")";
+    }
+    return "";
+}
+
+std::string mc_datalog_error(long v)
+{
+    navkit_micro_cmd_t probe;  // the spec's check of the field, on a command that passes it otherwise
+    navkit_micro_cmd_defaults(&probe);
+    probe.mc_datalog_cmd = static_cast<uint16_t>(v);
+    if (v < 0 || v > 0xFFFF || navkit_micro_cmd_check(&probe, nullptr) != NAVKIT_OK) {
+        return std::to_string(v) + " is not a micro datalog selection (spec enum mc_datalog: docs/protocol.md)";
     }
     return "";
 }

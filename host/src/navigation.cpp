@@ -87,6 +87,18 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> hea
         m.turn_rate = static_cast<int16_t>(in.turn_rate);
     }
 
+    // open-loop excitation: copied whole (lisp_cmd's ranges are micro_cmd's, so it fits;
+    // the micro refuses one sent with a forward or turn command)
+    m.excite_mode = static_cast<uint16_t>(in.excite_mode);
+    m.excite_wheels = static_cast<uint16_t>(in.excite_wheels);
+    m.excite_amplitude = static_cast<int16_t>(in.excite_amplitude);
+    m.excite_offset = static_cast<int16_t>(in.excite_offset);
+    m.excite_duration = static_cast<uint16_t>(in.excite_duration);
+    m.excite_period = static_cast<uint16_t>(in.excite_period);
+    m.excite_f0 = static_cast<uint16_t>(in.excite_f0);
+    m.excite_f1 = static_cast<uint16_t>(in.excite_f1);
+    m.excite_seed = static_cast<uint16_t>(in.excite_seed);
+
     // RC servo: slot rc_servo_num 0..7 when param0 (rate) is not 0; else no effect
     if (in.rc_servo_num >= 0 && in.rc_servo_num <= 7 && in.rc_param0 != 0) {
         if (in.rc_param0 < 0 || !fits16(in.rc_param0) || !fits16(in.rc_param1) || !fits16(in.rc_param2)) {
@@ -140,6 +152,7 @@ void Navigation::init()
     result_ = NAVKIT_NAV_RESULT_OK;
     ack_ = 0;
     dio_ = 0;
+    mc_datalog_ = 0;
 }
 
 NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> heading)
@@ -168,13 +181,16 @@ NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> headi
         o.is_new = true;
         o.cmd = teleop(a.teleop, console_, a.dio);
     }
-    if (!o.is_new && a.dio != dio_) {
-        // only the DIO levels changed: a command that changes nothing else
+    if (!o.is_new && (a.dio != dio_ || a.mc_datalog != mc_datalog_)) {
+        // only the DIO levels or the datalog selection changed: a command that changes
+        // nothing else
         o.is_new = true;
         o.cmd = neutral(a.dio);
     }
     if (o.is_new) {
+        o.cmd.mc_datalog_cmd = a.mc_datalog;  // every new command carries the selection
         dio_ = o.cmd.dio_command;
+        mc_datalog_ = a.mc_datalog;
     }
     return o;
 }

@@ -6,7 +6,8 @@ static const uint16_t kDioMask = 0x0FFF;  // 12 DIO bits
 
 ProcessCommands::ProcessCommands(const ExecutiveCfg &exec)
     : timeout_s_(exec.planner_timeout_s), idle_s_(exec.console_idle_s),
-      console_dio_(static_cast<uint16_t>(exec.dio_default & kDioMask))
+      console_dio_(static_cast<uint16_t>(exec.dio_default & kDioMask)),
+      mc_datalog_(static_cast<uint16_t>(exec.mc_datalog))
 {
 }
 
@@ -15,6 +16,9 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
 {
     Arbitration a;
     console_dio_ = static_cast<uint16_t>((console_dio_ ^ c.dio_toggle) & kDioMask);
+    if (c.datalog_next) {
+        mc_datalog_ = mc_datalog_error(mc_datalog_ + 1L).empty() ? static_cast<uint16_t>(mc_datalog_ + 1) : 0;
+    }
 
     // planner liveness: the heartbeat, and every new command, count as signs of life
     if (!hb_seen_ || p.heartbeat != last_hb_) {
@@ -56,6 +60,9 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
         } else {
             planner_active_ = static_cast<uint16_t>(p.cmd.dio_active & kDioMask);
             planner_dio_ = static_cast<uint16_t>(p.cmd.dio_command & kDioMask);
+            if (p.cmd.mc_datalog_cmd != NAVKIT_MC_DATALOG_NONE) {
+                mc_datalog_ = static_cast<uint16_t>(p.cmd.mc_datalog_cmd);  // checked: a selection
+            }
             last_cmd_us_ = now_us;
             if (!safety_) {
                 a.planner_new = true;
@@ -99,6 +106,7 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
 
     const uint16_t active = timed_out_ ? 0 : planner_active_;
     a.dio = static_cast<uint16_t>(((active & planner_dio_) | (~active & console_dio_)) & kDioMask);
+    a.mc_datalog = mc_datalog_;
     a.owner = owner_;
     return a;
 }

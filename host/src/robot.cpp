@@ -63,8 +63,16 @@ static const std::vector<LogColumn> &log_columns()
             {{"overruns", 0, 100}, [](R r) { return static_cast<double>(r.lisp_data.overruns); }},
             // who commanded the robot last: 0 none, 1 planner, 2 console (ProcessCommands)
             {{"owner", 0, 2}, [](R r) { return static_cast<double>(static_cast<int>(r.owner)); }},
+            // the micro datalog: its clock (the sample's time, ms), the selection that filled
+            // the four words (spec enum mc_datalog, whose `words` name them) and the words
+            {{"micro_time_ms", 0, 600000}, [](R r) { return static_cast<double>(r.data.micro_time); }},
+            {{"mc_datalog_sel", 0, 6}, [](R r) { return static_cast<double>(r.data.mc_datalog_sel); }},
         };
         c.insert(c.end(), tail.begin(), tail.end());
+        for (int i = 0; i < 4; i++) {
+            c.push_back({{"mc_datalog" + std::to_string(i), -32768, 32767},
+                         [i](R r) { return static_cast<double>(r.data.mc_datalog[i]); }});
+        }
         return c;
     }();
     return cols;
@@ -128,6 +136,7 @@ static ConsoleInput handle_keys(Robot &r)
         case 'R': case 'r': start_recording(r); break;
         case 'S': case 's': stop_recording(r); break;
         case 'Q': case 'q': r.quit = true; break;
+        case 'L': case 'l': in.datalog_next = true; break;
         case 'w': teleop(Teleop::forward); break;
         case 'x': teleop(Teleop::reverse); break;
         case 'a': teleop(Teleop::left); break;
@@ -241,6 +250,10 @@ void RobotMain(Robot &r)
                                                    : "a safety stop holds");
     }
     r.owner = arb.owner;
+    if (keys.datalog_next) {
+        r.console.print("micro datalog selection %u (spec enum mc_datalog: docs/protocol.md)",
+                        static_cast<unsigned>(arb.mc_datalog));
+    }
     // 6. navigation: a heading hold needs the micro's heading of this moment, so only
     // fresh data of a micro of our spec counts (none yet, offline: the hold is rejected)
     const std::optional<uint16_t> heading =

@@ -29,6 +29,7 @@ struct ExecutiveCfg {
     std::string log_dir = ".";
     bool record = false;             // start the datalog at start-up
     int dio_default = 0;             // levels of the DIO bits no planner owns (12 bits)
+    int mc_datalog = 0;              // micro datalog selection (spec enum mc_datalog) at start-up
     // "file:line: key" of the later of frame_rate_hz and [micro_cfg_motion] watchdog_timeout
     // (where a pair that does not fit together is named; see frame_watchdog_error)
     std::string rate_watchdog_at;
@@ -54,6 +55,10 @@ std::string shm_name_error(const std::string &v);
 std::string shm_group_error(const std::string &v);
 // An existing directory this process can create files in (the datalog's).
 std::string log_dir_error(const std::string &v);
+
+// A micro datalog selection (micro_cmd.mc_datalog_cmd, spec enum mc_datalog): "" if v is
+// one the spec's range check of micro_cmd accepts, else why not.
+std::string mc_datalog_error(long v);
 
 // The serial rates [micro] baud may take (each has a termios speed constant; SerialPort
 // maps them), in bit/s.

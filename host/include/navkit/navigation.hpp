@@ -47,6 +47,7 @@ public:
 private:
     const ConsoleCfg &console_;
     uint16_t dio_ = 0;           // DIO levels of the last command handed out
+    uint16_t mc_datalog_ = 0;    // micro datalog selection of the last command handed out
     int result_ = NAVKIT_NAV_RESULT_OK;
     int32_t ack_ = 0;
     bool heading_missing_ = false;

@@ -14,6 +14,10 @@
 //  4. DIO, exactly as the seed says: the planner owns a bit only while the bit is set in
 //     dio_active of its current message; its level is then dio_command's bit. Every
 //     other bit takes the console's level (dio_default, toggled by keys 0-9, '-', '=').
+//  5. The micro datalog selection (micro_cmd word 44): [executive] mc_datalog at start-up,
+//     then the last one chosen: the console's key l (the next selection of the spec's enum
+//     mc_datalog, after the last back to none) or a new planner command's mc_datalog_cmd
+//     (0 keeps the current one), taken like its DIO bits even when safety drops its motion.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +41,7 @@ struct PlannerInput {
 struct ConsoleInput {
     Teleop teleop = Teleop::none;
     uint16_t dio_toggle = 0;    // DIO bits whose console level flips
+    bool datalog_next = false;  // key l: the next micro datalog selection
 };
 
 struct SafetyInput {
@@ -62,6 +67,7 @@ struct Arbitration {
     bool timeout_started = false;    // the planner timed out in this frame
     bool safety_started = false;
     uint16_t dio = 0;                // merged DIO levels
+    uint16_t mc_datalog = 0;         // micro datalog selection in force (rule 5)
     Owner owner = Owner::none;
 };
 
@@ -84,6 +90,7 @@ private:
     int64_t last_cmd_us_ = -1;
     uint16_t planner_active_ = 0, planner_dio_ = 0;
     uint16_t console_dio_;
+    uint16_t mc_datalog_;
     Owner owner_ = Owner::none;
 };
 

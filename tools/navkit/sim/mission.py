@@ -43,7 +43,9 @@ __all__ = ["MissionError", "Command", "Key", "Fault", "Mission", "load", "loads"
 # lisp_cmd fields a mission may set (time_tag and msg_type are the planner's own).
 COMMAND_FIELDS = ("fwd_cmd", "accel", "speed", "distance", "turn_mode", "turn_accel",
                   "turn_rate", "turn_distance", "rc_servo_num", "rc_param0", "rc_param1",
-                  "rc_param2", "dio_active", "dio_command")
+                  "rc_param2", "dio_active", "dio_command", "mc_datalog_cmd", "excite_mode",
+                  "excite_wheels", "excite_amplitude", "excite_offset", "excite_duration",
+                  "excite_period", "excite_f0", "excite_f1", "excite_seed")
 
 # fault kind -> (required parameters, optional parameters)
 FAULT_KINDS = {

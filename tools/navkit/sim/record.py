@@ -72,12 +72,32 @@ EVENT_SCHEMA = {
     "properties": {"t": {"type": "number"}, "kind": {"type": "string"}, "detail": {"type": "object"}},
 }
 
+def _datalog_schema() -> dict:
+    from navkit import protocol
+
+    sel = protocol.SPEC.enums["mc_datalog"]
+    names = "; ".join(f"{k}: {', '.join(v)}" for k, v in sel.words.items())
+    return {"title": "navkit.micro_datalog",
+            "description": "micro_data's four mc_datalog words named by the selection that "
+                           "filled them (micro_data.mc_datalog_sel, spec enum mc_datalog and its "
+                           "words; each name ends in its unit), one message per micro_data "
+                           f"whose selection is not none. Words by selection: {names}.",
+            "type": "object",
+            "properties": {"selection": {"type": "string", "enum": list(sel.values),
+                                         "description": "the selection (enum mc_datalog)"},
+                           "micro_time_ms": {"type": "integer",
+                                             "description": "micro_data.micro_time: the micro's "
+                                                            "clock at the sample, ms"}},
+            "additionalProperties": {"type": "integer"}}
+
+
 # topic -> spec message whose fields it carries (None: a schema above)
 TOPICS = {
     "/truth": None,
     "/micro/cmd": "micro_cmd",
     "/micro/config": None,
     "/micro/data": "micro_data",
+    "/micro/datalog": None,
     "/planner/cmd": "lisp_cmd",
     "/planner/data": "lisp_data",
     "/host/frame": None,
@@ -126,7 +146,8 @@ class Recorder:
         self._w = Writer(self._file, chunk_size=8 << 20, compression=CompressionType.LZ4)
         self._w.start(profile="", library="navkit")
         schemas = {"/truth": TRUTH_SCHEMA, "/micro/config": _config_schema(),
-                   "/host/frame": FRAME_SCHEMA, "/events": EVENT_SCHEMA}
+                   "/host/frame": FRAME_SCHEMA, "/events": EVENT_SCHEMA,
+                   "/micro/datalog": _datalog_schema()}
         self._chan = {}
         for topic, msg in TOPICS.items():
             schema = schemas[topic] if msg is None else message_schema(msg)
@@ -374,6 +395,7 @@ class _Decoder:
         self.frame_text_flags = {h: head + b',"flags":%%d,"host":"%s"}' % h.encode()
                                  for h in HOST_STATES}
         self.last_micro_raw = None     # decoded by finish()
+        self.datalog = self._datalog_texts(protocol)
         # micro_data and micro_cmd are written every frame: their text from the bytes
         self.fast = _frame_texts(protocol)
         self.crc_ok = self.fast.pop(None)
@@ -414,6 +436,31 @@ class _Decoder:
         # a column the plant lacks reads as 0.0: index `width` of a row padded with 0.0
         self.truth_get = operator.itemgetter(*[width if i is None else i for i in sel])
 
+    def _datalog_texts(self, protocol):
+        """A function (t_ns, micro_data frame) writing /micro/datalog when the frame's
+        mc_datalog_sel is a selection with words: the words by their spec names."""
+        m = protocol.SPEC.messages["micro_data"]
+        sel_f, words_f, time_f = (m.field(n) for n in ("mc_datalog_sel", "mc_datalog", "micro_time"))
+        sel_at = (struct.Struct("<" + _STRUCT_CODES[sel_f.type]).unpack_from, sel_f.byte_offset)
+        time_at = (struct.Struct("<" + _STRUCT_CODES[time_f.type]).unpack_from, time_f.byte_offset)
+        words_at = (struct.Struct("<" + _STRUCT_CODES[words_f.type] * words_f.count).unpack_from,
+                    words_f.byte_offset)
+        enum = protocol.SPEC.enums["mc_datalog"]
+        templates = {}
+        for name, code in enum.values.items():
+            names = enum.words.get(name, ())
+            if names:
+                templates[code] = ('{"selection":"%s","micro_time_ms":%%d,' % name
+                                   + ",".join(f'"{w}":%d' for w in names) + "}").encode()
+        write = self.rec.writer("/micro/datalog")
+
+        def datalog(t_ns: int, frame: bytes) -> None:
+            tpl = templates.get(sel_at[0](frame, sel_at[1])[0])
+            if tpl is not None:
+                write(t_ns, tpl % ((time_at[0](frame, time_at[1])[0],)
+                                   + words_at[0](frame, words_at[1])[:tpl.count(b"%d") - 1]))
+        return datalog
+
     def _truth_text(self, row) -> bytes:
         dio = int(row[self.dio_col]) & 0xFFF if self.dio_col else 0
         return self.truth_fmt % (self.truth_get(row) + (dio,))
@@ -449,6 +496,7 @@ class _Decoder:
                 if name == "micro_data":
                     self.last_micro_raw = frame
                     write(t_ns, js)
+                    self.datalog(t_ns, frame)
                     wd = bool(status(frame, at)[0] & wd_mask)
                     if wd and not self.wd_on:
                         self.watchdog_stops += 1
