@@ -95,3 +95,26 @@ def test_bad_ini_value_is_refused_naming_the_line(tmp_path, value):
     assert p.returncode == 1
     err = p.stderr.strip().splitlines()
     assert len(err) == 1 and f"NavAndControl.ini:{line}: mc_datalog: " in err[0], p.stderr
+
+
+RESET = """
+duration_s = 3.0
+[[command]]
+t = 0.5
+mc_datalog_cmd = "wheels"
+[[fault]]
+t = 1.5
+kind = "micro_reset"
+"""
+
+
+def test_a_reset_micro_gets_the_selection_back(tmp_path_factory):
+    """A micro reset forgets the selection (none from reset); the host's stop that replaces
+    its last command carries it, so the micro reports it again once configured."""
+    r = run_mission(tmp_path_factory, "datalog-reset", RESET)
+    reported = [(t, m["mc_datalog_sel"]) for t, m in r.messages("/micro/data")]
+    assert _changes([s for _, s in reported]) == [SEL["none"], SEL["wheels"], SEL["none"], SEL["wheels"]]
+    back = next(t for t, s in reported if t > 1.5 and s == SEL["wheels"])
+    assert back < 2.5
+    cmds = [m for t, m in r.messages("/micro/cmd") if t > 1.5]
+    assert any(m["fwd_cmd"] == 5 and m["mc_datalog_cmd"] == SEL["wheels"] for m in cmds)

@@ -273,6 +273,12 @@ void RobotMain(Robot &r)
     // configured; else it gets its config as usual and RobotShutdown says it is not moving)
     if (r.quit) {
         r.micro.queue_command(MicroUsb::stop_command(arb.dio), true);
+    } else if (!nav.is_new && r.micro.last_command().mc_datalog_cmd != arb.mc_datalog) {
+        // the link replaced our last command (a stop after a micro reset): that command
+        // again, new, with the datalog selection, so a reset micro gets the selection back
+        navkit_micro_cmd_t again = r.micro.last_command();
+        again.mc_datalog_cmd = arb.mc_datalog;
+        r.micro.queue_command(again, true);
     } else {
         r.micro.queue_command(nav.cmd, nav.is_new);
     }
