@@ -6,6 +6,7 @@ import shutil
 import stat
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -102,6 +103,19 @@ def test_board_answering_with_another_spec_is_reported(tmp_path, images):
     assert r.returncode == 1
     assert (f"answers with spec hash 0x{SPEC_HASH ^ 0x5A5A:08x}, this checkout's is 0x{SPEC_HASH:08x}"
             in r.stderr)
+
+
+@needs_avr
+@needs_sim
+def test_answer_comes_although_the_bootloader_took_the_first_rounds(tmp_path, images):
+    # no wait after the open: the bootloader takes the frames as its own and waits for
+    # more (~6.5 s of simulated time, 1.6 s here); a doubled gap outlasts it
+    with SimBoard(tmp_path / "mega", speed=TEST_SPEED) as board:
+        assert avrdude(board.link, images["answers"], "-D").returncode == 0
+        t0 = time.monotonic()
+        data = fl.query_board(str(board.link), boot_wait=0.0, timeout=8.0)
+    assert data["spec_hash"] == SPEC_HASH
+    assert time.monotonic() - t0 > 1.5
 
 
 @needs_avr

@@ -433,8 +433,8 @@ def _refusal(last_reject: int) -> str:
 def query_board(port: str, *, boot_wait: float = BOOT_WAIT_S,
                 timeout: float = ANSWER_TIMEOUT_S) -> dict:
     """Open `port` (resetting the board), wait out the bootloader, then send a micro_cmd
-    (no command) and the three config messages (spec defaults) every 0.5 s until
-    micro_data answers; return the fields of the last micro_data of that round (the
+    (no command) and the three config messages (spec defaults) after 0, 0.5, 1.5, 3.5 s
+    ... until micro_data answers; return the fields of the last micro_data of that round (the
     board skips a reply that does not fit its TX buffer, so not every frame gets one).
     FlashError when none comes in `timeout` s or it carries another spec hash."""
     import serial
@@ -457,7 +457,7 @@ def _query(port: str, boot_wait: float, timeout: float) -> dict:
         while time.monotonic() < t_end:   # the bootloader would take our bytes for its own
             s.read(256)
         t_end = time.monotonic() + timeout
-        next_send = 0.0
+        next_send, gap = 0.0, 0.5
         last = None
         while time.monotonic() < t_end:
             if last is None and time.monotonic() >= next_send:
@@ -466,7 +466,9 @@ def _query(port: str, boot_wait: float, timeout: float) -> dict:
                 for name in names:
                     tag += 1
                     s.write(encode_frame(name, defaults(name), time_tag=tag))
-                next_send = time.monotonic() + 0.5
+                # doubling gaps: a bootloader still waiting (a slow simboard) takes each
+                # round as its own and waits on; a long enough gap lets it time out
+                next_send, gap = time.monotonic() + gap, gap * 2
             for ev in parser.feed(s.read(512)):
                 if isinstance(ev, Frame) and ev.name == "micro_data":
                     if last is None:   # the other replies of this round follow within ~10 ms
