@@ -43,7 +43,7 @@ __all__ = [
     "add_arguments", "run", "FlashError", "ImageInfo", "Board", "read_hex", "image_info",
     "check_image", "find_boards", "choose_port", "check_access", "permission_message",
     "reset_by_dtr", "run_avrdude", "query_board", "flash", "FlashResult",
-    "IMAGE_MAGIC", "MCU", "SIGNATURE", "F_CPU_HZ", "BAUD", "APP_BYTES",
+    "IMAGE_MAGIC", "INFO_FORMAT", "MCU", "SIGNATURE", "F_CPU_HZ", "BAUD", "APP_BYTES",
 ]
 
 IMAGE_MAGIC = b"NAVKITIM"
