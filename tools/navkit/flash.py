@@ -530,10 +530,10 @@ def _bench(image: Path) -> int:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", default="auto",
+    parser.add_argument("--port", default="auto", metavar="PATH|auto",
                         help="serial port of the board, or auto (default): the one USB-serial "
                              "device found; a `navkit simboard --link` path works too")
-    parser.add_argument("--hex", type=Path,
+    parser.add_argument("--hex", type=Path, metavar="FILE",
                         help="image to flash (default: the build's firmware/avr/navkit-mega2560.hex, "
                              "built first)")
     parser.add_argument("--verbose", action="store_true", help="show avrdude's whole output")

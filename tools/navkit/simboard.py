@@ -138,14 +138,14 @@ def _speed(text: str) -> float:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--link", required=True, type=Path,
+    parser.add_argument("--link", required=True, type=Path, metavar="PATH",
                         help="symlink to create to the board's serial port (a pty), e.g. /tmp/mega")
-    parser.add_argument("--flash", type=Path,
+    parser.add_argument("--flash", type=Path, metavar="FILE",
                         help="keep the flash in FILE across runs (256 KiB raw; default: erased each run)")
-    parser.add_argument("--bootloader", type=Path,
+    parser.add_argument("--bootloader", type=Path, metavar="HEX",
                         help="stk500v2 bootloader HEX (default: arduino-core-avr's "
                              "stk500boot_v2_mega2560.hex)")
-    parser.add_argument("--speed", type=_speed,
+    parser.add_argument("--speed", type=_speed, metavar="X",
                         help="simulated seconds per wall second (default 1: real time; 0: as fast as it runs)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
