@@ -248,6 +248,12 @@ static void queue_reset(void)
     board.rx_pos = board.rx_len = 0u;
 }
 
+/* 1 in the excitation scenario: send_cmd() sends a chirp on both wheels instead of the
+   start (duty 0.3 +/- 0.3, so the wheels move forward, 0.5 -> 20 Hz over 6 s, longer than
+   the run) and neutral commands (fwd_cmd and turn_cmd 0: the chirp goes on) instead of the
+   modifies, with the "wheels" datalog selection. */
+static uint8_t excite_scenario;
+
 /* Queue a micro_cmd: forward FWD_MM with fwd_code (1 = start, 3 = modify), and turn_code
    with turn_distance (deg*10: encoder turn 1, HdgSel 10 heading, 0 none). */
 static void send_cmd(uint16_t tag, uint16_t fwd_code, uint16_t turn_code, int16_t turn_distance)
@@ -262,6 +268,18 @@ static void send_cmd(uint16_t tag, uint16_t fwd_code, uint16_t turn_code, int16_
     c.turn_rate = 450;
     c.turn_distance = turn_distance;
     c.mc_datalog_cmd = NAVKIT_MC_DATALOG_TURN_PROFILE;
+    if (excite_scenario) {
+        c.excite_mode = (fwd_code == NAVKIT_FWD_CMD_START) ? NAVKIT_EXCITE_MODE_CHIRP : NAVKIT_EXCITE_MODE_NONE;
+        c.fwd_cmd = NAVKIT_FWD_CMD_NONE;
+        c.turn_cmd = NAVKIT_TURN_CMD_NONE;
+        c.excite_wheels = NAVKIT_EXCITE_WHEELS_BOTH;
+        c.excite_amplitude = 300;
+        c.excite_offset = 300;
+        c.excite_duration = 6000u;
+        c.excite_f0 = 50u;
+        c.excite_f1 = 2000u;
+        c.mc_datalog_cmd = NAVKIT_MC_DATALOG_WHEELS;
+    }
     queue_reset();
     queue((uint16_t)navkit_micro_cmd_encode(&c, board.rx, sizeof board.rx));
 }
@@ -383,6 +401,11 @@ int main(void)
     board.compass = 100u; /* 10 deg: fusion has an error to pull */
     configure(500u, 400u);
     run("fwd_hdgsel", 400u, NAVKIT_TURN_CMD_HDG_SEL, 450); /* HdgSel 45 deg */
+    board.compass = 0u;
+    configure(0u, 400u);
+    excite_scenario = 1u;
+    run("excite_chirp", 400u, NAVKIT_TURN_CMD_NONE, 0); /* open loop: the wheel loops idle */
+    excite_scenario = 0u;
     check_ceiling();
 
     for (p = &__heap_start; *p == STACK_PAINT; p++) {
