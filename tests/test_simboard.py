@@ -116,6 +116,22 @@ def test_plain_avrdude_flashes_and_the_image_boots(board, echo_image):
     assert board.output().count("port opened: reset into the bootloader") >= 3
 
 
+def test_a_second_open_does_not_reset(board, echo_image):
+    import serial
+    assert avrdude(board.link, echo_image, "-D").returncode == 0
+    with serial.Serial(str(board.link), 115200, timeout=0.05) as a:
+        got, t_end = b"", time.monotonic() + 5.0
+        while BOOT_GREETING not in got and time.monotonic() < t_end:
+            got += a.read(64)
+        assert got == BOOT_GREETING
+        with serial.Serial(str(board.link), 115200, timeout=0.05) as b:   # DTR is already low
+            time.sleep(0.6)                     # > the bootloader's wait, at TEST_SPEED
+            assert a.read(64) + b.read(64) == b""
+            b.write(b"x")
+            assert (a.read(8) + b.read(8))[:1] == b"y"
+    assert board.output().count("port opened: reset into the bootloader") == 2   # avrdude, a
+
+
 def test_chip_erase_is_refused_as_by_the_real_bootloader(board, echo_image):
     r = avrdude(board.link, echo_image)           # no -D: avrdude asks for a chip erase first
     assert r.returncode != 0
