@@ -91,3 +91,40 @@ def test_host_datalog_holds_the_same_samples(run):
         assert [int(r[idx[f"mc_datalog{i}"]]) for i in range(4)] == [m[w] for w in words]
         matched += 1
     assert matched > 0.9 * 12.0 / FRAME_S
+
+
+def test_planner_words_have_the_micro_words_ranges():
+    """The host copies lisp_cmd's excitation words into micro_cmd's unchecked: the spec must
+    give both the same ranges (and enums), so the planner-side check is the micro's."""
+    lisp, micro = protocol.SPEC.messages["lisp_cmd"], protocol.SPEC.messages["micro_cmd"]
+    names = [f.name for f in micro.fields if f.name.startswith("excite_")]
+    assert len(names) == 9
+    for n in names + ["mc_datalog_cmd"]:
+        a, b = lisp.field(n), micro.field(n)
+        assert (a.min, a.max, a.enum, a.units, a.scale) == (b.min, b.max, b.enum, b.units, b.scale), n
+
+
+@pytest.mark.parametrize("line, key", [
+    ("excite_amplitude = 1001", "excite_amplitude"),
+    ("excite_mode = \"sine\"", "excite_mode"),
+    ("excite_seed = 65536", "excite_seed"),
+    ("excite_wheels = 4", "excite_wheels"),
+    ("mc_datalog_cmd = 7", "mc_datalog_cmd"),
+])
+def test_mission_refuses_bad_experiment_words(line, key):
+    from navkit.sim.mission import MissionError, loads
+
+    with pytest.raises(MissionError) as e:
+        loads(f"duration_s = 2\n[[command]]\nt = 1\n{line}\n", "m.toml")
+    assert "[[command]] #1" in str(e.value) and repr(key) in str(e.value)
+
+
+def test_mission_takes_experiment_words_by_name():
+    from navkit.sim.mission import loads
+
+    m = loads('duration_s = 2\n[[command]]\nt = 1\nexcite_mode = "prbs"\nexcite_wheels = "spin"\n'
+              'excite_seed = 7\nexcite_duration = 500\nmc_datalog_cmd = "wheels"\n', "m.toml")
+    e = protocol.SPEC.enums
+    assert m.commands[0].fields == {"excite_mode": e["excite_mode"].values["prbs"],
+                                    "excite_wheels": e["excite_wheels"].values["spin"], "excite_seed": 7,
+                                    "excite_duration": 500, "mc_datalog_cmd": e["mc_datalog"].values["wheels"]}
