@@ -55,6 +55,7 @@ def _common(p, pm_help: str) -> None:
                    help="crossover frequency (Hz) instead of the automatic choice")
     p.add_argument("--overshoot", type=_positive_float, default=5.0, metavar="PCT",
                    help="largest predicted overshoot (%%, default 5)")
+    p.add_argument("--gm-min", type=_positive_float, default=6.0, metavar="DB", help="least gain margin (dB, default 6)")
     p.add_argument("--samples", type=_count, default=50, metavar="N",
                    help="Monte Carlo plant samples, analytic (default 50; 0 = none)")
     p.add_argument("--cosim-samples", type=_count, default=0, metavar="M",
@@ -82,7 +83,6 @@ def add_arguments(parser) -> None:
     w.add_argument("--derivative", action="store_true", help="PID (kd = kp*0.25/wc) instead of PI")
     w.add_argument("--compute-delay", type=_count, default=1, metavar="TICKS",
                    help="computation delay of a tick in the loop (ticks, default 1)")
-    w.add_argument("--gm-min", type=_positive_float, default=6.0, metavar="DB", help="least gain margin (dB, default 6)")
     w.add_argument("--max-nrmse", type=_positive_float, default=0.3, help="worst acceptable fit (default 0.3)")
     w.add_argument("--step-speed", type=_positive_float, default=None, metavar="MM_S",
                    help="verification move speed (mm/s; default 40 %% of the model's top speed, at most 300)")
@@ -146,4 +146,5 @@ def _report(args, r: dict) -> None:
     c = r["robustness"].get("cosim")
     if c:
         print(f"cosim     {c['ok']} of {c['runs']} runs, worst overshoot {c['worst_overshoot_pct']}")
-    print(f"outputs   {out}/  tune.json  fit.png  bode.png  step.png  config/")
+    pngs = "fit.png  bode.png  step.png" if r["kind"] == "wheel" else "bode.png  step.png"
+    print(f"outputs   {out}/  tune.json  {pngs}  config/")

@@ -323,7 +323,7 @@ FF_WEIGHTS = tuple(round(0.1 * i, 1) for i in range(10, -1, -1))
 def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | None = None,
                  integral_ratio: float | None = None, ff_weight: float | None = None, derivative: bool = False,
                  compute_delay: int = 1, overshoot_pct: float = 5.0, ramp_s: float = 0.1, speed_mm_s: float = 0.0,
-                 gm_min_db: float = 6.0, allow_miss: bool = False, step_s: float = 0.5) -> WheelDesign:
+                 gm_min_db: float = 6.0, allow_miss: bool = False, step_s: float | None = None) -> WheelDesign:
     """PI(D)+FF for `model` (ident.Model) at tick dt (s) with phase margin pm_deg: kp and ki
     from the crossover condition (see the module doc); kd = kp*TD_WC/wc with `derivative`. Unless given, the PI zero's ratio (integral_ratio) and the feed-forward
     weight (kff = ff_weight/K, 0..1) are searched (RATIOS x FF_WEIGHTS) for the least
@@ -332,10 +332,14 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
     disturbance; speed 0: the linear part alone) among the designs that overshoot it by at most
     overshoot_pct with a gain margin of at least gm_min_db, judged with the quantised gains.
     `step` (unit step) and `move` (the ramp, dead band included) responses are reported. Raises DesignError when the
-    targets cannot be met (allow_miss: return the least-overshoot design instead)."""
+    targets cannot be met (allow_miss: return the least-overshoot design instead). Responses
+    last step_s s (default: the ramp plus 8 times the model's lag, at least 0.5 s); overshoot
+    is measured against the setpoint."""
     if not (0.0 < pm_deg < 90.0):
         raise DesignError(f"phase margin target {pm_deg:g} deg: must be between 0 and 90")
     p = plant_d(model, dt, compute_delay)
+    if step_s is None:
+        step_s = max(0.5, ramp_s + 8.0 * (model.tau1_s + model.tau2_s + model.delay_s))
     ratios = (integral_ratio,) if integral_ratio else RATIOS
     weights = (ff_weight,) if ff_weight is not None else FF_WEIGHTS
     chosen, fallback, last_err, tried = None, None, None, 0
@@ -386,8 +390,9 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
             raise DesignError(f"the designed wheel loop is unstable (kp {gg.kp:.4g}, ki {gg.ki:.4g})")
         tt, yy = move_response(gg, p, model, speed_mm_s or 1.0, ramp_s, step_s, deadband=speed_mm_s > 0,
                                loop=loop, t=t)
-        out.append((margins(loop), {"step": step_info(t, t_end=step_s),
-                                    "move": step_info(tt, yy / (speed_mm_s or 1.0))}))
+        move = step_info(tt, yy / (speed_mm_s or 1.0))
+        move["overshoot_pct"] = max(move["peak"] - 1.0, 0.0) * 100.0  # against the setpoint
+        out.append((margins(loop), {"step": step_info(t, t_end=step_s), "move": move}))
     targets = {"phase_margin_deg": pm_deg, "bandwidth_hz": bandwidth_hz, "overshoot_pct": overshoot_pct,
                "ramp_s": ramp_s, "speed_mm_s": speed_mm_s, "gain_margin_min_db": gm_min_db,
                "integral_ratio": ratio, "ff_weight": w, "derivative": derivative,
@@ -421,11 +426,11 @@ class HeadingDesign:
 
 
 def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = None,
-                   overshoot_pct: float = 5.0, step_s: float = 2.0) -> HeadingDesign:
+                   overshoot_pct: float = 5.0, gm_min_db: float = 6.0, step_s: float = 2.0) -> HeadingDesign:
     """heading_kp for a phase margin pm_deg (or a crossover bandwidth_hz) on top of the
     closed wheel loop wheel_t; if that gain's unit heading step overshoots by more than
-    overshoot_pct, the largest smaller gain that does not (bisection: the phase margin then
-    exceeds the target). Raises DesignError."""
+    overshoot_pct or its gain margin is below gm_min_db, the largest smaller gain that
+    meets both (bisection: the phase margin then exceeds the target). Raises DesignError."""
     import control
 
     gh = heading_plant(wheel_t)
@@ -442,25 +447,26 @@ def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = N
             raise DesignError(f"no heading gain gives a {pm_deg:g} deg phase margin")
     kp = 1.0 / abs(_freq(gh, wc))
 
-    def overshoot(k):
+    def ok(k):
         t = control.feedback(k * gh, 1)
         if not np.all(np.abs(t.poles()) < 1.0):
-            return math.inf
-        return step_info(t, t_end=step_s)["overshoot_pct"]
+            return False
+        return step_info(t, t_end=step_s)["overshoot_pct"] <= overshoot_pct and _gain_margin_db(k * gh) >= gm_min_db
 
-    if overshoot(quantise_heading(kp)[1]) > overshoot_pct:
+    if not ok(quantise_heading(kp)[1]):
         lo, hi = 0.0, kp
         for _ in range(30):
             mid = 0.5 * (lo + hi)
-            if overshoot(mid) <= overshoot_pct:
+            if ok(mid):
                 lo = mid
             else:
                 hi = mid
         kp = lo
         if kp <= 0:
-            raise DesignError(f"no heading gain keeps the heading step within {overshoot_pct:g} % overshoot")
+            raise DesignError(f"no heading gain keeps the heading step within {overshoot_pct:g} % overshoot "
+                              f"with a {gm_min_db:g} dB gain margin")
     raw, kq = quantise_heading(kp)
-    while raw > 1 and overshoot(kq) > overshoot_pct:  # rounding up may cross the limit
+    while raw > 1 and not ok(kq):  # rounding up may cross a limit
         raw -= 1
         kq = raw * _scale(HEADING_SCALE)
     out = []
@@ -471,7 +477,7 @@ def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = N
             raise DesignError(f"the designed heading loop is unstable (heading_kp {k:.4g})")
         out.append((margins(loop), {"step": step_info(t, t_end=step_s)}))
     targets = {"phase_margin_deg": pm_deg, "bandwidth_hz": bandwidth_hz, "overshoot_pct": overshoot_pct,
-               "crossover_design_hz": wc / (2 * math.pi)}
+               "gain_margin_min_db": gm_min_db, "crossover_design_hz": wc / (2 * math.pi)}
     return HeadingDesign(kp, kq, raw, out[0][0], out[1][0], out[0][1], out[1][1], targets, gh)
 
 

@@ -2,12 +2,18 @@
 run.mcap or a robot's host datalog, and the co-simulation runs the tuner makes.
 
 Both logs carry the micro's datalog words (micro_data.mc_datalog, selected by
-mc_datalog_cmd; the spec's enum mc_datalog names the four words of each selection). The
-selections the tuner reads: `wheels` (duty and speed of both wheels), `wheel_left` and
-`wheel_right` (setpoint, speed, duty, integral of one wheel). A record is the stretch of
-samples while an excitation runs (micro_status bit excite_active), with the sample before
-it (the wheel at rest), resampled with a hold onto a uniform grid at the median sample
-period.
+mc_datalog_cmd; the spec's enum mc_datalog names the four words of each selection) and the
+micro's clock (micro_time, ms) of each sample. The selections the tuner reads: `wheels`
+(duty and speed of both wheels), `wheel_left` and `wheel_right` (setpoint, speed, duty,
+integral of one wheel). An experiment is a stretch of samples while an excitation runs
+(micro_status bit excite_active), with the sample before it (the wheel must be at rest)
+and up to COAST_S after it (duty 0). Its duty goes on a 1 ms grid: a step experiment whose
+command is in the log (run.mcap's /micro/cmd) is replayed at the micro's tick (excite.h:
+offset, then offset + amplitude after excite_period) from the start tick that reproduces
+every logged duty, so the fit knows when the step happened to the millisecond although the
+log has a sample per host frame; otherwise (a datalog, a chirp or PRBS) each logged duty is
+taken to start right after the sample before it: the dead time is then known to a sample
+period only, and errs long (a slower, safer design).
 """
 
 from __future__ import annotations
@@ -20,9 +26,13 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["ExperimentError", "Record", "records_from_mcap", "records_from_datalog", "records_from_log",
-           "uniform", "mission_text", "run_cosim", "speed_series"]
+           "mission_text", "run_cosim", "load_mission", "mission_has_experiment", "GRID_S"]
 
 WHEEL_SELECTIONS = ("wheels", "wheel_left", "wheel_right")
+GRID_S = 0.001          # s: the fit's grid, the resolution of the micro's clock (micro_time, ms)
+REST_MM_S = 5.0         # mm/s: a wheel slower than this before an experiment is at rest
+COAST_S = 0.5           # s: samples kept after an experiment ends (duty 0, the wheel coasting)
+REPLAY_TOL = 0.0015     # duty: a replayed step must match every logged duty this closely
 
 
 class ExperimentError(ValueError):
@@ -31,15 +41,23 @@ class ExperimentError(ValueError):
 
 @dataclass
 class Record:
-    """One wheel's excitation: t (s, uniform from 0), duty (1, -1..1), speed (mm/s, the
-    firmware's measured wheel speed), ts (s, sample period), wheel ('left'/'right'), source."""
+    """One wheel's experiments: `segments` (ident.Segment: duty on the GRID_S grid, the
+    measured wheel speed samples, mm/s, at their grid indices), `replayed` per segment (True:
+    the duty is the step experiment replayed at the micro's tick from its command; False:
+    from the samples, its timing known to a sample period), `wheel`
+    ('left'/'right'), `source` (the log) and `ts` (s, the grid)."""
 
-    t: np.ndarray
-    duty: np.ndarray
-    speed: np.ndarray
-    ts: float
     wheel: str
+    segments: list
+    replayed: list
     source: str
+    ts: float = GRID_S
+
+    @property
+    def sample_period_s(self) -> float:
+        """Median time between the speed samples (s)."""
+        d = np.concatenate([np.diff(sg.at) for sg in self.segments if len(sg.at) > 1])
+        return float(np.median(d)) * self.ts if len(d) else math.nan
 
 
 def _enum(name: str):
@@ -57,16 +75,12 @@ def _word_names() -> dict:
     return {e.values[k]: tuple(words[k]) for k in WHEEL_SELECTIONS if k in e.values and k in words}
 
 
-def _excite_bit() -> int | None:
-    f = _enum("micro_status")
-    return f.values.get("excite_active") if f is not None else None
-
-
 def _columns(words: tuple) -> dict:
-    """{wheel: (duty word index, speed word index, duty scale)} of one selection's word names."""
+    """{wheel: (duty word index, speed word index, duty scale)} of one selection's word names
+    (names end in their unit: duty_left_e4 is duty x 10000)."""
     out = {}
     for wheel in ("left", "right"):
-        duty = [i for i, n in enumerate(words) if n.startswith("duty") and (wheel in n or "_" not in n[5:])]
+        duty = [i for i, n in enumerate(words) if n.startswith("duty") and (wheel in n or n == "duty_e4")]
         speed = [i for i, n in enumerate(words) if n.startswith("speed") and (wheel in n or n == "speed_mm_s")]
         if duty and speed:
             d = words[duty[0]]
@@ -75,80 +89,132 @@ def _columns(words: tuple) -> dict:
     return out
 
 
-def uniform(t: np.ndarray, *cols: np.ndarray) -> tuple:
-    """(ts, t_uniform from 0, cols held onto it): ts the median sample period (s)."""
-    t = np.asarray(t, float)
-    if len(t) < 2:
-        raise ExperimentError("fewer than 2 samples")
-    ts = float(np.median(np.diff(t)))
-    if not ts > 0:
-        raise ExperimentError("samples without increasing time")
-    n = int(math.floor((t[-1] - t[0]) / ts + 1e-6)) + 1
-    tu = t[0] + np.arange(n) * ts
-    idx = np.clip(np.searchsorted(t, tu + 1e-9 * ts, side="right") - 1, 0, len(t) - 1)
-    return (ts, tu - tu[0]) + tuple(np.asarray(c, float)[idx] for c in cols)
+def _wheel_sign(wheels: int, wheel: str) -> float:
+    """+1, -1 or 0: how a wheel's duty follows the experiment's (enum excite_wheels)."""
+    e = _enum("excite_wheels").values
+    if wheels == e["both"]:
+        return 1.0
+    if wheels == e["spin"]:
+        return 1.0 if wheel == "left" else -1.0
+    return 1.0 if wheels == e[wheel] else 0.0
 
 
-def _records(source: str, t, sel, status, words) -> list[Record]:
-    """Records of both wheels from per-sample time (s), selection code, status bits and the
-    four datalog words."""
+def _replay_step(cmd: dict, wheel: str, t0_ms: int, ms: np.ndarray) -> np.ndarray:
+    """Duty (1) at integer ms of a step experiment (excite.h: the offset for excite_period,
+    then offset + amplitude, for excite_duration from tick 0 at t0_ms; 0 outside) on `wheel`,
+    at the 1 kHz tick the fit's grid stands for."""
+    k = ms - t0_ms
+    on = (k >= 0) & (k < int(cmd["excite_duration"]))
+    d = 0.001 * (int(cmd["excite_offset"]) + int(cmd["excite_amplitude"]) * (k >= int(cmd["excite_period"])))
+    return np.where(on, d * _wheel_sign(int(cmd["excite_wheels"]), wheel), 0.0)
+
+
+def _records(source: str, ms, sel, status, words, cmds=()) -> list[Record]:
+    """Records of both wheels from per-sample micro time (ms), selection code, status bits,
+    the four datalog words, and the excitation commands [(sample index before which it was
+    sent, micro_cmd fields)] when the log has them."""
+    from navkit.tune.ident import Segment
+
     names = _word_names()
-    bit = _excite_bit()
-    t, sel, status = np.asarray(t, float), np.asarray(sel, int), np.asarray(status, int)
-    words = np.asarray(words, float).reshape(len(t), -1)
-    active = ((status >> bit) & 1).astype(bool) if bit is not None else np.isin(sel, list(names))
+    f = _enum("micro_status")
+    bit = f.values.get("excite_active") if f is not None else None
+    ms, sel, status = np.asarray(ms, np.int64), np.asarray(sel, int), np.asarray(status, int)
+    words = np.asarray(words, float).reshape(len(ms), -1)
+    if bit is None or not names:
+        raise ExperimentError(f"{source}: this spec has no excitation experiments (micro_status excite_active)")
+    active = ((status >> bit) & 1).astype(bool)
     if not active.any():
         raise ExperimentError(f"{source}: no excitation in the log (micro_status excite_active never set): "
                               f"run an experiment (excite_mode) with mc_datalog_cmd = wheels")
-    # the longest run of active samples, plus the sample before it (at rest)
     edges = np.diff(np.concatenate([[0], active.astype(int), [0]]))
-    starts, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
-    k = int(np.argmax(ends - starts))
-    a, b = max(starts[k] - 1, 0), ends[k]
-    out = []
-    for code, wnames in names.items():
-        on = sel[a:b] == code
-        if on.sum() < 0.9 * (b - a):
+    runs = list(zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]))
+    step = _enum("excite_mode").values["step"]
+    by_wheel: dict = {}
+    skipped = 0
+    for k, (s, e) in enumerate(runs):
+        a = s - 1
+        nxt = runs[k + 1][0] if k + 1 < len(runs) else len(ms)
+        b = e
+        while b < nxt and ms[b] - ms[e - 1] <= COAST_S * 1000:
+            b += 1
+        if a < 0:
+            skipped += 1
             continue
-        for wheel, (di, si, scale) in _columns(wnames).items():
-            ts, tu, duty, speed = uniform(t[a:b][on], words[a:b][on][:, di] * scale, words[a:b][on][:, si])
-            if np.ptp(duty) > 0:
-                out.append(Record(tu, duty, speed, ts, wheel, source))
+        cols = _columns(names.get(int(sel[s]), ()))
+        if not cols or np.any(sel[a:b] != sel[s]):
+            skipped += 1
+            continue
+        cmd = next((c for i, c in reversed(list(cmds)) if i <= s and int(c.get("excite_mode", 0)) != 0), None)
+        grid = np.arange(ms[a], ms[b - 1] + 1)
+        at = (ms[a:b] - ms[a]).astype(int)
+        for wheel, (di, si, scale) in cols.items():
+            duty = words[a:b, di] * scale
+            speed = words[a:b, si]
+            if np.ptp(duty) == 0 or abs(speed[0]) > REST_MM_S:
+                continue
+            u, replayed = None, False
+            if cmd is not None and int(cmd["excite_mode"]) == step:
+                # the logged duty of a sample is the tick's before it: find the start tick that
+                # reproduces every logged duty
+                for t0 in range(int(ms[s]) - 3, int(ms[s]) + 3):
+                    cand = _replay_step(cmd, wheel, t0, grid)
+                    if np.max(np.abs(_replay_step(cmd, wheel, t0, ms[a:b] - 1) - duty)) <= REPLAY_TOL:
+                        u, replayed = cand, True
+                        break
+            if u is None:
+                # a sample's duty is the one its tick applied; it may have changed any time
+                # since the sample before: take it as changed right after that one (the
+                # earliest time possible: the lag comes out at most a sample period too long,
+                # which errs toward a slower, safer design)
+                idx = np.clip(np.searchsorted(at, np.arange(len(grid)), side="left"), 0, len(at) - 1)
+                u = duty[idx]
+            by_wheel.setdefault(wheel, []).append((Segment(u, speed, at), replayed))
+    out = []
+    for wheel, segs in sorted(by_wheel.items()):
+        if any(r for _, r in segs):  # a replayed step's timing beats a held record's
+            segs = [x for x in segs if x[1]]
+        out.append(Record(wheel, [sg for sg, _ in segs], [r for _, r in segs], source))
     if not out:
-        sels = sorted({int(s) for s in sel[a:b]})
-        raise ExperimentError(f"{source}: the excitation was logged with mc_datalog selection {sels}, not one "
-                              f"carrying duty and speed ({', '.join(WHEEL_SELECTIONS)})")
+        raise ExperimentError(f"{source}: no usable experiment: each must start with the wheel at rest and "
+                              f"be logged with mc_datalog selection {' or '.join(WHEEL_SELECTIONS)} "
+                              f"({skipped} skipped)")
     return out
 
 
 def records_from_mcap(path: Path) -> list[Record]:
-    """Wheel records of a co-simulation's run.mcap (/micro/data)."""
+    """Wheel records of a co-simulation's run.mcap (/micro/data, and /micro/cmd for the
+    experiments' parameters)."""
     from navkit.sim.results import read_mcap
 
     path = Path(path)
     try:
-        mc = read_mcap(path, topics={"/micro/data"})
+        mc = read_mcap(path, topics={"/micro/data", "/micro/cmd"})
     except Exception as e:  # a file that is not MCAP: one line naming it
         raise ExperimentError(f"{path}: not a readable run.mcap ({e})") from None
     import json
 
-    t, sel, status, words = [], [], [], []
-    for t_ns, _, data in mc.messages:
+    ms, sel, status, words, cmds = [], [], [], [], []
+    for _, topic, data in mc.messages:
         m = json.loads(data)
-        if "mc_datalog" not in m:
-            raise ExperimentError(f"{path}: /micro/data has no mc_datalog words")
-        t.append(t_ns / 1e9)
+        if topic == "/micro/cmd":
+            if m.get("excite_mode"):
+                cmds.append((len(ms), m))
+            continue
+        if "mc_datalog" not in m or "micro_time" not in m:
+            raise ExperimentError(f"{path}: /micro/data has no mc_datalog words or micro_time")
+        ms.append(m["micro_time"])
         sel.append(m.get("mc_datalog_sel", 0))
         status.append(m.get("status", 0))
         words.append(m["mc_datalog"])
-    if not t:
+    if not ms:
         raise ExperimentError(f"{path}: no /micro/data messages")
-    return _records(str(path), t, sel, status, words)
+    return _records(str(path), ms, sel, status, words, cmds)
 
 
 def records_from_datalog(path: Path) -> list[Record]:
-    """Wheel records of a host datalog (seed format): columns time_s, micro_status, the
-    selection and the four datalog words (names found by their spec names)."""
+    """Wheel records of a host datalog (seed format): columns micro_time_ms, micro_status,
+    mc_datalog_sel and mc_datalog0..3. The datalog has no experiment parameters: the duty
+    is held from sample to sample."""
     from navkit.plot import read_datalog
 
     path = Path(path)
@@ -157,25 +223,20 @@ def records_from_datalog(path: Path) -> list[Record]:
     except (OSError, ValueError) as e:
         raise ExperimentError(f"{path}: {e}") from None
     names = [p[0] for p in params]
-    arr = np.asarray(rows, float).reshape(len(rows), len(names))
-
-    def col(*cands):
-        for c in cands:
-            if c in names:
-                return names.index(c)
-        return None
-
-    it, ist = col("time_s"), col("micro_status")
-    isel = col("mc_datalog_sel", "mc_datalog_cmd", "mc_datalog")
-    iw = [col(f"mc_datalog{i}", f"mc_datalog_{i}", f"mc_datalog[{i}]") for i in range(4)]
-    missing = [n for n, i in (("time_s", it), ("micro_status", ist), ("mc_datalog_sel", isel),
-                              ("mc_datalog0..3", None if None in iw else 0)) if i is None]
+    need = ["micro_time_ms", "micro_status", "mc_datalog_sel"] + [f"mc_datalog{i}" for i in range(4)]
+    missing = [n for n in need if n not in names]
     if missing:
         raise ExperimentError(f"{path}: the datalog lacks the column(s) {', '.join(missing)} "
                               f"(it has {', '.join(names)})")
-    if len(arr) < 2:
+    if len(rows) < 2:
         raise ExperimentError(f"{path}: fewer than 2 rows")
-    return _records(str(path), arr[:, it], arr[:, isel], arr[:, ist], arr[:, iw])
+    arr = np.asarray(rows, float)
+    t = arr[:, names.index("micro_time_ms")]
+    # a frame whose micro_data did not arrive repeats the last one: keep each sample once
+    arr = arr[np.r_[True, np.diff(t) > 0]]
+    col = {n: arr[:, names.index(n)] for n in need}
+    return _records(str(path), col["micro_time_ms"], col["mc_datalog_sel"], col["micro_status"],
+                    np.column_stack([col[f"mc_datalog{i}"] for i in range(4)]))
 
 
 def records_from_log(path: Path) -> list[Record]:
@@ -233,23 +294,6 @@ def run_cosim(mission_path: Path, out: Path, *, config_dir: Path | None, build: 
     except (MissionError, SimError) as e:
         raise ExperimentError(str(e)) from None
     return Path(out)
-
-
-def speed_series(out: Path, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
-    """(t s from t0, truth forward speed mm/s) of run folder `out` between t0 and t1 (s)."""
-    from navkit.sim.results import read_mcap
-    import json
-
-    mc = read_mcap(Path(out) / "run.mcap", topics={"/truth"})
-    rows = [json.loads(d) for _, _, d in mc.messages]
-    t = np.array([r["t"] for r in rows])
-    v = np.array([r["v_mm_s"] for r in rows])
-    keep = (t >= t0) & (t <= t1)
-    return t[keep] - t0, v[keep]
-
-
-def _mission_plant(mission) -> dict:
-    return dict(mission.plant) if mission is not None else {}
 
 
 def load_mission(path: Path):

@@ -57,12 +57,25 @@ def _mean_model(models: list) -> ident.Model:
     return ident.Model(kind, avg("gain_mm_s"), avg("tau1_s"), avg("tau2_s"), avg("delay_s"), avg("deadband"))
 
 
+def _same_data(a, b) -> bool:
+    """True if records a and b hold the same samples (both wheels of a symmetric robot)."""
+    return len(a.segments) == len(b.segments) and all(
+        np.array_equal(x.u, y.u) and np.array_equal(x.y, y.y) and np.array_equal(x.at, y.at)
+        for x, y in zip(a.segments, b.segments))
+
+
 def _choose(by_kind: dict, want: str) -> str:
-    """The model kind to design on: `want`, or 'auto': sopdt when its NRMSE is at least 10 %
-    lower than fopdt's, else fopdt."""
+    """The model kind to design on: `want`, or 'auto': the lower Akaike information criterion
+    n*ln(RSS/n) + 2*(parameters) (sopdt has one parameter more than fopdt's four), so the
+    second time constant must pay for itself."""
     if want != "auto":
         return want
-    return "sopdt" if by_kind["sopdt"].nrmse < 0.9 * by_kind["fopdt"].nrmse else "fopdt"
+
+    def aic(f, k):
+        rss = (f.nrmse ** 2) * max(f.n, 1)  # in units of the record's variance: the same for both
+        return f.n * math.log(max(rss, 1e-300) / f.n) + 2 * k
+
+    return "sopdt" if aic(by_kind["sopdt"], 5) < aic(by_kind["fopdt"], 4) else "fopdt"
 
 
 def _model_line(m: ident.Model) -> str:
@@ -175,7 +188,8 @@ def tune_wheel(args) -> dict:
 
     fits = []
     for rec in records:
-        fits.append((rec, ident.fit_both(rec.duty, rec.speed, rec.ts)))
+        same = next((by for r, by in fits if _same_data(r, rec)), None)  # a symmetric robot's wheels
+        fits.append((rec, same or ident.fit_both_segments(rec.segments, rec.ts)))
     kind = _choose(fits[0][1], args.model)
     if args.model == "auto" and len(fits) > 1:
         kinds = [_choose(f, "auto") for _, f in fits]
@@ -215,7 +229,8 @@ def tune_wheel(args) -> dict:
     result = {
         "kind": "wheel", "date": _now(), "git_revision": _rev(), "source": source,
         "config_in": str(config_src), "config_out": str(out / "config"), "ini": str(ini),
-        "records": [{"wheel": r.wheel, "ts_s": r.ts, "samples": len(r.t),
+        "records": [{"wheel": r.wheel, "experiments": len(r.segments), "replayed": r.replayed,
+                     "samples": int(sum(len(sg.y) for sg in r.segments)), "sample_period_s": r.sample_period_s,
                      "fits": {k: {"model": f.model.as_dict(), "nrmse": f.nrmse} for k, f in by.items()}}
                     for r, by in fits],
         "model": model.as_dict(),
@@ -353,12 +368,13 @@ def tune_heading(args) -> dict:
         raise TuneError(str(e)) from None
     plant = dsg.plant_d(model, dt, cd)
     _, tw = dsg.wheel_loops(gq, plant)
-    hd = dsg.design_heading(tw, pm_deg=args.pm, bandwidth_hz=args.bandwidth, overshoot_pct=args.overshoot)
+    hd = dsg.design_heading(tw, pm_deg=args.pm, bandwidth_hz=args.bandwidth, overshoot_pct=args.overshoot,
+                            gm_min_db=args.gm_min)
     mq = hd.margins_quantised
     provenance = [
         f"navkit tune heading, {_now()}, git {_rev()}",
         f"on the wheel loops of {tj_path} ({_model_line(model)})",
-        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} %",
+        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} %, gain margin >= {args.gm_min:g} dB",
         f"result: phase margin {mq['phase_margin_deg']:.1f} deg, gain margin {mq['gain_margin_db']:.1f} dB, "
         f"crossover {mq['crossover_hz']:.2f} Hz",
         f"previous: heading_kp {previous}",

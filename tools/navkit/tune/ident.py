@@ -26,7 +26,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["Model", "Fit", "IdentError", "simulate", "fit", "fit_both", "nrmse"]
+__all__ = ["Model", "Fit", "Segment", "IdentError", "simulate", "fit", "fit_both", "fit_segments",
+           "fit_both_segments", "nrmse"]
 
 
 class IdentError(ValueError):
@@ -129,8 +130,6 @@ def _hold(a: np.ndarray, b: np.ndarray, t: float):
 def discrete(model: Model, ts: float) -> tuple[np.ndarray, np.ndarray]:
     """(num, den) in powers of z^-1 of the model sampled at ts (s) with a held input,
     dead time included (modified z-transform for its fraction of a sample)."""
-    from scipy.signal import ss2tf
-
     a, b, c = _ss(model)
     n_whole = int(math.floor(model.delay_s / ts + 1e-9))
     frac = model.delay_s / ts - n_whole
@@ -142,40 +141,68 @@ def discrete(model: Model, ts: float) -> tuple[np.ndarray, np.ndarray]:
     _, g_first = _hold(a, b, frac * ts)
     g_late = g_rest                 # multiplies u[k-n]
     g_early = e_rest @ g_first      # multiplies u[k-n-1]
-    num_late, den = ss2tf(phi, g_late, c, np.zeros((1, 1)))
-    num_early, _ = ss2tf(phi, g_early, c, np.zeros((1, 1)))
+    # single input, single output: C (zI - Phi)^-1 G = (det(zI - Phi + G C) - det(zI - Phi)) / det(zI - Phi)
+    den = np.poly(phi)
+    num_late = np.poly(phi - g_late @ c) - den
+    num_early = np.poly(phi - g_early @ c) - den
     ns = a.shape[0]
     num = np.zeros(n_whole + ns + 2)
-    num[n_whole:n_whole + ns + 1] += num_late[0]
-    num[n_whole + 1:n_whole + ns + 2] += num_early[0]
+    num[n_whole:n_whole + ns + 1] += num_late
+    num[n_whole + 1:n_whole + ns + 2] += num_early
     return num, den
 
 
-def simulate(model: Model, u: np.ndarray, ts: float) -> np.ndarray:
+def simulate(model: Model, u: np.ndarray, ts: float, _tf=None) -> np.ndarray:
     """Model output (mm/s) at the samples of duty u (held for ts s each), from rest."""
     from scipy.signal import lfilter
 
-    num, den = discrete(model, ts)
+    num, den = _tf if _tf is not None else discrete(model, ts)
     return lfilter(num, den, _deadband(np.asarray(u, float), model.deadband))
 
 
-def _arx_start(u: np.ndarray, y: np.ndarray, ts: float, max_delay: int) -> list[Model]:
+@dataclass
+class Segment:
+    """One experiment from rest: duty u (1) on a fine grid of the fit's period ts (held over
+    each period), and the speed samples y (mm/s) taken at grid indices `at` (a record
+    sampled on the grid itself has at = 0, 1, 2, ...)."""
+
+    u: np.ndarray
+    y: np.ndarray
+    at: np.ndarray
+
+
+def _arx_start(segs: list, ts: float, max_delay_s: float) -> list[Model]:
     """FOPDT starts from equation-error least squares y[k+1] = a y[k] + b u[k-n] + c sign(u[k-n])
-    for each whole-sample delay n (numpy lstsq)."""
+    on the samples (the duty taken at the sample instants), stacked over the segments, for
+    each whole-sample delay n (numpy lstsq)."""
+    tc = ts * float(np.median(np.concatenate([np.diff(sg.at) for sg in segs if len(sg.at) > 1])))
     starts = []
-    for n in range(0, max_delay + 1):
-        if len(y) - n - 1 < 10:
+    for n in range(0, max(1, int(round(max_delay_s / tc))) + 1):
+        rows, rhs = [], []
+        for sg in segs:
+            uc, y = sg.u[sg.at], sg.y
+            if len(y) - n - 1 < 2:
+                continue
+            uk = uc[:len(uc) - n - 1]
+            rows.append(np.column_stack([y[n:-1], uk, np.sign(uk)]))
+            rhs.append(y[n + 1:])
+        if not rows or sum(len(r) for r in rhs) < 10:
             break
-        uk = u[:len(u) - n - 1]
-        phi = np.column_stack([y[n:-1], uk, np.sign(uk)])
-        theta, *_ = np.linalg.lstsq(phi, y[n + 1:], rcond=None)
+        theta, *_ = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)
         a, b, c = (float(v) for v in theta)
         if not (0.0 < a < 1.0) or b <= 0.0:
             continue
-        tau = -ts / math.log(a)
+        tau = -tc / math.log(a)
         d0 = min(max(-c / b, 0.0), 0.5)
-        starts.append(Model("fopdt", b / (1.0 - a), tau, 0.0, n * ts, d0))
+        for frac in (0.0, 0.25, 0.5, 0.75):  # where in the sample period the response starts
+            starts.append(Model("fopdt", b / (1.0 - a), tau, 0.0, (n + frac) * tc, d0))
     return starts
+
+
+def _sim_at(model: Model, segs: list, ts: float) -> np.ndarray:
+    """The model's output at every segment's sample instants, concatenated."""
+    tf = discrete(model, ts)
+    return np.concatenate([simulate(model, sg.u, ts, tf)[sg.at] for sg in segs])
 
 
 # parameter vectors: log K, log tau1, [log tau2], delay (s), dead band (duty)
@@ -193,8 +220,8 @@ def _unpack(kind: str, p: np.ndarray) -> Model:
     return Model(kind, math.exp(p[0]), math.exp(p[1]), 0.0, max(float(p[2]), 0.0), max(float(p[3]), 0.0))
 
 
-def _refine(m: Model, u: np.ndarray, y: np.ndarray, ts: float, iters: int = 60) -> Model:
-    """Levenberg-Marquardt on the output error from model m."""
+def _refine(m: Model, segs: list, y: np.ndarray, ts: float, iters: int = 60) -> Model:
+    """Levenberg-Marquardt on the output error from model m (y: the segments' samples)."""
     kind = m.kind
     p = _pack(m)
     steps = np.array([1e-4] * (len(p) - 2) + [ts * 1e-2, 1e-4])
@@ -203,7 +230,7 @@ def _refine(m: Model, u: np.ndarray, y: np.ndarray, ts: float, iters: int = 60) 
         q = q.copy()
         q[-2] = max(q[-2], 0.0)
         q[-1] = max(q[-1], 0.0)
-        return simulate(_unpack(kind, q), u, ts) - y
+        return _sim_at(_unpack(kind, q), segs, ts) - y
 
     r = resid(p)
     cost = float(r @ r)
@@ -237,21 +264,32 @@ def fit(u, y, ts: float, kind: str = "fopdt", max_delay_s: float = 0.1) -> Fit:
     ts (s) from rest; dead times up to max_delay_s (s) are searched. Raises IdentError."""
     u = np.asarray(u, float)
     y = np.asarray(y, float)
-    if kind not in ("fopdt", "sopdt"):
-        raise IdentError(f"unknown model kind {kind!r} (fopdt or sopdt)")
     if len(u) != len(y) or len(u) < 20:
         raise IdentError(f"need at least 20 samples of duty and speed, got {len(u)} and {len(y)}")
-    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+    return fit_segments([Segment(u, y, np.arange(len(y)))], ts, kind, max_delay_s)
+
+
+def fit_segments(segs: list, ts: float, kind: str = "fopdt", max_delay_s: float = 0.1) -> Fit:
+    """Fit a `kind` model to experiments `segs` (Segment: duty on the grid of ts s, speed
+    samples at grid indices), all from rest; y_model of the Fit is at the samples, the
+    segments' concatenated. Raises IdentError."""
+    if kind not in ("fopdt", "sopdt"):
+        raise IdentError(f"unknown model kind {kind!r} (fopdt or sopdt)")
+    segs = [Segment(np.asarray(sg.u, float), np.asarray(sg.y, float), np.asarray(sg.at, int)) for sg in segs]
+    y = np.concatenate([sg.y for sg in segs]) if segs else np.zeros(0)
+    u_all = np.concatenate([sg.u for sg in segs]) if segs else np.zeros(0)
+    if len(y) < 20:
+        raise IdentError(f"need at least 20 speed samples, got {len(y)}")
+    if not (np.all(np.isfinite(u_all)) and np.all(np.isfinite(y))):
         raise IdentError("the record holds non-finite duty or speed values")
-    if np.ptp(u) < 1e-3 or np.ptp(y) < 1e-6:
+    if np.ptp(u_all) < 1e-3 or np.ptp(y) < 1e-6:
         raise IdentError("the record has no excitation (duty or speed constant)")
-    max_delay = max(1, int(round(max_delay_s / ts)))
-    starts = _arx_start(u, y, ts, max_delay)
+    starts = _arx_start(segs, ts, max_delay_s)
     if not starts:
         raise IdentError("no stable first-order model fits the record (equation-error least squares "
                          "found no pole in 0..1 with a positive gain)")
     # the best few starts by simulation error, each refined
-    starts.sort(key=lambda m: nrmse(y, simulate(m, u, ts)))
+    starts.sort(key=lambda m: nrmse(y, _sim_at(m, segs, ts)))
     best, best_e = None, math.inf
     for s in starts[:3]:
         cands = [s]
@@ -259,17 +297,22 @@ def fit(u, y, ts: float, kind: str = "fopdt", max_delay_s: float = 0.1) -> Fit:
             cands = [Model("sopdt", s.gain_mm_s, 0.8 * s.tau1_s, max(0.2 * s.tau1_s, 0.3 * ts), s.delay_s, s.deadband),
                      Model("sopdt", s.gain_mm_s, 0.5 * s.tau1_s, 0.5 * s.tau1_s, max(s.delay_s - ts, 0.0), s.deadband)]
         for c in cands:
-            m = _refine(c, u, y, ts)
-            e = nrmse(y, simulate(m, u, ts))
+            m = _refine(c, segs, y, ts)
+            e = nrmse(y, _sim_at(m, segs, ts))
             if e < best_e:
                 best, best_e = m, e
     if best is None or not math.isfinite(best_e):
         raise IdentError(f"the {kind} fit did not converge")
     if best.kind == "sopdt" and best.tau2_s > best.tau1_s:
         best = Model("sopdt", best.gain_mm_s, best.tau2_s, best.tau1_s, best.delay_s, best.deadband)
-    return Fit(best, best_e, ts, len(u), simulate(best, u, ts))
+    return Fit(best, best_e, ts, len(y), _sim_at(best, segs, ts))
 
 
 def fit_both(u, y, ts: float, max_delay_s: float = 0.1) -> dict:
     """{'fopdt': Fit, 'sopdt': Fit} of the same record."""
     return {k: fit(u, y, ts, k, max_delay_s) for k in ("fopdt", "sopdt")}
+
+
+def fit_both_segments(segs: list, ts: float, max_delay_s: float = 0.1) -> dict:
+    """{'fopdt': Fit, 'sopdt': Fit} of the same experiments."""
+    return {k: fit_segments(segs, ts, k, max_delay_s) for k in ("fopdt", "sopdt")}

@@ -21,24 +21,33 @@ def _plt():
 
 
 def fit_png(out: Path, fits: list) -> None:
-    """fits: [(record, {kind: ident.Fit})]: per record the measured speed and each model's
-    output (top), the residuals (bottom)."""
+    """fits: [(experiment.Record, {kind: ident.Fit})]: per record its experiments one after
+    the other (1 s apart), the measured speed and each model's output (top) with the duty,
+    the residuals (bottom)."""
     plt = _plt()
-    fig, axes = plt.subplots(2, len(fits), figsize=(6 * len(fits), 6), squeeze=False, sharex="col")
+    fig, axes = plt.subplots(2, len(fits), figsize=(7 * len(fits), 6), squeeze=False, sharex="col")
     for j, (rec, by_kind) in enumerate(fits):
         ax, ar = axes[0][j], axes[1][j]
-        ax.plot(rec.t, rec.speed, "k.", ms=3, label="measured speed")
-        for kind, f in by_kind.items():
-            ax.plot(rec.t, f.y_model, label=f"{kind} (NRMSE {f.nrmse:.3f})")
-            ar.plot(rec.t, rec.speed - f.y_model, label=kind)
         ax2 = ax.twinx()
-        ax2.step(rec.t, rec.duty, "C7", where="post", lw=0.8, alpha=0.6)
+        t_at, off = [], 0.0
+        for sg in rec.segments:
+            t_at.append(off + sg.at * rec.ts)
+            ax2.step(off + np.arange(len(sg.u)) * rec.ts, sg.u, "C7", where="post", lw=0.8, alpha=0.6)
+            off += len(sg.u) * rec.ts + 1.0
+        t = np.concatenate(t_at)
+        y = np.concatenate([sg.y for sg in rec.segments])
+        ax.plot(t, y, "k.", ms=3, label="measured speed")
+        for kind, f in by_kind.items():
+            ax.plot(t, f.y_model, ".", ms=2, label=f"{kind} (NRMSE {f.nrmse:.3f})")
+            ar.plot(t, y - f.y_model, ".", ms=2, label=kind)
         ax2.set_ylabel("duty (1)")
-        ax.set_title(f"{rec.wheel} wheel, Ts {rec.ts * 1000:g} ms")
+        how = "replayed steps" if all(rec.replayed) else "duty held between samples"
+        ax.set_title(f"{rec.wheel} wheel: {len(rec.segments)} experiment(s), {how}, "
+                     f"samples every {rec.sample_period_s * 1000:.0f} ms", fontsize=9)
         ax.set_ylabel("speed (mm/s)")
         ax.legend(loc="upper left", fontsize=8)
         ar.set_ylabel("residual (mm/s)")
-        ar.set_xlabel("t (s)")
+        ar.set_xlabel("t (s, experiments 1 s apart)")
         ar.axhline(0, color="k", lw=0.5)
         ar.legend(fontsize=8)
     fig.tight_layout()
