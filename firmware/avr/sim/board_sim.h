@@ -72,7 +72,7 @@ const char *board_sim_error(const board_sim_t *b);
  * come BOARD_SIM_ENC_MIN_EDGE_CYCLES apart from now. Edges closer than
  * BOARD_SIM_ENC_MIN_EDGE_CYCLES are spread to that spacing (the board's guaranteed rate,
  * docs/avr.md), so the pins lag the request instead of the board losing counts. */
-#define BOARD_SIM_ENC_MIN_EDGE_CYCLES 320u /* cycles: 20 us, 50 000 edges/s per encoder */
+#define BOARD_SIM_ENC_MIN_EDGE_CYCLES 480u /* cycles: 30 us, 33 333 edges/s per encoder */
 void board_sim_set_encoders(board_sim_t *b, int32_t left_counts, int32_t right_counts, uint64_t by_cycle);
 /* Voltage at the analog pin of hal channel ch (0..4: IR 0-3, battery after the board's
  * divider), mV (0..5000, the 5.0 V AVcc reference; above is read as 5000). Other ch: ignored. */
@@ -113,6 +113,19 @@ void board_sim_uart_write(board_sim_t *b, const uint8_t *buf, size_t len);
 size_t board_sim_uart_read(board_sim_t *b, uint8_t *buf, size_t cap);
 /* Bytes dropped by either queue of this side (the image's own ring buffers are its affair). */
 uint32_t board_sim_uart_dropped(const board_sim_t *b);
+
+/* ---- resets ---- */
+
+#define BOARD_SIM_RESET_EXTERNAL 0 /* the reset pin (the USB-serial's DTR): SRAM kept, MCUSR EXTRF */
+#define BOARD_SIM_RESET_POWER_ON 1 /* power cycle: SRAM arbitrary, MCUSR PORF */
+#define BOARD_SIM_RESET_BROWN_OUT 2 /* supply dip: SRAM kept, MCUSR BORF */
+/* Reset the core now with one of BOARD_SIM_RESET_*: the image starts again from address 0
+ * (the parts keep their inputs; the gyro part restarts asleep). */
+void board_sim_reset(board_sim_t *b, int cause);
+/* on = 1: after every reset, MCUSR reads 0 when the image starts, as the stk500v2
+ * bootloader leaves it (it reads and clears the flags before jumping to the image); the
+ * image must then tell the cause from its RAM markers. Default 0 (no bootloader). */
+void board_sim_set_bootloader_clears_mcusr(board_sim_t *b, int on);
 
 /* ---- profiling from the running image ---- */
 

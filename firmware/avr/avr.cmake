@@ -1,0 +1,34 @@
+# The AVR image and the simulated board, included by the top-level CMakeLists.txt (after
+# firmware/ and protocol/ define navkit_fw_core and navkit_gen).
+#
+# The image is its own CMake project (firmware/avr/CMakeLists.txt) with the avr-gcc
+# toolchain file, built as an ExternalProject into NAVKIT_AVR_IMAGE_DIR on every build (a
+# no-op when nothing changed): the core's sources come from the navkit_fw_core target, the
+# generated protocol code from this build's gen/ folder.
+include(ExternalProject)
+get_target_property(navkit_avr_core navkit_fw_core SOURCES)
+list(TRANSFORM navkit_avr_core PREPEND ${CMAKE_SOURCE_DIR}/firmware/)
+string(JOIN "|" navkit_avr_core_arg ${navkit_avr_core})
+set(navkit_avr_outputs)
+foreach(n navkit-mega2560 navkit-mega2560-test)
+  list(APPEND navkit_avr_outputs ${NAVKIT_AVR_IMAGE_DIR}/${n}.elf ${NAVKIT_AVR_IMAGE_DIR}/${n}.hex
+                                 ${NAVKIT_AVR_IMAGE_DIR}/${n}.size.txt)
+endforeach()
+ExternalProject_Add(navkit_avr_image
+  SOURCE_DIR ${CMAKE_SOURCE_DIR}/firmware/avr
+  BINARY_DIR ${NAVKIT_AVR_IMAGE_DIR}
+  PREFIX ${CMAKE_BINARY_DIR}/firmware/avr-ep
+  CMAKE_GENERATOR ${CMAKE_GENERATOR}
+  CMAKE_ARGS
+    -DCMAKE_TOOLCHAIN_FILE=${CMAKE_SOURCE_DIR}/cmake/avr-gcc.cmake
+    -DNAVKIT_CORE_SOURCES=${navkit_avr_core_arg}
+    -DNAVKIT_CORE_DIR=${CMAKE_SOURCE_DIR}/firmware/core
+    -DNAVKIT_GEN_DIR=${CMAKE_BINARY_DIR}/gen
+    -DNAVKIT_PROTO_RUNTIME_DIR=${CMAKE_SOURCE_DIR}/protocol/runtime
+    -DNAVKIT_AVR_RATE_MAX=${NAVKIT_AVR_RATE_MAX}
+  BUILD_ALWAYS ON
+  INSTALL_COMMAND ""
+  DEPENDS navkit_gen
+  BUILD_BYPRODUCTS ${navkit_avr_outputs})
+
+add_subdirectory(${CMAKE_SOURCE_DIR}/firmware/avr/sim ${CMAKE_BINARY_DIR}/firmware/avr-sim)

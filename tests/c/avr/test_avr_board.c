@@ -1,0 +1,554 @@
+/* test_avr_board: the navkit image on the simulated Mega 2560 (firmware/avr/sim/board_sim.h).
+ *
+ *   test_avr_board TEST IMAGE_DIR
+ *
+ * IMAGE_DIR holds navkit-mega2560.{elf,hex,size.txt} and navkit-mega2560-test.elf (the
+ * test image: DIO levels select hang / echo / hold modes, firmware/avr/main.c). Each TEST
+ * is one ctest; "footprint" prints the image's flash, static RAM and deepest stack and the
+ * cycles of its tick and link poll. Exit 0 = pass; a failure prints the check and exits 1.
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "board_sim.h"
+#include "navkit/navkit_proto.h"
+#include "navkit/navkit_wire.h"
+
+#define F_CPU_HZ BOARD_SIM_F_CPU_HZ
+#define MS(x) ((uint64_t)(x) * (F_CPU_HZ / 1000u)) /* cycles of x ms */
+#define TEST_HANG 0xA5Au /* DIO levels of the test image's modes (firmware/avr/main.c) */
+#define TEST_ECHO 0x5A5u
+#define TEST_HOLD 0x3C3u
+#define RX_RING_USABLE 255u /* bytes the image's UART RX ring holds (board.h) */
+
+static const char *image_dir;
+static int failures;
+static unsigned frames_sent; /* host frames written to the open board */
+
+static void check(int ok, const char *fmt, ...)
+{
+    va_list ap;
+    if (ok) {
+        return;
+    }
+    failures++;
+    va_start(ap, fmt);
+    fprintf(stderr, "FAIL: ");
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n");
+    va_end(ap);
+}
+
+static board_sim_t *open_image(const char *name)
+{
+    char path[1024], err[512];
+    board_sim_t *b;
+    snprintf(path, sizeof path, "%s/%s", image_dir, name);
+    b = board_sim_new(path, err, sizeof err);
+    frames_sent = 0u;
+    if (b == NULL) {
+        fprintf(stderr, "FAIL: %s\n", err);
+        exit(1);
+    }
+    return b;
+}
+
+static void run_for(board_sim_t *b, uint64_t cycles)
+{
+    if (board_sim_run_until(b, board_sim_cycles(b) + cycles) != 0) {
+        fprintf(stderr, "FAIL: %s\n", board_sim_error(b));
+        exit(1);
+    }
+}
+
+/* ---------------------------------------------------------------- the link */
+
+typedef struct {
+    navkit_parser_t parser;
+    navkit_micro_data_t last;
+    unsigned frames; /* micro_data frames decoded */
+} host_t;
+
+static void host_init(host_t *h)
+{
+    memset(h, 0, sizeof *h);
+    navkit_parser_init(&h->parser, NAVKIT_DIR_TO_HOST);
+}
+
+/* Take every byte the board sent; decode its micro_data frames. */
+static void host_drain(host_t *h, board_sim_t *b)
+{
+    uint8_t buf[512];
+    size_t n;
+    while ((n = board_sim_uart_read(b, buf, sizeof buf)) > 0u) {
+        size_t off = 0u;
+        while (off < n) {
+            const uint8_t *frame;
+            size_t flen;
+            off += navkit_parser_feed(&h->parser, buf + off, n - off);
+            while (navkit_parser_next(&h->parser, &frame, &flen)) {
+                if (navkit_micro_data_decode(frame, flen, &h->last) == NAVKIT_OK) {
+                    h->frames++;
+                }
+            }
+        }
+    }
+}
+
+static void send_geometry(board_sim_t *b, uint16_t tag, uint16_t rate_hz)
+{
+    navkit_micro_cfg_geometry_t g;
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    navkit_micro_cfg_geometry_defaults(&g);
+    g.time_tag = tag;
+    g.control_rate = rate_hz;
+    board_sim_uart_write(b, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+    frames_sent++;
+}
+
+static void send_cmd(board_sim_t *b, const navkit_micro_cmd_t *c)
+{
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    board_sim_uart_write(b, buf, navkit_micro_cmd_encode(c, buf, sizeof buf));
+    frames_sent++;
+}
+
+/* A micro_cmd with nothing in it but the time tag: asks for a micro_data. */
+static void ping(board_sim_t *b, host_t *h, uint16_t tag)
+{
+    navkit_micro_cmd_t c;
+    unsigned before = h->frames;
+    int configured = (h->frames > 0u) && (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED);
+    int i;
+    navkit_micro_cmd_defaults(&c);
+    c.time_tag = tag;
+    send_cmd(b, &c);
+    /* replies to earlier frames may still be queued: wait for the one that acknowledges
+       this command (a configured board acknowledges every command) */
+    for (i = 0; i < 100 && (h->frames == before || (configured && h->last.ack_time_tag != tag)); i++) {
+        run_for(b, MS(5));
+        host_drain(h, b);
+    }
+    check(h->frames > before, "no micro_data answered micro_cmd %u", tag);
+    check(!configured || h->last.ack_time_tag == tag, "no micro_data acknowledged micro_cmd %u", tag);
+}
+
+/* The three configs (control_rate rate_hz, pwm_limit in 1e-3 duty), then run until the
+ * board reports itself configured (at most 1 s). */
+static void configure(board_sim_t *b, host_t *h, uint16_t rate_hz, uint16_t pwm_limit)
+{
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    int i;
+    send_geometry(b, 1u, rate_hz);
+    navkit_micro_cfg_motion_defaults(&m);
+    m.time_tag = 2u;
+    m.pwm_limit = pwm_limit;
+    board_sim_uart_write(b, buf, navkit_micro_cfg_motion_encode(&m, buf, sizeof buf));
+    frames_sent++;
+    navkit_micro_cfg_io_defaults(&io);
+    io.time_tag = 3u;
+    board_sim_uart_write(b, buf, navkit_micro_cfg_io_encode(&io, buf, sizeof buf));
+    frames_sent++;
+    /* a reply that does not fit the TX ring is skipped (hal.h): ask until one says so */
+    run_for(b, MS(50));
+    for (i = 0; i < 20; i++) {
+        ping(b, h, (uint16_t)(60000u + i));
+        if (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED) {
+            return;
+        }
+    }
+    check(0, "the board did not report configured within 1 s (%u micro_data frames)", h->frames);
+}
+
+/* ---------------------------------------------------------------- tests */
+
+/* micro_cfg / micro_cmd through UART0, answered by micro_data with this spec's hash, from
+ * the ELF and from the HEX; then 200 micro_cmds back to back at the line rate: every
+ * frame arrives whole (rx_good, no CRC errors, no dropped bytes) and every reply is
+ * CRC-good. */
+static void test_link(void)
+{
+    const char *names[2] = { "navkit-mega2560.elf", "navkit-mega2560.hex" };
+    int k;
+    for (k = 0; k < 2; k++) {
+        board_sim_t *b = open_image(names[k]);
+        host_t h;
+        navkit_micro_cmd_t c;
+        uint16_t tag;
+        host_init(&h);
+        run_for(b, MS(20));
+        configure(b, &h, 400u, 1000u);
+        check(h.last.spec_hash == NAVKIT_SPEC_HASH, "%s: micro_data spec_hash 0x%08lx, want 0x%08lx", names[k],
+              (unsigned long)h.last.spec_hash, (unsigned long)NAVKIT_SPEC_HASH);
+        check(h.last.reset_cause == NAVKIT_RESET_CAUSE_POWER_ON, "%s: reset_cause %u, want power-on", names[k],
+              h.last.reset_cause);
+        check(h.last.rx_good >= 4u, "%s: rx_good %u after the three configs and a command", names[k], h.last.rx_good);
+        navkit_micro_cmd_defaults(&c);
+        for (tag = 1u; tag <= 200u; tag++) {
+            c.time_tag = tag;
+            send_cmd(b, &c);
+        }
+        run_for(b, MS(2500));
+        host_drain(&h, b);
+        ping(b, &h, 201u);
+        check(h.last.rx_good == frames_sent, "%s: rx_good %u, want every frame sent, %u", names[k], h.last.rx_good,
+              frames_sent);
+        check(h.last.ack_time_tag == 201u, "%s: ack_time_tag %u, want 201", names[k], h.last.ack_time_tag);
+        check(h.last.rx_bad_crc == 0u && h.last.rx_dropped_bytes == 0u && h.last.rx_bad_length == 0u,
+              "%s: the board saw damaged frames (bad crc %u, dropped %u, bad length %u)", names[k],
+              h.last.rx_bad_crc, h.last.rx_dropped_bytes, h.last.rx_bad_length);
+        check(h.parser.stats.bad_crc == 0u && h.parser.stats.dropped_bytes == 0u,
+              "%s: damaged micro_data (bad crc %lu, dropped %lu)", names[k],
+              (unsigned long)h.parser.stats.bad_crc, (unsigned long)h.parser.stats.dropped_bytes);
+        check(h.frames >= 20u, "%s: only %u micro_data frames", names[k], h.frames);
+        printf("%s: %u micro_data frames, rx_good %u: every frame of the flood arrived whole\n", names[k], h.frames,
+               h.last.rx_good);
+        board_sim_free(b);
+    }
+}
+
+/* UART0 rings under a flood (test image, echo mode): 6000 bytes at the line rate come back
+ * complete and in order. Then the hold mode: the RX ring keeps its 255 oldest bytes of a
+ * 1000-byte burst and drops the rest; echoed afterwards, exactly those 255 return. */
+static void test_uart(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560-test.elf");
+    static uint8_t out[6000], back[8000];
+    size_t got = 0u, n, i;
+    for (i = 0u; i < sizeof out; i++) {
+        out[i] = (uint8_t)(i * 7u + (i >> 8));
+    }
+    board_sim_set_dio_in(b, TEST_ECHO);
+    run_for(b, MS(5));
+    board_sim_uart_write(b, out, sizeof out);
+    run_for(b, MS(6000u * 10u / 115u + 50u)); /* 10 bits per byte at ~115 kbaud, + margin */
+    while ((n = board_sim_uart_read(b, back + got, sizeof back - got)) > 0u) {
+        got += n;
+    }
+    check(got == sizeof out, "echo: %zu bytes back of %zu", got, sizeof out);
+    check(got >= sizeof out && memcmp(out, back, sizeof out) == 0, "echo: bytes lost or reordered");
+    for (i = 0u; i < got && i < sizeof out && out[i] == back[i]; i++) {
+    }
+    printf("echo: %zu of %zu bytes back, first difference at %zu\n", got, sizeof out, i);
+
+    board_sim_set_dio_in(b, TEST_HOLD);
+    run_for(b, MS(5));
+    board_sim_uart_write(b, out, 1000u);
+    run_for(b, MS(1000u * 10u / 115u + 20u));
+    board_sim_set_dio_in(b, TEST_ECHO);
+    run_for(b, MS(100));
+    got = 0u;
+    while ((n = board_sim_uart_read(b, back + got, sizeof back - got)) > 0u) {
+        got += n;
+    }
+    check(got == RX_RING_USABLE, "overflow: %zu bytes kept, want the ring's %u", got, RX_RING_USABLE);
+    check(memcmp(out, back, RX_RING_USABLE) == 0, "overflow: the kept bytes are not the burst's first %u",
+          RX_RING_USABLE);
+    printf("overflow: a 1000-byte burst into a held RX ring, %zu oldest bytes kept\n", got);
+    check(board_sim_uart_dropped(b) == 0u, "the simulator's own queues dropped bytes");
+    board_sim_free(b);
+}
+
+/* Both encoders at the guaranteed rate (an edge every BOARD_SIM_ENC_MIN_EDGE_CYCLES on each,
+ * both at once, the link busy): exact counts forward and back. */
+static void test_encoders(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560.elf");
+    host_t h;
+    navkit_micro_cmd_t c;
+    int32_t steps[3][2] = { { 20000, -20000 }, { -5000, 7000 }, { 3, -1 } };
+    int32_t pos[2] = { 0, 0 };
+    int k;
+    uint16_t tag = 1u;
+    host_init(&h);
+    run_for(b, MS(20));
+    configure(b, &h, 400u, 1000u);
+    navkit_micro_cmd_defaults(&c);
+    for (k = 0; k < 3; k++) {
+        int32_t dl = steps[k][0] - pos[0], dr = steps[k][1] - pos[1];
+        uint32_t n = (uint32_t)((labs(dl) > labs(dr)) ? labs(dl) : labs(dr));
+        uint64_t until = board_sim_cycles(b) + (uint64_t)n * BOARD_SIM_ENC_MIN_EDGE_CYCLES;
+        board_sim_set_encoders(b, steps[k][0], steps[k][1], until);
+        while (board_sim_cycles(b) < until) {
+            c.time_tag = tag++;
+            send_cmd(b, &c); /* link traffic: UART interrupts between the edges */
+            run_for(b, MS(20));
+            host_drain(&h, b);
+        }
+        pos[0] = steps[k][0];
+        pos[1] = steps[k][1];
+        run_for(b, MS(20));
+        ping(b, &h, tag++);
+        check(h.last.enc_left == pos[0] && h.last.enc_right == pos[1],
+              "encoders: counts %ld/%ld, want %ld/%ld", (long)h.last.enc_left, (long)h.last.enc_right,
+              (long)pos[0], (long)pos[1]);
+        printf("encoders at %u edges/s each: %ld/%ld (want %ld/%ld)\n",
+               F_CPU_HZ / BOARD_SIM_ENC_MIN_EDGE_CYCLES, (long)h.last.enc_left, (long)h.last.enc_right,
+               (long)pos[0], (long)pos[1]);
+    }
+    board_sim_free(b);
+}
+
+/* Servo pulse widths and motor PWM measured at the pins against the commands. */
+static void test_outputs(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560.elf");
+    host_t h;
+    navkit_micro_cmd_t c;
+    int16_t l, r;
+    int i, k;
+    uint16_t tag = 1u;
+    host_init(&h);
+    run_for(b, MS(20));
+    for (i = 0; i < 8; i++) {
+        check(board_sim_servo_pulse_us(b, (uint8_t)i) == 0u, "servo %d pulses before any command", i);
+    }
+    board_sim_motor_duty(b, &l, &r);
+    check(l == 0 && r == 0, "motors driven before any command (%d, %d)", l, r);
+    configure(b, &h, 400u, 300u); /* pwm_limit 0.300: the stalled wheels' loops saturate there */
+    /* servo 0 GoTo +30.0 deg, servo 3 GoTo -45.0 deg, both at 900 deg/s: 1500 us +/- 10 us/deg */
+    navkit_micro_cmd_defaults(&c);
+    c.time_tag = tag++;
+    c.rc0_param0 = 9000;
+    c.rc0_param1 = 300;
+    c.rc0_param2 = NAVKIT_SERVO_GOTO_GOTO_FLAG;
+    c.rc3_param0 = 9000;
+    c.rc3_param1 = -450;
+    c.rc3_param2 = NAVKIT_SERVO_GOTO_GOTO_FLAG;
+    send_cmd(b, &c);
+    run_for(b, MS(500));
+    /* within 1 us: the pin edges move by the compare interrupt's entry latency */
+    check(abs((int)board_sim_servo_pulse_us(b, 0u) - 1800) <= 1, "servo 0 pulse %u us, want 1800 +/- 1",
+          board_sim_servo_pulse_us(b, 0u));
+    check(abs((int)board_sim_servo_pulse_us(b, 3u) - 1050) <= 1, "servo 3 pulse %u us, want 1050 +/- 1",
+          board_sim_servo_pulse_us(b, 3u));
+    check(board_sim_servo_pulse_us(b, 1u) == 0u, "servo 1 pulses without a command");
+    printf("servos at the pins: %u us (want 1800), %u us (want 1050)\n", board_sim_servo_pulse_us(b, 0u),
+           board_sim_servo_pulse_us(b, 3u));
+    /* forward, then reverse, with the wheels held still: duty saturates at +/- pwm_limit */
+    for (k = 0; k < 2; k++) {
+        int16_t want = (k == 0) ? 3000 : -3000;
+        navkit_micro_cmd_defaults(&c);
+        c.fwd_cmd = NAVKIT_FWD_CMD_START;
+        c.speed = 200;
+        c.distance = (k == 0) ? 1000 : -1000;
+        c.mc_datalog_cmd = NAVKIT_MC_DATALOG_WHEEL_LEFT;
+        c.time_tag = tag++;
+        for (i = 0; i < 30; i++) { /* repeated (same tag) within the host watchdog's 300 ms */
+            send_cmd(b, &c);
+            run_for(b, MS(50));
+            host_drain(&h, b);
+        }
+        board_sim_motor_duty(b, &l, &r);
+        check(l == want && r == want, "motor duty at the pins %d/%d, want %d", l, r, want);
+        check(h.last.mc_datalog[2] == want, "the firmware's left duty %d, want %d", h.last.mc_datalog[2], want);
+        printf("motor duty at the pins: %d/%d (firmware %d)\n", l, r, h.last.mc_datalog[2]);
+    }
+    board_sim_free(b);
+}
+
+/* The tick timer: ticks per simulated second at the reset rate (400 Hz) and at 250 Hz. */
+static void test_tick_rate(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560.elf");
+    host_t h;
+    board_sim_profile_t p0, p1;
+    int k;
+    host_init(&h);
+    for (k = 0; k < 2; k++) {
+        uint32_t want = (k == 0) ? 400u : 250u;
+        if (k == 1) {
+            configure(b, &h, 250u, 1000u);
+        }
+        run_for(b, MS(50));
+        board_sim_profile(b, &p0);
+        run_for(b, MS(500));
+        board_sim_profile(b, &p1);
+        check(p1.ticks - p0.ticks >= want / 2u - 1u && p1.ticks - p0.ticks <= want / 2u + 1u,
+              "%lu ticks in half a second, want %lu", (unsigned long)(p1.ticks - p0.ticks), (unsigned long)want / 2u);
+        printf("%lu Hz configured: %lu ticks in half a simulated second; worst tick %lu cycles\n",
+               (unsigned long)want, (unsigned long)(p1.ticks - p0.ticks), (unsigned long)p1.tick_worst_cycles);
+    }
+    board_sim_free(b);
+}
+
+/* Get a micro_data out of a freshly started image (unconfigured: a config frame). */
+static uint16_t reset_cause_now(board_sim_t *b)
+{
+    host_t h;
+    int i;
+    host_init(&h);
+    run_for(b, MS(20));
+    send_geometry(b, 1u, 400u);
+    for (i = 0; i < 40 && h.frames == 0u; i++) {
+        run_for(b, MS(5));
+        host_drain(&h, b);
+    }
+    check(h.frames > 0u, "no micro_data after a start");
+    return h.last.reset_cause;
+}
+
+/* The hardware watchdog resets a hung main loop, and micro_data says so; with the reset
+ * flags visible (no bootloader) and hidden (the stk500v2 clears them): every cause. */
+static void test_watchdog(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560-test.elf");
+    board_sim_profile_t p;
+    uint16_t rc;
+    int boot;
+    check(reset_cause_now(b) == NAVKIT_RESET_CAUSE_POWER_ON, "first start: not power-on");
+    for (boot = 0; boot < 2; boot++) {
+        board_sim_set_bootloader_clears_mcusr(b, boot);
+        board_sim_set_dio_in(b, TEST_HANG);
+        /* watchdog interrupt after ~64 ms, reset ~64 ms later: release the pins at once,
+           before the restarted image reads them */
+        do {
+            run_for(b, 800u);
+            board_sim_profile(b, &p);
+        } while (p.watchdog_resets == (uint32_t)boot && board_sim_cycles(b) < MS(2000));
+        board_sim_set_dio_in(b, 0u);
+        check(p.watchdog_resets == (uint32_t)boot + 1u, "watchdog resets %lu, want %d",
+              (unsigned long)p.watchdog_resets, boot + 1);
+        rc = reset_cause_now(b);
+        check(rc == NAVKIT_RESET_CAUSE_WATCHDOG, "after the watchdog (%s): reset_cause %u, want %u",
+              boot ? "flags cleared" : "flags kept", rc, NAVKIT_RESET_CAUSE_WATCHDOG);
+        printf("hung loop reset by the watchdog (%s): reset_cause %u\n", boot ? "bootloader cleared MCUSR" : "MCUSR",
+               rc);
+    }
+    {
+        static const int causes[3] = { BOARD_SIM_RESET_EXTERNAL, BOARD_SIM_RESET_POWER_ON, BOARD_SIM_RESET_BROWN_OUT };
+        static const uint16_t want_flags[3] = { NAVKIT_RESET_CAUSE_EXTERNAL, NAVKIT_RESET_CAUSE_POWER_ON,
+                                                NAVKIT_RESET_CAUSE_BROWN_OUT };
+        static const uint16_t want_marks[3] = { NAVKIT_RESET_CAUSE_EXTERNAL, NAVKIT_RESET_CAUSE_POWER_ON,
+                                                NAVKIT_RESET_CAUSE_EXTERNAL };
+        int i;
+        for (boot = 0; boot < 2; boot++) {
+            board_sim_set_bootloader_clears_mcusr(b, boot);
+            for (i = 0; i < 3; i++) {
+                uint16_t want = boot ? want_marks[i] : want_flags[i];
+                board_sim_reset(b, causes[i]);
+                rc = reset_cause_now(b);
+                check(rc == want, "reset %d (%s): reset_cause %u, want %u", causes[i],
+                      boot ? "flags cleared" : "flags kept", rc, want);
+            }
+        }
+    }
+    board_sim_free(b);
+}
+
+/* Flash and static RAM from avr-size -A's listing; the deepest stack from a busy run. */
+static void test_footprint(void)
+{
+    char path[1024], line[256];
+    unsigned long text = 0, data = 0, bss = 0, noinit = 0;
+    FILE *f;
+    board_sim_t *b;
+    host_t h;
+    navkit_micro_cmd_t c;
+    board_sim_profile_t p;
+    uint16_t tag = 1u;
+    int i;
+    unsigned long ram_end;
+    snprintf(path, sizeof path, "%s/navkit-mega2560.size.txt", image_dir);
+    f = fopen(path, "r");
+    if (f == NULL) {
+        fprintf(stderr, "FAIL: %s: cannot open\n", path);
+        exit(1);
+    }
+    while (fgets(line, sizeof line, f) != NULL) {
+        char name[64];
+        unsigned long size;
+        if (sscanf(line, "%63s %lu", name, &size) == 2) {
+            if (strcmp(name, ".text") == 0) {
+                text = size;
+            } else if (strcmp(name, ".data") == 0) {
+                data = size;
+            } else if (strcmp(name, ".bss") == 0) {
+                bss = size;
+            } else if (strcmp(name, ".noinit") == 0) {
+                noinit = size;
+            }
+        }
+    }
+    fclose(f);
+    check(text > 0u, "%s: no .text size", path);
+
+    b = open_image("navkit-mega2560.elf");
+    host_init(&h);
+    run_for(b, MS(20));
+    configure(b, &h, 400u, 1000u);
+    board_sim_set_gyro_raw(b, 1310);
+    board_sim_set_compass(b, 900u);
+    for (i = 0; i < 4; i++) {
+        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
+        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
+    }
+    navkit_micro_cmd_defaults(&c);
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 300;
+    c.distance = 2000;
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_rate = 900;
+    c.turn_distance = 900;
+    c.rc0_param0 = 300;
+    c.rc0_param1 = 300;
+    c.rc0_param2 = -300;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    for (i = 0; i < 300; i++) { /* 3 s: a move with heading select, servo scan, encoders turning */
+        c.time_tag = tag++;
+        send_cmd(b, &c);
+        board_sim_set_encoders(b, 20 * i, 18 * i, board_sim_cycles(b) + MS(10));
+        run_for(b, MS(10));
+        host_drain(&h, b);
+    }
+    board_sim_profile(b, &p);
+    ram_end = 0x200ul + data + bss + noinit;
+    printf("flash %lu B (text %lu + data %lu) of 262144; static RAM %lu B (data %lu + bss %lu + noinit %lu) of 8192; "
+           "deepest stack %u B; RAM in use %lu B\n",
+           text + data, text, data, data + bss + noinit, data, bss, noinit, p.stack_max_bytes,
+           data + bss + noinit + p.stack_max_bytes);
+    printf("fw_tick: %lu ticks, worst %lu mean %lu cycles (of 40000 at 400 Hz), CPU %.1f %%; "
+           "fw_link_poll: %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
+           (unsigned long)p.ticks, (unsigned long)p.tick_worst_cycles, (unsigned long)p.tick_mean_cycles,
+           100.0 * (double)p.tick_total_cycles / 48000000.0, (unsigned long)p.polls,
+           (unsigned long)p.poll_worst_cycles, (unsigned long)p.poll_mean_cycles,
+           100.0 * (double)p.poll_total_cycles / 48000000.0);
+    check(ram_end <= 0x1000ul, "static RAM ends at 0x%lx, past the reset markers at 0x1000", ram_end);
+    check(p.stack_min_sp > 0x1000u + 8u, "the stack reached 0x%x, into the reset markers at 0x1000", p.stack_min_sp);
+    check(h.last.status & NAVKIT_MICRO_STATUS_CONFIGURED, "the busy run lost its configuration");
+    check(p.resets == 0u, "the board reset during the busy run");
+    board_sim_free(b);
+}
+
+int main(int argc, char **argv)
+{
+    static const struct {
+        const char *name;
+        void (*fn)(void);
+    } tests[] = { { "link", test_link },         { "uart", test_uart },     { "encoders", test_encoders },
+                  { "outputs", test_outputs },   { "tick_rate", test_tick_rate }, { "watchdog", test_watchdog },
+                  { "footprint", test_footprint } };
+    size_t i;
+    if (argc != 3) {
+        fprintf(stderr, "usage: %s TEST IMAGE_DIR\n", argv[0]);
+        return 2;
+    }
+    image_dir = argv[2];
+    for (i = 0u; i < sizeof tests / sizeof tests[0]; i++) {
+        if (strcmp(argv[1], tests[i].name) == 0) {
+            tests[i].fn();
+            if (failures != 0) {
+                fprintf(stderr, "%s: %d check(s) failed\n", argv[1], failures);
+                return 1;
+            }
+            printf("%s: ok\n", argv[1]);
+            return 0;
+        }
+    }
+    fprintf(stderr, "%s: unknown test '%s'\n", argv[0], argv[1]);
+    return 2;
+}
