@@ -6,6 +6,8 @@ model; one emitter per output turns the model into text:
 - `emit_c_header`  -> navkit/navkit_proto.h (structs, enums, constants, prototypes)
 - `emit_c_source`  -> navkit_proto.c (encode/decode/check/defaults, frame tables)
 - `emit_docs`      -> protocol.md (word tables like the seed's)
+- `emit_dbc`       -> navkit.dbc (the CAN mapping for CAN tools: ISO-TP frames, the header
+                      their first frames carry), written beside the C code
 
 The hand-written runtime (protocol/runtime: CRC, byte access, parser) is kept apart from
 these templates. The Python codec (`navkit.protocol`) reads the same model at import.
@@ -18,8 +20,8 @@ from pathlib import Path
 
 from navkit.spec import TYPES, Message, Spec, load
 
-__all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs",
-           "write_outputs", "spec_label"]
+__all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs", "emit_dbc",
+           "write_outputs", "spec_label", "can_frames"]
 
 
 def spec_label(spec: Spec) -> str:
@@ -158,8 +160,70 @@ def emit_c_header(spec: Spec) -> str:
         out.append(f"#define NAVKIT_RCOMM_{name.upper()}_OFFSET {off}u /* slot: seq at +0, words at "
                    f"+{r.slot_words_at} */")
     out.append(f"#define NAVKIT_RCOMM_SIZE {r.size}u\n")
+    if spec.can is not None:
+        out += _c_can_header(spec)
     out.append("#ifdef __cplusplus\n}\n#endif\n#endif /* NAVKIT_PROTO_H */\n")
     return "\n".join(out)
+
+
+def _dir_c(direction: str) -> str:
+    return "NAVKIT_DIR_TO_MICRO" if direction == "host_to_micro" else "NAVKIT_DIR_TO_HOST"
+
+
+def _max_bytes(spec: Spec, direction: str) -> int:
+    """Bytes of the largest serial frame travelling in `direction`."""
+    return max(m.size for m in spec.serial_messages() if m.direction == direction)
+
+
+def can_frames(nbytes: int) -> int:
+    """CAN frames of one ISO-TP message of `nbytes` bytes on classic CAN: one single frame
+    up to 7 bytes, else a first frame (6 bytes) and consecutive frames of 7."""
+    return 1 if nbytes <= 7 else 1 + -(-(nbytes - 6) // 7)
+
+
+def _c_can_header(spec: Spec) -> list[str]:
+    c = spec.can
+    out = ["/* CAN mapping ([can]): each serial frame, whole, is one ISO 15765-2 message (classic CAN,\n"
+           " * 11-bit identifiers, normal addressing) on its message's identifier; the receiver's flow\n"
+           " * control goes on the message's fc identifier. docs/protocol.md, CAN. */",
+           f"#define NAVKIT_CAN_BITRATE {c.bitrate}UL /* bit/s: the bus's default bit rate */",
+           f"#define NAVKIT_CAN_PADDING 0x{c.padding:02X}u /* fills every CAN frame to 8 data bytes */",
+           f"#define NAVKIT_CAN_FC_BLOCK_SIZE {c.fc_block_size}u /* a receiver's flow control: consecutive frames "
+           "per block, 0 = all */",
+           f"#define NAVKIT_CAN_FC_ST_MIN 0x{c.fc_st_min:02X}u /* a receiver's flow control: ISO STmin byte "
+           "(0-127 ms, 0xF1-0xF9 100-900 us) */",
+           f"#define NAVKIT_CAN_N_BS_MS {c.n_bs_ms}u /* ms: a sender waits this long for flow control */",
+           f"#define NAVKIT_CAN_N_CR_MS {c.n_cr_ms}u /* ms: a receiver waits this long for the next "
+           "consecutive frame */"]
+    for i in c.ids.values():
+        up = i.message.upper()
+        out.append(f"#define NAVKIT_CAN_ID_{up} 0x{i.id:03X}u /* {i.message}'s frames */")
+        out.append(f"#define NAVKIT_CAN_FC_ID_{up} 0x{i.fc_id:03X}u /* flow control of {i.message}'s receiver */")
+    for d, what in (("host_to_micro", "TO_MICRO"), ("micro_to_host", "TO_HOST")):
+        out.append(f"#define NAVKIT_CAN_MAX_{what}_BYTES {_max_bytes(spec, d)}u /* largest frame "
+                   f"{d.replace('_', ' ')} (a receiver's ISO-TP buffer) */")
+    out.append("/* The msg_type whose frames travel on can_id towards dir, or 0 if none does. */")
+    out.append("uint16_t navkit_can_msg_type(uint16_t can_id, navkit_dir_t dir);")
+    out.append("/* The CAN identifier of msg_type's frames (fc = 0) or of its receiver's flow control\n"
+               " * (fc = 1); 0xFFFF for an unknown msg_type. */")
+    out.append("uint16_t navkit_can_id(uint16_t msg_type, int fc);\n")
+    return out
+
+
+def _c_can_source(spec: Spec) -> list[str]:
+    out = ["uint16_t navkit_can_msg_type(uint16_t can_id, navkit_dir_t dir)\n{", "    switch (can_id) {"]
+    for i in spec.can.ids.values():
+        m = spec.messages[i.message]
+        out.append(f"    case NAVKIT_CAN_ID_{m.name.upper()}:\n"
+                   f"        return dir == {_dir_c(m.direction)} ? NAVKIT_MSG_TYPE_{m.name.upper()} : 0u;")
+    out.append("    default:\n        return 0u;\n    }\n}\n")
+    out.append("uint16_t navkit_can_id(uint16_t msg_type, int fc)\n{")
+    out.append("    switch (msg_type) {")
+    for i in spec.can.ids.values():
+        up = i.message.upper()
+        out.append(f"    case NAVKIT_MSG_TYPE_{up}:\n        return fc ? NAVKIT_CAN_FC_ID_{up} : NAVKIT_CAN_ID_{up};")
+    out.append("    default:\n        return 0xFFFFu;\n    }\n}\n")
+    return out
 
 
 def _put(f, src: str, at: str) -> str:
@@ -290,6 +354,8 @@ def emit_c_source(spec: Spec) -> str:
     out.append("    default:\n        return 0;\n    }\n}\n")
     for m in spec.messages.values():
         out += _c_message(spec, m)
+    if spec.can is not None:
+        out += _c_can_source(spec)
     return "\n".join(out)
 
 
@@ -318,6 +384,8 @@ def emit_docs(spec: Spec) -> str:
             f"carries `spec_hash`, a length word other than this spec's but within "
             f"{fr['hash_word'] + 3}..{fr['max_frame_words']}, and a CRC good over its own length is "
             "counted as `schema_mismatch` (its hash kept as `foreign_hash`), its bytes consumed.\n"]
+    if spec.can is not None:
+        out += _can_docs(spec)
     for m in spec.messages.values():
         out.append(f"## {m.name}\n")
         kind = (f"serial, id {m.id}, {m.direction.replace('_', ' ')}, {m.words} words "
@@ -381,6 +449,86 @@ def emit_docs(spec: Spec) -> str:
     return "\n".join(out)
 
 
+def _can_docs(spec: Spec) -> list[str]:
+    c = spec.can
+    out = ["## CAN\n", c.doc + "\n", c.transport_doc + "\n",
+           f"- {c.id_bits}-bit identifiers, default bit rate {c.bitrate} bit/s, padding byte `0x{c.padding:02X}`;",
+           f"- a receiver's flow control asks for block size {c.fc_block_size} and STmin `0x{c.fc_st_min:02X}`; "
+           f"a sender waits {c.n_bs_ms} ms for it (N_Bs), a receiver {c.n_cr_ms} ms for each next "
+           "consecutive frame (N_Cr);",
+           "- `navkit gen` writes `navkit.dbc` beside the C code: per identifier the ISO-TP frame type "
+           "(multiplexor), the lengths, sequence numbers and flow control fields, and the frame header "
+           "(start word, time tag, msg type) a first frame carries. The fields of a segmented message "
+           "need reassembly first (`navkit.can`).\n",
+           "| message | direction | CAN id | flow control id | bytes | CAN frames |",
+           "| --- | --- | --- | --- | --- | --- |"]
+    for i in c.ids.values():
+        m = spec.messages[i.message]
+        n = can_frames(m.size)
+        how = "1 single frame" if n == 1 else f"1 first + {n - 1} consecutive"
+        out.append(f"| {m.name} | {m.direction.replace('_', ' ')} | `0x{i.id:03X}` | `0x{i.fc_id:03X}` | "
+                   f"{m.size} | {how} |")
+    out.append("")
+    return out
+
+
+def _dbc_str(text: str) -> str:
+    """Text fit for a DBC string (no double quotes inside)."""
+    return text.replace('"', "'")
+
+
+def emit_dbc(spec: Spec) -> str:
+    """The CAN mapping as a DBC: for each message's identifier the ISO-TP frame (frame type
+    as multiplexor; single frame length; first frame length and the frame header its first
+    6 bytes carry; consecutive frame sequence number), for each flow control identifier the
+    flow control fields. Every frame of a message longer than 7 bytes is segmented: the DBC
+    says so in the message's comment; its fields need reassembly (`navkit.can`)."""
+    c = spec.can
+    fr = spec.framing
+    nodes = {"host_to_micro": ("host", "micro"), "micro_to_host": ("micro", "host")}
+    out = [f'VERSION "{spec.name} spec 0x{spec.hash:08x}"', "", "NS_ :", "    CM_", "    VAL_", "", "BS_:", "",
+           "BU_: host micro", ""]
+    comments = [f'CM_ "GENERATED by `navkit gen` from {spec_label(spec)}. Do not edit. spec hash: 0x{spec.hash:08x} '
+                f'(sha256 {spec.hash_hex}). {_dbc_str(c.doc)}";']
+    values = []
+    msg_types = " ".join(f'{v} "{k}"' for k, v in sorted(spec.enums["msg_type"].values.items(), key=lambda x: x[1]))
+    for i in c.ids.values():
+        m = spec.messages[i.message]
+        tx, rx = nodes[m.direction]
+        n = can_frames(m.size)
+        out += [f"BO_ {i.id} {m.name}: 8 {tx}",
+                f' SG_ frame_type M : 4|4@1+ (1,0) [0|3] "" {rx}',
+                f' SG_ sf_length m0 : 0|4@1+ (1,0) [1|7] "bytes" {rx}',
+                f' SG_ ff_length m1 : 3|12@0+ (1,0) [8|4095] "bytes" {rx}',
+                f' SG_ start_word m1 : 16|16@1+ (1,0) [0|65535] "" {rx}',
+                f' SG_ time_tag m1 : 32|16@1+ (1,0) [0|65535] "count" {rx}',
+                f' SG_ msg_type m1 : 48|16@1+ (1,0) [0|65535] "" {rx}',
+                f' SG_ sequence m2 : 0|4@1+ (1,0) [0|15] "count" {rx}', ""]
+        out += [f"BO_ {i.fc_id} {m.name}_fc: 8 {rx}",
+                f' SG_ frame_type : 4|4@1+ (1,0) [3|3] "" {tx}',
+                f' SG_ flow_status : 0|4@1+ (1,0) [0|2] "" {tx}',
+                f' SG_ block_size : 8|8@1+ (1,0) [0|255] "count" {tx}',
+                f' SG_ st_min : 16|8@1+ (1,0) [0|249] "" {tx}', ""]
+        seg = (f"{m.size} bytes a frame: one single frame" if n == 1 else
+               f"{m.size} bytes a frame: segmented, 1 first frame + {n - 1} consecutive frames; reassemble "
+               "for its fields (navkit.can)")
+        comments += [f'CM_ BO_ {i.id} "{m.name} ({m.direction.replace("_", " ")}), ISO 15765-2: {seg}. '
+                     f'{_dbc_str(m.doc)}";',
+                     f'CM_ SG_ {i.id} frame_type "ISO-TP PCI frame type.";',
+                     f'CM_ SG_ {i.id} ff_length "First frame: bytes of the whole serial frame.";',
+                     f'CM_ SG_ {i.id} start_word "First frame: serial frame word 0, 0x{fr["start_word"]:04X}.";',
+                     f'CM_ SG_ {i.id} time_tag "First frame: serial frame word 1, the time tag.";',
+                     f'CM_ SG_ {i.id} msg_type "First frame: serial frame word 2, the message type.";',
+                     f'CM_ SG_ {i.id} sequence "Consecutive frame: sequence number, 1 after the first frame, '
+                     'modulo 16.";',
+                     f'CM_ BO_ {i.fc_id} "Flow control of the receiver of {m.name} (ISO 15765-2).";',
+                     f'CM_ SG_ {i.fc_id} st_min "ISO STmin byte: 0-127 ms, 0xF1-0xF9 100-900 us.";']
+        values += [f'VAL_ {i.id} frame_type 0 "single" 1 "first" 2 "consecutive" 3 "flow_control" ;',
+                   f"VAL_ {i.id} msg_type {msg_types} ;",
+                   f'VAL_ {i.fc_id} flow_status 0 "continue" 1 "wait" 2 "overflow" ;']
+    return "\n".join(out + comments + [""] + values) + "\n"
+
+
 def write_outputs(spec: Spec, c_out: Path | None, docs_out: Path | None) -> list[Path]:
     """Write the outputs whose folder is given; files whose text is unchanged are not
     touched (so builds stay incremental). Returns the paths written."""
@@ -388,6 +536,8 @@ def write_outputs(spec: Spec, c_out: Path | None, docs_out: Path | None) -> list
     if c_out is not None:
         jobs += [(c_out / "navkit" / "navkit_proto.h", emit_c_header(spec)),
                  (c_out / "navkit_proto.c", emit_c_source(spec))]
+        if spec.can is not None:
+            jobs.append((c_out / "navkit.dbc", emit_dbc(spec)))
     if docs_out is not None:
         jobs.append((docs_out, emit_docs(spec)))
     written = []
@@ -403,7 +553,8 @@ def write_outputs(spec: Spec, c_out: Path | None, docs_out: Path | None) -> list
 def add_arguments(parser) -> None:
     from navkit.paths import spec_path
     parser.add_argument("--spec", type=Path, default=spec_path(), help="spec file (default: %(default)s)")
-    parser.add_argument("--c-out", type=Path, help="folder for navkit/navkit_proto.h and navkit_proto.c")
+    parser.add_argument("--c-out", type=Path, help="folder for navkit/navkit_proto.h and navkit_proto.c "
+                        "(and navkit.dbc, the CAN mapping)")
     parser.add_argument("--docs-out", type=Path, help="path of the generated protocol.md")
     parser.add_argument("--check-docs", type=Path, metavar="FILE",
                         help="exit 1 if FILE differs from the docs the spec generates")

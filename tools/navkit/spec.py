@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = [
-    "SpecError", "Field", "Message", "Enum", "Rcomm", "Spec", "load", "TYPES",
+    "SpecError", "Field", "Message", "Enum", "Rcomm", "Can", "CanId", "Spec", "load", "TYPES",
 ]
 
 # type name -> (size in bytes, signed, minimum, maximum)
@@ -29,7 +29,7 @@ TYPES = {
     "int32": (4, True, -0x80000000, 0x7FFFFFFF),
 }
 
-_TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip"}
+_TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip", "can"}
 _MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field"}
 _FIELD_KEYS = {"name", "word", "type", "count", "units", "scale", "min", "max",
                "default", "enum", "flags", "special", "doc"}
@@ -50,6 +50,13 @@ _LINK_DIRECTIONS = {"serial": ("host_to_micro", "micro_to_host"),
 _DIRECTIONS = {d for ds in _LINK_DIRECTIONS.values() for d in ds}
 _NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 _CRCS = {"CRC-16/MCRF4XX"}
+# The CAN mapping ([can]): its integer keys with their ranges, then the others.
+_CAN_INTS = {"id_bits": (11, 11), "bitrate": (10_000, 1_000_000), "padding": (0, 0xFF),
+             "fc_block_size": (0, 0xFF), "fc_st_min": (0, 0xF9), "n_bs_ms": (1, 60_000),
+             "n_cr_ms": (1, 60_000)}
+_CAN_KEYS = set(_CAN_INTS) | {"doc", "transport_doc", "ids"}
+_CAN_ID_KEYS = {"id", "fc_id"}
+_ISOTP_MAX_BYTES = 4095  # the 12-bit FF_DL of a classic ISO 15765-2 first frame
 
 
 class SpecError(ValueError):
@@ -191,6 +198,47 @@ class Rcomm:
         return b.decode("ascii") if all(0x20 <= c < 0x7F for c in b) else ""
 
 
+@dataclass(frozen=True)
+class CanId:
+    """The CAN identifiers of one serial message: `id` carries its frames (single, first
+    and consecutive frames of ISO 15765-2), `fc_id` the flow control its receiver answers
+    with; `line` is the spec line of the mapping."""
+
+    message: str
+    id: int
+    fc_id: int
+    line: int
+
+
+@dataclass(frozen=True)
+class Can:
+    """The micro link over classic CAN ([can]): each serial frame, whole, is one ISO 15765-2
+    message on its message's identifier. `padding` fills every frame to 8 data bytes;
+    `fc_block_size` and `fc_st_min` (the ISO STmin byte: 0-127 ms, 0xF1-0xF9 100-900 us)
+    are what a receiver's flow control asks for; `n_bs_ms` (ms) bounds a sender's wait for
+    flow control, `n_cr_ms` (ms) a receiver's wait for the next consecutive frame;
+    `bitrate` (bit/s) is the default bit rate of the bus."""
+
+    id_bits: int
+    bitrate: int
+    padding: int
+    fc_block_size: int
+    fc_st_min: int
+    n_bs_ms: int
+    n_cr_ms: int
+    ids: dict[str, CanId]   # serial message name -> its identifiers, in spec order
+    doc: str
+    transport_doc: str
+    line: int
+
+    def by_id(self, can_id: int) -> CanId | None:
+        """The mapping whose frames travel on `can_id` (not a flow control id), or None."""
+        for c in self.ids.values():
+            if c.id == can_id:
+                return c
+        return None
+
+
 @dataclass
 class Spec:
     """The validated model of the whole spec."""
@@ -205,6 +253,7 @@ class Spec:
     messages: dict[str, Message]
     seed_slips: list[dict]
     rcomm: Rcomm | None = None  # the shared-memory region of the (one, required) unframed link
+    can: Can | None = None  # the CAN mapping of the serial messages ([can]; optional)
     hash: int = 0           # uint32: first 4 bytes of the canonical model's sha256
     hash_hex: str = ""      # the full sha256, hex
     canonical: str = field(default="", repr=False)
@@ -398,9 +447,10 @@ class _Builder:
             if m.framed and (msg_type is None or msg_type.values.get(m.name) != m.id):
                 self.fail(m.line, m.name, f"enum msg_type must map {m.name} = {m.id}")
         rcomm = self.rcomm(shared[0], links[shared[0]], shared[1], messages)
+        can = self.can(d["can"], framing, messages) if "can" in d else None
         spec = Spec(self.path, head.get("name", "navkit"), version,
                     head.get("doc", ""), dict(framing), dict(links), enums, messages,
-                    list(slips), rcomm)
+                    list(slips), rcomm, can)
         _seal(spec)
         return spec
 
@@ -455,6 +505,64 @@ class _Builder:
                 end += -(-(words_at + m.size) // align) * align
         return Rcomm(lname, magic, version, dict(header), header_bytes, align, words_at, slots, end,
                      link["layout_doc"])
+
+    def can(self, raw, framing: dict, messages: dict) -> Can:
+        """The validated [can] mapping: every serial message on one identifier pair, every
+        identifier unique and within 11 bits, every frame within one ISO-TP message."""
+        cline = self.lines.find(r"^\[can\]") or 1
+        table = self.table(raw, cline, "[can]")
+        self.unknown(table, _CAN_KEYS, "[can]", (cline - 1, None))
+
+        def at(key):
+            return self.lines.find(rf"^{key}\s*=", cline) or cline
+        ints = {}
+        for key, (lo, hi) in _CAN_INTS.items():
+            v = table.get(key)
+            if v is None:
+                self.fail(cline, f"can.{key}", f"missing (an integer in {lo}..{hi})")
+            if not _is_int(v) or not lo <= v <= hi:
+                self.fail(at(key), f"can.{key}", f"must be an integer in {lo}..{hi}, not {v!r}"
+                          + (" (only 11-bit identifiers are supported)" if key == "id_bits" else ""))
+            ints[key] = v
+        if 0x80 <= ints["fc_st_min"] <= 0xF0:
+            self.fail(at("fc_st_min"), "can.fc_st_min",
+                      f"0x{ints['fc_st_min']:02X} is a reserved STmin (0-127 ms or 0xF1-0xF9 for 100-900 us)")
+        for key in ("doc", "transport_doc"):  # the docs print them
+            if not isinstance(table.get(key), str) or not table[key]:
+                self.fail(cline, f"can.{key}", "missing (a non-empty string)")
+        if framing["max_frame_words"] * 2 > _ISOTP_MAX_BYTES:
+            self.fail(cline, "[can]", f"framing.serial.max_frame_words {framing['max_frame_words']} makes frames "
+                                      f"longer than one ISO-TP message ({_ISOTP_MAX_BYTES} bytes)")
+        iline = self.lines.find(r"^\[can\.ids\]") or cline
+        ids_raw = self.table(table.get("ids", {}), iline, "can.ids")
+        ids, owner = {}, {}  # owner: identifier -> "message.key" that holds it
+        top = 1 << ints["id_bits"]
+        for name, entry in ids_raw.items():
+            line = self.lines.find(rf"^\s*{re.escape(name)}\s*=", iline - 1) or iline
+            what = f"can.ids.{name}"
+            m = messages.get(name)
+            if m is None or not m.framed:
+                serial = ", ".join(x.name for x in messages.values() if x.framed)
+                self.fail(line, what, ("an rcomm message does not travel on CAN" if m is not None
+                                       else "not a message of the spec") + f" (serial messages: {serial})")
+            self.table(entry, line, what)
+            self.unknown(entry, _CAN_ID_KEYS, what, (line - 1, line))
+            for key in ("id", "fc_id"):
+                v = entry.get(key)
+                if not _is_int(v) or not 0 <= v < top:
+                    self.fail(line, f"{what}.{key}", f"{v!r} is not an {ints['id_bits']}-bit identifier "
+                                                     f"(0..0x{top - 1:X})")
+                if v in owner:
+                    self.fail(line, f"{what}.{key}", f"identifier 0x{v:03X} is already {owner[v]}")
+                owner[v] = f"can.ids.{name}.{key}"
+            ids[name] = CanId(name, entry["id"], entry["fc_id"], line)
+        for m in messages.values():
+            if m.framed and m.name not in ids:
+                self.fail(iline, "can.ids", f"serial message {m.name} has no identifiers (every serial "
+                                            "message travels on CAN too)")
+        ordered = {m.name: ids[m.name] for m in messages.values() if m.framed}
+        return Can(ints["id_bits"], ints["bitrate"], ints["padding"], ints["fc_block_size"], ints["fc_st_min"],
+                   ints["n_bs_ms"], ints["n_cr_ms"], ordered, table["doc"], table["transport_doc"], cline)
 
     def framing(self, tables: dict) -> dict:
         """The validated [framing.serial] table (the only framing there is)."""
@@ -675,6 +783,10 @@ def _seal(spec: Spec) -> None:
             for m in spec.messages.values()
         ],
     }
+    if spec.can is not None:  # the CAN mapping reaches the wire too (identifiers, ISO-TP parameters)
+        c = spec.can
+        model["can"] = [c.id_bits, c.bitrate, c.padding, c.fc_block_size, c.fc_st_min, c.n_bs_ms, c.n_cr_ms,
+                        [[i.message, i.id, i.fc_id] for i in c.ids.values()]]
     spec.canonical = json.dumps(model, sort_keys=True, separators=(",", ":"))
     digest = hashlib.sha256(spec.canonical.encode()).hexdigest()
     spec.hash_hex = digest
