@@ -179,46 +179,35 @@ def test_sweep_deterministic_and_survives_failing_runs(local_tables):
     assert (d1 / "summary.png").stat().st_size > 10_000
 
 
-def test_sweep_api_seeds_and_keep(mission_file, tmp_path):
+def test_sweep_api_seeds_keep_and_a_dying_worker(mission_file, tmp_path):
     """The Python API: results in run order, per-seed figures, kept folders, an extract
-    function's figures."""
+    function's figures; a run whose worker process dies under it (as with a crashing
+    FMU) fails naming it, and the others (one held by the dying worker) finish on the
+    restarted workers."""
     from navkit.sweep import RunSpec, run_sweep
 
-    runs = [RunSpec(plant={"mass_kg": 14.0}, seed=s) for s in (3, 4, 3)]
+    runs = [RunSpec(plant={"mass_kg": 14.0}, seed=s) for s in (3, 2, 4, 3)]
     res = run_sweep(mission_file, runs, tmp_path, workers=2, progress=False, keep="all",
-                    extract=_extract_mcap_size)
-    assert [r.index for r in res] == [0, 1, 2] and [r.spec.seed for r in res] == [3, 4, 3]
-    assert all(r.ok and r.out == tmp_path / "runs" / f"{r.index:04d}" for r in res)
-    assert all((r.out / "run.mcap").exists() and r.figures["mcap_bytes"] > 0 for r in res)
-    assert res[0].figures == res[2].figures, "same spec, same figures"
-    assert res[0].figures != res[1].figures, "another seed, other noise"
+                    extract=_mcap_size_or_die_on_seed_2)
+    assert [r.index for r in res] == [0, 1, 2, 3] and [r.spec.seed for r in res] == [3, 2, 4, 3]
+    assert [r.status for r in res] == ["ok", "failed", "ok", "ok"], [r.error for r in res]
+    assert res[1].error.startswith("KilledWorker: the worker process running it died (a crash")
+    ok = [res[i] for i in (0, 2, 3)]
+    assert all(r.out == tmp_path / "runs" / f"{r.index:04d}" for r in ok)
+    assert all((r.out / "run.mcap").exists() and r.figures["mcap_bytes"] > 0 for r in ok)
+    assert res[0].figures == res[3].figures, "same spec, same figures"
+    assert res[0].figures != res[2].figures, "another seed, other noise"
     x, y, hdg = res[0].final_pose
     assert abs(x - 500) < 15 and abs(hdg - 90) < 2
-    assert "mcap_bytes" in _table(tmp_path / "results.csv")[0]
+    rows = _table(tmp_path / "results.csv")
+    assert "mcap_bytes" in rows[0] and rows[1]["error"].startswith("KilledWorker")
 
 
-def _extract_mcap_size(run_dir, summary):
-    return {"mcap_bytes": (Path(run_dir) / "run.mcap").stat().st_size}
-
-
-def _kill_worker_on_seed_2(run_dir, summary):
-    """An extract function that kills the worker process running the seed-2 run."""
+def _mcap_size_or_die_on_seed_2(run_dir, summary):
+    """An extract function: run.mcap's size; it kills the worker running the seed-2 run."""
     if summary["seed"] == 2:
         os.kill(os.getpid(), signal.SIGKILL)
-    return {}
-
-
-def test_a_dying_worker_fails_only_its_run(mission_file, tmp_path):
-    """A worker process killed under a run (as a crashing FMU would): that run fails
-    naming it, at once; the others finish on the restarted workers."""
-    from navkit.sweep import RunSpec, run_sweep
-
-    runs = [RunSpec(seed=s) for s in (1, 2, 3)]
-    res = run_sweep(mission_file, runs, tmp_path, workers=2, progress=False,
-                    extract=_kill_worker_on_seed_2, plot=False)
-    assert [r.status for r in res] == ["ok", "failed", "ok"], [r.error for r in res]
-    assert res[1].error.startswith("KilledWorker: the worker process running it died")
-    assert "KilledWorker" in _table(tmp_path / "results.csv")[1]["error"]
+    return {"mcap_bytes": (Path(run_dir) / "run.mcap").stat().st_size}
 
 
 def test_sweep_on_a_scheduler(mission_file, local_tables, tmp_path):

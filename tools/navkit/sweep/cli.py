@@ -121,7 +121,7 @@ def run(args) -> int:
     out = args.out or build / "sweep" / mission.name
     meta = {"vary": args.vary, "samples": args.samples, "sampler": args.sampler,
             "sample_seed": args.sample_seed, "seeds": args.seeds}
-    print(f"sweep     {mission.path}: {len(runs)} runs"
+    print(f"sweep     {mission.path}: {len(runs)} run{'s' if len(runs) != 1 else ''}"
           f" ({'%d samples' % args.samples if args.samples else 'grid'}"
           f"{', ' + ', '.join(varied) if varied else ''}; seeds 1..{args.seeds})"
           f" on {args.scheduler or 'a LocalCluster'}", flush=True)

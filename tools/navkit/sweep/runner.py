@@ -93,18 +93,32 @@ def describe(spec: RunSpec, index: int | None = None) -> str:
 
 
 def run_one(mission, spec: RunSpec, index: int, *, build: Path, out: Path,
-            keep: str = "failed", extract=None) -> RunResult:
+            keep: str = "failed", extract=None, marker: Path | None = None) -> RunResult:
     """Do run `index` of a sweep: Mission `mission` with `spec`'s plant overrides (they
     win over the mission's [plant] table), seed and config, build folder `build`. Its
     outputs go to `out`/runs/NNNN when `keep` says to keep them ("all", or "failed" and
     it failed), else to a temporary folder removed afterwards. `extract(run_dir,
     summary) -> dict` (a module-level function, so it can be sent to the workers) adds
-    figures of its own while the run's outputs exist. Never raises for a failed run."""
+    figures of its own while the run's outputs exist. `marker`, a file that exists while
+    the run executes, tells whose run a worker process died in. Never raises for a failed
+    run."""
+    if marker is not None:
+        Path(marker).parent.mkdir(parents=True, exist_ok=True)
+        Path(marker).touch()
+    try:
+        return _run_one(mission, spec, index, build, Path(out), keep, extract)
+    finally:
+        if marker is not None:
+            Path(marker).unlink(missing_ok=True)
+
+
+def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: str,
+             extract) -> RunResult:
     from navkit.sim.harness import SimError, SimOptions, run
     from navkit.sim.mission import MissionError
     from navkit.sweep.table import figures
 
-    kept = Path(out) / "runs" / f"{index:04d}"
+    kept = out / "runs" / f"{index:04d}"
     if keep == "all":
         shutil.rmtree(kept, ignore_errors=True)     # an earlier sweep's: start clean
         work = kept
@@ -234,8 +248,9 @@ def _client(scheduler: str | None, workers: int | None):
     # - The workers start with Ctrl-C ignored (a started Python keeps an ignored SIGINT
     #   ignored): on a terminal it reaches the whole process group, and the client alone
     #   stops the sweep, cancelling their tasks and closing them.
-    # - A worker that dies under a run fails that run at once (allowed-failures 0) rather
-    #   than after the run has killed three more.
+    # - A worker that dies under a run fails its runs at once (allowed-failures 0): _drive
+    #   submits again those it only held, rather than Dask running a crashing run on
+    #   three more workers.
     # - The scheduler runs in this process: its log line on such a death would only repeat
     #   the run's failed row.
     sched_log = logging.getLogger("distributed.scheduler")
@@ -262,6 +277,74 @@ def _client(scheduler: str | None, workers: int | None):
                 cluster.close(timeout=10)
     finally:
         sched_log.setLevel(level)
+
+
+def _drive(client, submit, runs: list, results: list, bar: _Progress, stop,
+           markers: Path | None) -> bool:
+    """Run every RunSpec of `runs` through `submit(i, spec, attempt) -> Future`, appending
+    each RunResult to `results` as it comes, until done or `stop` (a threading.Event) is
+    set; then cancel what is in flight and return True.
+
+    Two runs per worker thread are in flight (the count is read from the scheduler again
+    every second, so workers that join are used): each worker has its next run at hand
+    when one ends. With `markers` (a folder where run i's file `i` exists while it
+    executes, on this machine: a LocalCluster, whose scheduler allows no retries), a
+    worker process that dies takes the runs it held (KilledWorker): the one it executed
+    fails, the others are submitted again. Without, a KilledWorker is the cluster's
+    verdict after its own retries: a failed run."""
+    from distributed import as_completed
+
+    todo = iter(enumerate(runs))
+    index, inflight = {}, {}
+    attempts = [0] * len(runs)
+    pending = as_completed()
+    slots, checked = 2, -1.0
+
+    def add(i: int) -> None:
+        fut = submit(i, runs[i], attempts[i])
+        index[fut.key], inflight[fut.key] = i, fut
+        pending.add(fut)
+
+    def fill() -> None:
+        nonlocal slots, checked
+        if time.monotonic() - checked >= 1.0:
+            slots = 2 * max(1, sum(client.nthreads().values()))
+            checked = time.monotonic()
+        while len(inflight) < slots:
+            nxt = next(todo, None)
+            if nxt is None:
+                return
+            add(nxt[0])
+
+    fill()
+    while inflight and not stop.is_set():
+        if not pending.has_ready():
+            time.sleep(0.002)
+            continue
+        for fut in pending.next_batch(block=False):
+            del inflight[fut.key]
+            i = index[fut.key]
+            try:
+                r = fut.result()
+            except Exception as e:  # noqa: BLE001 - e.g. KilledWorker
+                killed = type(e).__name__ == "KilledWorker"
+                marker = markers / f"{i:06d}" if markers is not None else None
+                if killed and marker is not None and not marker.exists():
+                    attempts[i] += 1        # held, not executed, by the worker that died
+                    add(i)
+                    continue
+                if marker is not None:
+                    marker.unlink(missing_ok=True)
+                why = ("the worker process running it died (a crash in the run? see the "
+                       "worker's log)" if killed else str(e))
+                r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {why}")
+            results.append(r)
+            bar.update(r)
+        fill()
+    if stop.is_set():
+        client.cancel(list(inflight.values()), force=True)
+        return True
+    return False
 
 
 def _check_local(build: Path, runs: list) -> list:
@@ -324,31 +407,21 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
             bar = _Progress(len(runs), progress)
             t1 = time.perf_counter()
             token = f"{os.getpid()}-{time.monotonic_ns()}"
-            futures = [client.submit(run_one, m, spec, i, build=build, out=out, keep=keep,
-                                     extract=extract, key=f"navkit-run-{token}-{i:06d}",
-                                     pure=False, retries=0)
-                       for i, spec in enumerate(runs)]
-            index = {f.key: i for i, f in enumerate(futures)}
-            with _ctrl_c() as stop:
-                pending = as_completed(futures)
-                while not pending.is_empty() and not stop.is_set():
-                    if not pending.has_ready():
-                        time.sleep(0.02)
-                        continue
-                    for fut in pending.next_batch(block=False):
-                        try:
-                            r = fut.result()
-                        except Exception as e:  # noqa: BLE001 - e.g. KilledWorker
-                            i = index[fut.key]
-                            why = ("the worker process running it died (a crash in the run? "
-                                   "see the worker's log)" if type(e).__name__ == "KilledWorker"
-                                   else str(e))
-                            r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {why}")
-                        results.append(r)
-                        bar.update(r)
-                if stop.is_set():
-                    interrupted = True
-                    client.cancel(futures, force=True)
+
+            markers = None if scheduler else Path(tempfile.mkdtemp(prefix="navkit-sweep-"))
+
+            def submit(i, spec, attempt):
+                return client.submit(run_one, m, spec, i, build=build, out=out, keep=keep,
+                                     extract=extract, pure=False, retries=0,
+                                     marker=markers / f"{i:06d}" if markers else None,
+                                     key=f"navkit-run-{token}-{i:06d}-{attempt}")
+
+            try:
+                with _ctrl_c() as stop:
+                    interrupted = _drive(client, submit, runs, results, bar, stop, markers)
+            finally:
+                if markers is not None:
+                    shutil.rmtree(markers, ignore_errors=True)
             stats["runs_wall_s"] = round(time.perf_counter() - t1, 3)
     except KeyboardInterrupt:
         interrupted = True
