@@ -38,6 +38,11 @@ def _fraction(text: str) -> float:
     return v
 
 
+def _count_fraction(text: str) -> float:
+    """0 or a fraction below 1."""
+    return 0.0 if text.strip() in ("0", "0.0") else _fraction(text)
+
+
 def _count(text: str) -> int:
     try:
         v = int(text, 0)
@@ -83,6 +88,9 @@ def add_arguments(parser) -> None:
     w.add_argument("--derivative", action="store_true", help="PID (kd = kp*0.25/wc) instead of PI")
     w.add_argument("--compute-delay", type=_count, default=1, metavar="TICKS",
                    help="computation delay of a tick in the loop (ticks, default 1)")
+    w.add_argument("--gain-spread", type=_count_fraction, default=0.2, metavar="FRAC",
+                   help="the overshoot limit also holds with the plant's gain this much higher (default 0.2; 0 = "
+                   "the identified model alone)")
     w.add_argument("--max-nrmse", type=_positive_float, default=0.3, help="worst acceptable fit (default 0.3)")
     w.add_argument("--step-speed", type=_positive_float, default=None, metavar="MM_S",
                    help="verification move speed (mm/s; default 40 %% of the model's top speed, at most 300)")
@@ -145,6 +153,9 @@ def _report(args, r: dict) -> None:
               f"overshoot {a['worst_overshoot_pct']:.1f} %, unstable {a['unstable']}")
     c = r["robustness"].get("cosim")
     if c:
-        print(f"cosim     {c['ok']} of {c['runs']} runs, worst overshoot {c['worst_overshoot_pct']}")
+        worst = c["worst_overshoot_pct"]
+        print(f"cosim     {c['ok']} of {c['runs']} runs co-simulated"
+              + (f", worst overshoot {worst:.1f} %" if worst is not None else "")
+              + (f", {len(c['failed'])} failed (tune.json)" if c["failed"] else ""))
     pngs = "fit.png  bode.png  step.png" if r["kind"] == "wheel" else "bode.png  step.png"
     print(f"outputs   {out}/  tune.json  {pngs}  config/")

@@ -323,23 +323,29 @@ FF_WEIGHTS = tuple(round(0.1 * i, 1) for i in range(10, -1, -1))
 def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | None = None,
                  integral_ratio: float | None = None, ff_weight: float | None = None, derivative: bool = False,
                  compute_delay: int = 1, overshoot_pct: float = 5.0, ramp_s: float = 0.1, speed_mm_s: float = 0.0,
-                 gm_min_db: float = 6.0, allow_miss: bool = False, step_s: float | None = None) -> WheelDesign:
+                 gm_min_db: float = 6.0, gain_spread: float = 0.0, allow_miss: bool = False,
+                 step_s: float | None = None) -> WheelDesign:
     """PI(D)+FF for `model` (ident.Model) at tick dt (s) with phase margin pm_deg: kp and ki
-    from the crossover condition (see the module doc); kd = kp*TD_WC/wc with `derivative`. Unless given, the PI zero's ratio (integral_ratio) and the feed-forward
-    weight (kff = ff_weight/K, 0..1) are searched (RATIOS x FF_WEIGHTS) for the least
-    integrated absolute error (IAE) in following the setpoint the profile gives a move (a
-    ramp of ramp_s s to speed_mm_s, step_s s long, against the model's dead band as a duty
-    disturbance; speed 0: the linear part alone) among the designs that overshoot it by at most
-    overshoot_pct with a gain margin of at least gm_min_db, judged with the quantised gains.
-    `step` (unit step) and `move` (the ramp, dead band included) responses are reported. Raises DesignError when the
-    targets cannot be met (allow_miss: return the least-overshoot design instead). Responses
-    last step_s s (default: the ramp plus 8 times the model's lag, at least 0.5 s); overshoot
-    is measured against the setpoint."""
+    from the crossover condition (see the module doc); kd = kp*TD_WC/wc with `derivative`.
+
+    Unless given, the PI zero's ratio (integral_ratio) and the feed-forward weight
+    (kff = ff_weight/K, 0..1) are searched (RATIOS x FF_WEIGHTS) for the least integrated
+    absolute error (IAE) in following the setpoint the profile gives a move (a ramp of
+    ramp_s s to speed_mm_s, against the model's dead band as a duty disturbance; speed 0:
+    the linear part alone) among the designs that overshoot it by at most overshoot_pct,
+    also on the model with a gain gain_spread higher (the feed-forward then over-drives: a
+    robot on a fresh battery), with a gain margin of at least gm_min_db, all judged with the
+    quantised gains. `step` (unit step) and `move` (the ramp, dead band included) responses
+    are reported; they last step_s s (default: the ramp plus 8 times the model's lag, at
+    least 0.5 s); overshoot is measured against the setpoint. Raises DesignError when the
+    targets cannot be met (allow_miss: return the least-overshoot design instead)."""
     if not (0.0 < pm_deg < 90.0):
         raise DesignError(f"phase margin target {pm_deg:g} deg: must be between 0 and 90")
     p = plant_d(model, dt, compute_delay)
     if step_s is None:
         step_s = max(0.5, ramp_s + 8.0 * (model.tau1_s + model.tau2_s + model.delay_s))
+    model_hi = model.scaled(gain=1.0 + gain_spread)
+    p_hi = plant_d(model_hi, dt, compute_delay)
     ratios = (integral_ratio,) if integral_ratio else RATIOS
     weights = (ff_weight,) if ff_weight is not None else FF_WEIGHTS
     chosen, fallback, last_err, tried = None, None, None, 0
@@ -365,6 +371,10 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
             ref = np.minimum(tt / ramp_s, 1.0) if ramp_s > 0 else np.ones_like(tt)
             yy = yy / (speed_mm_s or 1.0)
             ov = max(float(yy.max()) - 1.0, 0.0) * 100.0
+            if gain_spread > 0 and ov <= overshoot_pct:
+                _, yh = move_response(gq, p_hi, model_hi, speed_mm_s or 1.0, ramp_s, step_s,
+                                      deadband=speed_mm_s > 0)
+                ov = max(ov, (float(yh.max()) / (speed_mm_s or 1.0) - 1.0) * 100.0)
             iae = float(np.sum(np.abs(ref - yy)) * dt)
             gm = _gain_margin_db(loop)
             cand = (g, raw, gq, wc, ratio, w)
@@ -395,6 +405,7 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
         out.append((margins(loop), {"step": step_info(t, t_end=step_s), "move": move}))
     targets = {"phase_margin_deg": pm_deg, "bandwidth_hz": bandwidth_hz, "overshoot_pct": overshoot_pct,
                "ramp_s": ramp_s, "speed_mm_s": speed_mm_s, "gain_margin_min_db": gm_min_db,
+               "gain_spread": gain_spread,
                "integral_ratio": ratio, "ff_weight": w, "derivative": derivative,
                "compute_delay_ticks": compute_delay, "control_rate_hz": 1.0 / dt,
                "crossover_design_hz": wc / (2 * math.pi)}

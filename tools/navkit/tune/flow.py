@@ -207,7 +207,8 @@ def tune_wheel(args) -> dict:
     design = dsg.design_wheel(model, dt, pm_deg=args.pm, bandwidth_hz=args.bandwidth,
                               derivative=args.derivative, compute_delay=args.compute_delay,
                               overshoot_pct=args.overshoot, ramp_s=speed / accel, speed_mm_s=speed,
-                              gm_min_db=args.gm_min, allow_miss=args.bandwidth is not None)
+                              gm_min_db=args.gm_min, gain_spread=args.gain_spread,
+                              allow_miss=args.bandwidth is not None)
     mq = design.margins_quantised
     raw = dict(design.raw)
     provenance = [
@@ -215,8 +216,8 @@ def tune_wheel(args) -> dict:
         f"from {'mission ' + args.mission.name if args.mission else 'log ' + Path(args.log).name}: "
         f"{len(records)} record(s), NRMSE " + ", ".join(f"{r.wheel} {f[kind].nrmse:.3f}" for r, f in fits),
         f"model: {_model_line(model)}",
-        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} %, gain margin >= {args.gm_min:g} dB, "
-        f"{1 / dt:g} Hz, computation delay {args.compute_delay} tick(s)",
+        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} % (also at +{args.gain_spread * 100:g} % "
+        f"gain), gain margin >= {args.gm_min:g} dB, {1 / dt:g} Hz, computation delay {args.compute_delay} tick(s)",
         f"result: phase margin {mq['phase_margin_deg']:.1f} deg, gain margin {mq['gain_margin_db']:.1f} dB, "
         f"crossover {mq['crossover_hz']:.2f} Hz",
         "previous: " + ", ".join(f"{k} {v}" for k, v in previous.items()),

@@ -7,16 +7,19 @@ the duty a wheel needs before it moves), from duty u (-1..1) to wheel speed y (m
     SOPDT  y = K e^{-Ls} / ((tau1 s + 1)(tau2 s + 1))    * db(u)
     db(u)  = sign(u) * max(|u| - d0, 0)
 
-K in mm/s per duty, tau1/tau2/L in s, d0 in duty. The data are samples at a fixed period
-Ts (s) with the duty held between samples (zero-order hold: an excitation must hold each
-level for at least one sample), starting at rest.
+K in mm/s per duty, tau1/tau2/L in s, d0 in duty. The data are experiments from rest
+(Segment): the duty on a fine grid of period ts (held over each period: the micro's tick)
+and the speed sampled at some of the grid's instants (a log has a sample per host frame,
+e.g. every 20 ms, but knows each sample's tick); `fit(u, y, ts)` is the case of a speed
+sample at every grid point.
 
-The fit is output-error: the model is simulated over the whole record (exactly, with the
-dead time's fraction of a sample included by the modified z-transform) and its parameters
-move by Levenberg-Marquardt steps (numpy lstsq on a finite-difference Jacobian) to
-minimise the squared output error; the start comes from equation-error (ARX) least
-squares at every whole-sample delay. Fit quality: NRMSE = ||y - y_model|| / ||y - mean(y)||
-(0 = perfect, 1 = no better than the mean).
+The fit is output-error: the model is simulated over each experiment on the grid
+(exactly, with the dead time's fraction of a period included by the modified
+z-transform), read at the sample instants, and its parameters move by Levenberg-Marquardt
+steps (numpy lstsq on a finite-difference Jacobian) to minimise the squared output error;
+the starts come from equation-error (ARX) least squares on the samples at every
+whole-sample delay. Fit quality: NRMSE = ||y - y_model|| / ||y - mean(y)|| over all
+samples (0 = perfect, 1 = no better than the mean).
 """
 
 from __future__ import annotations
