@@ -260,6 +260,7 @@ def test_sweep_on_a_scheduler(mission_file, local_tables, tmp_path):
     (["--vary", "world_file=1:2"], 2, "key 'world_file' is set by the harness"),
     (["--samples", "3"], 2, "--samples: give the ranges to sample with --vary KEY=LO:HI"),
     (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], 2, "--workers: only for the LocalCluster"),
+    (["--scheduler", "127.0.0.1:8786"], 2, "--scheduler '127.0.0.1:8786': Invalid url scheme"),
 ])
 def test_bad_options(mission_file, tmp_path, args, code, message):
     p = _navkit("sweep", "--mission", str(mission_file), "--out", str(tmp_path / "o"), *args)

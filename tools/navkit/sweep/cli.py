@@ -100,6 +100,14 @@ def run(args) -> int:
     if args.workers is not None and args.scheduler:
         _err("--workers: only for the LocalCluster; the cluster at --scheduler has its own workers")
         return 2
+    if args.scheduler:
+        from distributed.comm import parse_address
+
+        try:
+            parse_address(args.scheduler, strict=True)
+        except ValueError as e:
+            _err(f"--scheduler {args.scheduler!r}: {e} (e.g. tcp://HOST:8786)")
+            return 2
     build = (args.build or build_dir()).resolve()
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     if args.bench:
@@ -136,6 +144,9 @@ def run(args) -> int:
         return 130
     except (SweepError, MissionError) as e:
         _err(str(e))
+        return 1
+    except OSError as e:            # the output folder cannot be made or written
+        _err(f"{e.filename}: {e.strerror}" if e.filename else str(e))
         return 1
     failed = [r for r in results if not r.ok]
     files = "results.csv" + ("  summary.png" if not args.no_plot else "") + "  sweep.json"

@@ -238,7 +238,7 @@ def _client(scheduler: str | None, workers: int | None):
     if scheduler:
         try:
             client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as e:
+        except (OSError, TimeoutError, ValueError) as e:
             raise SweepError(f"--scheduler {scheduler}: cannot connect: {e}") from None
         try:
             yield client
