@@ -610,9 +610,22 @@ void board_sim_free(board_sim_t *b)
     free(b);
 }
 
+/* A cycle timer that only ends a sleep: the core, asleep, skips to the next timer, so one
+ * at the target keeps board_sim_run_until() from running past it. */
+static avr_cycle_count_t sim_stop_at(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+    (void)avr;
+    (void)when;
+    (void)param;
+    return 0;
+}
+
 int board_sim_run_until(board_sim_t *b, uint64_t cycle)
 {
     avr_t *avr = b->avr;
+    if (avr->cycle < cycle) {
+        avr_cycle_timer_register(avr, (avr_cycle_count_t)(cycle - avr->cycle), sim_stop_at, b);
+    }
     while (avr->cycle < cycle) {
         int state;
         uint16_t sp;
