@@ -50,7 +50,7 @@
  * Left:  A pin 3 = PE5 (INT5), B pin 2 = PE4 (INT4): state = (PINE >> 4) & 3 = A<<1 | B.
  * Right: A pin 18 = PD3 (INT3), B pin 19 = PD2 (INT2): state = (PIND >> 2) & 3.
  * (pins 18/19 are TXD1/RXD1: UART1 stays off.) A leading B counts up.
- * Guaranteed: 33 333 edges/s on each encoder at once (30 us between edges of one encoder;
+ * Guaranteed: 50 000 edges/s on each encoder at once (20 us between edges of one encoder;
  * docs/avr.md, Encoders); INT2-INT5 are the highest-priority vectors the board uses. */
 #define BOARD_ENC_L_PIN PINE
 #define BOARD_ENC_L_PORT_NAME 'E'
@@ -58,7 +58,7 @@
 #define BOARD_ENC_R_PIN PIND
 #define BOARD_ENC_R_PORT_NAME 'D'
 #define BOARD_ENC_R_SHIFT 2
-#define BOARD_ENC_MIN_EDGE_US 30u /* us: closest edges of one encoder the board guarantees */
+#define BOARD_ENC_MIN_EDGE_US 20u /* us: closest edges of one encoder the board guarantees */
 
 /* ---- Analog inputs: ADC with AVcc (5.0 V) reference, 10 bit, 125 kHz ADC clock ----
  * hal channel 0-3: Sharp IR rangers on A0-A3 (PF0-PF3 = ADC0-3);

@@ -11,8 +11,8 @@
 static const int8_t enc_step[16] = { 0, -1, 1, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 1, -1, 0 };
 
 /* The interrupts only add to 16-bit accumulators (short interrupts: the other encoder's
- * edges must not wait); board_enc_left/right fold them into the 32-bit counts. At 33 333
- * edges/s an accumulator holds 0.98 s of counts; the core reads every tick (<= 10 ms). */
+ * edges must not wait); board_enc_left/right fold them into the 32-bit counts. At 50 000
+ * edges/s an accumulator holds 0.65 s of counts; the core reads every tick (<= 10 ms). */
 static volatile int16_t enc_l_acc, enc_r_acc;
 static uint8_t enc_l_last, enc_r_last; /* state << 2 at the last interrupt */
 static int32_t enc_l, enc_r;           /* counts up to the last fold (main loop only) */

@@ -12,7 +12,7 @@
 /* Pins as inputs, counts 0 from the current pin states, interrupts on. */
 void board_enc_init(void);
 /* Left count, x4 counts since reset (wraps modulo 2^32). Main loop only (it folds the
- * interrupt's accumulator); call at least every 0.9 s. */
+ * interrupt's accumulator); call at least every 0.6 s. */
 int32_t board_enc_left(void);
 /* Right count, x4 counts since reset. */
 int32_t board_enc_right(void);

@@ -15,15 +15,28 @@ static uint8_t sonar_state;
 static uint8_t sonar_cur;      /* sonar being pinged */
 static uint8_t sonar_pins;     /* echo pin levels at the last pin change */
 static uint32_t sonar_t_state; /* 0.5 us: when the state began (rise time in SONAR_ECHO) */
+static volatile uint8_t sonar_in_pcint; /* 1 while the pin-change interrupt runs with interrupts on */
 
-/* The 32-bit Timer5 clock, 0.5 us. Interrupts off. */
+/* The sequence's state is shared by the pin-change interrupt and the tick's step; neither
+ * keeps interrupts off for long (the encoder interrupts must not wait). The pin-change
+ * interrupt takes the edge's time and levels with interrupts off, then lets the encoders
+ * in; the step decides on a copy of the state and applies its decision, interrupts off,
+ * only if the state is unchanged and the pin-change interrupt is not half-way. (Masking
+ * PCIE0 would be simpler, but simavr 1.6 drops a pin change that arrives while its
+ * interrupt is masked.) */
+
+/* The 32-bit Timer5 clock, 0.5 us. */
 static uint32_t sonar_now(void)
 {
-    uint16_t lo = TCNT5;
-    uint16_t hi = sonar_t5_high;
+    uint8_t sreg = SREG;
+    uint16_t lo, hi;
+    cli(); /* TCNT5's two bytes go through the TEMP byte the other 16-bit timers' users share */
+    lo = TCNT5;
+    hi = sonar_t5_high;
     if ((TIFR5 & _BV(TOV5)) && (lo < 0x8000u)) {
         hi++; /* overflowed before lo was read, its interrupt still pending */
     }
+    SREG = sreg;
     return ((uint32_t)hi << 16) | lo;
 }
 
@@ -55,9 +68,7 @@ ISR(TIMER5_OVF_vect)
     sonar_t5_high++;
 }
 
-static void board_sonar_step(void);
-
-/* Result r (us) for the current sonar, then the quiet time before the next. */
+/* Result r (us) for the current sonar, then the quiet time before the next. Interrupts off. */
 static void sonar_finish(uint16_t r, uint32_t now)
 {
     sonar_us[sonar_cur] = r;
@@ -68,56 +79,81 @@ static void sonar_finish(uint16_t r, uint32_t now)
 
 void board_sonar_tick(void)
 {
-    uint8_t sreg = SREG;
-    cli(); /* the pin-change interrupt shares the state (and Timer5's TEMP byte) */
-    board_sonar_step();
-    SREG = sreg;
-}
-
-static void board_sonar_step(void)
-{
     uint32_t now = sonar_now();
-    uint32_t dt = now - sonar_t_state;
-    uint8_t trig = (uint8_t)(1u << (BOARD_SONAR_TRIG_SHIFT + sonar_cur));
-    switch (sonar_state) {
+    uint8_t sreg = SREG;
+    uint8_t st, cur, next, trig_on = 0u, trig_off = 0u, done = 0u;
+    uint32_t dt;
+    /* decide on a copy with interrupts on; apply only if the state is still that copy */
+    cli();
+    st = sonar_state;
+    cur = sonar_cur;
+    dt = now - sonar_t_state;
+    SREG = sreg;
+    next = st;
+    switch (st) {
     case SONAR_IDLE:
         if (dt >= (uint32_t)BOARD_SONAR_HOLDOFF_US * SONAR_COUNTS_PER_US) {
-            BOARD_SONAR_TRIG_PORT |= trig;
-            sonar_state = SONAR_TRIG;
-            sonar_t_state = now;
+            trig_on = 1u;
+            next = SONAR_TRIG;
         }
         break;
     case SONAR_TRIG:
-        BOARD_SONAR_TRIG_PORT &= (uint8_t)~trig;
-        sonar_state = SONAR_WAIT_RISE;
-        sonar_t_state = now;
+        trig_off = 1u;
+        next = SONAR_WAIT_RISE;
         break;
     case SONAR_WAIT_RISE:
         if (dt >= (uint32_t)BOARD_SONAR_RISE_US * SONAR_COUNTS_PER_US) {
-            sonar_finish(0u, now); /* no part, or it never answered */
+            done = 1u; /* no part, or it never answered */
         }
         break;
     case SONAR_ECHO:
         if (dt >= (uint32_t)BOARD_SONAR_NOECHO_US * SONAR_COUNTS_PER_US) {
-            sonar_us[sonar_cur] = 0u;
-            sonar_state = SONAR_WAIT_LOW; /* the no-object pulse: wait for its end */
+            next = SONAR_WAIT_LOW; /* the no-object pulse: wait for its end */
         }
         break;
     default: /* SONAR_WAIT_LOW */
-        if (!(BOARD_SONAR_ECHO_PIN & (1u << sonar_cur))) {
-            sonar_finish(0u, now);
+        if (!(BOARD_SONAR_ECHO_PIN & (1u << cur))) {
+            done = 1u;
         }
         break;
     }
+    if (next == st && !done) {
+        return;
+    }
+    cli();
+    if (!sonar_in_pcint && sonar_state == st && sonar_cur == cur) {
+        uint8_t trig = (uint8_t)(1u << (BOARD_SONAR_TRIG_SHIFT + cur));
+        if (trig_on) {
+            BOARD_SONAR_TRIG_PORT |= trig;
+        } else if (trig_off) {
+            BOARD_SONAR_TRIG_PORT &= (uint8_t)~trig;
+        }
+        if (done) {
+            sonar_finish(0u, now);
+        } else {
+            if (next == SONAR_WAIT_LOW) {
+                sonar_us[cur] = 0u;
+            }
+            sonar_state = next;
+            sonar_t_state = now;
+        }
+    } /* else the pin-change interrupt moved it meanwhile: decide again next tick */
+    SREG = sreg;
 }
 
 ISR(PCINT0_vect)
 {
-    uint32_t now = sonar_now();
+    uint32_t now = sonar_now(); /* edge time and levels first, interrupts still off */
     uint8_t pins = (uint8_t)(BOARD_SONAR_ECHO_PIN & BOARD_SONAR_ECHO_MASK);
-    uint8_t rose = (uint8_t)(pins & ~sonar_pins);
-    uint8_t fell = (uint8_t)(~pins & sonar_pins);
-    uint8_t bit = (uint8_t)(1u << sonar_cur);
+    uint8_t rose, fell, bit;
+    if (sonar_in_pcint) {
+        return; /* nested in itself (edges < 20 us apart on one echo line): not a sonar echo */
+    }
+    sonar_in_pcint = 1u;
+    sei(); /* the rest may wait for the encoders */
+    rose = (uint8_t)(pins & ~sonar_pins);
+    fell = (uint8_t)(~pins & sonar_pins);
+    bit = (uint8_t)(1u << sonar_cur);
     sonar_pins = pins;
     if ((sonar_state == SONAR_WAIT_RISE) && (rose & bit)) {
         sonar_state = SONAR_ECHO;
@@ -128,6 +164,8 @@ ISR(PCINT0_vect)
     } else if ((sonar_state == SONAR_WAIT_LOW) && (fell & bit)) {
         sonar_finish(0u, now);
     }
+    cli();
+    sonar_in_pcint = 0u;
 }
 
 uint16_t board_sonar_get(uint8_t i)

@@ -12,7 +12,7 @@
 /* Trigger pins low outputs, echo pins inputs with pin-change interrupts, Timer5 running,
  * every result 0, sonar 0 first. */
 void board_sonar_init(void);
-/* One step of the ping sequence (the tick interrupt calls it; it runs with interrupts off). */
+/* One step of the ping sequence (the tick interrupt calls it, interrupts on). */
 void board_sonar_tick(void);
 /* Last echo width of sonar i (0..3), us; 0 = no echo (or none measured yet). */
 uint16_t board_sonar_get(uint8_t i);

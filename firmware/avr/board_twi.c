@@ -33,7 +33,8 @@ static volatile uint8_t twi_busy;     /* 1 while a round runs */
 static uint8_t twi_gyro_awake;        /* 1 once the wake and range writes were acknowledged */
 static uint8_t twi_x;                 /* transfer in progress */
 static uint8_t twi_reading;           /* 1 after the repeated START of a read */
-static uint8_t twi_value_sent;        /* 1 after the value byte of a write */
+static uint8_t twi_sent;              /* master-transmitter bytes of this transfer sent and
+                                         acknowledged: 1 SLA+W, 2 + register, 3 + value */
 static uint8_t twi_n;                 /* bytes read so far */
 static uint8_t twi_buf[2];
 static volatile int16_t twi_gyro;     /* LSB */
@@ -63,7 +64,7 @@ static void twi_begin(uint8_t x, uint8_t stop)
     }
     twi_x = x;
     twi_reading = 0u;
-    twi_value_sent = 0u;
+    twi_sent = 0u;
     twi_n = 0u;
     TWCR = (uint8_t)(cr | _BV(TWSTA) | _BV(TWIE));
 }
@@ -109,21 +110,21 @@ ISR(TWI_vect)
         TWCR = TWI_GO;
         break;
     case TW_MT_SLA_ACK:
-        TWDR = x->reg;
-        TWCR = TWI_GO;
-        break;
     case TW_MT_DATA_ACK:
-        if (x->nread == 0u) {
-            if (!twi_value_sent) {
-                twi_value_sent = 1u;
-                TWDR = x->value;
-                TWCR = TWI_GO;
-            } else {
-                twi_done(1u);
-            }
-        } else {
+        /* which byte was acknowledged comes from our own count, not from telling these two
+           codes apart (simavr 1.6 reports DATA_ACK for SLA+W too) */
+        twi_sent++;
+        if (twi_sent == 1u) {
+            TWDR = x->reg;
+            TWCR = TWI_GO;
+        } else if (x->nread != 0u) {
             twi_reading = 1u;
             TWCR = (uint8_t)(TWI_GO | _BV(TWSTA));
+        } else if (twi_sent == 2u) {
+            TWDR = x->value;
+            TWCR = TWI_GO;
+        } else {
+            twi_done(1u);
         }
         break;
     case TW_MR_SLA_ACK:

@@ -72,7 +72,7 @@ const char *board_sim_error(const board_sim_t *b);
  * come BOARD_SIM_ENC_MIN_EDGE_CYCLES apart from now. Edges closer than
  * BOARD_SIM_ENC_MIN_EDGE_CYCLES are spread to that spacing (the board's guaranteed rate,
  * docs/avr.md), so the pins lag the request instead of the board losing counts. */
-#define BOARD_SIM_ENC_MIN_EDGE_CYCLES 480u /* cycles: 30 us, 33 333 edges/s per encoder */
+#define BOARD_SIM_ENC_MIN_EDGE_CYCLES 320u /* cycles: 20 us, 50 000 edges/s per encoder */
 void board_sim_set_encoders(board_sim_t *b, int32_t left_counts, int32_t right_counts, uint64_t by_cycle);
 /* Voltage at the analog pin of hal channel ch (0..4: IR 0-3, battery after the board's
  * divider), mV (0..5000, the 5.0 V AVcc reference; above is read as 5000). Other ch: ignored. */

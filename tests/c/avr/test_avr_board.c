@@ -351,6 +351,56 @@ static void test_outputs(void)
     board_sim_free(b);
 }
 
+/* The sensors as the board reads them: ADC voltages, the gyro and compass parts over TWI,
+ * the sonars' echo pulses, the DIO input levels, all reported in micro_data. */
+static void test_inputs(void)
+{
+    static const uint16_t mv[5] = { 400u, 1250u, 2500u, 4999u, 3700u };
+    static const uint16_t echo[4] = { 580u, 1000u, 0u, 17400u };
+    board_sim_t *b = open_image("navkit-mega2560.elf");
+    host_t h;
+    int i, k;
+    uint16_t tag = 1u;
+    host_init(&h);
+    run_for(b, MS(20));
+    configure(b, &h, 400u, 1000u); /* micro_cfg_io defaults: DIO 0-7 outputs, 8-11 inputs */
+    for (k = 0; k < 2; k++) {
+        int16_t gyro = (k == 0) ? 1310 : -2620;
+        uint16_t compass = (k == 0) ? 450u : 3599u;
+        uint16_t dio = (k == 0) ? 0x0A00u : 0x0500u; /* DIO 8-11: inputs by the default direction */
+        for (i = 0; i < 5; i++) {
+            board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(mv[i] / (k + 1)));
+        }
+        for (i = 0; i < 4; i++) {
+            board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(echo[i] / (k + 1)));
+        }
+        board_sim_set_gyro_raw(b, gyro);
+        board_sim_set_compass(b, compass);
+        board_sim_set_dio_in(b, dio);
+        run_for(b, MS(1000)); /* every sonar pinged at least once */
+        ping(b, &h, tag++);
+        for (i = 0; i < 5; i++) {
+            /* 10 bit of the 5.0 V reference: mV * 1024 / 5000, within one count */
+            long want = (long)(mv[i] / (k + 1)) * 1024L / 5000L;
+            check(labs((long)h.last.adc[i] - want) <= 1, "adc %d: %u counts, want %ld", i, h.last.adc[i], want);
+        }
+        for (i = 0; i < 4; i++) {
+            long want = (long)(echo[i] / (k + 1));
+            /* within 10 us (1.7 mm): the pin-change interrupt may wait behind another */
+            check(labs((long)h.last.sonar_echo[i] - want) <= 10, "sonar %d: %u us, want %ld +/- 10", i,
+                  h.last.sonar_echo[i], want);
+        }
+        check(h.last.gyro_raw == gyro, "gyro_raw %d, want %d", h.last.gyro_raw, gyro);
+        check(h.last.compass == compass, "compass %u, want %u", h.last.compass, compass);
+        check((h.last.dio_state & 0x0F00u) == dio, "dio_state 0x%03x, want inputs 0x%03x", h.last.dio_state, dio);
+        printf("inputs: adc %u %u %u %u %u counts, sonar %u %u %u %u us, gyro %d LSB, compass %u, dio 0x%03x\n",
+               h.last.adc[0], h.last.adc[1], h.last.adc[2], h.last.adc[3], h.last.adc[4], h.last.sonar_echo[0],
+               h.last.sonar_echo[1], h.last.sonar_echo[2], h.last.sonar_echo[3], h.last.gyro_raw, h.last.compass,
+               h.last.dio_state);
+    }
+    board_sim_free(b);
+}
+
 /* The tick timer: ticks per simulated second at the reset rate (400 Hz) and at 250 Hz. */
 static void test_tick_rate(void)
 {
@@ -530,7 +580,8 @@ int main(int argc, char **argv)
         const char *name;
         void (*fn)(void);
     } tests[] = { { "link", test_link },         { "uart", test_uart },     { "encoders", test_encoders },
-                  { "outputs", test_outputs },   { "tick_rate", test_tick_rate }, { "watchdog", test_watchdog },
+                  { "outputs", test_outputs },   { "inputs", test_inputs },
+                  { "tick_rate", test_tick_rate }, { "watchdog", test_watchdog },
                   { "footprint", test_footprint } };
     size_t i;
     if (argc != 3) {
