@@ -65,8 +65,8 @@ def test_wheel_meets_targets_on_a_heavy_plant(wheel):
     assert tj["predicted"]["move"]["overshoot_pct"] <= 5.0
     sim = tj["simulated"]["move"]
     assert sim["overshoot_pct"] <= 5.0
-    # predicted and co-simulated responses agree
-    assert sim["rise_time_s"] == pytest.approx(tj["predicted"]["move"]["rise_time_s"], abs=0.02)
+    # predicted and co-simulated responses agree: within 4 % of the speed RMS
+    assert sim["rms_deviation"] < 0.04 * tj["verify"]["speed_mm_s"]
     assert tj["robustness"]["analytic"]["samples"] == 20
 
 
@@ -111,6 +111,7 @@ def test_heading_on_the_tuned_wheels(wheel, tmp_path):
     th = json.loads((tmp_path / "heading" / "tune.json").read_text())
     assert th["margins_quantised"]["phase_margin_deg"] >= 57.0
     assert th["simulated"]["heading_select"]["overshoot_pct"] <= 5.0
+    assert th["simulated"]["heading_select"]["rms_deviation"] < 2.0  # deg, over a 90 deg select
     ini = (tmp_path / "heading" / "config" / "NavAndControl.ini").read_text()
     # both blocks: the wheel gains come along from the wheel tuning's config
     assert "navkit tune wheel: begin" in ini and "navkit tune heading: begin" in ini

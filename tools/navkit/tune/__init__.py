@@ -89,8 +89,9 @@ def add_arguments(parser) -> None:
     w.add_argument("--compute-delay", type=_count, default=1, metavar="TICKS",
                    help="computation delay of a tick in the loop (ticks, default 1)")
     w.add_argument("--gain-spread", type=_count_fraction, default=0.2, metavar="FRAC",
-                   help="the overshoot limit also holds with the plant's gain this much higher (default 0.2; 0 = "
-                   "the identified model alone)")
+                   help="the overshoot limit (and the heading's on top) also holds with a motor constant this "
+                   "much weaker: gain / (1 - FRAC), time constants / (1 - FRAC)^2 (default 0.2; 0 = the "
+                   "identified model alone)")
     w.add_argument("--max-nrmse", type=_positive_float, default=0.3, help="worst acceptable fit (default 0.3)")
     w.add_argument("--step-speed", type=_positive_float, default=None, metavar="MM_S",
                    help="verification move speed (mm/s; default 40 %% of the model's top speed, at most 300)")
@@ -144,7 +145,9 @@ def _report(args, r: dict) -> None:
     line = f"step      predicted overshoot {pred['overshoot_pct']:.1f} %, rise {pred['rise_time_s'] * 1000:.0f} ms"
     if r.get("simulated"):
         s = next(iter(v for k, v in r["simulated"].items() if isinstance(v, dict)))
-        line += f"; co-simulated overshoot {s['overshoot_pct']:.1f} %, rise {s['rise_time_s'] * 1000:.0f} ms"
+        unit = "mm/s" if r["kind"] == "wheel" else "deg"
+        line += (f"; co-simulated overshoot {s['overshoot_pct']:.1f} %, rise {s['rise_time_s'] * 1000:.0f} ms; "
+                 f"apart by {s['rms_deviation']:.1f} {unit} RMS")
     print(line)
     a = r["robustness"].get("analytic")
     if a:

@@ -34,7 +34,7 @@ import numpy as np
 
 __all__ = ["DesignError", "WheelGains", "WheelDesign", "HeadingDesign", "plant_d", "controller_d", "move_response", "heading_response",
            "wheel_loops", "design_wheel", "heading_plant", "design_heading", "margins", "step_info",
-           "quantise_wheel", "quantise_heading", "WHEEL_SCALES", "HEADING_SCALE"]
+           "quantise_wheel", "quantise_heading", "corner_model", "WHEEL_SCALES", "HEADING_SCALE"]
 
 def _field(name: str):
     """micro_cfg_motion's field `name` in the spec (protocol/navkit.toml): its raw unit
@@ -292,6 +292,15 @@ def _pi_for(p, model, dt: float, pm_deg: float, bandwidth_hz, ratio: float, deri
     return kp, ki, kp * td_of(wc), wc
 
 
+def corner_model(model, spread: float):
+    """The model of a motor constant `spread` weaker (a fraction): the back-EMF damping falls
+    with its square, so the gain rises by 1/(1 - spread) and the time constants by
+    1/(1 - spread)^2 (docs/plant.md's drive train, friction aside), the corner the design
+    also has to hold on."""
+    f = 1.0 - spread
+    return model.scaled(gain=1.0 / f, tau=1.0 / (f * f))
+
+
 def move_response(g: WheelGains, plant, model, speed_mm_s: float, ramp_s: float, t_end: float,
                   deadband: bool = True, loop=None, t=None) -> tuple[np.ndarray, np.ndarray]:
     """(t s, speed mm/s) of the linear wheel loop following the setpoint a move gives (a
@@ -333,8 +342,8 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
     absolute error (IAE) in following the setpoint the profile gives a move (a ramp of
     ramp_s s to speed_mm_s, against the model's dead band as a duty disturbance; speed 0:
     the linear part alone) among the designs that overshoot it by at most overshoot_pct,
-    also on the model with a gain gain_spread higher (the feed-forward then over-drives: a
-    robot on a fresh battery), with a gain margin of at least gm_min_db, all judged with the
+    also on corner_model(model, gain_spread) (the feed-forward then over-drives and the
+    wheel lags more), with a gain margin of at least gm_min_db, all judged with the
     quantised gains. `step` (unit step) and `move` (the ramp, dead band included) responses
     are reported; they last step_s s (default: the ramp plus 8 times the model's lag, at
     least 0.5 s); overshoot is measured against the setpoint. Raises DesignError when the
@@ -344,7 +353,7 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
     p = plant_d(model, dt, compute_delay)
     if step_s is None:
         step_s = max(0.5, ramp_s + 8.0 * (model.tau1_s + model.tau2_s + model.delay_s))
-    model_hi = model.scaled(gain=1.0 + gain_spread)
+    model_hi = corner_model(model, gain_spread)
     p_hi = plant_d(model_hi, dt, compute_delay)
     ratios = (integral_ratio,) if integral_ratio else RATIOS
     weights = (ff_weight,) if ff_weight is not None else FF_WEIGHTS
@@ -437,11 +446,12 @@ class HeadingDesign:
 
 
 def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = None,
-                   overshoot_pct: float = 5.0, gm_min_db: float = 6.0, step_s: float = 2.0) -> HeadingDesign:
+                   overshoot_pct: float = 5.0, gm_min_db: float = 6.0, also_on=(), step_s: float = 2.0) -> HeadingDesign:
     """heading_kp for a phase margin pm_deg (or a crossover bandwidth_hz) on top of the
     closed wheel loop wheel_t; if that gain's unit heading step overshoots by more than
-    overshoot_pct or its gain margin is below gm_min_db, the largest smaller gain that
-    meets both (bisection: the phase margin then exceeds the target). Raises DesignError."""
+    overshoot_pct or its gain margin is below gm_min_db, on wheel_t or on any closed wheel
+    loop of `also_on` (e.g. of corner_model), the largest smaller gain that meets both
+    everywhere (bisection: the phase margin then exceeds the target). Raises DesignError."""
     import control
 
     gh = heading_plant(wheel_t)
@@ -458,11 +468,16 @@ def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = N
             raise DesignError(f"no heading gain gives a {pm_deg:g} deg phase margin")
     kp = 1.0 / abs(_freq(gh, wc))
 
+    plants = [gh] + [heading_plant(w) for w in also_on]
+
     def ok(k):
-        t = control.feedback(k * gh, 1)
-        if not np.all(np.abs(t.poles()) < 1.0):
-            return False
-        return step_info(t, t_end=step_s)["overshoot_pct"] <= overshoot_pct and _gain_margin_db(k * gh) >= gm_min_db
+        for g in plants:
+            t = control.feedback(k * g, 1)
+            if not np.all(np.abs(t.poles()) < 1.0):
+                return False
+            if step_info(t, t_end=step_s)["overshoot_pct"] > overshoot_pct or _gain_margin_db(k * g) < gm_min_db:
+                return False
+        return True
 
     if not ok(quantise_heading(kp)[1]):
         lo, hi = 0.0, kp

@@ -216,8 +216,9 @@ def tune_wheel(args) -> dict:
         f"from {'mission ' + args.mission.name if args.mission else 'log ' + Path(args.log).name}: "
         f"{len(records)} record(s), NRMSE " + ", ".join(f"{r.wheel} {f[kind].nrmse:.3f}" for r, f in fits),
         f"model: {_model_line(model)}",
-        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} % (also at +{args.gain_spread * 100:g} % "
-        f"gain), gain margin >= {args.gm_min:g} dB, {1 / dt:g} Hz, computation delay {args.compute_delay} tick(s)",
+        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} % (also with a motor constant "
+        f"{args.gain_spread * 100:g} % weaker), gain margin >= {args.gm_min:g} dB, {1 / dt:g} Hz, "
+        f"computation delay {args.compute_delay} tick(s)",
         f"result: phase margin {mq['phase_margin_deg']:.1f} deg, gain margin {mq['gain_margin_db']:.1f} dB, "
         f"crossover {mq['crossover_hz']:.2f} Hz",
         "previous: " + ", ".join(f"{k} {v}" for k, v in previous.items()),
@@ -268,6 +269,10 @@ def tune_wheel(args) -> dict:
         tsim, ysim = ts[keep] - start, vs[keep]
         sim_info = dsg.step_info(tsim, ysim / speed)
         sim_info["overshoot_pct"] = max(float(ysim.max()) - speed, 0.0) / speed * 100.0
+        # how far prediction and co-simulation part: RMS and largest difference (mm/s)
+        diff = ysim - np.interp(tsim, tp, yp)
+        sim_info["rms_deviation"] = float(np.sqrt(np.mean(diff ** 2)))
+        sim_info["max_deviation"] = float(np.max(np.abs(diff)))
         curves.append(("co-simulated (truth speed)", tsim, ysim))
         rows.append(("co-simulated", sim_info))
         result["simulated"] = {"move": sim_info, "run": str(vdir), "mission": str(verify_mission),
@@ -369,13 +374,18 @@ def tune_heading(args) -> dict:
         raise TuneError(str(e)) from None
     plant = dsg.plant_d(model, dt, cd)
     _, tw = dsg.wheel_loops(gq, plant)
+    spread = float(tj["targets"].get("gain_spread", 0.0))
+    also = []
+    if spread > 0:
+        also.append(dsg.wheel_loops(gq, dsg.plant_d(dsg.corner_model(model, spread), dt, cd))[1])
     hd = dsg.design_heading(tw, pm_deg=args.pm, bandwidth_hz=args.bandwidth, overshoot_pct=args.overshoot,
-                            gm_min_db=args.gm_min)
+                            gm_min_db=args.gm_min, also_on=also)
     mq = hd.margins_quantised
     provenance = [
         f"navkit tune heading, {_now()}, git {_rev()}",
         f"on the wheel loops of {tj_path} ({_model_line(model)})",
-        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} %, gain margin >= {args.gm_min:g} dB",
+        f"targets: phase margin {args.pm:g} deg, overshoot {args.overshoot:g} %, gain margin >= {args.gm_min:g} dB"
+        + (f" (also with a motor constant {spread * 100:g} % weaker)" if spread > 0 else ""),
         f"result: phase margin {mq['phase_margin_deg']:.1f} deg, gain margin {mq['gain_margin_db']:.1f} dB, "
         f"crossover {mq['crossover_hz']:.2f} Hz",
         f"previous: heading_kp {previous}",
@@ -422,6 +432,9 @@ def tune_heading(args) -> dict:
         tsim, hsim = ts[keep] - start, hs[keep]
         sim_info = dsg.step_info(tsim, hsim / target)
         sim_info["overshoot_pct"] = max(float(hsim.max()) - target, 0.0) / target * 100.0
+        diff = hsim - np.interp(tsim, tp, yp)  # deg
+        sim_info["rms_deviation"] = float(np.sqrt(np.mean(diff ** 2)))
+        sim_info["max_deviation"] = float(np.max(np.abs(diff)))
         curves.append(("co-simulated (truth heading)", tsim, hsim))
         rows.append(("co-simulated", sim_info))
         result["simulated"] = {"heading_select": sim_info, "run": str(vdir), "mission": str(verify_mission),
