@@ -634,6 +634,9 @@ int board_sim_run_until(board_sim_t *b, uint64_t cycle)
             b->prof.watchdog_resets++;
             avr_run(avr);
             sim_after_reset(b);
+            if (avr->cycle < cycle) { /* the reset cleared every cycle timer, this one too */
+                avr_cycle_timer_register(avr, (avr_cycle_count_t)(cycle - avr->cycle), sim_stop_at, b);
+            }
             continue;
         }
         state = avr_run(avr);
