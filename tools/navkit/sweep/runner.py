@@ -120,7 +120,7 @@ def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: s
 
     kept = out / "runs" / f"{index:04d}"
     if keep == "all":
-        shutil.rmtree(kept, ignore_errors=True)     # an earlier sweep's: start clean
+        shutil.rmtree(kept, ignore_errors=True)     # a first attempt's (see _drive)
         work = kept
     else:
         work = Path(tempfile.mkdtemp(prefix=f"navkit-sweep-{index:04d}-"))
@@ -394,6 +394,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
     varied = _check_local(build, runs)
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    shutil.rmtree(out / "runs", ignore_errors=True)     # an earlier sweep's kept runs
     results, stats = [], {}
     bar = None
     t0 = time.perf_counter()
@@ -459,6 +460,7 @@ def run_sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = N
     `workers` processes (default: one per CPU). `progress` shows a bar on a terminal
     (lines otherwise) on stderr. Raises SweepError (bad runs, no build, no scheduler),
     MissionError (the mission file), SweepInterrupted on Ctrl-C (after writing the table
-    of the runs that finished)."""
+    of the runs that finished). An earlier sweep's `out`/runs is removed first. Workers
+    run one thread each (a run redirects sys.stderr while it runs)."""
     return sweep(mission, runs, out, scheduler=scheduler, workers=workers, progress=progress,
                  keep=keep, extract=extract, build=build, plot=plot)[0]
