@@ -151,6 +151,7 @@ def test_sweep_deterministic_and_survives_failing_runs(local_tables):
         assert p.returncode == 1, p.stdout + p.stderr        # some runs failed
         assert "Traceback" not in p.stderr, p.stderr
         assert "4 runs" in p.stdout and "2 failed" in p.stdout, p.stdout
+        assert "figure    err_pos_mm: min " in p.stdout and "mass_kg=12" in p.stdout, p.stdout
     text = (d1 / "results.csv").read_text()
     assert text == (d2 / "results.csv").read_text(), "same table on 1 and 2 workers"
     rows = _table(d1 / "results.csv")

@@ -149,11 +149,14 @@ def run(args) -> int:
         _err(f"{e.filename}: {e.strerror}" if e.filename else str(e))
         return 1
     failed = [r for r in results if not r.ok]
+    spread = _spread(results, mission.expect)
     files = "results.csv" + ("  summary.png" if not args.no_plot else "") + "  sweep.json"
     print(f"outputs   {out}/  {files}")
     print(f"runs      {len(results)} done, {len(failed)} failed, {stats['runs_wall_s']:.1f} s "
           f"on {stats['workers']} worker{'s' if stats['workers'] != 1 else ''} = "
           f"{stats['runs_per_minute']:.0f} runs/min")
+    if spread:
+        print(spread)
     if failed:
         from navkit.sweep.runner import describe
 
@@ -164,6 +167,25 @@ def run(args) -> int:
             print(f"failed    ... and {len(failed) - 10} more (results.csv)", file=sys.stderr)
         return 1
     return 0
+
+
+def _spread(results: list, expect: dict) -> str:
+    """'figure    err_pos_mm: min .., median .., max .. (run i (seed, params))': the
+    headline figure of the summary plot over the runs that finished; '' if none."""
+    import statistics
+
+    from navkit.sweep.runner import describe
+    from navkit.sweep.table import headline
+
+    key, _ = headline(expect)
+    vals = [(r.figures[key], r) for r in results if r.ok and r.figures.get(key) is not None]
+    if not vals:
+        return ""
+    worst = max(vals, key=lambda v: abs(v[0]))
+    xs = [v for v, _ in vals]
+    return (f"figure    {key}: min {min(xs):.4g}, median {statistics.median(xs):.4g}, "
+            f"max {max(xs):.4g}; largest |{key}| {worst[0]:.4g} in "
+            f"{describe(worst[1].spec, worst[1].index)}")
 
 
 def bench(mission_path: Path, build: Path, n: int) -> int:
