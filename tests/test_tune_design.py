@@ -119,3 +119,15 @@ def test_heading_design_on_the_wheel_loops(name):
     t, hdg = design.heading_response(tw, h.kp_quantised, 90.0, 60.0, 180.0, 4.0)
     assert hdg[-1] == pytest.approx(90.0, abs=0.5)
     assert hdg.max() <= 90.0 * 1.05
+
+
+def test_stability_from_the_characteristic_polynomial():
+    # an integrator with gain g in unity feedback: z - 1 + g, stable for 0 < g < 2
+    for g, expected in ((0.5, True), (1.9, True), (2.1, False), (-0.1, False)):
+        assert design.stable(control.tf([g], [1, -1], DT)) is expected
+    # the heavy plant's wheel loop on the corner model: stable, as python-control's own
+    # closed loop (whose poles the stability test must agree with) says
+    m = design.corner_model(PLANTS["heavy_weak"], 0.2)
+    d = design.design_wheel(PLANTS["heavy_weak"], DT, speed_mm_s=200.0, ramp_s=0.1)
+    loop, _ = design.wheel_loops(d.quantised, design.plant_d(m, DT))
+    assert design.stable(loop) == bool(np.all(np.abs(control.feedback(loop, 1).poles()) < 1.0))

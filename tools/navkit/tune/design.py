@@ -34,7 +34,7 @@ import numpy as np
 
 __all__ = ["DesignError", "WheelGains", "WheelDesign", "HeadingDesign", "plant_d", "controller_d", "move_response", "heading_response",
            "wheel_loops", "design_wheel", "heading_plant", "design_heading", "margins", "step_info",
-           "quantise_wheel", "quantise_heading", "corner_model", "WHEEL_SCALES", "HEADING_SCALE"]
+           "quantise_wheel", "quantise_heading", "corner_model", "stable", "WHEEL_SCALES", "HEADING_SCALE"]
 
 def _field(name: str):
     """micro_cfg_motion's field `name` in the spec (protocol/navkit.toml): its raw unit
@@ -113,6 +113,17 @@ def wheel_loops(g: WheelGains, plant):
     loop = c * plant
     t = control.minreal(plant * (control.tf([g.kff], [1.0], dt) + c) / (1 + loop), verbose=False)
     return loop, t
+
+
+def stable(loop) -> bool:
+    """True if unity feedback around discrete open loop `loop` is stable: every root of
+    1 + L(z) inside the unit circle (from L's own numerator and denominator, so no
+    near-cancellation of the integrator's pole can fake an unstable closed loop)."""
+    num = np.asarray(loop.num[0][0], float)
+    den = np.asarray(loop.den[0][0], float)
+    n = max(len(num), len(den))
+    char = np.r_[np.zeros(n - len(den)), den] + np.r_[np.zeros(n - len(num)), num]
+    return bool(np.all(np.abs(np.roots(char)) < 1.0))
 
 
 def margins(loop) -> dict:
@@ -372,7 +383,7 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
                 last_err = e
                 continue
             loop, t = wheel_loops(gq, p)
-            if not np.all(np.abs(t.poles()) < 1.0):
+            if not stable(loop):
                 continue
             tried += 1
             tt, yy = move_response(gq, p, model, speed_mm_s or 1.0, ramp_s, step_s, deadband=speed_mm_s > 0,
@@ -405,7 +416,7 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
     out = []
     for gg in (g, gq):
         loop, t = wheel_loops(gg, p)
-        if not np.all(np.abs(t.poles()) < 1.0):
+        if not stable(loop):
             raise DesignError(f"the designed wheel loop is unstable (kp {gg.kp:.4g}, ki {gg.ki:.4g})")
         tt, yy = move_response(gg, p, model, speed_mm_s or 1.0, ramp_s, step_s, deadband=speed_mm_s > 0,
                                loop=loop, t=t)
@@ -472,9 +483,9 @@ def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = N
 
     def ok(k):
         for g in plants:
-            t = control.feedback(k * g, 1)
-            if not np.all(np.abs(t.poles()) < 1.0):
+            if not stable(k * g):
                 return False
+            t = control.feedback(k * g, 1)
             if step_info(t, t_end=step_s)["overshoot_pct"] > overshoot_pct or _gain_margin_db(k * g) < gm_min_db:
                 return False
         return True
@@ -499,7 +510,7 @@ def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = N
     for k in (kp, kq):
         loop = k * gh
         t = control.feedback(loop, 1)
-        if not np.all(np.abs(t.poles()) < 1.0):
+        if not stable(loop):
             raise DesignError(f"the designed heading loop is unstable (heading_kp {k:.4g})")
         out.append((margins(loop), {"step": step_info(t, t_end=step_s)}))
     targets = {"phase_margin_deg": pm_deg, "bandwidth_hz": bandwidth_hz, "overshoot_pct": overshoot_pct,

@@ -324,7 +324,7 @@ def _wheel_robust(args, design, model, dt, speed, accel, mission, verify_mission
         m = model.scaled(kr, tr, dr)
         p = dsg.plant_d(m, dt, args.compute_delay)
         loop, t = dsg.wheel_loops(design.quantised, p)
-        stable = bool(np.all(np.abs(t.poles()) < 1.0))
+        stable = dsg.stable(loop)
         mg = dsg.margins(loop) if stable else {"phase_margin_deg": math.nan, "gain_margin_db": math.nan}
         ov = math.inf
         if stable:
@@ -461,7 +461,7 @@ def tune_heading(args) -> dict:
                 _, twi = dsg.wheel_loops(gq, dsg.plant_d(m, dt, cd))
                 loop = hd.kp_quantised * dsg.heading_plant(twi)
                 tcl = control.feedback(loop, 1)
-                stable = bool(np.all(np.abs(tcl.poles()) < 1.0))
+                stable = dsg.stable(loop)
                 mg = dsg.margins(loop) if stable else {"phase_margin_deg": math.nan, "gain_margin_db": math.nan}
                 ov = dsg.step_info(tcl, t_end=2.0)["overshoot_pct"] if stable else math.inf
                 per.append({"factors": f, "stable": stable, "phase_margin_deg": mg["phase_margin_deg"],
