@@ -70,9 +70,9 @@ int main(int argc, char **argv)
             MD_NAME, MD_DESCRIPTION, FWFMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, MD_TOKEN);
     fprintf(f, "  <CoSimulation modelIdentifier=\"%s\" canHandleVariableCommunicationStepSize=\"true\"\n", MD_IDENTIFIER);
 #ifndef FWFMU_MDGEN_AVR
-    fprintf(f, "    fixedInternalStepSize=\"%g\"", step);
+    fprintf(f, "    fixedInternalStepSize=\"%g\"\n", step);
 #endif
-    fprintf(f, " canBeInstantiatedOnlyOncePerProcess=\"false\"\n"
+    fprintf(f, "    canBeInstantiatedOnlyOncePerProcess=\"false\"\n"
                "    canGetAndSetFMUState=\"false\" canSerializeFMUState=\"false\" hasEventMode=\"false\"/>\n");
     fprintf(f, "  <UnitDefinitions>\n");
 #define UNIT(u) fprintf(f, "    <Unit name=\"%s\"/>\n", u);
@@ -164,9 +164,18 @@ int main(int argc, char **argv)
             "  <Annotations>\n"
             "    <Annotation type=\"org.navkit.spec\">\n"
             "      <Spec file=\"%s\" spec_hash=\"0x%08lx\" sha256=\"%s\"/>\n"
-            "    </Annotation>\n"
-            "  </Annotations>\n",
+            "    </Annotation>\n",
             FWFMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, NAVKIT_SPEC_SHA256);
+#ifdef FWFMU_MDGEN_AVR
+    /* the board the image runs on and its control_rate ceiling (CONFIG_RATE_MAX of the AVR
+     * build, NAVKIT_AVR_RATE_MAX): a host config asking more is refused by the image */
+    fprintf(f,
+            "    <Annotation type=\"org.navkit.board\">\n"
+            "      <Board mcu=\"atmega2560\" f_cpu_hz=\"%.0f\" control_rate_max=\"%u\" image=\"%s\"/>\n"
+            "    </Annotation>\n",
+            FWAVR_F_CPU_HZ, (unsigned)FWAVR_CONTROL_RATE_MAX, FWAVR_IMAGE_RESOURCE);
+#endif
+    fprintf(f, "  </Annotations>\n");
     fprintf(f, "</fmiModelDescription>\n");
     return fclose(f) == 0 ? 0 : 1;
 }

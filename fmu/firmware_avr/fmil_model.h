@@ -33,6 +33,7 @@ typedef struct {
     board_sim_t *board;        /* NULL until the model starts */
     double start_time;         /* s: when the board powered on (cycle 0) */
     int32_t enc_set[2];        /* encoder counts last handed to the board (left, right) */
+    int32_t dio_in_set;        /* DIO input levels last handed to the board */
     uint8_t rx[FWAVR_RX_CAP];
     uint8_t wire[FWAVR_WIRE_CAP];
 } fmil_model_t;

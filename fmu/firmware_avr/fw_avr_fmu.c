@@ -54,6 +54,7 @@ void fmil_model_start_values(fmil_instance_t *c)
     m->serial_rx.len = m->serial_tx.len = 0u;
     memset(&m->prof, 0, sizeof m->prof);
     m->enc_set[0] = m->enc_set[1] = 0;
+    m->dio_in_set = 0;
     /* outputs before the first step: a board in reset drives nothing */
     memset(m->io.servo_pulse, 0, sizeof m->io.servo_pulse);
 }
@@ -88,6 +89,7 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
     m->start_time = c->time;
     m->time = c->time;
     m->enc_set[0] = m->enc_set[1] = 0;
+    m->dio_in_set = 0; /* the board powers on with no DIO input driven high */
     return FMIL_OK;
 }
 
@@ -120,7 +122,10 @@ static void fwavr_inputs(fmil_model_t *m, uint64_t end)
     board_sim_set_adc_mv(b, 4u, fwavr_mv(io->battery_voltage / FWAVR_BATTERY_DIVIDER));
     board_sim_set_gyro_raw(b, (int16_t)((g > 32767) ? 32767 : (g < -32768) ? -32768 : g));
     board_sim_set_compass(b, (uint16_t)((cmp < 0) ? cmp + 3600 : cmp));
-    board_sim_set_dio_in(b, (uint16_t)(io->dio_in & 0x0FFF));
+    if ((io->dio_in & 0x0FFF) != m->dio_in_set) { /* pin changes only: the pins' edges are events */
+        m->dio_in_set = io->dio_in & 0x0FFF;
+        board_sim_set_dio_in(b, (uint16_t)m->dio_in_set);
+    }
 }
 
 /* The pins and the profile into the output variables. */

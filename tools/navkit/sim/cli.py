@@ -2,6 +2,7 @@
 
     navkit sim --mission config/missions/demo.toml --out build/sim/demo [--seed N] [--realtime]
     navkit sim --plant my_robot.fmu ...     # a plant FMU of your own (FMI 3.0 co-simulation)
+    navkit sim --firmware avr ...           # processor in the loop: the AVR image in simavr
 
 Writes run.mcap, summary.json, host.log, plot.png and the host's datalogs (when recording
 was on) into the output folder and prints where they are, the final pose and the speed of
@@ -37,6 +38,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--plant", type=Path, default=None, metavar="FMU",
                         help="plant FMU to use instead of <build>/fmus/navkit_plant.fmu: FMI 3.0 "
                         "co-simulation with the variable names of docs/internals.md")
+    parser.add_argument("--firmware", choices=("fmu", "avr"), default="fmu",
+                        help="fmu: the firmware core compiled for this machine (navkit_firmware.fmu, "
+                        "default); avr: the flashed ATmega2560 image executing in simavr "
+                        "(navkit_firmware_avr.fmu, processor in the loop; control_rate at most "
+                        "the image's 400 Hz: docs/pil.md)")
     parser.add_argument("--frame-ms", type=float, default=None,
                         help="host frame period in ms, a whole number; the micro's watchdog_timeout must "
                         "outlast two frames (default: from NavAndControl.ini)")
@@ -64,6 +70,7 @@ def run(args) -> int:
     out = args.out or build / "sim" / mission.name
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
                       config_dir=args.config, build=build, plant_fmu=args.plant,
+                      firmware=args.firmware,
                       frame_s=args.frame_ms / 1000 if args.frame_ms is not None else None,
                       plot=not args.no_plot)
     try:
@@ -75,6 +82,10 @@ def run(args) -> int:
     print(f"mission   {mission.path}  (seed {args.seed}, {s['mode']})")
     if args.plant:
         print(f"plant     {s['plant_fmu']}")
+    if args.firmware != "fmu":
+        print(f"firmware  {s['firmware_fmu']}  (control_rate {s['control_rate_hz']} Hz)")
+    if s.get("control_rate_note"):
+        print(f"note      {s['control_rate_note']}: the run's config says {s['control_rate_hz']} Hz")
     print(f"outputs   {out}/  run.mcap  summary.json  host.log" + ("  plot.png" if opts.plot else ""))
     for name in s["datalogs"]:
         print(f"datalog   {Path(out) / name}")

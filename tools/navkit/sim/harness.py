@@ -56,6 +56,7 @@ class SimOptions:
     config_dir: Path | None = None     # default: <repo>/config
     build: Path | None = None          # default: navkit.paths.build_dir()
     plant_fmu: Path | None = None      # default: <build>/fmus/navkit_plant.fmu; see plant.check
+    firmware: str = "fmu"              # "fmu" (SIL) or "avr" (PIL: the AVR image in simavr); navkit.sim.pil
     frame_s: float | None = None       # host frame period; default: from the config
     truth_hz: float = 50.0
     plot: bool = True
@@ -78,9 +79,12 @@ def host_path(build: Path) -> Path:
     return build / "host" / "navkit-host"
 
 
-def fmu_paths(build: Path) -> tuple[Path, Path]:
-    """(firmware FMU, plant FMU) of build folder `build`."""
-    return build / "fmus" / f"{_FW_NAME}.fmu", build / "fmus" / f"{_PLANT_NAME}.fmu"
+def fmu_paths(build: Path, firmware: str = "fmu") -> tuple[Path, Path]:
+    """(firmware FMU, plant FMU) of build folder `build`; `firmware` "fmu" (navkit_firmware)
+    or "avr" (navkit_firmware_avr, navkit.sim.pil)."""
+    from navkit.sim.pil import firmware_fmu
+
+    return firmware_fmu(build, firmware), build / "fmus" / f"{_PLANT_NAME}.fmu"
 
 
 def _ini_number(config_dir: Path, section: str, key: str, default: float) -> float:
@@ -416,6 +420,8 @@ class _Run:
         self.host_exit = None
         self.results = {}
         self.fmu_split = None
+        self.fw_profile = {}
+        self.control_rate = self.rate_note = None
         self.sim_time_s = 0.0
         self.times = {"fmus": 0.0, "pty": 0.0, "host": 0.0, "harness": 0.0}
 
@@ -428,14 +434,16 @@ class _Run:
         from navkit.sim.plant import PlantFmuError, check
 
         self._check_timeline()
-        fw_fmu, plant_fmu = fmu_paths(self.build)[0], self.plant_fmu
-        built = [(fw_fmu, "firmware")]
+        fw_fmu, plant_fmu = fmu_paths(self.build, self.opts.firmware)[0], self.plant_fmu
+        built = [(fw_fmu, "firmware" if self.opts.firmware == "fmu" else "AVR firmware (needs avr-gcc and libsimavr: "
+                  "scripts/setup.sh) FMU")]
         if self.opts.plant_fmu is None:         # a user's plant: check() names a missing file
             built.append((plant_fmu, "plant"))
         for path, name in built:
             if not path.exists():
                 raise SimError(f"{path} not found: build the {name} FMU first "
                                f"(cmake --build <build>)")
+        self._firmware_rate(fw_fmu)
         try:
             plant_md = check(plant_fmu, fw_fmu)     # FMI 3.0 co-simulation, the contract
         except PlantFmuError as e:
@@ -463,7 +471,8 @@ class _Run:
                 "git_revision": self.git_revision, "frame_s": self.frame_s,
                 "realtime": self.opts.realtime, "step_s": STEP_S,
                 "plant_fmu": self.fmus.plant_md.modelName,
-                "firmware_fmu": self.fmus.fw_md.modelName}
+                "firmware_fmu": self.fmus.fw_md.modelName,
+                "firmware": self.opts.firmware, "control_rate_hz": self.control_rate}
         # fork the log worker before any pty, socket or child process exists
         self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width,
                           inline=self.opts.log_inline)
@@ -523,6 +532,20 @@ class _Run:
         except (OSError, AttributeError):
             pass
 
+    def _firmware_rate(self, fw_fmu: Path) -> None:
+        """The control_rate the micro gets: the config's, or for a firmware with a lower
+        ceiling (the AVR image) the ceiling, with a copy of the config folder saying so
+        (navkit.sim.pil.rate_config; self.config_dir becomes the copy)."""
+        from navkit.sim.pil import board_info, control_rate, rate_config
+
+        board = board_info(fw_fmu)
+        if board is None:
+            self.control_rate = control_rate(self.config_dir)[0] or \
+                self.protocol.defaults("micro_cfg_geometry")["control_rate"]
+            return
+        self.config_dir, self.control_rate, self.rate_note = rate_config(
+            self.config_dir, int(board["control_rate_max"]), self.tmp)
+
     def _known_plant(self, plant_md, params: dict) -> dict:
         """Drop harness defaults (seed, world_file) the plant FMU (model description
         `plant_md`) does not have; mission [plant] keys stay and are checked when set."""
@@ -575,6 +598,12 @@ class _Run:
                 self.fmu_split = self.coupler.fmu_seconds()
             self.coupler.close()
         if self.fmus is not None:
+            from navkit.sim.pil import profile
+
+            try:
+                self.fw_profile = profile(self.fmus.fw, self.fmus.fw_md)
+            except Exception:  # noqa: BLE001 - a failed firmware has no profile to give
+                self.fw_profile = {}
             self.fmus.close()
         if self.host_log:
             self.host_log.close()
@@ -857,6 +886,9 @@ class _Run:
             "mission": str(self.m.path),
             "seed": self.opts.seed,
             "plant_fmu": str(self.plant_fmu),
+            "firmware": self.opts.firmware,
+            "firmware_fmu": str(fmu_paths(self.build, self.opts.firmware)[0]),
+            "control_rate_hz": self.control_rate,
             "mode": "realtime" if self.opts.realtime else "lockstep",
             "sim_time_s": round(self.sim_time_s, 6),
             "wall_time_s": round(wall_s, 3),
@@ -893,6 +925,10 @@ class _Run:
         }
         if self.fmu_split:
             out["fmu_split_s"] = [round(x, 3) for x in self.fmu_split]
+        if self.rate_note:
+            out["control_rate_note"] = self.rate_note
+        if self.fw_profile:
+            out["firmware_profile"] = self.fw_profile
         return out
 
 
