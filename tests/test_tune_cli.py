@@ -5,9 +5,7 @@ import json
 import subprocess
 import sys
 
-import pytest
-
-from navkit.paths import build_dir, repo_root
+from navkit.paths import repo_root
 
 
 def _tune(*args):

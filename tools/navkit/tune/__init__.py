@@ -60,7 +60,8 @@ def _common(p, pm_help: str) -> None:
                    help="crossover frequency (Hz) instead of the automatic choice")
     p.add_argument("--overshoot", type=_positive_float, default=5.0, metavar="PCT",
                    help="largest predicted overshoot (%%, default 5)")
-    p.add_argument("--gm-min", type=_positive_float, default=6.0, metavar="DB", help="least gain margin (dB, default 6)")
+    p.add_argument("--gm-min", type=_positive_float, default=6.0, metavar="DB",
+                   help="least gain margin (dB, default 6)")
     p.add_argument("--samples", type=_count, default=50, metavar="N",
                    help="Monte Carlo plant samples, analytic (default 50; 0 = none)")
     p.add_argument("--cosim-samples", type=_count, default=0, metavar="M",

@@ -18,7 +18,8 @@ Design: for a phase margin PM at crossover wc, C(e^{j wc dt}) must equal
 e^{j(-180 + PM)} / P(e^{j wc dt}); with kd = kp*td (td fixed) this is linear in (kp, ki).
 Given a bandwidth (crossover) the two real equations give kp and ki; otherwise the PI zero
 sits at wc/integral_ratio (ki = kp*wc/ratio) and wc is the frequency where the loop's
-phase is -180 + PM (kp from |L| = 1 there). kff = 1/K.
+phase is -180 + PM (kp from |L| = 1 there). kff = w/K with a weight w in 0..1
+(design_wheel searches the ratio and w against the overshoot and gain-margin limits).
 
 The heading loop (turn.c, HdgSel): turn rate = heading_kp * heading error, followed by the
 tuned wheel loops (each wheel gets +-rate * track/2), and the gyro heading integrates the
@@ -32,9 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["DesignError", "WheelGains", "WheelDesign", "HeadingDesign", "plant_d", "controller_d", "move_response", "heading_response",
+__all__ = ["DesignError", "WheelGains", "WheelDesign", "HeadingDesign", "plant_d", "controller_d",
+           "move_response", "heading_response",
            "wheel_loops", "design_wheel", "heading_plant", "design_heading", "margins", "step_info",
-           "quantise_wheel", "quantise_heading", "corner_model", "stable", "WHEEL_SCALES", "HEADING_SCALE"]
+           "quantise_wheel", "quantise_heading", "corner_model", "stable", "lsim", "WHEEL_SCALES",
+           "HEADING_SCALE"]
+
 
 def _field(name: str):
     """micro_cfg_motion's field `name` in the spec (protocol/navkit.toml): its raw unit
@@ -457,7 +461,8 @@ class HeadingDesign:
 
 
 def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = None,
-                   overshoot_pct: float = 5.0, gm_min_db: float = 6.0, also_on=(), step_s: float = 2.0) -> HeadingDesign:
+                   overshoot_pct: float = 5.0, gm_min_db: float = 6.0, also_on=(),
+                   step_s: float = 2.0) -> HeadingDesign:
     """heading_kp for a phase margin pm_deg (or a crossover bandwidth_hz) on top of the
     closed wheel loop wheel_t; if that gain's unit heading step overshoots by more than
     overshoot_pct or its gain margin is below gm_min_db, on wheel_t or on any closed wheel

@@ -242,8 +242,10 @@ def records_from_datalog(path: Path) -> list[Record]:
 def records_from_log(path: Path) -> list[Record]:
     """Records of a run.mcap (by its magic) or a host datalog."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ExperimentError(f"{path}: no such file")
+    if not path.is_file():
+        raise ExperimentError(f"{path}: not a file (a run.mcap or a host datalog)")
     with open(path, "rb") as f:
         head = f.read(8)
     if head == b"\x89MCAP0\r\n":
