@@ -1,4 +1,11 @@
-/* board_twi.c: the TWI master state machine (board_twi.h). */
+/* board_twi.c: the TWI master, a table-driven interrupt (board_twi.h).
+ *
+ * A round is a fixed script of bus steps (twi_script). Each TWI interrupt checks that the
+ * last step was acknowledged (any NACK, lost arbitration or bus error ends the round with
+ * a STOP and counts an error), keeps the byte just received if the step was a read, and
+ * starts the next step. Short and the same for every step: the encoder interrupts, which
+ * must not wait long, come right behind it. The gyro's wake-up writes lead the script and
+ * are skipped once acknowledged. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <util/twi.h>
@@ -6,67 +13,78 @@
 #include "board.h"
 #include "board_twi.h"
 
-/* One register transfer: write `value` to `reg` (nread 0), or read nread bytes from reg on. */
+/* Script steps: what to do when the previous step is done. */
+enum {
+    TWI_OP_START,  /* (repeated) START */
+    TWI_OP_SEND,   /* send the byte `arg` (an SLA+R/W or a register/value) */
+    TWI_OP_READ,   /* receive a byte into twi_raw[arg], acknowledge it (more follow) */
+    TWI_OP_LAST,   /* receive the last byte into twi_raw[arg], no acknowledge */
+    TWI_OP_AWAKE,  /* the gyro's writes went through: STOP, START, and skip them from now */
+    TWI_OP_NEXT,   /* STOP, then START the next part's transfer */
+    TWI_OP_END     /* STOP: the round is over */
+};
+
 typedef struct {
-    uint8_t addr;  /* 7-bit part address */
-    uint8_t reg;   /* first register */
-    uint8_t value; /* byte to write (nread 0) */
-    uint8_t nread; /* bytes to read, 0 = a write */
-} twi_xfer_t;
+    uint8_t op;  /* TWI_OP_* */
+    uint8_t arg; /* byte to send, or twi_raw index */
+} twi_step_t;
 
-#define TWI_X_WAKE 0u    /* gyro PWR_MGMT_1 = 0 */
-#define TWI_X_RANGE 1u   /* gyro GYRO_CONFIG = 0 */
-#define TWI_X_GYRO 2u    /* read GYRO_ZOUT_H/L */
-#define TWI_X_COMPASS 3u /* read the bearing word */
-#define TWI_X_COUNT 4u
+#define TWI_SLA_W(a) ((uint8_t)(((a) << 1) | TW_WRITE))
+#define TWI_SLA_R(a) ((uint8_t)(((a) << 1) | TW_READ))
+#define TWI_READS 4u /* gyro ZOUT H/L, compass bearing H/L */
+#define TWI_READ_FROM 9u /* index of the reads' START (after the wake-up writes) */
 
-static const twi_xfer_t twi_xfers[TWI_X_COUNT] = {
-    { BOARD_GYRO_ADDR, BOARD_GYRO_REG_PWR_MGMT_1, 0x00u, 0u },
-    { BOARD_GYRO_ADDR, BOARD_GYRO_REG_GYRO_CONFIG, 0x00u, 0u },
-    { BOARD_GYRO_ADDR, BOARD_GYRO_REG_ZOUT_H, 0u, 2u },
-    { BOARD_COMPASS_ADDR, BOARD_COMPASS_REG_BEARING, 0u, 2u },
+/* Each entry is the step the bus does next; the interrupt that follows finishes it. */
+static const twi_step_t twi_script[] = {
+    /* wake the gyro (PWR_MGMT_1 = 0), then its range (GYRO_CONFIG = 0: 131 LSB per deg/s) */
+    { TWI_OP_START, 0u },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR) },
+    { TWI_OP_SEND, BOARD_GYRO_REG_PWR_MGMT_1 },
+    { TWI_OP_SEND, 0x00u },
+    { TWI_OP_NEXT, 0u },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR) },
+    { TWI_OP_SEND, BOARD_GYRO_REG_GYRO_CONFIG },
+    { TWI_OP_SEND, 0x00u },
+    { TWI_OP_AWAKE, 0u }, /* its START counts as the reads' first step */
+    /* TWI_READ_FROM: the gyro's GYRO_ZOUT_H/L */
+    { TWI_OP_START, 0u },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR) },
+    { TWI_OP_SEND, BOARD_GYRO_REG_ZOUT_H },
+    { TWI_OP_START, 0u },
+    { TWI_OP_SEND, TWI_SLA_R(BOARD_GYRO_ADDR) },
+    { TWI_OP_READ, 0u },
+    { TWI_OP_LAST, 1u },
+    { TWI_OP_NEXT, 0u },
+    /* the compass's bearing word */
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_COMPASS_ADDR) },
+    { TWI_OP_SEND, BOARD_COMPASS_REG_BEARING },
+    { TWI_OP_START, 0u },
+    { TWI_OP_SEND, TWI_SLA_R(BOARD_COMPASS_ADDR) },
+    { TWI_OP_READ, 2u },
+    { TWI_OP_LAST, 3u },
+    { TWI_OP_END, 0u },
 };
 
 #define TWI_GO (_BV(TWINT) | _BV(TWEN) | _BV(TWIE))
 
-static volatile uint8_t twi_busy;     /* 1 while a round runs */
-static uint8_t twi_gyro_awake;        /* 1 once the wake and range writes were acknowledged */
-static uint8_t twi_x;                 /* transfer in progress */
-static uint8_t twi_reading;           /* 1 after the repeated START of a read */
-static uint8_t twi_sent;              /* master-transmitter bytes of this transfer sent and
-                                         acknowledged: 1 SLA+W, 2 + register, 3 + value */
-static uint8_t twi_n;                 /* bytes read so far */
-static uint8_t twi_buf[2];
-static volatile int16_t twi_gyro;     /* LSB */
-static volatile uint16_t twi_compass; /* deg*10 */
+static volatile uint8_t twi_busy;       /* 1 while a round runs */
+static volatile uint8_t twi_gyro_awake; /* 1 once the wake-up writes were acknowledged */
+static uint8_t twi_step;                /* index of the step in progress */
+static volatile uint8_t twi_raw[TWI_READS]; /* bytes read, big-endian pairs */
 static volatile uint16_t twi_err;
 
 void board_twi_init(void)
 {
+    uint8_t i;
     twi_busy = 0u;
     twi_gyro_awake = 0u;
-    twi_gyro = 0;
-    twi_compass = 0u;
     twi_err = 0u;
+    for (i = 0u; i < TWI_READS; i++) {
+        twi_raw[i] = 0u;
+    }
     TWSR = 0u; /* prescaler 1 */
     TWBR = BOARD_TWI_TWBR;
     TWCR = _BV(TWEN);
-}
-
-/* Begin transfer x with a START (a STOP first if `stop`), or end the round. */
-static void twi_begin(uint8_t x, uint8_t stop)
-{
-    uint8_t cr = stop ? (uint8_t)(_BV(TWINT) | _BV(TWSTO) | _BV(TWEN)) : (uint8_t)_BV(TWEN);
-    if (x >= TWI_X_COUNT) {
-        TWCR = cr;
-        twi_busy = 0u;
-        return;
-    }
-    twi_x = x;
-    twi_reading = 0u;
-    twi_sent = 0u;
-    twi_n = 0u;
-    TWCR = (uint8_t)(cr | _BV(TWSTA) | _BV(TWIE));
 }
 
 void board_twi_round(void)
@@ -75,83 +93,69 @@ void board_twi_round(void)
     cli(); /* twi_busy is cleared by the TWI interrupt */
     if (!twi_busy) {
         twi_busy = 1u;
-        twi_begin(twi_gyro_awake ? TWI_X_GYRO : TWI_X_WAKE, 0u);
+        twi_step = twi_gyro_awake ? TWI_READ_FROM : 0u;
+        TWCR = (uint8_t)(TWI_GO | _BV(TWSTA));
     }
     SREG = sreg;
 }
 
-/* Transfer twi_x is complete (ok 1) or failed (ok 0): keep its result, go on. */
-static void twi_done(uint8_t ok)
-{
-    uint8_t x = twi_x;
-    if (!ok) {
-        twi_err++;
-        if (x <= TWI_X_RANGE) {
-            twi_gyro_awake = 0u;
-            x = TWI_X_RANGE; /* skip to the gyro read (it will fail too: retry next round) */
-        }
-    } else if (x == TWI_X_RANGE) {
-        twi_gyro_awake = 1u;
-    } else if (x == TWI_X_GYRO) {
-        twi_gyro = (int16_t)(((uint16_t)twi_buf[0] << 8) | twi_buf[1]);
-    } else if (x == TWI_X_COMPASS) {
-        twi_compass = (uint16_t)(((uint16_t)twi_buf[0] << 8) | twi_buf[1]);
-    }
-    twi_begin((uint8_t)(x + 1u), 1u);
-}
-
 ISR(TWI_vect)
 {
-    const twi_xfer_t *x = &twi_xfers[twi_x];
-    switch (TW_STATUS) {
-    case TW_START:
-    case TW_REP_START:
-        TWDR = (uint8_t)((x->addr << 1) | (twi_reading ? TW_READ : TW_WRITE));
+    uint8_t st = TW_STATUS;
+    const twi_step_t *s = &twi_script[twi_step];
+    /* the step in progress went through? (START, acknowledged SLA/data, a received byte) */
+    if (!(st == TW_START || st == TW_REP_START || st == TW_MT_SLA_ACK || st == TW_MT_DATA_ACK ||
+          st == TW_MR_SLA_ACK || st == TW_MR_DATA_ACK || st == TW_MR_DATA_NACK)) {
+        twi_err++;
+        if (twi_step < TWI_READ_FROM) {
+            twi_gyro_awake = 0u;
+        }
+        TWCR = (uint8_t)(_BV(TWINT) | _BV(TWSTO) | _BV(TWEN));
+        twi_busy = 0u;
+        return;
+    }
+    if (s->op == TWI_OP_READ || s->op == TWI_OP_LAST) {
+        twi_raw[s->arg] = TWDR;
+    }
+    twi_step++;
+    s++;
+    switch (s->op) {
+    case TWI_OP_START:
+        TWCR = (uint8_t)(TWI_GO | _BV(TWSTA));
+        break;
+    case TWI_OP_SEND:
+        TWDR = s->arg;
         TWCR = TWI_GO;
         break;
-    case TW_MT_SLA_ACK:
-    case TW_MT_DATA_ACK:
-        /* which byte was acknowledged comes from our own count, not from telling these two
-           codes apart (simavr 1.6 reports DATA_ACK for SLA+W too) */
-        twi_sent++;
-        if (twi_sent == 1u) {
-            TWDR = x->reg;
-            TWCR = TWI_GO;
-        } else if (x->nread != 0u) {
-            twi_reading = 1u;
-            TWCR = (uint8_t)(TWI_GO | _BV(TWSTA));
-        } else if (twi_sent == 2u) {
-            TWDR = x->value;
-            TWCR = TWI_GO;
-        } else {
-            twi_done(1u);
-        }
+    case TWI_OP_READ:
+        TWCR = (uint8_t)(TWI_GO | _BV(TWEA));
         break;
-    case TW_MR_SLA_ACK:
-        TWCR = (uint8_t)(TWI_GO | ((x->nread > 1u) ? _BV(TWEA) : 0u));
+    case TWI_OP_LAST:
+        TWCR = TWI_GO;
         break;
-    case TW_MR_DATA_ACK:
-        twi_buf[twi_n++] = TWDR;
-        TWCR = (uint8_t)(TWI_GO | (((uint8_t)(twi_n + 1u) < x->nread) ? _BV(TWEA) : 0u));
+    case TWI_OP_AWAKE:
+        twi_gyro_awake = 1u;
+        twi_step = TWI_READ_FROM;
+        TWCR = (uint8_t)(TWI_GO | _BV(TWSTO) | _BV(TWSTA));
         break;
-    case TW_MR_DATA_NACK:
-        twi_buf[twi_n++] = TWDR;
-        twi_done(1u);
+    case TWI_OP_NEXT:
+        TWCR = (uint8_t)(TWI_GO | _BV(TWSTO) | _BV(TWSTA));
         break;
-    default: /* NACK, arbitration lost, bus error */
-        twi_done(0u);
+    default: /* TWI_OP_END */
+        TWCR = (uint8_t)(_BV(TWINT) | _BV(TWSTO) | _BV(TWEN));
+        twi_busy = 0u;
         break;
     }
 }
 
 int16_t board_twi_gyro(void)
 {
-    int16_t v;
+    uint16_t v;
     uint8_t s = SREG;
     cli();
-    v = twi_gyro;
+    v = (uint16_t)(((uint16_t)twi_raw[0] << 8) | twi_raw[1]);
     SREG = s;
-    return v;
+    return (int16_t)v;
 }
 
 uint16_t board_twi_compass(void)
@@ -159,7 +163,7 @@ uint16_t board_twi_compass(void)
     uint16_t v;
     uint8_t s = SREG;
     cli();
-    v = twi_compass;
+    v = (uint16_t)(((uint16_t)twi_raw[2] << 8) | twi_raw[3]);
     SREG = s;
     return v;
 }

@@ -275,8 +275,8 @@ static void test_encoders(void)
         board_sim_set_encoders(b, steps[k][0], steps[k][1], until);
         while (board_sim_cycles(b) < until) {
             c.time_tag = tag++;
-            send_cmd(b, &c); /* link traffic: UART interrupts between the edges */
-            run_for(b, MS(20));
+            send_cmd(b, &c); /* the link at its line rate: UART interrupts between the edges */
+            run_for(b, MS(10));
             host_drain(&h, b);
         }
         pos[0] = steps[k][0];
