@@ -162,7 +162,7 @@ def test_closed_stdin_gives_no_keys(host_factory):
     (["--port", "a", "--port", "/nonexistent"], "--port: given twice"),
     (["--record", "--record"], "--record: given twice"),
     (["-h", "--help"], "--help: given twice"),
-    (["--shm", "a/b"], "--shm: '/a/b' is not a POSIX shared-memory name"),
+    (["--shm", "a/b"], "--shm: 'a/b' is not a POSIX shared-memory name"),
     (["--log-dir", "/nonexistent/dir"], "--log-dir: /nonexistent/dir: No such file or directory"),
 ])
 def test_options_without_effect_or_value_are_refused(args, said):

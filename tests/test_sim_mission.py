@@ -341,6 +341,9 @@ def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
     want += [codes["rejected"]] * len(refused)
     assert [verdict.get(tag) for tag in tags] == want
     log = (tmp_path / "out" / "host.log").read_text(errors="replace")
-    for tag in tags[len(taken):]:
-        assert f"planner command {tag} rejected: a value does not fit the micro command" in log
+    # one a frame: the console says the first, then at most one a second, counting the
+    # ones it held back, and the last one held back at shutdown
+    said = "rejected: a value does not fit the micro command"
+    assert f"planner command {tags[len(taken)]} {said}" in log
+    assert f"planner command {tags[-1]} {said} (" in log and "like it" in log
     assert all(abs(row["x_mm"]) < 2 and abs(row["yaw_deg"]) < 1 for row in r.truth)

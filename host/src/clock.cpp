@@ -15,8 +15,16 @@ namespace navkit {
 
 volatile int g_quit_signal = 0;
 
-static void on_signal(int sig)
+// A signal sent to the process (kill, raise: si_code <= 0) asks it to end; a fault the
+// kernel raised (SIGSEGV on a bad address, ...) cannot be carried on from: the default
+// action runs as the faulting instruction repeats (a core, as without this handler).
+static void on_signal(int sig, siginfo_t *si, void *)
 {
+    if (si && si->si_code > 0 && (sig == SIGSEGV || sig == SIGBUS || sig == SIGILL || sig == SIGFPE ||
+                                  sig == SIGTRAP || sig == SIGSYS)) {
+        signal(sig, SIG_DFL);
+        return;
+    }
     g_quit_signal = sig;
 }
 
@@ -24,11 +32,22 @@ void install_signal_handlers()
 {
     struct sigaction sa;
     std::memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;  // no SA_RESTART: blocking waits return EINTR
+    sa.sa_sigaction = on_signal;  // no SA_RESTART: blocking waits return EINTR
+    sa.sa_flags = SA_SIGINFO;
     sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, nullptr);
-    sigaction(SIGTERM, &sa, nullptr);
-    signal(SIGPIPE, SIG_IGN);
+    // every signal whose default action ends the process takes the path of SIGTERM
+    // (stop sent last, datalog closed, region removed); SIGKILL cannot be caught
+    static const int ending[] = {SIGHUP,  SIGINT,    SIGQUIT, SIGILL,  SIGTRAP, SIGABRT, SIGBUS,
+                                 SIGFPE,  SIGUSR1,   SIGSEGV, SIGUSR2, SIGALRM, SIGTERM, SIGSTKFLT,
+                                 SIGXCPU, SIGVTALRM, SIGPROF, SIGIO,   SIGPWR,  SIGSYS};
+    for (int sig : ending) {
+        sigaction(sig, &sa, nullptr);
+    }
+    for (int sig = SIGRTMIN; sig <= SIGRTMAX; sig++) {
+        sigaction(sig, &sa, nullptr);
+    }
+    signal(SIGPIPE, SIG_IGN);  // a closed reader: write() returns EPIPE instead
+    signal(SIGXFSZ, SIG_IGN);  // a file over RLIMIT_FSIZE: write() returns EFBIG (the datalog stops)
 }
 
 static int64_t mono_ns()
@@ -129,11 +148,13 @@ bool LockstepClock::wait_frame(FrameTick *tick)
         const ssize_t n = ::read(fd_, b + have, sizeof b - have);
         if (n > 0) {
             have += static_cast<size_t>(n);
-        } else if (n == 0) {
+        } else if (n == 0 || errno == ECONNRESET) {
+            // EOF: the driver is done, shut down cleanly (a reset: it closed its end with
+            // our last done unread, as a driver stopped between frames does)
             if (have) {
                 error_ = "lockstep: EOF in the middle of a tick";
             }
-            return false;  // EOF: the driver is done, shut down cleanly
+            return false;
         } else if (errno != EINTR) {
             error_ = std::string("lockstep: ") + std::strerror(errno);
             return false;

@@ -4,6 +4,8 @@
 #include <cstring>
 #include <fcntl.h>
 #include <grp.h>
+#include <csetjmp>
+#include <csignal>
 #include <stdexcept>
 #include <sys/file.h>
 #include <sys/mman.h>
@@ -74,6 +76,88 @@ void Comm::seqlock_write(uint8_t *base, size_t slot_off, const uint8_t *in, size
     store32(base, slot_off, native32(s + 2), __ATOMIC_RELEASE);
 }
 
+// The SIGBUS guard of the mapped region: another process of our user may ftruncate() it
+// under us, and the next access to a page past its new end faults. An access made
+// through Comm::guarded() jumps back to it instead; any other SIGBUS goes to the handler
+// that was there before (the executive's, or the default: the process ends).
+namespace {
+sigjmp_buf *g_guard = nullptr;                   // the running guarded access's return point
+const uint8_t *g_guard_lo = nullptr, *g_guard_hi = nullptr;  // the mapping it guards, [lo, hi)
+struct sigaction g_prev_bus;                     // SIGBUS's handler before on_bus
+
+void on_bus(int sig, siginfo_t *si, void *ctx)
+{
+    const uint8_t *a = static_cast<const uint8_t *>(si->si_addr);
+    if (g_guard && si->si_code > 0 && a >= g_guard_lo && a < g_guard_hi) {
+        siglongjmp(*g_guard, 1);
+    }
+    if (g_prev_bus.sa_flags & SA_SIGINFO) {
+        g_prev_bus.sa_sigaction(sig, si, ctx);
+    } else if (g_prev_bus.sa_handler != SIG_DFL && g_prev_bus.sa_handler != SIG_IGN) {
+        g_prev_bus.sa_handler(sig);
+    } else {
+        signal(sig, SIG_DFL);  // a fault repeats on return and ends the process; a sent one is raised again
+        if (si->si_code <= 0) {
+            raise(sig);
+        }
+    }
+}
+
+// Puts on_bus in front of SIGBUS's handler of now (once: a second init finds it there).
+void install_bus_guard()
+{
+    struct sigaction now;
+    if (sigaction(SIGBUS, nullptr, &now) != 0 || ((now.sa_flags & SA_SIGINFO) && now.sa_sigaction == on_bus)) {
+        return;
+    }
+    struct sigaction sa;
+    std::memset(&sa, 0, sizeof sa);
+    sa.sa_sigaction = on_bus;
+    sa.sa_flags = SA_SIGINFO;
+    sigemptyset(&sa.sa_mask);
+    g_prev_bus = now;
+    sigaction(SIGBUS, &sa, nullptr);
+}
+}  // namespace
+
+template <class F>
+bool Comm::guarded(F access) const
+{
+    if (!base_) {
+        return false;
+    }
+    struct stat st;
+    if (fstat(fd_, &st) != 0 || st.st_size < static_cast<off_t>(NAVKIT_RCOMM_SIZE)) {
+        lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
+        return false;
+    }
+    if (between_) {
+        between_();
+    }
+    // the size may still shrink between the check and the access: the guard catches that
+    sigjmp_buf back;
+    if (sigsetjmp(back, 1) != 0) {  // 1: the signal mask (SIGBUS blocked in the handler) comes back too
+        g_guard = nullptr;
+        lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
+        return false;
+    }
+    g_guard_lo = base_;
+    g_guard_hi = base_ + NAVKIT_RCOMM_SIZE;
+    g_guard = &back;
+    access();
+    g_guard = nullptr;
+    return true;
+}
+
+void Comm::lose(long long size) const
+{
+    munmap(base_, NAVKIT_RCOMM_SIZE);
+    base_ = nullptr;
+    lost_ = "rcomm " + name_ + ": the region was cut to " +
+            (size < 0 ? std::string("an unknown size") : std::to_string(size) + " bytes") + " by another process (" +
+            std::to_string(NAVKIT_RCOMM_SIZE) + " needed): refused, the planner is gone";
+}
+
 Comm::Comm(std::string name, std::string group) : name_(std::move(name)), group_(std::move(group)) {}
 
 Comm::~Comm()
@@ -103,6 +187,15 @@ void Comm::init()
         }
         shm_unlink(name_.c_str());  // stale: its host ended without removing it
         ::close(fd);
+    } else if (errno != ENOENT) {
+        // there, but not ours to open (EACCES: another user's mode 0600 region)
+        const int e = errno;
+        struct stat st;
+        if (stat(("/dev/shm" + name_).c_str(), &st) == 0 && st.st_uid != geteuid()) {
+            throw std::runtime_error(what + "exists and belongs to another user (uid " + std::to_string(st.st_uid) +
+                                     "): refused");
+        }
+        throw std::runtime_error(what + std::strerror(e));
     }
     fd = shm_open(name_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);
     if (fd < 0) {
@@ -134,6 +227,7 @@ void Comm::init()
         throw std::runtime_error(what + "mmap: " + std::strerror(errno));
     }
     base_ = static_cast<uint8_t *>(p);
+    install_bus_guard();
     // header last-but-magic-last: a client that sees the magic sees the rest
     store32(base_, NAVKIT_RCOMM_VERSION_OFFSET, native32(NAVKIT_RCOMM_VERSION), __ATOMIC_RELAXED);
     store32(base_, NAVKIT_RCOMM_SPEC_HASH_OFFSET, native32(NAVKIT_SPEC_HASH), __ATOMIC_RELAXED);
@@ -159,7 +253,8 @@ void Comm::shutdown()
 bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
 {
     uint8_t b[NAVKIT_LISP_CMD_BYTES];
-    if (!base_ || !seqlock_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, b, sizeof b)) {
+    bool ok = false;
+    if (!guarded([&] { ok = seqlock_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, b, sizeof b); }) || !ok) {
         return false;
     }
     navkit_lisp_cmd_load(b, out);
@@ -169,7 +264,8 @@ bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
 bool Comm::read_emotion(navkit_emotion_t *out) const
 {
     uint8_t b[NAVKIT_EMOTION_BYTES];
-    if (!base_ || !seqlock_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, b, sizeof b)) {
+    bool ok = false;
+    if (!guarded([&] { ok = seqlock_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, b, sizeof b); }) || !ok) {
         return false;
     }
     navkit_emotion_load(b, out);
@@ -180,21 +276,19 @@ void Comm::send_lisp_data(const navkit_lisp_data_t &d)
 {
     uint8_t b[NAVKIT_LISP_DATA_BYTES];
     navkit_lisp_data_store(&d, b);
-    if (base_) {
-        seqlock_write(base_, NAVKIT_RCOMM_LISP_DATA_OFFSET, b, sizeof b);
-    }
+    guarded([&] { seqlock_write(base_, NAVKIT_RCOMM_LISP_DATA_OFFSET, b, sizeof b); });
 }
 
 uint32_t Comm::planner_heartbeat() const
 {
-    return base_ ? le32(load32(base_, NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET, __ATOMIC_ACQUIRE)) : 0;
+    uint32_t v = 0;
+    guarded([&] { v = le32(load32(base_, NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET, __ATOMIC_ACQUIRE)); });
+    return v;
 }
 
 void Comm::set_host_heartbeat(uint32_t v)
 {
-    if (base_) {
-        store32(base_, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, native32(v), __ATOMIC_RELEASE);
-    }
+    guarded([&] { store32(base_, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, native32(v), __ATOMIC_RELEASE); });
 }
 
 }  // namespace navkit

@@ -36,6 +36,19 @@ void Console::init()
 
 void Console::shutdown()
 {
+    for (auto &kv : held_) {
+        if (kv.second.held) {
+            char text[600];
+            if (kv.second.held > 1) {
+                std::snprintf(text, sizeof text, "%s (the last of %u like it held back)", kv.second.last.c_str(),
+                              kv.second.held);
+            } else {
+                std::snprintf(text, sizeof text, "%s (held back)", kv.second.last.c_str());
+            }
+            line(text);
+            kv.second.held = 0;
+        }
+    }
     if (in_raw_) {
         tcsetattr(in_fd_, TCSANOW, &saved_termios_);
         in_raw_ = false;
@@ -47,16 +60,46 @@ void Console::shutdown()
     std::fflush(out_);
 }
 
+void Console::line(const char *text)
+{
+    erase_block();  // the face and status line move below the new line (next status())
+    std::fprintf(out_, "[%9.3f] %s\n", static_cast<double>(t_us_) / 1e6, text);
+    std::fflush(out_);
+}
+
 void Console::print(const char *fmt, ...)
 {
-    char line[512];
+    char text[512];
     va_list ap;
     va_start(ap, fmt);
-    std::vsnprintf(line, sizeof line, fmt, ap);
+    std::vsnprintf(text, sizeof text, fmt, ap);
     va_end(ap);
-    erase_block();  // the face and status line move below the new line (next status())
-    std::fprintf(out_, "[%9.3f] %s\n", static_cast<double>(t_us_) / 1e6, line);
-    std::fflush(out_);
+    line(text);
+}
+
+void Console::print_limited(const char *fmt, ...)
+{
+    char text[512];
+    va_list ap;
+    va_start(ap, fmt);
+    std::vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    Held &h = held_[fmt];
+    if (h.said_us >= 0 && t_us_ - h.said_us < kRepeatPeriodUs && t_us_ >= h.said_us) {
+        h.held++;
+        h.last = text;
+        return;
+    }
+    if (h.held) {
+        char more[600];
+        std::snprintf(more, sizeof more, "%s (%u more like it in the last %.1f s held back)", text, h.held,
+                      static_cast<double>(t_us_ - h.said_us) / 1e6);
+        line(more);
+    } else {
+        line(text);
+    }
+    h.said_us = t_us_;
+    h.held = 0;
 }
 
 void Console::status(const std::string &line)

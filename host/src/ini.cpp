@@ -173,7 +173,7 @@ Table nav_table(Config &c)
         {"console_idle", dbl_key(&e.console_idle_s, 0, 3600)},
         {"shm_name", checked_key(&e.shm_name, shm_name_error)},
         {"shm_group", checked_key(&e.shm_group, shm_group_error)},
-        {"log_dir", checked_key(&e.log_dir, log_dir_error)},
+        {"log_dir", str_key(&e.log_dir, false)},  // log_dir_error: main, on the folder in use
         {"record", bool_key(&e.record)},
         {"dio_default", mask_key(&e.dio_default, 0, 4095)},
         {"mc_datalog", [&e](const std::string &v) -> std::string {
@@ -520,10 +520,18 @@ void Ini::load_file(const std::string &path, Config &cfg)
         const std::string why = k->second(key->value);
         return why.empty() ? "" : key->name + ": " + why;
     });
+    bool any_key = false;
+    for (const IniSection &sec : ini.sections) {
+        any_key = any_key || !sec.keys.empty();
+    }
+    if (!any_key) {
+        cfg.notes.push_back(path + ": no keys (empty, or only comments and sections): every value is its default");
+    }
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
         check_servo_limits(ini, cfg);
         cfg.exec.rate_watchdog_at = later_key(ini, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
+        cfg.exec.log_dir_at = path + ":" + std::to_string(ini.line("executive", "log_dir")) + ": log_dir";
     } else {
         check_ir(ini, cfg);
     }

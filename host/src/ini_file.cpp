@@ -21,10 +21,15 @@ struct Reader {
     const IniCheck *check;
     std::FILE *f;
     int line = 0;        // lines handed to inih so far (inih asks for one line per call)
+    long bytes = 0;      // bytes read from the file so far (at most kMaxIniBytes)
     int read_errno = 0;  // errno of a failed read (0 = none)
     int error_line = 0;  // line of `error`, 0 = none yet
     std::string error;   // "key: reason" of the first refused line
 };
+
+// An INI file larger than this is refused (bytes): a shipped one is a few kB; the bound
+// keeps a link to an endless file (/dev/zero, a pipe) from being read for ever.
+const long kMaxIniBytes = 1L << 20;
 
 void refuse(Reader *r, const std::string &why)
 {
@@ -63,8 +68,11 @@ void note_header(Reader *r, const std::string &line)
 }
 
 // inih's reader: one whole line per call (at most num - 1 characters with its newline),
-// counted; a longer line is refused here (inih would cut it and parse the pieces), and so
-// is an indented key or header (inih would add it to the previous key's value: its
+// counted; a longer line is refused here as soon as it is longer (inih would cut it and
+// parse the pieces; reading on would hold an endless line in memory), and so are a NUL
+// byte (C strings would end the value there), a carriage return that is not part of a
+// CR LF (CR-only line ends: the file would be one long line), a file over kMaxIniBytes,
+// and an indented key or header (inih would add it to the previous key's value: its
 // multi-line continuation, compiled into the system's libinih). After the first refusal
 // it ends the input: only the first is reported.
 char *read_line(char *str, int num, void *stream)
@@ -74,24 +82,48 @@ char *read_line(char *str, int num, void *stream)
         return nullptr;
     }
     std::string line;
+    std::string bad;  // why this line is refused while it is read, "" = not
     int ch;
     while ((ch = std::fgetc(r->f)) != EOF) {
+        if (++r->bytes > kMaxIniBytes) {
+            bad = "file: longer than " + std::to_string(kMaxIniBytes) + " bytes (not an INI file)";
+            break;
+        }
+        if (ch == '\0') {
+            bad = "line: a NUL byte at column " + std::to_string(line.size() + 1) + " (not a text file)";
+            break;
+        }
+        if (ch == '\r') {
+            const int next = std::fgetc(r->f);
+            if (next != EOF) {
+                std::ungetc(next, r->f);
+            }
+            if (next != '\n' && next != EOF) {
+                bad = "line: a carriage return not followed by a line feed at column " +
+                      std::to_string(line.size() + 1) + " (CR-only line ends: save the file with LF or CR LF)";
+                break;
+            }
+        }
         line.push_back(static_cast<char>(ch));
+        if (line.size() > static_cast<size_t>(num) - 1) {
+            bad = "line: longer than " + std::to_string(num - 2) + " characters";
+            break;
+        }
         if (ch == '\n') {
             break;
         }
     }
-    if (ch == EOF && std::ferror(r->f)) {
+    if (bad.empty() && ch == EOF && std::ferror(r->f)) {
         r->read_errno = errno;
         return nullptr;
     }
-    if (line.empty()) {
+    if (line.empty() && bad.empty()) {
         return nullptr;
     }
     r->line++;
     const size_t text = line.find_first_not_of(" \t\r\n\f\v");
-    if (line.size() > static_cast<size_t>(num) - 1) {
-        refuse(r, "line: longer than " + std::to_string(num - 2) + " characters");
+    if (!bad.empty()) {
+        refuse(r, bad);
         line = "\n";  // parsed as an empty line
     } else if (text > 0 && text != std::string::npos && line[text] != ';' && line[text] != '#') {
         // inih would take it as a continuation of the previous key's value
@@ -173,7 +205,7 @@ IniFile ini_read(const std::string &path, const IniCheck &check)
     if (!f) {
         file.fail(0, std::string("file: ") + std::strerror(errno));
     }
-    Reader r{&file, &check, f.get(), 0, 0, 0, ""};
+    Reader r{&file, &check, f.get(), 0, 0, 0, 0, ""};
     const int rc = ini_parse_stream(read_line, &r, on_key, &r);
     if (rc < 0) {
         file.fail(0, "file: inih could not allocate its line buffer");

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <unistd.h>
 
+#include "navkit/ini.hpp"
 #include "navkit/options.hpp"
 #include "navkit/robot.hpp"
 
@@ -44,6 +45,10 @@ int main(int argc, char **argv)
         std::fputs(usage(), stdout);
         return 0;
     }
+    if (o.lockstep && fcntl(o.lockstep_fd, F_GETFD) == -1) {  // a usage error, said before any start-up
+        std::fprintf(stderr, "navkit-host: --lockstep-fd %d: not an open file descriptor\n%s", o.lockstep_fd, usage());
+        return 2;
+    }
     Config cfg;
     try {
         cfg = Ini::load(o.config_dir);
@@ -72,7 +77,13 @@ int main(int argc, char **argv)
         cfg.exec.shm_name = o.shm;
     }
     if (!o.log_dir.empty()) {
-        cfg.exec.log_dir = o.log_dir;
+        cfg.exec.log_dir = o.log_dir;  // checked by parse_options
+    } else {
+        const std::string why = log_dir_error(cfg.exec.log_dir);
+        if (!why.empty()) {
+            std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.log_dir_at.c_str(), why.c_str());
+            return 1;
+        }
     }
     cfg.exec.record = cfg.exec.record || o.record;
 
@@ -92,18 +103,29 @@ int main(int argc, char **argv)
         r.console.shutdown();
         return 1;
     }
+    for (const std::string &note : cfg.notes) {
+        r.console.print("%s", note.c_str());
+    }
     FrameTick tick;
+    int rc = 0;
     while (clock->wait_frame(&tick)) {
         r.tick = tick;
         RobotMain(r);
-        const uint32_t flags = (r.quit ? 1u : 0u) | (r.micro.port_open() ? 0u : 2u);
+        // the planner's region cut short under us: no planner, so the robot stops and the
+        // executive ends (RobotShutdown sends the stop) rather than drive on unattended
+        const bool lost = !r.comm.lost().empty();
+        const uint32_t flags = (r.quit || lost ? 1u : 0u) | (r.micro.port_open() ? 0u : 2u);
         clock->frame_done(r.micro.tx_bytes_frame(), flags);
+        if (lost) {
+            r.console.print("%s: stopping the robot and shutting down", r.comm.lost().c_str());
+            rc = 1;
+            break;
+        }
         if (r.quit) {
             r.console.print("Q: quitting");
             break;
         }
     }
-    int rc = 0;
     if (!clock->error().empty()) {
         r.console.print("%s", clock->error().c_str());
         rc = 1;

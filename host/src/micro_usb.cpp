@@ -11,8 +11,13 @@
 #include <fcntl.h>
 #include <fstream>
 #include <poll.h>
+#include <sys/file.h>
+#include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <termios.h>
 #include <unistd.h>
+#include <stdexcept>
 #include <vector>
 
 #include "navkit/console.hpp"
@@ -137,9 +142,12 @@ std::string SerialPort::open(const MicroCfg &cfg)
     if (!speed) {
         return "baud " + std::to_string(cfg.baud) + " is not supported";
     }
+    busy_ = false;
     const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) {
-        return path + ": " + std::strerror(errno);
+        busy_ = errno == EBUSY;  // TIOCEXCL of another holder
+        return path + ": " + (busy_ ? "in use by another process (it holds the port exclusively, TIOCEXCL)"
+                                    : std::string(std::strerror(errno)));
     }
     termios t;
     if (tcgetattr(fd, &t) != 0) {
@@ -147,6 +155,18 @@ std::string SerialPort::open(const MicroCfg &cfg)
         ::close(fd);
         return path + ": not a serial port (" + std::strerror(e) + ")";
     }
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        const int e = errno;
+        const long pid = lock_holder(fd);
+        ::close(fd);
+        busy_ = e == EWOULDBLOCK;
+        if (!busy_) {
+            return path + ": lock: " + std::strerror(e);
+        }
+        return path + ": in use by " + (pid > 0 ? "process " + std::to_string(pid) : std::string("another process")) +
+               " (it holds the port's lock): two programs must not drive one micro";
+    }
+    ioctl(fd, TIOCEXCL);  // the lock is the rule; this also keeps out tools that do not ask for it
     cfmakeraw(&t);
     cfsetispeed(&t, speed);
     cfsetospeed(&t, speed);
@@ -171,9 +191,33 @@ std::string SerialPort::open(const MicroCfg &cfg)
     return "";
 }
 
+long SerialPort::lock_holder(int fd)
+{
+    struct stat st;
+    if (fstat(fd, &st) != 0) {
+        return 0;
+    }
+    // "1: FLOCK  ADVISORY  WRITE 12308 00:1a:3 0 EOF": pid, then major:minor (hex) and inode
+    std::ifstream f("/proc/locks");
+    std::string line;
+    while (std::getline(f, line)) {
+        long pid = 0;
+        unsigned maj = 0, min = 0;
+        unsigned long long ino = 0;
+        char kind[16];
+        if (std::sscanf(line.c_str(), "%*d: %15s %*s %*s %ld %x:%x:%llu", kind, &pid, &maj, &min, &ino) == 5 &&
+            std::strcmp(kind, "FLOCK") == 0 && maj == major(st.st_dev) && min == minor(st.st_dev) &&
+            ino == static_cast<unsigned long long>(st.st_ino) && pid != getpid()) {
+            return pid;
+        }
+    }
+    return 0;
+}
+
 void SerialPort::close()
 {
     if (fd_ >= 0) {
+        ioctl(fd_, TIOCNXCL);  // the tty is free for the next opener (a pty outlives our descriptor)
         ::close(fd_);
         fd_ = -1;
     }
@@ -247,7 +291,7 @@ void MicroUsb::init()
 {
     last_ = stop_command(0);  // the seed's Navigation Init: the current command is Stop
     last_.time_tag = 1;
-    open_port();
+    open_port(true);
 }
 
 void MicroUsb::shutdown()
@@ -262,9 +306,13 @@ void MicroUsb::reset_parser()
     seen_schema_mismatch_ = 0;
 }
 
-void MicroUsb::open_port()
+void MicroUsb::open_port(bool starting)
 {
     const std::string err = port_.open(cfg_);
+    if (starting && port_.busy()) {
+        // another executive (or tool) drives this micro: starting beside it is refused
+        throw std::runtime_error("micro port " + err + ": not starting");
+    }
     if (!err.empty()) {
         if (err != last_open_error_) {
             con_.print("micro port: %s (trying again every frame)", err.c_str());
@@ -329,6 +377,8 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
     uint8_t buf[4096];
     long total = 0;
     unsigned got = 0;
+    bool foreign_last = false;  // the newest whole micro_data carried another spec's hash
+    uint32_t foreign_hash = 0;
     const int64_t deadline_ms = mono_ms() + 1000;  // lockstep: wait at most 1 s for rx_bytes
     // real time: read until nothing waits, bounded so a streaming micro cannot hold the frame
     for (int reads = 0; port_.is_open() && reads < 256; reads++) {
@@ -348,12 +398,19 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
             while (navkit_parser_next(&parser_, &f, &fl)) {
                 // the parser only returns micro_data (DIR_TO_HOST); the newest one wins.
                 // One that does not decode, or has a field outside the spec's range, is
-                // dropped and counted (decode_failures).
+                // dropped and counted (decode_failures). One of another spec's hash (our
+                // length, so it decodes) is used for nothing but saying so: its words
+                // may mean other things.
                 navkit_micro_data_t m;
                 int bad = -1;
-                if (navkit_micro_data_decode(f, fl, &m) == NAVKIT_OK && navkit_micro_data_check(&m, &bad) == NAVKIT_OK) {
+                const bool decoded = navkit_micro_data_decode(f, fl, &m) == NAVKIT_OK;
+                if (decoded && m.spec_hash != NAVKIT_SPEC_HASH) {
+                    foreign_last = true;
+                    foreign_hash = m.spec_hash;
+                } else if (decoded && navkit_micro_data_check(&m, &bad) == NAVKIT_OK) {
                     *out = m;
                     got++;
+                    foreign_last = false;
                 } else {
                     base_.decode_failures++;
                     last_bad_field_ = bad;
@@ -394,24 +451,34 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
     const LinkCounters c = counters();
     if ((c.rejected() != reported_.rejected() || c.dropped_bytes != reported_.dropped_bytes) &&
         (last_error_report_us_ < 0 || now_us_ - last_error_report_us_ >= 1000000)) {
-        // at most one line per second of frame time, naming the stream offset of the last reject
+        // at most one line per second of frame time, naming the stream offset of the last
+        // reject; bytes dropped while no frame was found to reject are said as such
+        std::string why;
+        if (parser_.last_error != NAVKIT_OK) {
+            why = std::string("last reject: ") + navkit_error_text(parser_.last_error) + " at stream byte offset " +
+                  std::to_string(parser_.last_error_offset);
+        } else if (c.dropped_bytes) {
+            why = "no frame rejected: the dropped bytes held no frame start";
+        }
+        if (c.decode_failures) {
+            why += std::string(why.empty() ? "" : "; ") + "last decode failure: " +
+                   (last_bad_field_ >= 0 ? navkit_micro_data_field_name(last_bad_field_) : "not a micro_data");
+        }
         con_.print("micro link: bad CRC %llu, unknown type %llu, bad length %llu, other spec %llu, "
-                   "decode failures %llu, dropped bytes %llu so far (last reject: %s at stream byte offset %u%s%s)",
+                   "decode failures %llu, dropped bytes %llu so far (%s)",
                    static_cast<unsigned long long>(c.bad_crc), static_cast<unsigned long long>(c.unknown_type),
                    static_cast<unsigned long long>(c.bad_length), static_cast<unsigned long long>(c.schema_mismatch),
                    static_cast<unsigned long long>(c.decode_failures),
-                   static_cast<unsigned long long>(c.dropped_bytes), navkit_error_text(parser_.last_error),
-                   static_cast<unsigned>(parser_.last_error_offset),
-                   c.decode_failures ? "; last decode failure: " : "",
-                   c.decode_failures ? (last_bad_field_ >= 0 ? navkit_micro_data_field_name(last_bad_field_)
-                                                             : "not a micro_data")
-                                     : "");
+                   static_cast<unsigned long long>(c.dropped_bytes), why.c_str());
         reported_ = c;
         last_error_report_us_ = now_us_;
     }
     if (got) {
         last_rx_us_ = now_us_;
         note_data(*out);
+    }
+    if (foreign_last) {
+        note_foreign_hash(foreign_hash);  // after any of ours: the newest frame says what the micro is now
     }
     return got > 0;
 }
@@ -420,10 +487,6 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
 {
     have_data_ = true;
     status_ = d.status;
-    if (d.spec_hash != NAVKIT_SPEC_HASH) {
-        note_foreign_hash(d.spec_hash);
-        return;
-    }
     if (mismatch_) {
         con_.print("micro spec hash matches the host's 0x%08X now (was 0x%08X): configuring it",
                    static_cast<unsigned>(NAVKIT_SPEC_HASH), static_cast<unsigned>(mismatch_hash_));

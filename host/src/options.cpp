@@ -47,10 +47,12 @@ std::string parse_options(int argc, char **argv, Options *o)
             o->record = true;
         } else if (a == "--config" || a == "--port" || a == "--rate" || a == "--clock" ||
                    a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
-            if (!value(&v) || v.empty()) {
+            if (!value(&v)) {
                 return a + ": needs a value" +
-                       (i + 1 < argc && argv[i + 1][0] == '-' ? std::string(" (got the option ") + argv[i + 1] + ")"
-                                                               : std::string());
+                       (i + 1 < argc ? std::string(" (got the option ") + argv[i + 1] + ")" : std::string());
+            }
+            if (v.empty()) {
+                return a + ": needs a value (got an empty one)";
             }
             if (a == "--config") {
                 o->config_dir = v;
@@ -73,7 +75,7 @@ std::string parse_options(int argc, char **argv, Options *o)
                 }
                 o->lockstep_fd = static_cast<int>(fd);
             } else if (a == "--shm") {
-                o->shm = v[0] == '/' ? v : "/" + v;
+                o->shm = v;  // as [executive] shm_name: one rule, so "navkit" is refused here too
                 const std::string why = shm_name_error(o->shm);
                 if (!why.empty()) {
                     return a + ": " + why;

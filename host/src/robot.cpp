@@ -159,7 +159,7 @@ static void update_face(Robot &r, bool micro_active)
 {
     const FaceUpdate u = r.animation.update(r.emotion, micro_active);
     if (u.rejected) {
-        r.console.print("planner emotion %d rejected: %s out of the spec's range (face keeps the last one)",
+        r.console.print_limited("planner emotion %d rejected: %s out of the spec's range (face keeps the last one)",
                         static_cast<int>(r.emotion.time_tag), navkit_emotion_field_name(u.rejected_field));
     }
     r.console.set_face(r.animation.lines());
@@ -241,11 +241,11 @@ void RobotMain(Robot &r)
         r.key_ignored_us = now;
     }
     if (arb.planner_rejected) {
-        r.console.print("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),
+        r.console.print_limited("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),
                         navkit_lisp_cmd_field_name(arb.rejected_field));
     }
     if (arb.planner_dropped) {
-        r.console.print("planner command %d not obeyed: %s", static_cast<int>(arb.rejected_time_tag),
+        r.console.print_limited("planner command %d not obeyed: %s", static_cast<int>(arb.rejected_time_tag),
                         arb.teleop == Teleop::stop ? "the console's stop key came in the same frame"
                                                    : "a safety stop holds");
     }
@@ -260,13 +260,13 @@ void RobotMain(Robot &r)
         online && r.have_data && !r.micro.spec_mismatch() ? std::optional<uint16_t>(r.data.heading) : std::nullopt;
     const NavOutput nav = r.nav.update(arb, heading);
     if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_NOT_IMPLEMENTED) {
-        r.console.print("planner fwd_cmd %d (high level) is not implemented", static_cast<int>(arb.planner.fwd_cmd));
+        r.console.print_limited("planner fwd_cmd %d (high level) is not implemented", static_cast<int>(arb.planner.fwd_cmd));
     } else if (arb.planner_new && r.nav.heading_missing()) {
-        r.console.print("planner command %d rejected: heading hold (turn mode 11) needs the micro's current "
+        r.console.print_limited("planner command %d rejected: heading hold (turn mode 11) needs the micro's current "
                         "heading, and no fresh micro_data has come (micro offline): send it again later",
                         static_cast<int>(arb.planner.time_tag));
     } else if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_REJECTED) {
-        r.console.print("planner command %d rejected: a value does not fit the micro command",
+        r.console.print_limited("planner command %d rejected: a value does not fit the micro command",
                         static_cast<int>(arb.planner.time_tag));
     }
     // 7. send one micro message (Q: this frame's message is the stop, when the micro is

@@ -17,6 +17,13 @@ magic, layout version, spec hash and owner, and then:
 A planner should call heartbeat() at least once per host frame while it lives;
 write_cmd() bumps it too.
 
+Names are POSIX shared-memory names as the host takes them (`--shm`, shm_name): "/"
+then 1..255 characters, no other "/", not "." or ".."; the region is opened without
+following a symbolic link. Another process of the host's user can cut the region short
+(ftruncate) while it is in use: every access first checks its size, and a region shorter
+than the layout raises RcommError instead of a SIGBUS (a cut in the microseconds between
+that check and the access still ends the process: Python cannot guard a mapped access).
+
 Owner rule (the same as rcomm.h's): a region owned by our user is accepted; one of
 another user only when its group is one of ours and its mode gives that group read and
 write (the host's `shm_group = NAME`, mode 0660); a world-writable region never.
@@ -40,13 +47,15 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import errno
 import mmap
 import os
+import stat
 import struct
 
 from navkit import protocol
 
-__all__ = ["Client", "RcommError", "owner_refusal"]
+__all__ = ["Client", "RcommError", "name_refusal", "owner_refusal"]
 
 _LAYOUT = protocol.SPEC.rcomm      # the region as the spec lays it out ([links.rcomm]), bytes
 _MAGIC, _VERSION, _SPEC = (_LAYOUT.header[w] for w in ("magic", "version", "spec_hash"))
@@ -92,8 +101,22 @@ def owner_refusal(uid: int, gid: int, mode: int) -> str:
             f"(mode {mode & 0o777:03o})")
 
 
+_NAME_MAX = 255                     # bytes of a shared-memory name after its "/" (NAME_MAX)
+
+
+def name_refusal(name: str) -> str:
+    """Why `name` is not a POSIX shared-memory name the host takes, or "" when it is
+    (the rule of the module docstring)."""
+    rest = name[1:]
+    if (not name.startswith("/") or not rest or "/" in rest or rest in (".", "..")
+            or len(rest.encode(errors="surrogateescape")) > _NAME_MAX or "\0" in rest):
+        return (f"{name!r} is not a POSIX shared-memory name ('/' then 1..{_NAME_MAX} characters, "
+                "no other '/', not . or ..)")
+    return ""
+
+
 def _path(name: str) -> str:
-    return "/dev/shm/" + name.lstrip("/")
+    return "/dev/shm" + name
 
 
 class Client:
@@ -101,22 +124,32 @@ class Client:
 
     def __init__(self, name: str = "/navkit"):
         self.name = name
-        try:
-            fd = os.open(_path(name), os.O_RDWR)
-        except OSError as e:
-            raise RcommError(f"rcomm {name}: {e.strerror}") from None
         self._mm = None
         self._anchor = None
+        self._fd = -1
+        why = name_refusal(name)
+        if why:
+            raise RcommError(f"rcomm {why}")
+        try:
+            fd = os.open(_path(name), os.O_RDWR | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK)
+        except OSError as e:
+            if e.errno == errno.ELOOP:
+                raise RcommError(f"rcomm {name}: {_path(name)} is a symbolic link: refused") from None
+            raise RcommError(f"rcomm {name}: {e.strerror}") from None
         try:
             st = os.fstat(fd)
+            if not stat.S_ISREG(st.st_mode):
+                raise RcommError(f"rcomm {name}: {_path(name)} is not a shared-memory region: refused")
             why = owner_refusal(st.st_uid, st.st_gid, st.st_mode)
             if why:
                 raise RcommError(f"rcomm {name}: {why}: refused")
             if st.st_size < _LAYOUT.size:
                 raise RcommError(f"rcomm {name}: {st.st_size} bytes, the layout needs {_LAYOUT.size}")
             self._mm = mmap.mmap(fd, _LAYOUT.size)
-        finally:
+        except BaseException:
             os.close(fd)
+            raise
+        self._fd = fd                      # kept open: every access checks the region's size
         # the mapping's address for libatomic; released in close() before the unmap
         self._anchor = ctypes.c_char.from_buffer(self._mm)
         self._base = ctypes.addressof(self._anchor)
@@ -132,9 +165,16 @@ class Client:
 
     # ------------------------------------------------------------ shared words
     def _open(self) -> None:
-        """Raise RcommError after close() (the mapping's address is gone)."""
+        """Raise RcommError after close() (the mapping's address is gone), or when the
+        region is shorter than the layout now (cut by another process: the access would
+        end this process with SIGBUS); the client is closed then."""
         if self._mm is None:
             raise RcommError(f"rcomm {self.name}: closed")
+        size = os.fstat(self._fd).st_size
+        if size < _LAYOUT.size:
+            self.close()
+            raise RcommError(f"rcomm {self.name}: the region was cut to {size} bytes by another process "
+                             f"(the layout needs {_LAYOUT.size}): closed")
 
     def _word(self, off: int) -> int:
         """Atomic load of the uint32 at byte offset off (seq_cst)."""
@@ -236,6 +276,9 @@ class Client:
         if self._mm is not None:
             self._mm.close()
             self._mm = None
+        if self._fd >= 0:
+            os.close(self._fd)
+            self._fd = -1
 
     def __enter__(self) -> "Client":
         return self

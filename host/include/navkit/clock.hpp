@@ -29,7 +29,9 @@ public:
     virtual std::string error() const = 0;
 };
 
-// Set by SIGINT/SIGTERM; every blocking wait returns when it is set.
+// The number of a signal that asks the process to end (every one whose default action
+// ends it: SIGHUP, SIGINT, SIGQUIT, SIGTERM, SIGUSR1, ...; not a kernel fault); every
+// blocking wait returns when it is set.
 extern volatile int g_quit_signal;
 void install_signal_handlers();
 

@@ -3,9 +3,12 @@
 // behind a seqlock. The host creates the region (mode 0600, or 0660 with a group) and
 // holds an flock() on it while it runs; it refuses a region owned by another user or
 // locked by a running host, replaces a stale one of its user, and unlinks it at shutdown.
+// A region another process cut short (ftruncate) is let go at the next access, never a
+// SIGBUS: every access checks the size and runs under a SIGBUS guard (comm.cpp).
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 extern "C" {
@@ -30,14 +33,28 @@ public:
     void send_lisp_data(const navkit_lisp_data_t &d);
     uint32_t planner_heartbeat() const;
     void set_host_heartbeat(uint32_t v);
+    // "" while the region is usable; else why it was let go (cut short by another
+    // process): every access since reads nothing and writes nothing.
+    const std::string &lost() const { return lost_; }
+    // Called between each access's size check and the access (tests: another process
+    // cutting the region in that moment); empty by default.
+    void set_between_check_and_access(std::function<void()> f) { between_ = std::move(f); }
 
     // Seqlock on a mapped slot (seq word at slot_off, then nbytes): exposed for tests.
     static bool seqlock_read(const uint8_t *base, size_t slot_off, uint8_t *out, size_t nbytes);
     static void seqlock_write(uint8_t *base, size_t slot_off, const uint8_t *in, size_t nbytes);
 
 private:
+    // Runs access() on the mapping when it is whole and returns true; false (and the
+    // region let go, lost() says why) if it is shorter than the layout or shrinks meanwhile.
+    template <class F>
+    bool guarded(F access) const;
+    void lose(long long size) const;  // size: the region's bytes now, -1 unknown
+
     std::string name_, group_;
-    uint8_t *base_ = nullptr;
+    mutable uint8_t *base_ = nullptr;  // nullptr: not mapped (before init, after shutdown or lose)
+    mutable std::string lost_;
+    std::function<void()> between_;
     int fd_ = -1;            // the region, kept open for its lock
     bool created_ = false;
 };

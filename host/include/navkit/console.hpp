@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <termios.h>
 #include <vector>
@@ -23,6 +24,12 @@ public:
     void shutdown();
     // A scrolling line, stamped with the frame time (s).
     void print(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+    // print(), at most once per kRepeatPeriodUs of frame time for each format string (a
+    // message that can come every frame: a planner writing bad commands, ...). The lines
+    // held back are counted and said with the next one of that format; shutdown() says
+    // the last held back of each.
+    void print_limited(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+    static constexpr int64_t kRepeatPeriodUs = 1000000;
     void set_time_us(int64_t t_us) { t_us_ = t_us; }
     void status(const std::string &line);
     // The face's lines: on a terminal drawn above the status line from the next status()
@@ -37,6 +44,14 @@ public:
 
 private:
     void erase_block();  // terminal: cursor to the face block's first line, clear below
+    void line(const char *text);  // one scrolling line, stamped
+
+    struct Held {
+        int64_t said_us = -1;  // frame time its last line was printed, us
+        unsigned held = 0;     // lines held back since
+        std::string last;      // the last one held back
+    };
+    std::map<const char *, Held> held_;  // print_limited's formats (literals: one address each)
 
     std::FILE *out_;
     int in_fd_;

@@ -33,6 +33,9 @@ struct ExecutiveCfg {
     // "file:line: key" of the later of frame_rate_hz and [micro_cfg_motion] watchdog_timeout
     // (where a pair that does not fit together is named; see frame_watchdog_error)
     std::string rate_watchdog_at;
+    // "file:line: log_dir" where log_dir was set (or its section's line, or 0: the default);
+    // the folder is checked (log_dir_error) by main only when --log-dir does not replace it
+    std::string log_dir_at;
 };
 
 // Numbers of the INI files and the command line. Integers are decimal: [+-]digits (a
@@ -149,6 +152,9 @@ struct Config {
     SafetyCfg safety;
     SensorsCfg sensors;
     AnimationCfg animation;
+    // What start-up says once about the files read (a file without any key: every value
+    // its default), in file order; main prints them.
+    std::vector<std::string> notes;
 };
 
 class Ini {

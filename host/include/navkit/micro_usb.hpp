@@ -29,14 +29,22 @@ struct DeviceRoots {
     std::string sys = "/sys";
 };
 
-// The port: discovery, termios, non-blocking read/write. Pure OS plumbing.
+// The port: discovery, termios, non-blocking read/write. Pure OS plumbing. An open port
+// is held exclusively, as serial tools hold theirs: an flock(LOCK_EX) on the device
+// (seen by every process that asks for it, root too) and TIOCEXCL (further open()s of
+// the tty fail with EBUSY, except root's), both dropped by close().
 class SerialPort {
 public:
     explicit SerialPort(DeviceRoots roots = DeviceRoots()) : roots_(std::move(roots)) {}
     ~SerialPort();
-    // port = "auto" or a path. "" on success, else why not.
+    // port = "auto" or a path. "" on success, else why not; busy() says whether the
+    // reason was another process holding the port.
     std::string open(const MicroCfg &cfg);
     void close();
+    bool busy() const { return busy_; }
+    // Process id holding an flock on the file of fd (st_dev, st_ino, from /proc/locks),
+    // other than ours; 0 when none is listed.
+    static long lock_holder(int fd);
     bool is_open() const { return fd_ >= 0; }
     int fd() const { return fd_; }
     const std::string &path() const { return path_; }
@@ -56,6 +64,7 @@ public:
 private:
     DeviceRoots roots_;
     int fd_ = -1;
+    bool busy_ = false;  // the last open() failed because another process holds the port
     std::string path_;
 };
 
@@ -119,7 +128,8 @@ public:
     const navkit_micro_cmd_t &last_command() const { return last_; }
 
 private:
-    void open_port();
+    // starting: a port another process holds is refused (std::runtime_error), not retried.
+    void open_port(bool starting = false);
     void port_lost(const char *why);
     void note_data(const navkit_micro_data_t &d);
     // A micro that runs spec `hash` (not ours): not driven, said once a second.

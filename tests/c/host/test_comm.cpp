@@ -2,8 +2,10 @@
 // header rcomm.h against the host's side.
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstring>
 #include <fcntl.h>
+#include <sys/wait.h>
 #include <grp.h>
 #include <string>
 #include <sys/mman.h>
@@ -224,5 +226,97 @@ TEST(Comm, ShmGroupGivesTheGroupAndMode0660)
     EXPECT_EQ(st.st_mode & 0777, 0660u) << "owner and group read and write, nobody else";
     EXPECT_EQ(st.st_gid, gid) << "the region's group is " << name_of_group;
     EXPECT_EQ(st.st_uid, geteuid());
+    c.shutdown();
+}
+
+TEST(Comm, ARegionOfAnotherUserIsNamedAsSuchToAUserWhoCannotOpenIt)
+{
+    // root opens any region (and sees its owner); an ordinary user gets EACCES from
+    // shm_open, which must not end up as "File exists" from the O_EXCL create after it
+    if (geteuid() != 0) {
+        GTEST_SKIP() << "needs root to make a region owned by another user";
+    }
+    const std::string name = unique_name("foreign-user");
+    const int fd = shm_open(name.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);  // root's, 0600
+    ASSERT_GE(fd, 0);
+    close(fd);
+    int p[2];
+    ASSERT_EQ(pipe(p), 0);
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {  // as nobody: the message goes up the pipe
+        close(p[0]);
+        std::string said = "accepted";
+        if (setgid(65534) != 0 || setuid(65534) != 0) {
+            said = "setuid failed";
+        } else {
+            try {
+                Comm c(name, "");
+                c.init();
+            } catch (const std::runtime_error &e) {
+                said = e.what();
+            }
+        }
+        (void)!write(p[1], said.data(), said.size());
+        _exit(0);
+    }
+    close(p[1]);
+    char buf[512];
+    const ssize_t n = read(p[0], buf, sizeof buf);
+    close(p[0]);
+    waitpid(child, nullptr, 0);
+    shm_unlink(name.c_str());
+    ASSERT_GT(n, 0);
+    EXPECT_EQ(std::string(buf, static_cast<size_t>(n)), "rcomm " + name + ": exists and belongs to another user (uid 0): refused");
+}
+
+TEST(Comm, ARegionCutShortIsLetGoNeverASigbus)
+{
+    const std::string name = unique_name("cut");
+    for (const bool between : {false, true}) {
+        // cut before the access (the size check sees it) and between the size check and
+        // the access (the page is gone when it is touched: the SIGBUS guard)
+        Comm c(name, "");
+        c.init();
+        const int rfd = shm_open(name.c_str(), O_RDWR, 0);
+        ASSERT_GE(rfd, 0);
+        navkit_lisp_cmd_t cmd;
+        navkit_lisp_data_t d;
+        navkit_lisp_data_defaults(&d);
+        c.send_lisp_data(d);
+        EXPECT_EQ(c.lost(), "");
+        if (between) {
+            c.set_between_check_and_access([rfd] { (void)!ftruncate(rfd, 0); });
+        } else {
+            ASSERT_EQ(ftruncate(rfd, 0), 0);
+        }
+        EXPECT_FALSE(c.read_lisp_cmd(&cmd));
+        EXPECT_EQ(c.lost(), "rcomm " + name + ": the region was cut to 0 bytes by another process (" +
+                                std::to_string(NAVKIT_RCOMM_SIZE) + " needed): refused, the planner is gone");
+        c.send_lisp_data(d);
+        EXPECT_EQ(c.planner_heartbeat(), 0u) << "nothing is read after";
+        close(rfd);
+        c.shutdown();
+        struct stat st;
+        EXPECT_NE(stat(("/dev/shm" + name).c_str(), &st), 0) << "removed at shutdown all the same";
+    }
+}
+
+TEST(Comm, AGuardedFaultIsCountedOnlyInsideTheRegion)
+{
+    // the guard is there for the region's accesses only: a SIGBUS sent by kill while a
+    // region is mapped goes to the handler before it (here: a flag)
+    static volatile sig_atomic_t seen = 0;
+    struct sigaction sa, old;
+    std::memset(&sa, 0, sizeof sa);
+    sa.sa_handler = [](int) { seen = 1; };
+    sigemptyset(&sa.sa_mask);
+    ASSERT_EQ(sigaction(SIGBUS, &sa, &old), 0);
+    const std::string name = unique_name("chain");
+    Comm c(name, "");
+    c.init();
+    raise(SIGBUS);
+    EXPECT_EQ(seen, 1);
+    EXPECT_EQ(c.lost(), "");
     c.shutdown();
 }

@@ -2,7 +2,13 @@
 // path:line: key: reason, the earliest line's only; the caller's check joins that order.
 #include <gtest/gtest.h>
 
+#include <csignal>
+#include <cstdio>
+#include <fcntl.h>
 #include <string>
+#include <sys/stat.h>
+#include <thread>
+#include <unistd.h>
 #include <vector>
 
 #include "navkit/ini_file.hpp"
@@ -118,4 +124,50 @@ TEST_F(IniRead, CheckSeesHeadersAndKeysInOrderAndJoinsTheFirstRefusal)
         return k && k->value == "odd" ? k->name + ": odd" : "";
     };
     EXPECT_EQ(error("[a]\nx = odd\ny = odd\nx = 2\n", odd), path_ + ":2: x: odd");
+}
+
+TEST_F(IniRead, NulByteIsRefusedNotACutValue)
+{
+    // `frame_rate_hz = 2\0 0` would read as 2 through a C string
+    EXPECT_EQ(error(std::string("[a]\nx = 2\0 0\n", 13)),
+              path_ + ":2: line: a NUL byte at column 6 (not a text file)");
+}
+
+TEST_F(IniRead, CrOnlyLineEndsAreSaidAsSuch)
+{
+    EXPECT_EQ(error("[a]\rx = 1\r"), path_ + ":1: line: a carriage return not followed by a line feed at column 4 "
+                                             "(CR-only line ends: save the file with LF or CR LF)");
+    EXPECT_EQ(error("[a]\r\nx = 1\r\n"), "") << "CR LF is fine";
+}
+
+TEST_F(IniRead, EndlessInputIsReadBounded)
+{
+    // a link to /dev/zero: refused at its first byte, not read for ever
+    std::remove(path_.c_str());
+    ASSERT_EQ(symlink("/dev/zero", path_.c_str()), 0);
+    try {
+        ini_read(path_);
+        ADD_FAILURE() << "read";
+    } catch (const ConfigError &e) {
+        EXPECT_EQ(std::string(e.what()), path_ + ":1: line: a NUL byte at column 1 (not a text file)");
+    }
+    std::remove(path_.c_str());
+    // an endless stream of comment lines (a FIFO whose writer never stops): refused at
+    // the byte bound; the writer sees the reader go (EPIPE) and ends
+    ASSERT_EQ(mkfifo(path_.c_str(), 0600), 0);
+    std::thread writer([this] {
+        signal(SIGPIPE, SIG_IGN);
+        const int fd = open(path_.c_str(), O_WRONLY);
+        const std::string chunk(4096, '\n');
+        while (fd >= 0 && write(fd, chunk.data(), chunk.size()) > 0) {
+        }
+        close(fd);
+    });
+    try {
+        ini_read(path_);
+        ADD_FAILURE() << "read";
+    } catch (const ConfigError &e) {
+        EXPECT_EQ(std::string(e.what()), path_ + ":1048577: file: longer than 1048576 bytes (not an INI file)");
+    }
+    writer.join();
 }
