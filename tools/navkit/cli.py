@@ -21,6 +21,7 @@ SUBCOMMANDS = {
     "plot": ("navkit.plot", "plot an MCAP run or a seed-format datalog"),
     "bench-host": ("navkit.host_bench", "benchmark the host's real-time frame loop (start error, drift, CPU)"),
     "bench-sim": ("navkit.sim_bench", "benchmark the co-simulation (real-time factor, time shares, memory)"),
+    "bench-pil": ("navkit.pil_bench", "benchmark processor in the loop: the AVR image's tick and link-poll cycles, CPU share, real-time factor"),
     "flash": ("navkit.flash", "flash the firmware image to an Arduino Mega 2560 with avrdude"),
     "simboard": ("navkit.simboard", "a simulated Arduino Mega 2560 (simavr) with its bootloader on a pty"),
     "compare": ("navkit.compare", "compare two co-simulation runs (pose, speed, heading over time)"),
