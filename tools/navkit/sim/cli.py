@@ -49,9 +49,33 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-plot", action="store_true", help="skip plot.png")
 
 
+def _out_refusal(out: Path) -> str:
+    """Why the output folder `out` cannot be used (it is made by the run), or ""."""
+    import os
+
+    if out.exists():
+        return "" if out.is_dir() else "not a folder"
+    up = out.parent
+    while not up.exists() and up != up.parent:
+        up = up.parent
+    if not up.is_dir():
+        return f"cannot create it: {up} is not a folder"
+    if not os.access(up, os.W_OK | os.X_OK):
+        return f"cannot create it: no permission to create files in {up}"
+    return ""
+
+
+def _interrupt(signum, _frame):
+    """SIGTERM, SIGHUP, SIGQUIT: stop the run as Ctrl-C does (navkit.sim.harness.run)."""
+    raise KeyboardInterrupt(signum)
+
+
 def run(args) -> int:
     """Run the mission; 0 on success; 1 (a bad mission, config or run) or 2 (a bad option)
-    with one line on stderr."""
+    with one line on stderr; 128 + the signal's number (130 for Ctrl-C) when a signal
+    stopped it: the outputs are closed and summary.json says `interrupted`."""
+    import signal
+
     from navkit.paths import build_dir, repo_root
     from navkit.sim.harness import SimError, SimOptions
     from navkit.sim.harness import run as run_sim
@@ -66,18 +90,34 @@ def run(args) -> int:
     except MissionError as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
+    for w in mission.warnings:
+        print(f"warning: {w}", file=sys.stderr)
     build = args.build or build_dir()
     out = args.out or build / "sim" / mission.name
+    why = _out_refusal(out)
+    if why:
+        print(f"navkit sim: {'--out ' if args.out else 'output folder '}{out}: {why}", file=sys.stderr)
+        return 1
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
                       config_dir=args.config, build=build, plant_fmu=args.plant,
                       firmware=args.firmware,
                       frame_s=args.frame_ms / 1000 if args.frame_ms is not None else None,
                       plot=not args.no_plot)
+    from navkit.sim.harness import SimInterrupted
+
+    for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
+        signal.signal(sig, _interrupt)
     try:
         s = run_sim(opts)
     except (MissionError, SimError) as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
+    except OSError as e:        # the outputs: a folder that cannot be made, a full disk
+        print(f"navkit sim: {e.filename or out}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    except SimInterrupted as e:
+        print(f"navkit sim: {e}: outputs closed in {out}/ (summary.json says interrupted)", file=sys.stderr)
+        return 128 + e.signum
     t = s.get("truth") or {}
     print(f"mission   {mission.path}  (seed {args.seed}, {s['mode']})")
     if args.plant:

@@ -34,8 +34,8 @@ from pathlib import Path
 
 from navkit.sim.mission import COMMAND_FIELDS, Mission, MissionError
 
-__all__ = ["SimOptions", "SimError", "run", "host_path", "fmu_paths", "frame_period", "check_frame",
-           "git_revision"]
+__all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_paths", "frame_period",
+           "check_frame", "git_revision"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _FW_NAME, _PLANT_NAME = "navkit_firmware", "navkit_plant"
@@ -43,6 +43,26 @@ _FW_NAME, _PLANT_NAME = "navkit_firmware", "navkit_plant"
 
 class SimError(RuntimeError):
     """A run that could not be done; the text says why."""
+
+
+class SimInterrupted(Exception):
+    """A run stopped by a signal (KeyboardInterrupt: Ctrl-C, or KeyboardInterrupt(signum)
+    raised by a handler, as `navkit sim` does for SIGTERM, SIGHUP and SIGQUIT): it was
+    stopped cleanly and its outputs closed; `summary` is what summary.json holds (with
+    `interrupted`), `signum` the signal."""
+
+    def __init__(self, summary: dict, signum: int):
+        super().__init__(f"interrupted by {signal.Signals(signum).name} at t = "
+                         f"{summary['interrupted']['at_s']:g} s")
+        self.summary, self.signum = summary, signum
+
+
+def _end_with_parent() -> None:
+    """In a child before exec: SIGTERM when the harness ends, however it ends (the host
+    then shuts down as on SIGTERM: stop sent, region removed)."""
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))   # PR_SET_PDEATHSIG
 
 
 @dataclass
@@ -492,9 +512,13 @@ class _Run:
         self.host_log = open(self.out / "host.log", "wb")
         if not self.opts.realtime and self.opts.pin_cpu:
             self._pin()
+        # its own process group: a terminal's Ctrl-C reaches the harness, which ends the
+        # host in order (lockstep EOF, or SIGINT in real time); _end_with_parent ends it if
+        # the harness dies without doing so
         self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=self.host_log,
                                      stderr=subprocess.STDOUT, pass_fds=pass_fds,
-                                     cwd=str(self.out))
+                                     cwd=str(self.out), process_group=0,
+                                     preexec_fn=_end_with_parent)
         if self.lock:
             self.lock.started()
         self.planner = _Planner(self.shm)
@@ -620,6 +644,19 @@ class _Run:
         naming the entry if that frame is not in the run."""
         n, frame = self.n_frames(), self.frame_s
         last = (n - 1) * frame
+        if n < 1:
+            raise MissionError(f"{self.m.path}: key 'duration_s': {self.m.duration_s:g} s is less than "
+                               f"half a host frame ({frame * 1000:g} ms): the run would have no frame")
+        taken = {}              # host frame -> the [[command]] written in it
+        for c in self.m.commands:
+            k = math.ceil(c.t / frame - 1e-9)
+            if k in taken:      # one lisp_cmd slot: the second would replace the first unread
+                raise MissionError(
+                    f"{c.where}: key 't': {c.t:g} s takes effect in the same host frame "
+                    f"({k * frame:g} s) as {taken[k].where.rsplit(': ', 1)[1]} (t = {taken[k].t:g} s): "
+                    f"the planner has one command slot a frame; put them at least one frame "
+                    f"({frame * 1000:g} ms) apart")
+            taken[k] = c
         for _t, _order, _what, e in self._timeline():
             k = math.ceil(e.t / frame - 1e-9)
             if k >= n:
@@ -759,6 +796,7 @@ class _Run:
         loop0 = pc()
         for k in range(n_frames):
             t_ns = k * frame_ns
+            self.t_ns = t_ns        # where an interrupted run stopped
             if self.unplug_until is not None or self.noise is not None or \
                     self.silent_until is not None:
                 self._expire(t_ns)
@@ -833,6 +871,7 @@ class _Run:
         last_frame, gone = None, False
         for c in range(n_chunks):
             t_ns = c * chunk_ns
+            self.t_ns = t_ns        # where an interrupted run stopped
             self._expire(t_ns)
             while ei < len(timeline) and timeline[ei][0] * 1e9 <= t_ns + 1:
                 self._apply(t_ns, timeline[ei][2], timeline[ei][3])
@@ -990,6 +1029,7 @@ def run(opts: SimOptions) -> dict:
     from navkit.sim.coupler import CouplerError
     from navkit.sim.links import LinkError
 
+    interrupted = None
     try:
         r.start()
         if opts.realtime:
@@ -999,9 +1039,29 @@ def run(opts: SimOptions) -> dict:
     except (LinkError, CouplerError) as e:
         r.stop()
         raise SimError(f"{e} (host log: {r.out / 'host.log'})") from e
+    except KeyboardInterrupt as e:
+        interrupted = e.args[0] if e.args and isinstance(e.args[0], int) else int(signal.SIGINT)
     except BaseException:
         r.stop()
         raise
+    if interrupted is not None:
+        # a clean stop, then what there is: a second Ctrl-C waits until the outputs are closed
+        held = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            r.stop()
+            summary = r.summary(time.perf_counter() - wall0)
+            summary["interrupted"] = {"signal": signal.Signals(interrupted).name,
+                                      "at_s": round(getattr(r, "t_ns", 0) / 1e9, 6)}
+            if Path(opts.out).is_dir():
+                (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+            if opts.plot and (Path(opts.out) / "run.mcap").exists():
+                from navkit.plot import plot_mcap
+
+                plot_mcap(Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png")
+        finally:
+            for s, h in held.items():
+                signal.signal(s, h)
+        raise SimInterrupted(summary, interrupted)
     r.stop()
     wall = time.perf_counter() - wall0
     summary = r.summary(wall)

@@ -24,7 +24,10 @@ A mission is a TOML file::
     heading_deg = 90.0             # (keys of EXPECT_KEYS)
 
 Every error (unknown key, bad value, a time or a fault's end past the duration) is a
-MissionError naming the file, the entry and the key. A bad value is also one the host
+MissionError naming the file, the entry and the key; a file that is not UTF-8 text (or
+over MAX_MISSION_BYTES, or nested deeper than TOML readers go) is one naming the file and
+the line. Entries of a table listed out of time order are run in time order, and
+`Mission.warnings` says so. A bad value is also one the host
 would refuse while converting the command to a micro_cmd (e.g. speed = 99999999 with
 fwd_cmd 1 fits lisp_cmd's int32 but not micro_cmd's int16). Events take effect at the first host
 frame that starts at or after their t (the harness checks that this frame is in the run).
@@ -38,7 +41,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["MissionError", "Command", "Key", "Fault", "Mission", "load", "loads",
-           "FAULT_KINDS", "COMMAND_FIELDS", "RESERVED_PLANT_KEYS", "EXPECT_KEYS"]
+           "FAULT_KINDS", "COMMAND_FIELDS", "RESERVED_PLANT_KEYS", "EXPECT_KEYS",
+           "MAX_MISSION_BYTES", "max_duration_s"]
+
+# A mission file larger than this is refused (bytes): missions are a few kB; the bound
+# keeps a link to an endless file (/dev/zero) from being read for ever.
+MAX_MISSION_BYTES = 1 << 20
+
+
+def max_duration_s() -> float:
+    """The longest duration_s (s): the planner stamps lisp_cmd.time_tag with the simulated
+    time in ms, so a run ends before that field's maximum (the spec's int32)."""
+    from navkit import protocol
+
+    return protocol.SPEC.messages["lisp_cmd"].field("time_tag").max / 1000.0
 
 # lisp_cmd fields a mission may set (time_tag and msg_type are the planner's own).
 COMMAND_FIELDS = ("fwd_cmd", "accel", "speed", "distance", "turn_mode", "turn_accel",
@@ -127,6 +143,7 @@ class Mission:
     keys: list = field(default_factory=list)
     faults: list = field(default_factory=list)
     expect: dict = field(default_factory=dict)     # EXPECT_KEYS key -> value (mm, deg)
+    warnings: list = field(default_factory=list)   # what a run should say once (text lines)
 
     @property
     def name(self) -> str:
@@ -288,6 +305,9 @@ def _world(path: Path, name) -> Path:
     for cand in (path.parent / name, repo_root() / "config" / "worlds" / name, Path(name)):
         if cand.is_file():
             return cand.resolve()
+        if cand.exists():
+            raise MissionError(f"{path}: key 'world': {cand} is not a regular file (a world is a "
+                               f"text file of walls)")
     raise MissionError(f"{path}: key 'world': {name!r} not found beside the mission "
                        f"or in config/worlds/")
 
@@ -300,13 +320,15 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise MissionError(f"{path}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise MissionError(f"{path}: not valid TOML: arrays or tables nested too deeply") from None
     known = ("duration_s", "world", "plant", "command", "key", "fault", "expect")
     for k in doc:
         if k not in known:
             raise MissionError(f"{path}: unknown top-level key {k!r} (known: {', '.join(known)})")
     if "duration_s" not in doc:
         raise MissionError(f"{path}: key 'duration_s' is missing (simulated seconds to run)")
-    duration = _num(f"{path}", "duration_s", doc["duration_s"], positive=True)
+    duration = _num(f"{path}", "duration_s", doc["duration_s"], positive=True, hi=max_duration_s())
     m = Mission(path=path, text=text, duration_s=duration)
     if "world" in doc:
         m.world = _world(path, doc["world"])
@@ -339,6 +361,10 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
             raise MissionError(f"{path}: {table!r} must be an array of tables ([[{table}]])")
         for i, entry in enumerate(entries):
             out.append(parse(f"{path}: [[{table}]] #{i + 1}", entry, duration))
+        for a, b in zip(out, out[1:]):
+            if b.t < a.t:
+                m.warnings.append(f"{b.where} (t = {b.t:g} s) comes after {a.where.rsplit(': ', 1)[1]} "
+                                  f"(t = {a.t:g} s) in the file: entries run in time order")
         out.sort(key=lambda e: e.t)   # stable: same-time entries keep file order
     return m
 
@@ -347,7 +373,16 @@ def load(path: str | Path) -> Mission:
     """Load and check the mission file at `path`. Raises MissionError."""
     path = Path(path)
     try:
-        text = path.read_text()
+        with open(path, "rb") as f:
+            data = f.read(MAX_MISSION_BYTES + 1)
     except OSError as e:
         raise MissionError(f"{path}: cannot read: {e.strerror}") from None
+    if len(data) > MAX_MISSION_BYTES:
+        raise MissionError(f"{path}: longer than {MAX_MISSION_BYTES} bytes: not a mission file")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data[:e.start].count(b"\n") + 1
+        raise MissionError(f"{path}:{line}: byte offset {e.start}: 0x{data[e.start]:02X} is not UTF-8 "
+                           f"text (save the file as UTF-8)") from None
     return loads(text, path)

@@ -660,11 +660,21 @@ class _Decoder:
                          for d, sender in (("h2m", self.h2m), ("m2h", self.m2h))}}
 
 
-def _worker(conn, path, metadata, columns, width, spin) -> None:
+def _worker(conn, path, metadata, columns, width, spin, harness_end=None) -> None:
     """Log worker process: decode and write until the harness says stop (None) or goes
     away (EOF), then close the MCAP file and send the results back. With `spin` it polls
-    instead of sleeping while waiting for work (see RunLog.spin)."""
+    instead of sleeping while waiting for work (see RunLog.spin). `harness_end`, the
+    harness's end of the pipe that fork() copied here, is closed first: else this process
+    would hold it open itself and never see the EOF of a harness that was killed. The
+    signals of a terminal (Ctrl-C to the process group) or of a group kill are the
+    harness's to act on: it ends the worker through the pipe, so the file is closed."""
+    import signal
     import time
+
+    if harness_end is not None:
+        harness_end.close()
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
+        signal.signal(sig, signal.SIG_IGN)
 
     cpu0 = time.process_time()
     spun = 0.0                  # CPU s spent polling for work (spin), not working
@@ -728,7 +738,7 @@ class RunLog:
             self._conn, child = ctx.Pipe()
             self._spin = ctx.Value("b", 0, lock=False)
             self._proc = ctx.Process(target=_worker, args=(child, path, metadata, columns, width,
-                                                          self._spin),
+                                                          self._spin, self._conn),
                                      name="navkit-sim-log", daemon=True)
             self._proc.start()
             child.close()

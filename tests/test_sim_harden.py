@@ -1,0 +1,167 @@
+"""`navkit sim` pushed to break (issue 13, sim items): bad mission files and --out folders
+are one line naming the file (and line) with exit 1, never a traceback; Ctrl-C and
+SIGTERM stop a run cleanly (outputs closed, summary.json says interrupted, temporary
+files gone, exit 128 + signal); a harness killed outright leaves no child running and a
+closed run.mcap; two commands in one host frame are refused. The real harness, host and
+FMUs as `navkit sim` runs them."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from navkit.sim.mission import loads
+from test_sim_util import require_build
+
+pytestmark = pytest.mark.timeout(120)
+
+_LONG = """duration_s = 3000.0
+[[command]]
+t = 0.5
+fwd_cmd = 1
+speed = 200
+distance = 100000
+"""
+
+
+def _sim(args, **kw):
+    return subprocess.run([sys.executable, "-m", "navkit", "sim", *map(str, args)], capture_output=True,
+                          text=True, timeout=60, **kw)
+
+
+def _one_line_error(r, *said):
+    assert r.returncode == 1, r.stdout + r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    for s in said:
+        assert s in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("text, said", [
+    (b"duration_s = 2.0\n# 90\xb0 turn\n", "m.toml:2: byte offset 21: 0xB0 is not UTF-8 text"),
+    (bytes(range(256)) * 4, "m.toml:2: byte offset 128: 0x80 is not UTF-8 text"),
+    (b"a = " + b"[" * 5000 + b"]" * 5000 + b"\n", "not valid TOML: arrays or tables nested too deeply"),
+    (b"duration_s = 1e308\n", "key 'duration_s': 1e+308 must be <= 2147483.647"),
+    (b"duration_s = 1e-9\n", "key 'duration_s': 1e-09 s is less than half a host frame (100 ms)"),
+    (b"duration_s = 2.0\nworld = \"folder\"\n", "key 'world':"),
+    (b"duration_s = 2.0\nworld = \"/dev/zero\"\n", "key 'world': /dev/zero is not a regular file"),
+    (b"duration_s = 2.0\n[[command]]\nt = 1.0\nfwd_cmd = 1\n[[command]]\nt = 1.0\nfwd_cmd = 5\n",
+     "m.toml: [[command]] #2: key 't': 1 s takes effect in the same host frame (1 s) as [[command]] #1"),
+    (b"duration_s = 2.0\n[[command]]\nt = 1.01\nfwd_cmd = 1\n[[command]]\nt = 1.05\nfwd_cmd = 5\n",
+     "[[command]] #2: key 't': 1.05 s takes effect in the same host frame (1.1 s) as [[command]] #1 (t = 1.01 s)"),
+])
+def test_a_bad_mission_is_one_line_naming_the_file(tmp_path, text, said):
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "m.toml").write_bytes(text)
+    r = _sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out"])
+    _one_line_error(r, str(tmp_path / "m.toml"), said)
+
+
+def test_a_mission_linked_to_an_endless_file_is_refused(tmp_path):
+    (tmp_path / "m.toml").symlink_to("/dev/zero")
+    _one_line_error(_sim(["--mission", tmp_path / "m.toml"]), "longer than 1048576 bytes: not a mission file")
+
+
+def test_an_out_that_is_a_file_or_cannot_be_made_is_one_line(tmp_path):
+    (tmp_path / "m.toml").write_text("duration_s = 1.0\n")
+    (tmp_path / "f").write_text("")
+    _one_line_error(_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "f"]), f"--out {tmp_path / 'f'}: not a folder")
+    _one_line_error(_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "f" / "x"]),
+                    f"--out {tmp_path / 'f' / 'x'}: cannot create it: {tmp_path / 'f'} is not a folder")
+
+
+def test_entries_out_of_time_order_are_said():
+    m = loads("duration_s = 5.0\n[[key]]\nt = 3.0\nkey = \"R\"\n[[key]]\nt = 1.0\nkey = \"S\"\n", "m.toml")
+    assert [k.key for k in m.keys] == ["S", "R"]
+    assert m.warnings == ["m.toml: [[key]] #2 (t = 1 s) comes after [[key]] #1 (t = 3 s) in the file: "
+                          "entries run in time order"]
+
+
+def _descendants(pid: int) -> set:
+    """Every live process below `pid` (from /proc)."""
+    kids = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                ppid = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            kids.setdefault(ppid, set()).add(int(d.name))
+    out, todo = set(), [pid]
+    while todo:
+        for k in kids.get(todo.pop(), ()):
+            out.add(k)
+            todo.append(k)
+    return out
+
+
+def _alive(pids) -> set:
+    return {p for p in pids if Path(f"/proc/{p}").exists() and
+            (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z")}
+
+
+def _start(tmp_path):
+    """navkit sim of a long mission in its own session, with TMPDIR its own; returns the
+    process once the run is under way (host and log worker started)."""
+    (tmp_path / "m.toml").write_text(_LONG)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = dict(os.environ, TMPDIR=str(tmp))
+    p = subprocess.Popen([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "m.toml"),
+                          "--out", str(tmp_path / "out")], env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        log = tmp_path / "out" / "host.log"
+        if log.exists() and "micro configured" in log.read_text(errors="replace"):
+            return p
+        assert p.poll() is None, p.communicate()
+        time.sleep(0.05)
+    p.kill()
+    raise AssertionError("the run did not get under way")
+
+
+def _mcap_closed(path: Path) -> bool:
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return make_reader(f).get_summary() is not None
+
+
+@pytest.mark.parametrize("sig, group, status", [(signal.SIGINT, True, 130), (signal.SIGTERM, False, 143)])
+def test_a_signal_stops_the_run_cleanly(tmp_path, sig, group, status):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) and SIGTERM to
+    the harness alone (as `timeout` sends it)."""
+    require_build()
+    p = _start(tmp_path)
+    kids = _descendants(p.pid)
+    assert len(kids) >= 2, "the host and the log worker"
+    (os.killpg if group else os.kill)(p.pid, sig)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == status, out + err
+    assert "Traceback" not in err and "interrupted by" in err, err
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["interrupted"]["signal"] == sig.name and 0 < s["interrupted"]["at_s"] < 3000
+    assert s["host"]["exit_status"] == 0, (tmp_path / "out" / "host.log").read_text()[-600:]
+    assert _mcap_closed(tmp_path / "out" / "run.mcap"), "run.mcap has its footer"
+    assert list((tmp_path / "tmp").iterdir()) == [], "temporary files removed"
+    assert not _alive(kids)
+
+
+def test_a_harness_killed_outright_leaves_no_child_and_a_closed_log(tmp_path):
+    require_build()
+    p = _start(tmp_path)
+    kids = _descendants(p.pid)
+    assert len(kids) >= 2
+    p.kill()                                  # SIGKILL to the harness alone
+    p.communicate(timeout=30)
+    deadline = time.monotonic() + 20
+    while _alive(kids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not _alive(kids), "every child ended with the harness"
+    assert _mcap_closed(tmp_path / "out" / "run.mcap"), "the log worker closed run.mcap"
