@@ -7,6 +7,7 @@ import datetime
 import functools
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -211,6 +212,10 @@ def tune_wheel(args) -> dict:
                               allow_miss=args.bandwidth is not None)
     mq = design.margins_quantised
     raw = dict(design.raw)
+    ov = design.step_quantised["move"]["overshoot_pct"]
+    if ov > args.overshoot:  # only with --bandwidth: the crossover then fixes kp and ki
+        print(f"warning: navkit tune wheel: at a {args.bandwidth:g} Hz crossover the predicted move overshoots by "
+              f"{ov:.1f} %, above --overshoot {args.overshoot:g} %", file=sys.stderr)
     provenance = [
         f"navkit tune wheel, {_now()}, git {_rev()}",
         f"from {'mission ' + args.mission.name if args.mission else 'log ' + Path(args.log).name}: "
