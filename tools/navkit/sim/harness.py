@@ -38,7 +38,7 @@ __all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_
            "check_frame", "git_revision"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
-_FW_NAME, _PLANT_NAME = "navkit_firmware", "navkit_plant"
+_PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
 
 
 class SimError(RuntimeError):
