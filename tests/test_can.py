@@ -236,3 +236,15 @@ def test_random_loss_and_reordering_never_deliver_a_wrong_message(prop_seed, pro
     lost = st["wrong_sn"] + st["timeout"] + st["restarted"]
     assert st["good"] == len(delivered) and 0 < len(delivered) < len(sent), f"seed {prop_seed}"
     assert st["good"] + lost + host.tx.stats["timeout"] >= len(sent), f"seed {prop_seed}: {st} {host.tx.stats}"
+
+
+def test_the_golden_vectors_are_what_navkit_can_makes():
+    """tests/vectors/can.txt holds navkit.can's reception frame by frame; the C firmware's
+    can_tp is held to the same file (ctest firmware_can_tp)."""
+    from navkit.can_vectors import CAN_VECTORS, make_vectors, read_vectors
+    assert CAN_VECTORS.read_text() == make_vectors(), "stale: run python -m navkit.can_vectors --write"
+    cases = read_vectors()
+    assert len(cases) >= 20 and all(len(c) == 5 for c in cases)
+    # the file exercises every counter of the receiver
+    totals = [sum(int(c[4].split(",")[k]) for c in cases) for k in range(len(nc.RX_STATS))]
+    assert all(totals), dict(zip(nc.RX_STATS, totals))

@@ -77,4 +77,18 @@ size_t hal_uart_tx_free(hal_t *hal);
 /* Queue len bytes for sending; the core never passes more than hal_uart_tx_free(). */
 void hal_uart_write(hal_t *hal, const uint8_t *buf, size_t len);
 
+/* ---- CAN (the micro link of a build with FW_LINK_CAN = 1, instead of the UART): only
+ * from fw_link_poll(), which drains the RX until hal_can_read() returns 0 and writes a
+ * frame only when hal_can_tx_free() is above 0 (a serial build never calls these, and its
+ * target need not define them) ---- */
+
+/* Take the oldest received frame: 1 with *id (the 11-bit identifier, ORed with
+ * CAN_TP_EXT for an extended frame, CAN_TP_RTR for a remote one: can_tp.h), data[0..*dlc-1]
+ * and *dlc (data bytes, 0..8); 0 if none is waiting. */
+uint8_t hal_can_read(hal_t *hal, uint16_t *id, uint8_t data[8], uint8_t *dlc);
+/* Frames the TX queue can take now. */
+uint8_t hal_can_tx_free(hal_t *hal);
+/* Queue a classic data frame: 11-bit identifier, 8 data bytes. */
+void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8]);
+
 #endif /* NAVKIT_HAL_H */

@@ -17,6 +17,10 @@ void link_reset(link_t *l)
     l->mc_datalog = NAVKIT_MC_DATALOG_NONE;
     l->have_tag = 0u;
     l->tag_pending = 0u;
+#if FW_LINK_CAN
+    can_tp_rx_init(&l->can_rx, NAVKIT_DIR_TO_MICRO);
+    can_tp_tx_init(&l->can_tx);
+#endif
 }
 
 static void link_reject(link_t *l, uint16_t code)
@@ -418,6 +422,65 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     d->reset_cause = fw->reset_cause;
 }
 
+#if FW_LINK_CAN
+/* One micro_data back, whole or not at all: skipped while the last one is still going out
+   (as a full UART FIFO skips it). */
+static void link_reply(fw_t *fw)
+{
+    navkit_micro_data_t d;
+    can_tp_tx_t *tx = &fw->link.can_tx;
+    if (can_tp_tx_busy(tx)) {
+        return;
+    }
+    fw->link.tx_tag++;
+    link_telemetry(fw, &d);
+    (void)can_tp_tx_start(tx, (uint16_t)navkit_micro_data_encode(&d, tx->buf, sizeof tx->buf),
+                          NAVKIT_MSG_TYPE_MICRO_DATA, fw->ms);
+}
+
+/* CAN: every frame read goes to ISO-TP; a flow control it asks for goes out at once (if the
+   TX queue is full it is lost, and the host's sender times out); a reassembled message goes
+   through the frame parser as the UART's bytes do; then the micro_data frames ISO-TP lets go. */
+void link_poll(fw_t *fw)
+{
+    link_t *l = &fw->link;
+    can_tp_frame_t f;
+    uint16_t id;
+    uint8_t data[8];
+    uint8_t dlc;
+    uint8_t fc_out;
+    while (hal_can_read(fw->hal, &id, data, &dlc)) {
+        uint16_t n;
+        if (dlc > 8u) {
+            dlc = 8u;
+        }
+        can_tp_tx_frame(&l->can_tx, id, data, dlc, fw->ms);
+        n = can_tp_rx_frame(&l->can_rx, id, data, dlc, fw->ms, &f, &fc_out);
+        if (fc_out && hal_can_tx_free(fw->hal) > 0u) {
+            hal_can_write(fw->hal, f.id, f.data);
+        }
+        if (n > 0u) {
+            const uint8_t *frame;
+            size_t flen;
+            (void)navkit_parser_feed(&l->parser, l->can_rx.buf, n); /* n <= the parser's buffer */
+            while (navkit_parser_next(&l->parser, &frame, &flen)) {
+                if (link_frame(fw, frame, flen)) {
+                    link_reply(fw);
+                }
+            }
+            /* an ISO-TP message is one frame: what the parser still holds (a message that was
+               no whole frame) belongs to no later message, so it is dropped and counted now */
+            l->parser.stats.dropped_bytes += l->parser.have;
+            l->parser.offset += l->parser.have;
+            l->parser.have = 0u;
+        }
+    }
+    can_tp_rx_poll(&l->can_rx, fw->ms);
+    while (hal_can_tx_free(fw->hal) > 0u && can_tp_tx_next(&l->can_tx, fw->ms, &f)) {
+        hal_can_write(fw->hal, f.id, f.data);
+    }
+}
+#else
 /* One micro_data back, whole or not at all. */
 static void link_reply(fw_t *fw)
 {
@@ -453,3 +516,4 @@ void link_poll(fw_t *fw)
         }
     }
 }
+#endif

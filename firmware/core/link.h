@@ -33,6 +33,16 @@
 
 #include "navkit/navkit_proto.h"
 
+/* The transport of the micro link, chosen by the build: 0 the UART (hal_uart_*), 1 CAN
+   (hal_can_*: each frame one ISO-TP message, can_tp.h). Above the transport all is the same:
+   the reassembled frames go through the same parser, counters and rules. */
+#ifndef FW_LINK_CAN
+#define FW_LINK_CAN 0
+#endif
+#if FW_LINK_CAN
+#include "can_tp.h"
+#endif
+
 struct fw;
 
 /* bytes: the most link_poll() asks of one hal_uart_read() call (its buffer on the stack);
@@ -51,11 +61,16 @@ typedef struct {
     uint16_t mc_datalog;     /* NAVKIT_MC_DATALOG_* selection */
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
     uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
+#if FW_LINK_CAN
+    can_tp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
+    can_tp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
+#endif
 } link_t;
 
 /* Empty parser, zero counters, no time tag seen. */
 void link_reset(link_t *l);
-/* Drain the UART and handle every complete frame (see the contract in hal.h). */
+/* Drain the UART (or, with FW_LINK_CAN, the CAN RX, and send what ISO-TP lets go) and
+ * handle every complete frame (see the contract in hal.h). */
 void link_poll(struct fw *fw);
 /* Fill d with the current telemetry (what the next micro_data will carry, except its
  * own time tag). */
