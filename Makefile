@@ -62,6 +62,7 @@ bench: build
 	$(PY) -m navkit bench-proto
 	$(PY) -m navkit bench-host
 	$(PY) -m navkit bench-sim
+	$(PY) -m navkit bench-pil
 	$(PY) -m navkit flash --bench
 
 # Opt-in: `navkit sweep` runs per minute on a LocalCluster of 1 and of 2 workers (the demo
