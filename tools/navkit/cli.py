@@ -27,6 +27,7 @@ SUBCOMMANDS = {
     "compare": ("navkit.compare", "compare two co-simulation runs (pose, speed, heading over time)"),
     "tune": ("navkit.tune", "identify, design, verify and write wheel and heading loop gains"),
     "sweep": ("navkit.sweep", "run a mission over plant parameters and seeds on Dask"),
+    "can": ("navkit.can_cli", "decode the micro link's CAN traffic with the spec (a log, an SLCAN adapter)"),
 }
 
 
