@@ -107,6 +107,39 @@ def test_demo_agrees_with_sil_at_every_leg_end(tmp_path_factory):
         assert abs(leg.pos_mm) <= POS_MM and abs(leg.heading_deg) <= HDG_DEG, leg
 
 
+# a leg cut short by a micro reset (fmi3Reset: the simulated board powers up again from the
+# image), then a new leg once the host has configured it again
+RESET = """
+duration_s = 8.0
+[[command]]
+t = 1.5
+fwd_cmd = "start"
+speed = 300
+distance = 2000
+[[fault]]
+t = 3.0
+kind = "micro_reset"
+[[command]]
+t = 6.0
+fwd_cmd = "start"
+speed = 200
+distance = 300
+"""
+
+
+def test_micro_reset_powers_the_board_up_again(tmp_path_factory):
+    """The fault resets the AVR FMU: a new board boots the image, the host configures it
+    again and the next command drives; the profile counts from the new power-on, and the
+    whole run still agrees with SIL at every leg's end."""
+    sil, pil = pair(tmp_path_factory, "reset", RESET)
+    assert pil.summary["host"]["config_downloads"] >= 2
+    prof = pil.summary["firmware_profile"]
+    assert prof["prof_resets"] == 0 and prof["prof_ticks"] == pytest.approx(RATE * (8.0 - 3.0), abs=3)
+    assert pil.truth[-1]["distance_mm"] - pil.truth_at(5.9)["distance_mm"] == pytest.approx(300, abs=6)
+    for leg in leg_ends(sil, pil):
+        assert abs(leg.pos_mm) <= POS_MM and abs(leg.heading_deg) <= HDG_DEG, leg
+
+
 def test_sensors_read_the_same_through_the_image(straight):
     """The planner's sonar and IR ranges and the battery, standing still after the leg
     (t >= 4 s), frame by frame: the image's echo timer and ADC against the SIL board's. The
