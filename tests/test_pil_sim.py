@@ -208,9 +208,18 @@ def test_pil_config_changes_only_the_rate_line(tmp_path):
 
 
 def test_cli_prints_firmware_and_rate_and_names_a_missing_fmu(tmp_path):
-    """`navkit sim --firmware avr` with a build folder without the AVR FMU: one line naming
-    the file and what it needs, exit 1; an unknown --firmware is a usage error (2)."""
+    """`navkit sim --firmware avr` prints the FMU, the rate and the note of the PIL config;
+    with a build folder without the AVR FMU: one line naming the file and what it needs,
+    exit 1; an unknown --firmware is a usage error (2)."""
     require_build()
+    mission = tmp_path / "still.toml"
+    mission.write_text("duration_s = 1.0\n")
+    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--firmware", "avr", "--mission", str(mission),
+                        "--out", str(tmp_path / "still"), "--no-plot"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    lines = {line.split()[0]: line for line in r.stdout.splitlines() if line.strip()}
+    assert lines["firmware"].split()[1].endswith("navkit_firmware_avr.fmu") and "(control_rate 400 Hz)" in lines["firmware"]
+    assert "NavAndControl.ini:" in lines["note"] and lines["note"].endswith("the run's config says 400 Hz")
     bare = tmp_path / "build"
     (bare / "fmus").mkdir(parents=True)
     r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--firmware", "avr", "--build", str(bare),
