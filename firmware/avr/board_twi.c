@@ -1,9 +1,9 @@
 /* board_twi.c: the TWI master, a table-driven interrupt (board_twi.h).
  *
  * A round is a fixed script of bus steps (twi_script). Each TWI interrupt checks that the
- * last step was acknowledged (any NACK, lost arbitration or bus error ends the round with
- * a STOP and counts an error), keeps the byte just received if the step was a read, and
- * starts the next step. Short and the same for every step: the encoder interrupts, which
+ * last step was acknowledged (a NACK, lost arbitration or bus error counts an error and
+ * ends that part's transfer: STOP, then the next part's transfer or the round's end),
+ * keeps the byte just received if the step was a read, and starts the next step. Short and the same for every step: the encoder interrupts, which
  * must not wait long, come right behind it. The gyro's wake-up writes lead the script and
  * are skipped once acknowledged. */
 #include <avr/interrupt.h>
@@ -25,44 +25,47 @@ enum {
 };
 
 typedef struct {
-    uint8_t op;  /* TWI_OP_* */
-    uint8_t arg; /* byte to send, or twi_raw index */
+    uint8_t op;   /* TWI_OP_* */
+    uint8_t arg;  /* byte to send, or twi_raw index */
+    uint8_t fail; /* after an error here: the step whose START goes next (TWI_FAIL_END: none) */
 } twi_step_t;
 
 #define TWI_SLA_W(a) ((uint8_t)(((a) << 1) | TW_WRITE))
 #define TWI_SLA_R(a) ((uint8_t)(((a) << 1) | TW_READ))
 #define TWI_READS 4u /* gyro ZOUT H/L, compass bearing H/L */
-#define TWI_READ_FROM 9u /* index of the reads' START (after the wake-up writes) */
+#define TWI_READ_FROM 9u  /* index of the reads' START (after the wake-up writes) */
+#define TWI_COMPASS 16u   /* index of the compass transfer's START (a TWI_OP_NEXT) */
+#define TWI_FAIL_END 0xFFu
 
 /* Each entry is the step the bus does next; the interrupt that follows finishes it. */
 static const twi_step_t twi_script[] = {
     /* wake the gyro (PWR_MGMT_1 = 0), then its range (GYRO_CONFIG = 0: 131 LSB per deg/s) */
-    { TWI_OP_START, 0u },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR) },
-    { TWI_OP_SEND, BOARD_GYRO_REG_PWR_MGMT_1 },
-    { TWI_OP_SEND, 0x00u },
-    { TWI_OP_NEXT, 0u },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR) },
-    { TWI_OP_SEND, BOARD_GYRO_REG_GYRO_CONFIG },
-    { TWI_OP_SEND, 0x00u },
-    { TWI_OP_AWAKE, 0u }, /* its START counts as the reads' first step */
+    { TWI_OP_START, 0u, TWI_COMPASS },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS },
+    { TWI_OP_SEND, BOARD_GYRO_REG_PWR_MGMT_1, TWI_COMPASS },
+    { TWI_OP_SEND, 0x00u, TWI_COMPASS },
+    { TWI_OP_NEXT, 0u, TWI_COMPASS },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS },
+    { TWI_OP_SEND, BOARD_GYRO_REG_GYRO_CONFIG, TWI_COMPASS },
+    { TWI_OP_SEND, 0x00u, TWI_COMPASS },
+    { TWI_OP_AWAKE, 0u, TWI_COMPASS }, /* its START counts as the reads' first step */
     /* TWI_READ_FROM: the gyro's GYRO_ZOUT_H/L */
-    { TWI_OP_START, 0u },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR) },
-    { TWI_OP_SEND, BOARD_GYRO_REG_ZOUT_H },
-    { TWI_OP_START, 0u },
-    { TWI_OP_SEND, TWI_SLA_R(BOARD_GYRO_ADDR) },
-    { TWI_OP_READ, 0u },
-    { TWI_OP_LAST, 1u },
-    { TWI_OP_NEXT, 0u },
-    /* the compass's bearing word */
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_COMPASS_ADDR) },
-    { TWI_OP_SEND, BOARD_COMPASS_REG_BEARING },
-    { TWI_OP_START, 0u },
-    { TWI_OP_SEND, TWI_SLA_R(BOARD_COMPASS_ADDR) },
-    { TWI_OP_READ, 2u },
-    { TWI_OP_LAST, 3u },
-    { TWI_OP_END, 0u },
+    { TWI_OP_START, 0u, TWI_COMPASS },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS },
+    { TWI_OP_SEND, BOARD_GYRO_REG_ZOUT_H, TWI_COMPASS },
+    { TWI_OP_START, 0u, TWI_COMPASS },
+    { TWI_OP_SEND, TWI_SLA_R(BOARD_GYRO_ADDR), TWI_COMPASS },
+    { TWI_OP_READ, 0u, TWI_COMPASS },
+    { TWI_OP_LAST, 1u, TWI_COMPASS },
+    /* TWI_COMPASS: the compass's bearing word */
+    { TWI_OP_NEXT, 0u, TWI_FAIL_END },
+    { TWI_OP_SEND, TWI_SLA_W(BOARD_COMPASS_ADDR), TWI_FAIL_END },
+    { TWI_OP_SEND, BOARD_COMPASS_REG_BEARING, TWI_FAIL_END },
+    { TWI_OP_START, 0u, TWI_FAIL_END },
+    { TWI_OP_SEND, TWI_SLA_R(BOARD_COMPASS_ADDR), TWI_FAIL_END },
+    { TWI_OP_READ, 2u, TWI_FAIL_END },
+    { TWI_OP_LAST, 3u, TWI_FAIL_END },
+    { TWI_OP_END, 0u, TWI_FAIL_END },
 };
 
 #define TWI_GO (_BV(TWINT) | _BV(TWEN) | _BV(TWIE))
@@ -108,10 +111,15 @@ ISR(TWI_vect)
           st == TW_MR_SLA_ACK || st == TW_MR_DATA_ACK || st == TW_MR_DATA_NACK)) {
         twi_err++;
         if (twi_step < TWI_READ_FROM) {
-            twi_gyro_awake = 0u;
+            twi_gyro_awake = 0u; /* its wake-up writes again next round */
         }
-        TWCR = (uint8_t)(_BV(TWINT) | _BV(TWSTO) | _BV(TWEN));
-        twi_busy = 0u;
+        twi_step = s->fail;
+        if (twi_step == TWI_FAIL_END) {
+            TWCR = (uint8_t)(_BV(TWINT) | _BV(TWSTO) | _BV(TWEN));
+            twi_busy = 0u;
+        } else {
+            TWCR = (uint8_t)(TWI_GO | _BV(TWSTO) | _BV(TWSTA));
+        }
         return;
     }
     if (s->op == TWI_OP_READ || s->op == TWI_OP_LAST) {

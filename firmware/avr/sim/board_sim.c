@@ -85,6 +85,7 @@ typedef struct {
 /* A TWI part: a register file behind a 7-bit address. */
 typedef struct {
     uint8_t addr;
+    uint8_t absent; /* 1: does not answer */
     uint8_t regs[128];
 } sim_part_t;
 
@@ -189,6 +190,7 @@ static void sim_enc_aim(board_sim_t *b, sim_enc_t *e, int32_t target, uint64_t b
 
 /* ---------------------------------------------------------------- TWI parts */
 
+/* The part at addr7 whether it answers or not (NULL: none there). */
 static sim_part_t *sim_twi_part(board_sim_t *b, uint8_t addr7)
 {
     if (addr7 == b->gyro.addr) {
@@ -229,6 +231,9 @@ static void sim_twi_out(avr_irq_t *irq, uint32_t value, void *param)
     }
     if (m.u.twi.msg & TWI_COND_START) {
         b->twi_sel = sim_twi_part(b, (uint8_t)(m.u.twi.addr >> 1));
+        if (b->twi_sel != NULL && b->twi_sel->absent) {
+            b->twi_sel = NULL;
+        }
         b->twi_want_reg = !(m.u.twi.addr & 1u);
         if (b->twi_sel != NULL) {
             sim_twi_refresh(b);
@@ -444,10 +449,15 @@ static void sim_after_reset(board_sim_t *b)
     b->uart_armed = 0;
     b->uart_full = 0u;
     sim_uart_arm(b);
-    memset(b->gyro.regs, 0, sizeof b->gyro.regs); /* the parts reset with the board */
-    b->gyro.regs[BOARD_GYRO_REG_PWR_MGMT_1] = 0x40u;
-    b->gyro.regs[0x75] = BOARD_GYRO_ADDR; /* WHO_AM_I */
     b->twi_sel = NULL;
+}
+
+/* The TWI parts at power-on (the reset pin and the watchdog reset the AVR only). */
+static void sim_parts_power_on(board_sim_t *b)
+{
+    memset(b->gyro.regs, 0, sizeof b->gyro.regs);
+    b->gyro.regs[BOARD_GYRO_REG_PWR_MGMT_1] = 0x40u; /* asleep */
+    b->gyro.regs[0x75] = BOARD_GYRO_ADDR;            /* WHO_AM_I */
 }
 
 /* ---------------------------------------------------------------- loading */
@@ -592,6 +602,7 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
     b->prof.stack_min_sp = BOARD_RAMEND;
     /* a power-on start */
     avr->data[MCUSR] = (uint8_t)(1u << PORF);
+    sim_parts_power_on(b);
     sim_after_reset(b);
     return b;
 }
@@ -691,6 +702,14 @@ void board_sim_set_sonar_echo_us(board_sim_t *b, uint8_t i, uint16_t us)
 {
     if (i < 4u) {
         b->sonar[i].width_us = us;
+    }
+}
+
+void board_sim_set_twi_part_present(board_sim_t *b, uint8_t addr7, int on)
+{
+    sim_part_t *p = sim_twi_part(b, addr7);
+    if (p != NULL) {
+        p->absent = (uint8_t)!on;
     }
 }
 
@@ -799,6 +818,7 @@ void board_sim_reset(board_sim_t *b, int cause)
             avr->data[a] = (uint8_t)x;
         }
         flag = (uint8_t)(1u << PORF);
+        sim_parts_power_on(b);
     } else if (cause == BOARD_SIM_RESET_BROWN_OUT) {
         flag = (uint8_t)(1u << BORF);
     }

@@ -85,6 +85,10 @@ void board_sim_set_compass(board_sim_t *b, uint16_t deg10);
 /* Sonar i (0..3): the echo pulse width, us, the SRF04 gives after the image's next trigger
  * of it; 0 = no echo (the part's 36 ms no-object pulse, which the image reports as 0). */
 void board_sim_set_sonar_echo_us(board_sim_t *b, uint8_t i, uint16_t us);
+/* on = 0: the TWI part at 7-bit address addr7 (BOARD_GYRO_ADDR, BOARD_COMPASS_ADDR) stops
+ * answering (a loose cable: every transfer to it is NACKed); on = 1: it answers again, in
+ * the state it had (the gyro stays awake). Default: both answer. */
+void board_sim_set_twi_part_present(board_sim_t *b, uint8_t addr7, int on);
 /* Levels driven onto the 12 DIO pins from outside, bit n = DIO n (a pin the image drives
  * as an output shows the image's level instead). */
 void board_sim_set_dio_in(board_sim_t *b, uint16_t levels);
@@ -120,7 +124,7 @@ uint32_t board_sim_uart_dropped(const board_sim_t *b);
 #define BOARD_SIM_RESET_POWER_ON 1 /* power cycle: SRAM arbitrary, MCUSR PORF */
 #define BOARD_SIM_RESET_BROWN_OUT 2 /* supply dip: SRAM kept, MCUSR BORF */
 /* Reset the core now with one of BOARD_SIM_RESET_*: the image starts again from address 0
- * (the parts keep their inputs; the gyro part restarts asleep). */
+ * (the parts keep their inputs and state; a power-on also restarts the gyro asleep). */
 void board_sim_reset(board_sim_t *b, int cause);
 /* on = 1: after every reset, MCUSR reads 0 when the image starts, as the stk500v2
  * bootloader leaves it (it reads and clears the flags before jumping to the image); the
