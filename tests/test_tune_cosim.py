@@ -116,3 +116,21 @@ def test_heading_on_the_tuned_wheels(wheel, tmp_path):
     # both blocks: the wheel gains come along from the wheel tuning's config
     assert "navkit tune wheel: begin" in ini and "navkit tune heading: begin" in ini
     assert f"heading_kp = {th['raw']['heading_kp']}" in ini
+
+
+def test_wheel_on_the_avr_image(tmp_path):
+    # processor in the loop: the AVR image in simavr runs its 400 Hz ceiling, the design uses it
+    from navkit.sim.harness import fmu_paths
+
+    require_build()
+    if not fmu_paths(build_dir(), "avr")[0].exists():
+        pytest.skip("the AVR firmware FMU is not built (needs avr-gcc and libsimavr)")
+    out = tmp_path / "avr"
+    r = _navkit("tune", "wheel", "--mission", repo_root() / "config" / "missions" / "tune_wheels.toml",
+                "--firmware", "avr", "--out", out, "--samples", 0)
+    assert r.returncode == 0, r.stderr
+    tj = json.loads((out / "tune.json").read_text())
+    assert tj["targets"]["control_rate_hz"] == 400.0 and tj["source"]["firmware"] == "avr"
+    assert tj["margins_quantised"]["phase_margin_deg"] == pytest.approx(60.0, abs=3.0)
+    assert tj["simulated"]["move"]["overshoot_pct"] <= 5.0
+    assert "; designed at 400 Hz, the rate the avr firmware ran" in (out / "config" / "NavAndControl.ini").read_text()

@@ -84,6 +84,9 @@ def add_arguments(parser) -> None:
     src.add_argument("--mission", type=Path, help="co-simulate this mission's experiment on its plant")
     src.add_argument("--log", type=Path, help="a recorded experiment: run.mcap or a host datalog")
     w.add_argument("--config", type=Path, default=None, help="input host config folder (default: config/)")
+    w.add_argument("--firmware", choices=("fmu", "avr"), default="fmu",
+                   help="the co-simulations' firmware: fmu (the core built for the host) or avr (the AVR image "
+                   "in simavr, at its 400 Hz ceiling); `tune heading` takes the wheel tuning's")
     w.add_argument("--model", choices=("auto", "fopdt", "sopdt"), default="auto",
                    help="model to design on (auto: sopdt if its NRMSE is 10 %% lower)")
     w.add_argument("--derivative", action="store_true", help="PID (kd = kp*0.25/wc) instead of PI")

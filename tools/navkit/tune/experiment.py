@@ -283,19 +283,20 @@ def mission_text(base, duration_s: float, commands: list[dict], plant: dict | No
 
 
 def run_cosim(mission_path: Path, out: Path, *, config_dir: Path | None, build: Path | None,
-              frame_s: float | None = None, truth_hz: float = 50.0, seed: int = 1) -> Path:
-    """Co-simulate mission file `mission_path` into `out` (no plot) and return `out`.
-    Raises ExperimentError with the harness's one-line reason."""
+              frame_s: float | None = None, truth_hz: float = 50.0, seed: int = 1,
+              firmware: str = "fmu") -> dict:
+    """Co-simulate mission file `mission_path` into `out` (no plot) with firmware "fmu"
+    (SIL) or "avr" (PIL) and return its summary (summary.json: `control_rate_hz` is the
+    rate the micro ran). Raises ExperimentError with the harness's one-line reason."""
     from navkit.sim.harness import SimError, SimOptions, run
     from navkit.sim.mission import MissionError, load
 
     try:
         m = load(Path(mission_path))
-        run(SimOptions(mission=m, out=Path(out), seed=seed, config_dir=config_dir, build=build,
-                       frame_s=frame_s, truth_hz=truth_hz, plot=False))
+        return run(SimOptions(mission=m, out=Path(out), seed=seed, config_dir=config_dir, build=build,
+                              frame_s=frame_s, truth_hz=truth_hz, plot=False, firmware=firmware))
     except (MissionError, SimError) as e:
         raise ExperimentError(str(e)) from None
-    return Path(out)
 
 
 def load_mission(path: Path):

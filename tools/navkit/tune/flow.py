@@ -179,10 +179,14 @@ def tune_wheel(args) -> dict:
         if not exp.mission_has_experiment(args.mission):
             raise TuneError(f"{args.mission}: no wheel experiment: a [[command]] with excite_mode (and "
                             f"mc_datalog_cmd = \"wheels\") is needed, e.g. config/missions/tune_wheels.toml")
-        exp_dir = exp.run_cosim(args.mission, out / "experiment", config_dir=config_src, build=args.build,
-                                frame_s=args.frame_ms / 1000.0, seed=args.seed)
+        exp_dir = out / "experiment"
+        summary = exp.run_cosim(args.mission, exp_dir, config_dir=config_src, build=args.build,
+                                frame_s=args.frame_ms / 1000.0, seed=args.seed, firmware=args.firmware)
+        # the tick the micro ran (the AVR image runs its ceiling, 400 Hz, whatever the config says)
+        dt = 1.0 / float(summary.get("control_rate_hz") or 1.0 / dt)
         records = exp.records_from_mcap(exp_dir / "run.mcap")
-        source = {"mission": str(Path(args.mission).resolve()), "experiment_run": str(exp_dir)}
+        source = {"mission": str(Path(args.mission).resolve()), "experiment_run": str(exp_dir),
+                  "firmware": args.firmware}
     else:
         records = exp.records_from_log(args.log)
         source = {"log": str(Path(args.log).resolve())}
@@ -228,6 +232,10 @@ def tune_wheel(args) -> dict:
         f"crossover {mq['crossover_hz']:.2f} Hz",
         "previous: " + ", ".join(f"{k} {v}" for k, v in previous.items()),
     ]
+    config_rate = cfg.geometry_value(config_src, "control_rate")
+    if abs(config_rate - 1.0 / dt) > 0.5:
+        provenance.insert(-1, f"designed at {1 / dt:g} Hz, the rate the {args.firmware} firmware ran "
+                              f"(control_rate here: {config_rate:g} Hz)")
     ini = cfg.write_tuned(config_src, out / "config", raw, "wheel", provenance)
 
     quant = {k: {"designed": v, "quantised": getattr(design.quantised, k),
@@ -262,8 +270,9 @@ def tune_wheel(args) -> dict:
                                 note="navkit tune wheel: verification move")
         verify_mission = out / "verify_wheel.toml"
         verify_mission.write_text(text)
-        vdir = exp.run_cosim(verify_mission, out / "verify", config_dir=out / "config", build=args.build,
-                             frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed)
+        vdir = out / "verify"
+        exp.run_cosim(verify_mission, vdir, config_dir=out / "config", build=args.build,
+                      frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed, firmware=args.firmware)
         ts, vs = _truth(vdir, "v_mm_s")
         t_sim = _align(ts, vs, 0.05 * speed)
         t_pred = _align(tp, yp, 0.05 * speed)
@@ -345,7 +354,9 @@ def _wheel_robust(args, design, model, dt, speed, accel, mission, verify_mission
         "worst_overshoot_pct": robust.worst(per, "overshoot_pct", False),
         "per_sample": per,
     }
-    if args.cosim_samples > 0 and verify_mission is not None:
+    if args.cosim_samples > 0 and verify_mission is not None and args.firmware != "fmu":
+        res["cosim_note"] = "co-simulated samples run the firmware FMU only (navkit.sweep): skipped for --firmware avr"
+    elif args.cosim_samples > 0 and verify_mission is not None:
         t1 = VERIFY_T0 + speed / accel + SETTLE_S + 0.5
         ext = functools.partial(extract_move, t0=VERIFY_T0, t1=t1, speed=speed)
         res["cosim"] = _sweep(verify_mission, samples[:args.cosim_samples], nominal, out / "config",
@@ -368,6 +379,7 @@ def tune_heading(args) -> dict:
         gq = dsg.WheelGains(**tj["gains_quantised"])
         dt = 1.0 / float(tj["targets"]["control_rate_hz"])
         cd = int(tj["targets"]["compute_delay_ticks"])
+        firmware = tj.get("source", {}).get("firmware", "fmu")
     except (ValueError, KeyError, TypeError) as e:
         raise TuneError(f"{tj_path}: not a wheel tuning's tune.json ({type(e).__name__}: {e})") from None
     out = Path(args.out)
@@ -424,8 +436,9 @@ def tune_heading(args) -> dict:
         verify_mission = out / "verify_heading.toml"
         verify_mission.write_text(exp.mission_text(mission, VERIFY_T0 + t_end + 1.0, [cmd],
                                                    note="navkit tune heading: verification heading select"))
-        vdir = exp.run_cosim(verify_mission, out / "verify", config_dir=out / "config", build=args.build,
-                             frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed)
+        vdir = out / "verify"
+        exp.run_cosim(verify_mission, vdir, config_dir=out / "config", build=args.build,
+                      frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed, firmware=firmware)
         ts, hs = _truth(vdir, "heading_deg")
         hs = np.where(hs > 180.0, hs - 360.0, hs)
         t_sim = _align(ts, hs, 0.02 * target)
@@ -478,7 +491,9 @@ def tune_heading(args) -> dict:
                 "worst_overshoot_pct": robust.worst(per, "overshoot_pct", False),
                 "per_sample": per,
             }
-            if args.cosim_samples > 0 and verify_mission is not None:
+            if args.cosim_samples > 0 and verify_mission is not None and firmware != "fmu":
+                res["cosim_note"] = "co-simulated samples run the firmware FMU only (navkit.sweep): skipped for avr"
+            elif args.cosim_samples > 0 and verify_mission is not None:
                 ext = functools.partial(extract_turn, t0=VERIFY_T0, target=target)
                 res["cosim"] = _sweep(verify_mission, samples[:args.cosim_samples], nominal, out / "config",
                                       out / "robust", args.build, args.workers, ext)
