@@ -165,3 +165,71 @@ def test_a_harness_killed_outright_leaves_no_child_and_a_closed_log(tmp_path):
         time.sleep(0.05)
     assert not _alive(kids), "every child ended with the harness"
     assert _mcap_closed(tmp_path / "out" / "run.mcap"), "the log worker closed run.mcap"
+
+
+def test_plot_streams_any_size_of_run_in_bounded_memory(tmp_path):
+    """A long run's run.mcap (here 20 000 /truth rows): the plot streams it and keeps an
+    evenly thinned few thousand rows per line, so its memory does not grow with the file
+    (reading it whole took 11 GB for a 400 MB file). Measured on the reading with a small
+    cap: a whole read of this file peaks near 27 MB."""
+    import tracemalloc
+
+    import matplotlib.pyplot as plt
+    from mcap.writer import Writer
+
+    import navkit.sim.results  # noqa: F401  (imports are not the reading's memory)
+    from navkit import plot
+
+    path = tmp_path / "run.mcap"
+    n = 20_000
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        cid = w.register_channel("/truth", "json", w.register_schema("truth", "jsonschema", b"{}"))
+        for i in range(n):
+            row = {"t": i * 0.02, "x_mm": float(i), "y_mm": 0.5 * i, "yaw_deg": 0.0, "heading_deg": i % 360,
+                   "v_mm_s": 200.0, "w_deg_s": 0.0, "distance_mm": float(i), "pad": "x" * 40}
+            w.add_message(cid, log_time=i * 20_000_000, data=json.dumps(row).encode(), publish_time=0)
+        w.finish()
+    tracemalloc.start()
+    kept = plot._read_thinned(path, ("/truth",), (), cap=100)["/truth"]
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert 100 <= len(kept) <= 200 and kept[0][1]["t"] == 0.0 and kept[-1][1]["t"] > 0.95 * (n - 1) * 0.02
+    assert peak < 12e6, f"peak {peak / 1e6:.1f} MB"
+    fig = plot.mcap_figure(path)
+    try:
+        xs = fig.axes[1].get_lines()[0].get_xdata()
+        assert plot.PLOT_POINTS <= len(xs) <= 2 * plot.PLOT_POINTS, len(xs)
+    finally:
+        plt.close(fig)
+
+
+def test_a_long_run_shows_how_far_it_is(tmp_path):
+    """`navkit sim` progress on stderr: a line at a time when it is not a terminal; on a
+    terminal (a pty here) one line redrawn in place after the first second, removed at
+    the end."""
+    import re
+
+    from navkit.sim.harness import _Progress
+
+    with open(tmp_path / "err", "w") as f:
+        p = _Progress(100.0, f, every_s=0.0)
+        time.sleep(0.01)
+        p.at(25.0)
+    assert re.fullmatch(r"navkit sim: 25 of 100 s simulated \(25 %\), \d+x real time, ~\d+ s left; "
+                        r"Ctrl-C stops it cleanly\n", (tmp_path / "err").read_text())
+    master, slave = os.openpty()
+    try:
+        with open(slave, "w", closefd=False) as term:
+            p = _Progress(100.0, term)
+            p.at(1.0)                     # the first second: nothing yet
+            time.sleep(1.05)
+            p.at(50.0)
+            p.close()
+        out = os.read(master, 4096).decode()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert re.fullmatch(r"\r50 of 100 s simulated \(50 %\), \d+x real time, ~\d+ s left; Ctrl-C stops it "
+                        r"cleanly\x1b\[K\r\x1b\[K", out), repr(out)

@@ -2,7 +2,9 @@
 
 A run plot has the path (truth x/y in mm, and the micro's odometry), the forward speed
 (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s), with every
-planner command marked. A datalog ("Data MM-DD-YY HH;MM;SS.txt", the seed's Dataplot
+planner command marked. The file is streamed and each line thinned to about
+PLOT_POINTS evenly spaced messages (a few per pixel of the figure), so any size of run.mcap
+plots in bounded memory and time proportional to its size. A datalog ("Data MM-DD-YY HH;MM;SS.txt", the seed's Dataplot
 input: the number of parameters, then one line per parameter with its name and default
 plot range, then one row per host frame) gets one panel per parameter over its range.
 """
@@ -14,7 +16,11 @@ import sys
 from pathlib import Path
 
 __all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "plot_datalog", "read_datalog",
-           "read_mcap"]
+           "read_mcap", "PLOT_POINTS"]
+
+# Messages a line of a run plot keeps at most, evenly spaced (the figure is ~1000 pixels
+# wide): between PLOT_POINTS and 2 * PLOT_POINTS of a topic with more messages than that.
+PLOT_POINTS = 2000
 
 
 def add_arguments(parser) -> None:
@@ -53,6 +59,42 @@ def read_mcap(path: Path, topics=None) -> dict:
     out: dict = {}
     for t_ns, topic, data in read(path, topics).messages:
         out.setdefault(topic, []).append((t_ns, json.loads(data)))
+    return out
+
+
+class _Thinned:
+    """Every `stride`-th message of a stream, the stride doubling (and every other kept
+    message dropped) whenever more than 2 * `cap` are kept: at most 2 * `cap` in memory,
+    evenly spaced, without knowing the count ahead. Only kept messages are decoded."""
+
+    def __init__(self, cap: int):
+        self.cap, self.stride, self.n, self.kept = cap, 1, 0, []
+
+    def offer(self, t_ns: int, data: bytes) -> None:
+        if self.n % self.stride == 0:
+            self.kept.append((t_ns, json.loads(data)))
+            if len(self.kept) > 2 * self.cap:
+                self.kept = self.kept[::2]
+                self.stride *= 2
+        self.n += 1
+
+
+def _read_thinned(path: Path, thin: tuple, whole: tuple, cap: int = PLOT_POINTS) -> dict:
+    """{topic: [(log_time_ns, decoded JSON), ...]} of run `path`, streamed
+    (navkit.sim.results.iter_mcap): the topics in `thin` thinned to about `cap` messages
+    each (_Thinned), those in `whole` every message; each list in log-time order."""
+    from navkit.sim.results import iter_mcap
+
+    thinned = {t: _Thinned(cap) for t in thin}
+    out: dict = {t: [] for t in whole}
+    for t_ns, topic, data in iter_mcap(path, thin + whole):
+        if topic in thinned:
+            thinned[topic].offer(t_ns, data)
+        else:
+            out[topic].append((t_ns, json.loads(data)))
+    out.update({t: th.kept for t, th in thinned.items()})
+    for msgs in out.values():
+        msgs.sort(key=lambda m: m[0])
     return out
 
 
@@ -106,8 +148,9 @@ def mcap_figure(path: Path):
     matplotlib.pyplot.close): three panels, the path (truth y_mm across, x_mm up, mm),
     the speed (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s);
     on the speed and heading panels one vertical line per /planner/cmd message (gid
-    "command") and per /events message (gid "event") at its log time."""
-    msgs = read_mcap(path, ["/truth", "/planner/cmd", "/micro/data", "/events"])
+    "command") and per /events message (gid "event") at its log time. /truth and
+    /micro/data are thinned to about PLOT_POINTS messages each."""
+    msgs = _read_thinned(path, ("/truth", "/micro/data"), ("/planner/cmd", "/events"))
     truth = [m for _, m in msgs.get("/truth", [])]
     if not truth:
         raise ValueError("no /truth messages")

@@ -47,6 +47,9 @@ def add_arguments(parser) -> None:
                         help="host frame period in ms, a whole number; the micro's watchdog_timeout must "
                         "outlast two frames (default: from NavAndControl.ini)")
     parser.add_argument("--no-plot", action="store_true", help="skip plot.png")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress on stderr (by default a line redrawn in place on a terminal "
+                        "after the first second, else a line every 10 s of wall time)")
 
 
 def _out_refusal(out: Path) -> str:
@@ -102,7 +105,7 @@ def run(args) -> int:
                       config_dir=args.config, build=build, plant_fmu=args.plant,
                       firmware=args.firmware,
                       frame_s=args.frame_ms / 1000 if args.frame_ms is not None else None,
-                      plot=not args.no_plot)
+                      plot=not args.no_plot, progress=not args.no_progress)
     from navkit.sim.harness import SimInterrupted
 
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):

@@ -57,6 +57,45 @@ class SimInterrupted(Exception):
         self.summary, self.signum = summary, signum
 
 
+class _Progress:
+    """How far a run is, on `stream` (stderr): on a terminal one line redrawn in place
+    (after the first second of wall time, at most 4 times a second); otherwise a line
+    every `every_s` s of wall time. Says simulated s done of the duration, the real-time
+    factor so far and the wall time left at that pace."""
+
+    def __init__(self, duration_s: float, stream=None, every_s: float = 10.0):
+        self.stream = stream or sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.duration_s, self.every_s = duration_s, every_s
+        self.t0 = self.last = time.monotonic()
+        self.shown = False
+
+    def at(self, t_s: float) -> None:
+        """The run has reached simulated time `t_s` (s)."""
+        now = time.monotonic()
+        wall = now - self.t0
+        if (now - self.last < self.every_s) if not self.tty else (wall < 1.0 or now - self.last < 0.25):
+            return
+        self.last = now
+        pace = t_s / wall if wall > 0 else 0.0
+        left = f"~{(self.duration_s - t_s) / pace:.0f} s left" if pace > 0 else "starting"
+        text = (f"{t_s:.0f} of {self.duration_s:g} s simulated ({100 * t_s / self.duration_s:.0f} %), "
+                f"{pace:.0f}x real time, {left}; Ctrl-C stops it cleanly")
+        if self.tty:
+            self.stream.write(f"\r{text}\033[K")
+            self.shown = True
+        else:
+            self.stream.write(f"navkit sim: {text}\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """Remove the terminal's progress line."""
+        if self.shown:
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+            self.shown = False
+
+
 def _end_with_parent() -> None:
     """In a child before exec: SIGTERM when the harness ends, however it ends (the host
     then shuts down as on SIGTERM: stop sent, region removed)."""
@@ -83,7 +122,7 @@ class SimOptions:
     timing: bool = False               # measure time per part (benchmark)
     pin_cpu: bool = True               # lockstep: harness and host share one CPU
     host_args: list = field(default_factory=list)
-    progress: bool = False
+    progress: bool = False             # how far the run is, on stderr (navkit sim: on; _Progress)
     log_inline: bool = False           # decode and write run.mcap in this process, no log
                                        # worker (a sweep's runs: one CPU each, no children)
 
@@ -584,6 +623,8 @@ class _Run:
             raise SimError(f"navkit-host exited with status {self.proc.returncode}:\n{tail}")
 
     def stop(self) -> None:
+        if getattr(self, "progress", None) is not None:
+            self.progress.close()
         gc.unfreeze()             # lockstep() froze the objects of the set-up
         if getattr(self, "_saved_affinity", None):
             try:
@@ -793,6 +834,7 @@ class _Run:
         # the collector from walking them again at every full collection of the loop.
         gc.freeze()
         gone = False            # the /host/frame saying the host is gone is written
+        progress = self.progress = _Progress(self.m.duration_s) if self.opts.progress else None
         loop0 = pc()
         for k in range(n_frames):
             t_ns = k * frame_ns
@@ -851,8 +893,8 @@ class _Run:
                 log.micro(t_ns + frame_ns, tx2)
                 self.rx_count += self._to_host(tx2)
             log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
-            if self.opts.progress and k % max(1, int(10 / self.frame_s)) == 0:
-                print(f"  t = {t_ns / 1e9:7.1f} s", flush=True)
+            if progress is not None and k & 63 == 0:
+                progress.at(t_ns / 1e9)
         self.sim_time_s = n_frames * self.frame_s
         times["harness"] = pc() - loop0 - times["fmus"] - times["pty"] - times["host"]
 
@@ -869,6 +911,7 @@ class _Run:
         next_frame_ns = 0
         rx = tx_host = 0        # bytes to / from the host's port since the last /host/frame
         last_frame, gone = None, False
+        progress = self.progress = _Progress(self.m.duration_s) if self.opts.progress else None
         for c in range(n_chunks):
             t_ns = c * chunk_ns
             self.t_ns = t_ns        # where an interrupted run stopped
@@ -908,6 +951,8 @@ class _Run:
                 next_frame_ns += round(self.frame_s * 1e9)
                 # the next frame's chunk ends about then (the log splits finer if need be)
                 self.log.end_frame(next_frame_ns + chunk_ns)
+            if progress is not None and c & 63 == 0:
+                progress.at(t_ns / 1e9)
             sleep = wall0 + (t_ns + chunk_ns) / 1e9 - time.monotonic()
             if sleep > 0:
                 time.sleep(sleep)

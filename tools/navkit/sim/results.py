@@ -7,7 +7,8 @@ frames, mm / deg / mm/s for /truth).
 `read_mcap(path)` reads any run.mcap, also one whose run was killed: the file then ends
 without its summary and footer (and maybe inside a record), so it is read record by record
 up to the last whole record, with a warning on stderr naming the file, the byte where it
-ends and the last log time read.
+ends and the last log time read. `iter_mcap(path)` streams the messages of a file of any
+size in bounded memory (one record at a time), in file order.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["RunResult", "McapContents", "load", "read_mcap"]
+__all__ = ["RunResult", "McapContents", "load", "read_mcap", "iter_mcap"]
 
 _MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_OPCODE = 0x02
@@ -53,6 +54,47 @@ def _whole_records(data: bytes) -> tuple[int, bool]:
         if opcode == _FOOTER_OPCODE:
             return at, data[at:at + len(_MAGIC)] == _MAGIC
     return at, False
+
+
+def iter_mcap(path: str | Path, topics=None):
+    """Messages of MCAP file `path` as (log time ns, topic, JSON bytes), in file order
+    (log-time order but for a few ms in a real-time run), only the topics in `topics` (all
+    if None); one record in memory at a time, whatever the file's size. A file without its
+    footer (a killed run, or a record that does not decode) ends at its last whole record,
+    with read_mcap's warning on stderr. McapError naming the file if it is not MCAP."""
+    from mcap.exceptions import EndOfFile, McapError
+    from mcap.records import Channel, Footer, Message
+    from mcap.stream_reader import StreamReader
+
+    path = Path(path)
+    want = None if topics is None else set(topics)
+    chans, last, footer = {}, None, False
+    with open(path, "rb") as f:
+        if f.read(len(_MAGIC)) != _MAGIC:
+            raise McapError(f"{path}: not an MCAP file (it does not start with the MCAP magic)")
+        f.seek(0)
+        try:
+            for rec in StreamReader(f).records:
+                cls = rec.__class__
+                if cls is Message:
+                    topic = chans.get(rec.channel_id)
+                    if topic is None:
+                        raise McapError(f"{path}: a message on channel {rec.channel_id} before "
+                                        f"that channel's record")
+                    last = rec.log_time
+                    if want is None or topic in want:
+                        yield rec.log_time, topic, rec.data
+                elif cls is Channel:
+                    chans[rec.id] = rec.topic
+                elif cls is Footer:  # every record is read; whole if the closing magic follows
+                    footer = f.read(len(_MAGIC)) == _MAGIC
+                    break
+        except (EndOfFile, struct.error, RuntimeError, ValueError):
+            pass            # cut inside a record: what was read before it stands
+        if not footer:
+            upto = f"messages up to log time {last / 1e9:.3f} s" if last is not None else "no messages"
+            print(f"warning: {path}: truncated (no summary or footer: the run did not finish); "
+                  f"read its whole records: {upto}", file=sys.stderr)
 
 
 def read_mcap(path: str | Path, topics=None) -> McapContents:
