@@ -162,8 +162,8 @@ def test_sweep_deterministic_and_survives_failing_runs(local_tables):
         assert r["status"] == "failed" and r["x_mm"] == ""
         assert "[plant]: key 'mass_kg'" in r["error"] and "-12" in r["error"], r["error"]
         # reported with its parameters as it happened, and its folder kept
-        assert f"run {r['run']} (seed 1, mass_kg=-12, friction_coulomb_n={float(r['friction_coulomb_n']):g}) " \
-               f"failed: " in p1.stderr, p1.stderr
+        params = f"seed 1, mass_kg=-12, friction_coulomb_n={float(r['friction_coulomb_n']):g}"
+        assert f"run {r['run']} ({params}) failed: " in p1.stderr, p1.stderr
         assert (d1 / "runs" / f"{int(r['run']):04d}").is_dir()
     for r in rows[2:]:
         assert r["status"] == "ok" and r["error"] == "", r

@@ -422,7 +422,8 @@ def _nonneg(text: str) -> float:
 
 def add_arguments(parser) -> None:
     """Arguments of `navkit compare`."""
-    parser.add_argument("run_a", type=Path, metavar="RUN_A", help="a navkit sim output folder (or its run.mcap)")
+    parser.add_argument("run_a", type=Path, metavar="RUN_A",
+                        help="a navkit sim output folder (or its run.mcap)")
     parser.add_argument("run_b", type=Path, metavar="RUN_B", help="the run compared with RUN_A")
     parser.add_argument("--plot", type=Path, default=Path("compare.png"), metavar="FILE",
                         help="the plot (default: compare.png in the current folder)")
