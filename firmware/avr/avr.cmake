@@ -9,6 +9,9 @@ include(ExternalProject)
 get_target_property(navkit_avr_core navkit_fw_core SOURCES)
 list(TRANSFORM navkit_avr_core PREPEND ${CMAKE_SOURCE_DIR}/firmware/)
 string(JOIN "|" navkit_avr_core_arg ${navkit_avr_core})
+# navkit_proto's sources are absolute paths (the generated code and the runtime)
+get_target_property(navkit_avr_proto navkit_proto SOURCES)
+string(JOIN "|" navkit_avr_proto_arg ${navkit_avr_proto})
 set(navkit_avr_outputs)
 foreach(n navkit-mega2560 navkit-mega2560-test)
   list(APPEND navkit_avr_outputs ${NAVKIT_AVR_IMAGE_DIR}/${n}.elf ${NAVKIT_AVR_IMAGE_DIR}/${n}.hex
@@ -22,6 +25,7 @@ ExternalProject_Add(navkit_avr_image
   CMAKE_ARGS
     -DCMAKE_TOOLCHAIN_FILE=${CMAKE_SOURCE_DIR}/cmake/avr-gcc.cmake
     -DNAVKIT_CORE_SOURCES=${navkit_avr_core_arg}
+    -DNAVKIT_PROTO_SOURCES=${navkit_avr_proto_arg}
     -DNAVKIT_CORE_DIR=${CMAKE_SOURCE_DIR}/firmware/core
     -DNAVKIT_GEN_DIR=${CMAKE_BINARY_DIR}/gen
     -DNAVKIT_PROTO_RUNTIME_DIR=${CMAKE_SOURCE_DIR}/protocol/runtime
