@@ -83,7 +83,7 @@ void hal_uart_write(hal_t *hal, const uint8_t *buf, size_t len);
  * target need not define them) ---- */
 
 /* Take the oldest received frame: 1 with *id (the 11-bit identifier, ORed with
- * CAN_TP_EXT for an extended frame, CAN_TP_RTR for a remote one: can_tp.h), data[0..*dlc-1]
+ * NAVKIT_ISOTP_EXT for an extended frame, NAVKIT_ISOTP_RTR for a remote one: navkit/navkit_isotp.h), data[0..*dlc-1]
  * and *dlc (data bytes, 0..8); 0 if none is waiting. */
 uint8_t hal_can_read(hal_t *hal, uint16_t *id, uint8_t data[8], uint8_t *dlc);
 /* Frames the TX queue can take now. */

@@ -18,8 +18,8 @@ void link_reset(link_t *l)
     l->have_tag = 0u;
     l->tag_pending = 0u;
 #if FW_LINK_CAN
-    can_tp_rx_init(&l->can_rx, NAVKIT_DIR_TO_MICRO);
-    can_tp_tx_init(&l->can_tx);
+    navkit_isotp_rx_init(&l->can_rx, NAVKIT_DIR_TO_MICRO);
+    navkit_isotp_tx_init(&l->can_tx);
 #endif
 }
 
@@ -428,13 +428,13 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
 static void link_reply(fw_t *fw)
 {
     navkit_micro_data_t d;
-    can_tp_tx_t *tx = &fw->link.can_tx;
-    if (can_tp_tx_busy(tx)) {
+    navkit_isotp_tx_t *tx = &fw->link.can_tx;
+    if (navkit_isotp_tx_busy(tx)) {
         return;
     }
     fw->link.tx_tag++;
     link_telemetry(fw, &d);
-    (void)can_tp_tx_start(tx, (uint16_t)navkit_micro_data_encode(&d, tx->buf, sizeof tx->buf),
+    (void)navkit_isotp_tx_start(tx, (uint16_t)navkit_micro_data_encode(&d, tx->buf, sizeof tx->buf),
                           NAVKIT_MSG_TYPE_MICRO_DATA, fw->ms);
 }
 
@@ -444,7 +444,7 @@ static void link_reply(fw_t *fw)
 void link_poll(fw_t *fw)
 {
     link_t *l = &fw->link;
-    can_tp_frame_t f;
+    navkit_isotp_frame_t f;
     uint16_t id;
     uint8_t data[8];
     uint8_t dlc;
@@ -454,8 +454,8 @@ void link_poll(fw_t *fw)
         if (dlc > 8u) {
             dlc = 8u;
         }
-        can_tp_tx_frame(&l->can_tx, id, data, dlc, fw->ms);
-        n = can_tp_rx_frame(&l->can_rx, id, data, dlc, fw->ms, &f, &fc_out);
+        navkit_isotp_tx_frame(&l->can_tx, id, data, dlc, fw->ms);
+        n = navkit_isotp_rx_frame(&l->can_rx, id, data, dlc, fw->ms, &f, &fc_out);
         if (fc_out && hal_can_tx_free(fw->hal) > 0u) {
             hal_can_write(fw->hal, f.id, f.data);
         }
@@ -475,8 +475,8 @@ void link_poll(fw_t *fw)
             l->parser.have = 0u;
         }
     }
-    can_tp_rx_poll(&l->can_rx, fw->ms);
-    while (hal_can_tx_free(fw->hal) > 0u && can_tp_tx_next(&l->can_tx, fw->ms, &f)) {
+    navkit_isotp_rx_poll(&l->can_rx, fw->ms);
+    while (hal_can_tx_free(fw->hal) > 0u && navkit_isotp_tx_next(&l->can_tx, fw->ms, &f)) {
         hal_can_write(fw->hal, f.id, f.data);
     }
 }

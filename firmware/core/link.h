@@ -34,15 +34,12 @@
 #include "navkit/navkit_proto.h"
 
 /* The transport of the micro link, chosen by the build: 0 the UART (hal_uart_*), 1 CAN
-   (hal_can_*: each frame one ISO-TP message, can_tp.h). Above the transport all is the same:
+   (hal_can_*: each frame one ISO-TP message, navkit/navkit_isotp.h, which navkit_proto.h
+   includes). Above the transport all is the same:
    the reassembled frames go through the same parser, counters and rules. */
 #ifndef FW_LINK_CAN
 #define FW_LINK_CAN 0
 #endif
-#if FW_LINK_CAN
-#include "can_tp.h"
-#endif
-
 struct fw;
 
 /* bytes: the most link_poll() asks of one hal_uart_read() call (its buffer on the stack);
@@ -62,8 +59,8 @@ typedef struct {
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
     uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
 #if FW_LINK_CAN
-    can_tp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
-    can_tp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
+    navkit_isotp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
+    navkit_isotp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
 #endif
 } link_t;
 

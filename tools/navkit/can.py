@@ -8,7 +8,8 @@ message; every CAN frame is padded to 8 data bytes. A `Receiver` reassembles wha
 towards one end, a `Sender` segments what that end sends; `Endpoint` is both, as the host
 or the micro. Times are seconds on any monotonic clock the caller passes in (`now`).
 
-What the standard defines, and this module does (the C firmware's can_tp.c the same):
+What the standard defines, and this module does (the C runtime's navkit_isotp.c, which the
+firmware's CAN transport uses, the same):
 - a consecutive frame out of sequence (one lost, or two swapped by a gateway) aborts the
   message (`wrong_sn`); the frames after it are ignored until a new first frame
   (`unexpected`);

@@ -162,7 +162,10 @@ def emit_c_header(spec: Spec) -> str:
     out.append(f"#define NAVKIT_RCOMM_SIZE {r.size}u\n")
     if spec.can is not None:
         out += _c_can_header(spec)
-    out.append("#ifdef __cplusplus\n}\n#endif\n#endif /* NAVKIT_PROTO_H */\n")
+    out.append("#ifdef __cplusplus\n}\n#endif\n")
+    if spec.can is not None:  # ISO-TP, the CAN transport, sized by the constants above
+        out.append('#include "navkit/navkit_isotp.h"\n')
+    out.append("#endif /* NAVKIT_PROTO_H */\n")
     return "\n".join(out)
 
 

@@ -1,4 +1,4 @@
-/* The firmware core built with the CAN link (FW_LINK_CAN = 1): a host made of can_tp's
+/* The firmware core built with the CAN link (FW_LINK_CAN = 1): a host made of navkit_isotp's
  * sender (and a plain reassembly of micro_data) talks to fw_link_poll() through CAN frame
  * queues in a fake hal. The configs and a micro_cmd go in as ISO-TP messages, micro_data
  * comes back as one; a lost consecutive frame costs that message only (counted by ISO-TP,
@@ -62,7 +62,7 @@ void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
 
 static fw_t fw;
 static struct hal board;
-static can_tp_tx_t host_tx;       /* the host's sender */
+static navkit_isotp_tx_t host_tx;       /* the host's sender */
 static uint8_t data_buf[NAVKIT_MICRO_DATA_BYTES];
 static uint16_t data_have, data_want;
 static int data_count;            /* micro_data frames reassembled */
@@ -80,7 +80,7 @@ static void to_micro(uint16_t id, const uint8_t *data)
 static void host_take(const qframe_t *f)
 {
     static const uint8_t cts[8] = {0x30, 0, 0, 0xCC, 0xCC, 0xCC, 0xCC, 0xCC};
-    can_tp_tx_frame(&host_tx, f->id, f->data, f->dlc, fw.ms);
+    navkit_isotp_tx_frame(&host_tx, f->id, f->data, f->dlc, fw.ms);
     if (f->id != NAVKIT_CAN_ID_MICRO_DATA) {
         return;
     }
@@ -107,9 +107,9 @@ static void host_take(const qframe_t *f)
 static void run(int ms, int drop)
 {
     int i, k, sent = 0;
-    can_tp_frame_t f;
+    navkit_isotp_frame_t f;
     for (i = 0; i < ms; i++) {
-        while (can_tp_tx_next(&host_tx, fw.ms, &f)) {
+        while (navkit_isotp_tx_next(&host_tx, fw.ms, &f)) {
             if (++sent != drop) {
                 to_micro(f.id, f.data);
             }
@@ -127,7 +127,7 @@ static void run(int ms, int drop)
 static void host_send(const uint8_t *frame, size_t len, int drop)
 {
     memcpy(host_tx.buf, frame, len);
-    CHECK(can_tp_tx_start(&host_tx, (uint16_t)len, navkit_frame_type(frame), fw.ms));
+    CHECK(navkit_isotp_tx_start(&host_tx, (uint16_t)len, navkit_frame_type(frame), fw.ms));
     run(20, drop);
 }
 
@@ -165,7 +165,7 @@ int main(void)
 {
     board.tx_room = 2u; /* a small TX queue (the MCP2515 has 3 buffers): frames wait, never break */
     fw_init(&fw, &board);
-    can_tp_tx_init(&host_tx);
+    navkit_isotp_tx_init(&host_tx);
     configure();
     CHECK(data_count == 3);
     CHECK((last_data.status & NAVKIT_MICRO_STATUS_CONFIGURED) != 0u);

@@ -1,4 +1,4 @@
-/* can_tp (firmware/core/can_tp.c) against the golden vectors navkit.can made
+/* ISO-TP (protocol/runtime/navkit_isotp.c) against the golden vectors navkit.can made
  * (tests/vectors/can.txt, see tools/navkit/can_vectors.py): the receiver must complete the
  * same messages, send the same flow controls and count the same, frame by frame; the
  * sender must cut each whole message into the same frames. Then the sender's own rules:
@@ -7,7 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "can_tp.h"
+#include "navkit/navkit_proto.h"
 #include "check.h"
 
 #define LINE_MAX_CHARS 65536
@@ -15,7 +15,7 @@
 
 typedef struct {
     uint32_t t;      /* ms */
-    uint16_t id;     /* with CAN_TP_EXT / CAN_TP_RTR */
+    uint16_t id;     /* with NAVKIT_ISOTP_EXT / NAVKIT_ISOTP_RTR */
     uint8_t dlc;
     uint8_t data[8];
 } vec_frame_t;
@@ -76,12 +76,12 @@ static int parse_frames(char *s, vec_frame_t *f, int cap)
         unsigned long id;
         f[n].t = (uint32_t)strtoul(tok, NULL, 10);
         id = strtoul(colon + 1, NULL, 16);
-        f[n].id = (uint16_t)(id & CAN_TP_ID_MASK);
+        f[n].id = (uint16_t)(id & NAVKIT_ISOTP_ID_MASK);
         if (hash - colon - 1 == 8) {
-            f[n].id |= CAN_TP_EXT;
+            f[n].id |= NAVKIT_ISOTP_EXT;
         }
         if (hash[1] == 'R') {
-            f[n].id |= CAN_TP_RTR;
+            f[n].id |= NAVKIT_ISOTP_RTR;
             f[n].dlc = 8u;
             memset(f[n].data, 0, 8u);
         } else {
@@ -116,17 +116,17 @@ static void run_case(const char *line)
     static char buf[LINE_MAX_CHARS], got_msgs[LINE_MAX_CHARS], got_fc[LINE_MAX_CHARS], want[LINE_MAX_CHARS];
     static vec_frame_t frames[CASE_FRAMES];
     char name[64], item[600], stats[128];
-    can_tp_rx_t rx;
-    can_tp_frame_t fc;
+    navkit_isotp_rx_t rx;
+    navkit_isotp_frame_t fc;
     int n, i;
     field(line, 0, name, sizeof name);
     field(line, 1, buf, sizeof buf);
     n = parse_frames(buf, frames, CASE_FRAMES);
-    can_tp_rx_init(&rx, NAVKIT_DIR_TO_MICRO);
+    navkit_isotp_rx_init(&rx, NAVKIT_DIR_TO_MICRO);
     got_msgs[0] = got_fc[0] = '\0';
     for (i = 0; i < n; i++) {
         uint8_t fc_out;
-        uint16_t len = can_tp_rx_frame(&rx, frames[i].id, frames[i].data, frames[i].dlc, frames[i].t, &fc, &fc_out);
+        uint16_t len = navkit_isotp_rx_frame(&rx, frames[i].id, frames[i].data, frames[i].dlc, frames[i].t, &fc, &fc_out);
         if (len) {
             hexstr(rx.buf, len, item);
             join(got_msgs, ",", item);
@@ -156,24 +156,24 @@ static void run_case(const char *line)
     }
     /* a whole message: the sender cuts it into the very frames of the case */
     if (strncmp(name, "whole ", 6) == 0) {
-        static can_tp_tx_t tx;
+        static navkit_isotp_tx_t tx;
         uint8_t cts[8] = {0x30, 0, 0, 0xCC, 0xCC, 0xCC, 0xCC, 0xCC};
-        can_tp_frame_t f;
+        navkit_isotp_frame_t f;
         int k = 0;
         uint16_t len;
         field(line, 2, want, sizeof want);
-        can_tp_tx_init(&tx);
+        navkit_isotp_tx_init(&tx);
         len = (uint16_t)unhex(want, tx.buf, sizeof tx.buf);
-        CHECK(can_tp_tx_start(&tx, len, navkit_get_u16(tx.buf + 4), 0u));
-        while (can_tp_tx_next(&tx, 0u, &f)) {
+        CHECK(navkit_isotp_tx_start(&tx, len, navkit_get_u16(tx.buf + 4), 0u));
+        while (navkit_isotp_tx_next(&tx, 0u, &f)) {
             CHECK(k < n && f.id == frames[k].id && memcmp(f.data, frames[k].data, 8u) == 0);
             k++;
             if (k == 1) {
-                CHECK(!can_tp_tx_next(&tx, 0u, &f)); /* nothing before the flow control */
-                can_tp_tx_frame(&tx, navkit_can_id(navkit_get_u16(tx.buf + 4), 1), cts, 8u, 0u);
+                CHECK(!navkit_isotp_tx_next(&tx, 0u, &f)); /* nothing before the flow control */
+                navkit_isotp_tx_frame(&tx, navkit_can_id(navkit_get_u16(tx.buf + 4), 1), cts, 8u, 0u);
             }
         }
-        CHECK(k == n && !can_tp_tx_busy(&tx) && tx.stats.sent == 1u);
+        CHECK(k == n && !navkit_isotp_tx_busy(&tx) && tx.stats.sent == 1u);
     }
 }
 
@@ -203,36 +203,36 @@ static void test_vectors(const char *path)
 }
 
 /* The micro sends micro_data: first frame, then nothing until the flow control. */
-static void start_data(can_tp_tx_t *tx, uint32_t now)
+static void start_data(navkit_isotp_tx_t *tx, uint32_t now)
 {
-    can_tp_frame_t f;
+    navkit_isotp_frame_t f;
     memset(tx->buf, 0x5A, sizeof tx->buf);
-    CHECK(can_tp_tx_start(tx, NAVKIT_MICRO_DATA_BYTES, NAVKIT_MSG_TYPE_MICRO_DATA, now));
-    CHECK(can_tp_tx_next(tx, now, &f) && f.id == NAVKIT_CAN_ID_MICRO_DATA && f.data[0] == 0x10u &&
+    CHECK(navkit_isotp_tx_start(tx, NAVKIT_MICRO_DATA_BYTES, NAVKIT_MSG_TYPE_MICRO_DATA, now));
+    CHECK(navkit_isotp_tx_next(tx, now, &f) && f.id == NAVKIT_CAN_ID_MICRO_DATA && f.data[0] == 0x10u &&
           f.data[1] == NAVKIT_MICRO_DATA_BYTES);
-    CHECK(!can_tp_tx_next(tx, now, &f));
+    CHECK(!navkit_isotp_tx_next(tx, now, &f));
 }
 
 static void test_sender_rules(void)
 {
-    static can_tp_tx_t tx;
-    can_tp_frame_t f;
+    static navkit_isotp_tx_t tx;
+    navkit_isotp_frame_t f;
     uint8_t fc[8] = {0x30, 4, 2, 0xCC, 0xCC, 0xCC, 0xCC, 0xCC}; /* 4 frames a block, 2 ms apart */
     uint32_t t;
     int sent = 0, fcs = 1;
-    can_tp_tx_init(&tx);
+    navkit_isotp_tx_init(&tx);
     start_data(&tx, 0u);
-    CHECK(!can_tp_tx_start(&tx, 10u, NAVKIT_MSG_TYPE_MICRO_DATA, 0u) && tx.stats.busy == 1u);
-    can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_CMD, fc, 8u, 1u); /* another message's flow control: ignored */
-    CHECK(!can_tp_tx_next(&tx, 1u, &f));
-    can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 1u);
-    for (t = 1u; t < 400u && can_tp_tx_busy(&tx); t++) {
-        while (can_tp_tx_next(&tx, t, &f)) {
+    CHECK(!navkit_isotp_tx_start(&tx, 10u, NAVKIT_MSG_TYPE_MICRO_DATA, 0u) && tx.stats.busy == 1u);
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_CMD, fc, 8u, 1u); /* another message's flow control: ignored */
+    CHECK(!navkit_isotp_tx_next(&tx, 1u, &f));
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 1u);
+    for (t = 1u; t < 400u && navkit_isotp_tx_busy(&tx); t++) {
+        while (navkit_isotp_tx_next(&tx, t, &f)) {
             CHECK((f.data[0] & 0x0Fu) == (uint8_t)((sent + 1) & 0x0F));
             sent++;
-            if (sent % 4 == 0 && can_tp_tx_busy(&tx)) {
-                CHECK(!can_tp_tx_next(&tx, t + 50u, &f)); /* a block ends: wait for the next flow control */
-                can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, t);
+            if (sent % 4 == 0 && navkit_isotp_tx_busy(&tx)) {
+                CHECK(!navkit_isotp_tx_next(&tx, t + 50u, &f)); /* a block ends: wait for the next flow control */
+                navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, t);
                 fcs++;
             }
         }
@@ -243,27 +243,27 @@ static void test_sender_rules(void)
     /* no flow control: abandoned after N_Bs; a wait restarts that */
     start_data(&tx, 1000u);
     fc[0] = 0x31u;
-    can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 1000u + NAVKIT_CAN_N_BS_MS - 1u);
-    CHECK(!can_tp_tx_next(&tx, 1000u + NAVKIT_CAN_N_BS_MS + 1u, &f) && can_tp_tx_busy(&tx) && tx.stats.wait == 1u);
-    CHECK(!can_tp_tx_next(&tx, 1000u + 2u * NAVKIT_CAN_N_BS_MS, &f) && !can_tp_tx_busy(&tx) && tx.stats.timeout == 1u);
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 1000u + NAVKIT_CAN_N_BS_MS - 1u);
+    CHECK(!navkit_isotp_tx_next(&tx, 1000u + NAVKIT_CAN_N_BS_MS + 1u, &f) && navkit_isotp_tx_busy(&tx) && tx.stats.wait == 1u);
+    CHECK(!navkit_isotp_tx_next(&tx, 1000u + 2u * NAVKIT_CAN_N_BS_MS, &f) && !navkit_isotp_tx_busy(&tx) && tx.stats.timeout == 1u);
     /* an overflow abandons the message; so does an invalid status; a short frame is no flow control */
     start_data(&tx, 2000u);
     fc[0] = 0x32u;
-    can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 2001u);
-    CHECK(!can_tp_tx_busy(&tx) && tx.stats.overflow == 1u);
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 2001u);
+    CHECK(!navkit_isotp_tx_busy(&tx) && tx.stats.overflow == 1u);
     start_data(&tx, 3000u);
-    can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 3u, 3001u);
-    CHECK(can_tp_tx_busy(&tx) && tx.stats.bad_fc == 1u);
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 3u, 3001u);
+    CHECK(navkit_isotp_tx_busy(&tx) && tx.stats.bad_fc == 1u);
     fc[0] = 0x37u;
-    can_tp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 3001u);
-    CHECK(!can_tp_tx_busy(&tx) && tx.stats.bad_fc == 2u);
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 3001u);
+    CHECK(!navkit_isotp_tx_busy(&tx) && tx.stats.bad_fc == 2u);
     /* a short message goes as one single frame, padded */
     tx.buf[0] = 1u;
     tx.buf[1] = 2u;
-    CHECK(can_tp_tx_start(&tx, 2u, NAVKIT_MSG_TYPE_MICRO_DATA, 4000u));
-    CHECK(can_tp_tx_next(&tx, 4000u, &f) && f.data[0] == 2u && f.data[1] == 1u && f.data[2] == 2u &&
-          f.data[3] == NAVKIT_CAN_PADDING && f.data[7] == NAVKIT_CAN_PADDING && !can_tp_tx_busy(&tx));
-    CHECK(!can_tp_tx_start(&tx, 2u, 99u, 4000u)); /* no identifier for an unknown msg_type */
+    CHECK(navkit_isotp_tx_start(&tx, 2u, NAVKIT_MSG_TYPE_MICRO_DATA, 4000u));
+    CHECK(navkit_isotp_tx_next(&tx, 4000u, &f) && f.data[0] == 2u && f.data[1] == 1u && f.data[2] == 2u &&
+          f.data[3] == NAVKIT_CAN_PADDING && f.data[7] == NAVKIT_CAN_PADDING && !navkit_isotp_tx_busy(&tx));
+    CHECK(!navkit_isotp_tx_start(&tx, 2u, 99u, 4000u)); /* no identifier for an unknown msg_type */
 }
 
 int main(int argc, char **argv)

@@ -1,25 +1,25 @@
-/* can_tp: ISO 15765-2 on classic CAN. See can_tp.h. */
-#include "can_tp.h"
+/* navkit_isotp: ISO 15765-2 on classic CAN. See navkit/navkit_isotp.h. */
+#include "navkit/navkit_isotp.h"
 
-#define CAN_TP_SF 0u   /* PCI frame types (high nibble of byte 0) */
-#define CAN_TP_FF 1u
-#define CAN_TP_CF 2u
-#define CAN_TP_FC 3u
-#define CAN_TP_CONTINUE 0u /* flow statuses (low nibble of a flow control) */
-#define CAN_TP_WAIT 1u
-#define CAN_TP_OVERFLOW 2u
-#define CAN_TP_SF_MAX 7u /* bytes: the most a single frame carries */
-#define CAN_TP_FF_DATA 6u /* bytes a first frame carries */
-#define CAN_TP_CF_DATA 7u /* bytes a consecutive frame carries */
+#define ISOTP_SF 0u   /* PCI frame types (high nibble of byte 0) */
+#define ISOTP_FF 1u
+#define ISOTP_CF 2u
+#define ISOTP_FC 3u
+#define ISOTP_CONTINUE 0u /* flow statuses (low nibble of a flow control) */
+#define ISOTP_WAIT 1u
+#define ISOTP_OVERFLOW 2u
+#define ISOTP_SF_MAX 7u /* bytes: the most a single frame carries */
+#define ISOTP_FF_DATA 6u /* bytes a first frame carries */
+#define ISOTP_CF_DATA 7u /* bytes a consecutive frame carries */
 
 /* 1 if time a is at or after time b on a wrapping ms clock. */
-static uint8_t can_tp_after(uint32_t a, uint32_t b)
+static uint8_t navkit_isotp_after(uint32_t a, uint32_t b)
 {
     return (uint8_t)((int32_t)(a - b) >= 0);
 }
 
-/* n bytes from src to dst (the core includes no <string.h>: hal.h, ordering and headers). */
-static void can_tp_copy(uint8_t *dst, const uint8_t *src, uint16_t n)
+/* n bytes from src to dst (no <string.h>: the firmware core links this and includes none). */
+static void navkit_isotp_copy(uint8_t *dst, const uint8_t *src, uint16_t n)
 {
     while (n-- > 0u) {
         *dst++ = *src++;
@@ -27,7 +27,7 @@ static void can_tp_copy(uint8_t *dst, const uint8_t *src, uint16_t n)
 }
 
 /* A frame on id: data copied (n bytes, at most 8), the rest padded. */
-static void can_tp_fill(can_tp_frame_t *f, uint16_t id, const uint8_t *data, uint8_t n)
+static void navkit_isotp_fill(navkit_isotp_frame_t *f, uint16_t id, const uint8_t *data, uint8_t n)
 {
     uint8_t i;
     f->id = id;
@@ -36,18 +36,18 @@ static void can_tp_fill(can_tp_frame_t *f, uint16_t id, const uint8_t *data, uin
     }
 }
 
-static void can_tp_flow(can_tp_frame_t *fc, uint16_t fc_id, uint8_t status)
+static void navkit_isotp_flow(navkit_isotp_frame_t *fc, uint16_t fc_id, uint8_t status)
 {
     uint8_t pci[3];
-    pci[0] = (uint8_t)((CAN_TP_FC << 4) | status);
-    pci[1] = (status == CAN_TP_CONTINUE) ? (uint8_t)NAVKIT_CAN_FC_BLOCK_SIZE : 0u;
-    pci[2] = (status == CAN_TP_CONTINUE) ? (uint8_t)NAVKIT_CAN_FC_ST_MIN : 0u;
-    can_tp_fill(fc, fc_id, pci, 3u);
+    pci[0] = (uint8_t)((ISOTP_FC << 4) | status);
+    pci[1] = (status == ISOTP_CONTINUE) ? (uint8_t)NAVKIT_CAN_FC_BLOCK_SIZE : 0u;
+    pci[2] = (status == ISOTP_CONTINUE) ? (uint8_t)NAVKIT_CAN_FC_ST_MIN : 0u;
+    navkit_isotp_fill(fc, fc_id, pci, 3u);
 }
 
-void can_tp_rx_init(can_tp_rx_t *rx, navkit_dir_t dir)
+void navkit_isotp_rx_init(navkit_isotp_rx_t *rx, navkit_dir_t dir)
 {
-    static const can_tp_rx_stats_t zero = {0u, 0u, 0u, 0u, 0u, 0u, 0u};
+    static const navkit_isotp_rx_stats_t zero = {0u, 0u, 0u, 0u, 0u, 0u, 0u};
     rx->have = 0u;
     rx->want = 0u;
     rx->id = 0u;
@@ -59,16 +59,16 @@ void can_tp_rx_init(can_tp_rx_t *rx, navkit_dir_t dir)
     rx->stats = zero;
 }
 
-void can_tp_rx_poll(can_tp_rx_t *rx, uint32_t now_ms)
+void navkit_isotp_rx_poll(navkit_isotp_rx_t *rx, uint32_t now_ms)
 {
-    if (rx->active && !can_tp_after(rx->deadline_ms, now_ms)) {
+    if (rx->active && !navkit_isotp_after(rx->deadline_ms, now_ms)) {
         rx->active = 0u;
         rx->stats.timeout++;
     }
 }
 
 /* A new first or single frame: the message in progress, if any, is abandoned. */
-static void can_tp_rx_restart(can_tp_rx_t *rx)
+static void navkit_isotp_rx_restart(navkit_isotp_rx_t *rx)
 {
     if (rx->active) {
         rx->active = 0u;
@@ -76,58 +76,58 @@ static void can_tp_rx_restart(can_tp_rx_t *rx)
     }
 }
 
-uint16_t can_tp_rx_frame(can_tp_rx_t *rx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms,
-                         can_tp_frame_t *fc, uint8_t *fc_out)
+uint16_t navkit_isotp_rx_frame(navkit_isotp_rx_t *rx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms,
+                         navkit_isotp_frame_t *fc, uint8_t *fc_out)
 {
     uint16_t msg_type;
     uint16_t n;
     uint8_t kind;
     *fc_out = 0u;
-    can_tp_rx_poll(rx, now_ms);
-    msg_type = navkit_can_msg_type((uint16_t)(id & CAN_TP_ID_MASK), rx->dir);
+    navkit_isotp_rx_poll(rx, now_ms);
+    msg_type = navkit_can_msg_type((uint16_t)(id & NAVKIT_ISOTP_ID_MASK), rx->dir);
     if (msg_type == 0u) {
         return 0u; /* another node's traffic, or a flow control */
     }
-    if ((id & (CAN_TP_EXT | CAN_TP_RTR)) != 0u || dlc != 8u) {
+    if ((id & (NAVKIT_ISOTP_EXT | NAVKIT_ISOTP_RTR)) != 0u || dlc != 8u) {
         rx->stats.bad_frame++;
         return 0u;
     }
-    id &= CAN_TP_ID_MASK;
+    id &= NAVKIT_ISOTP_ID_MASK;
     kind = (uint8_t)(data[0] >> 4);
     switch (kind) {
-    case CAN_TP_SF:
+    case ISOTP_SF:
         n = (uint16_t)(data[0] & 0x0Fu);
-        if (n < 1u || n > CAN_TP_SF_MAX) {
+        if (n < 1u || n > ISOTP_SF_MAX) {
             break;
         }
-        can_tp_rx_restart(rx);
-        can_tp_copy(rx->buf, data + 1, n);
+        navkit_isotp_rx_restart(rx);
+        navkit_isotp_copy(rx->buf, data + 1, n);
         rx->have = n;
         rx->stats.good++;
         return n;
-    case CAN_TP_FF:
+    case ISOTP_FF:
         n = (uint16_t)(((uint16_t)(data[0] & 0x0Fu) << 8) | data[1]);
-        if (n <= CAN_TP_SF_MAX) {
+        if (n <= ISOTP_SF_MAX) {
             break;
         }
-        can_tp_rx_restart(rx);
+        navkit_isotp_rx_restart(rx);
         *fc_out = 1u;
-        if (n > CAN_TP_RX_MAX) {
+        if (n > NAVKIT_ISOTP_MAX_BYTES) {
             rx->stats.overflow++;
-            can_tp_flow(fc, navkit_can_id(msg_type, 1), CAN_TP_OVERFLOW);
+            navkit_isotp_flow(fc, navkit_can_id(msg_type, 1), ISOTP_OVERFLOW);
             return 0u;
         }
-        can_tp_copy(rx->buf, data + 2, CAN_TP_FF_DATA);
-        rx->have = CAN_TP_FF_DATA;
+        navkit_isotp_copy(rx->buf, data + 2, ISOTP_FF_DATA);
+        rx->have = ISOTP_FF_DATA;
         rx->want = n;
         rx->id = id;
         rx->sn = 1u;
         rx->block = (uint8_t)NAVKIT_CAN_FC_BLOCK_SIZE;
         rx->active = 1u;
         rx->deadline_ms = now_ms + NAVKIT_CAN_N_CR_MS;
-        can_tp_flow(fc, navkit_can_id(msg_type, 1), CAN_TP_CONTINUE);
+        navkit_isotp_flow(fc, navkit_can_id(msg_type, 1), ISOTP_CONTINUE);
         return 0u;
-    case CAN_TP_CF:
+    case ISOTP_CF:
         if (!rx->active || id != rx->id) {
             rx->stats.unexpected++;
             return 0u;
@@ -138,10 +138,10 @@ uint16_t can_tp_rx_frame(can_tp_rx_t *rx, uint16_t id, const uint8_t *data, uint
             return 0u;
         }
         n = (uint16_t)(rx->want - rx->have);
-        if (n > CAN_TP_CF_DATA) {
-            n = CAN_TP_CF_DATA;
+        if (n > ISOTP_CF_DATA) {
+            n = ISOTP_CF_DATA;
         }
-        can_tp_copy(rx->buf + rx->have, data + 1, n);
+        navkit_isotp_copy(rx->buf + rx->have, data + 1, n);
         rx->have = (uint16_t)(rx->have + n);
         rx->sn = (uint8_t)((rx->sn + 1u) & 0x0Fu);
         rx->deadline_ms = now_ms + NAVKIT_CAN_N_CR_MS;
@@ -153,7 +153,7 @@ uint16_t can_tp_rx_frame(can_tp_rx_t *rx, uint16_t id, const uint8_t *data, uint
         if (NAVKIT_CAN_FC_BLOCK_SIZE != 0u && --rx->block == 0u) {
             rx->block = (uint8_t)NAVKIT_CAN_FC_BLOCK_SIZE;
             *fc_out = 1u;
-            can_tp_flow(fc, navkit_can_id(msg_type, 1), CAN_TP_CONTINUE);
+            navkit_isotp_flow(fc, navkit_can_id(msg_type, 1), ISOTP_CONTINUE);
         }
         return 0u;
     default: /* a flow control on a message identifier, or PCI type 4-15 */
@@ -163,24 +163,24 @@ uint16_t can_tp_rx_frame(can_tp_rx_t *rx, uint16_t id, const uint8_t *data, uint
     return 0u;
 }
 
-void can_tp_tx_init(can_tp_tx_t *tx)
+void navkit_isotp_tx_init(navkit_isotp_tx_t *tx)
 {
-    static const can_tp_tx_stats_t zero = {0u, 0u, 0u, 0u, 0u, 0u};
+    static const navkit_isotp_tx_stats_t zero = {0u, 0u, 0u, 0u, 0u, 0u};
     tx->len = 0u;
     tx->done = 0u;
     tx->waiting = 0u;
     tx->stats = zero;
 }
 
-uint8_t can_tp_tx_busy(const can_tp_tx_t *tx)
+uint8_t navkit_isotp_tx_busy(const navkit_isotp_tx_t *tx)
 {
     return (uint8_t)(tx->len != 0u);
 }
 
-uint8_t can_tp_tx_start(can_tp_tx_t *tx, uint16_t len, uint16_t msg_type, uint32_t now_ms)
+uint8_t navkit_isotp_tx_start(navkit_isotp_tx_t *tx, uint16_t len, uint16_t msg_type, uint32_t now_ms)
 {
     uint16_t id = navkit_can_id(msg_type, 0);
-    if (tx->len != 0u || len == 0u || len > CAN_TP_TX_MAX || id == 0xFFFFu) {
+    if (tx->len != 0u || len == 0u || len > NAVKIT_ISOTP_MAX_BYTES || id == 0xFFFFu) {
         tx->stats.busy++;
         return 0u;
     }
@@ -197,33 +197,33 @@ uint8_t can_tp_tx_start(can_tp_tx_t *tx, uint16_t len, uint16_t msg_type, uint32
     return 1u;
 }
 
-void can_tp_tx_frame(can_tp_tx_t *tx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms)
+void navkit_isotp_tx_frame(navkit_isotp_tx_t *tx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms)
 {
     uint8_t st;
     if (tx->len == 0u || !tx->waiting || id != tx->fc_id) {
         return;
     }
-    if (dlc != 8u || (data[0] >> 4) != CAN_TP_FC) {
+    if (dlc != 8u || (data[0] >> 4) != ISOTP_FC) {
         tx->stats.bad_fc++;
         return;
     }
     switch (data[0] & 0x0Fu) {
-    case CAN_TP_CONTINUE:
+    case ISOTP_CONTINUE:
         tx->waiting = 0u;
         tx->block = data[1];
         st = data[2];
         /* STmin in whole ms: 0xF1-0xF9 (100-900 us) round up to 1 ms, reserved values
            count as 127 ms (ISO 15765-2) */
         tx->st_ms = (st <= 0x7Fu) ? st : (st >= 0xF1u && st <= 0xF9u) ? 1u : 0x7Fu;
-        if (!can_tp_after(tx->next_ms, now_ms)) {
+        if (!navkit_isotp_after(tx->next_ms, now_ms)) {
             tx->next_ms = now_ms; /* STmin holds across a flow control too: never earlier */
         }
         break;
-    case CAN_TP_WAIT:
+    case ISOTP_WAIT:
         tx->stats.wait++;
         tx->deadline_ms = now_ms + NAVKIT_CAN_N_BS_MS;
         break;
-    case CAN_TP_OVERFLOW:
+    case ISOTP_OVERFLOW:
         tx->stats.overflow++;
         tx->len = 0u;
         break;
@@ -234,7 +234,7 @@ void can_tp_tx_frame(can_tp_tx_t *tx, uint16_t id, const uint8_t *data, uint8_t 
     }
 }
 
-uint8_t can_tp_tx_next(can_tp_tx_t *tx, uint32_t now_ms, can_tp_frame_t *out)
+uint8_t navkit_isotp_tx_next(navkit_isotp_tx_t *tx, uint32_t now_ms, navkit_isotp_frame_t *out)
 {
     uint8_t pci[8];
     uint16_t n;
@@ -242,40 +242,40 @@ uint8_t can_tp_tx_next(can_tp_tx_t *tx, uint32_t now_ms, can_tp_frame_t *out)
         return 0u;
     }
     if (tx->done == 0u) { /* the single or first frame */
-        if (tx->len <= CAN_TP_SF_MAX) {
+        if (tx->len <= ISOTP_SF_MAX) {
             pci[0] = (uint8_t)tx->len;
-            can_tp_copy(pci + 1, tx->buf, tx->len);
-            can_tp_fill(out, tx->id, pci, (uint8_t)(tx->len + 1u));
+            navkit_isotp_copy(pci + 1, tx->buf, tx->len);
+            navkit_isotp_fill(out, tx->id, pci, (uint8_t)(tx->len + 1u));
             tx->len = 0u;
             tx->stats.sent++;
             return 1u;
         }
-        pci[0] = (uint8_t)((CAN_TP_FF << 4) | (tx->len >> 8));
+        pci[0] = (uint8_t)((ISOTP_FF << 4) | (tx->len >> 8));
         pci[1] = (uint8_t)(tx->len & 0xFFu);
-        can_tp_copy(pci + 2, tx->buf, CAN_TP_FF_DATA);
-        can_tp_fill(out, tx->id, pci, 8u);
-        tx->done = CAN_TP_FF_DATA;
+        navkit_isotp_copy(pci + 2, tx->buf, ISOTP_FF_DATA);
+        navkit_isotp_fill(out, tx->id, pci, 8u);
+        tx->done = ISOTP_FF_DATA;
         tx->waiting = 1u;
         tx->deadline_ms = now_ms + NAVKIT_CAN_N_BS_MS;
         return 1u;
     }
     if (tx->waiting) {
-        if (!can_tp_after(tx->deadline_ms, now_ms)) {
+        if (!navkit_isotp_after(tx->deadline_ms, now_ms)) {
             tx->stats.timeout++;
             tx->len = 0u;
         }
         return 0u;
     }
-    if (!can_tp_after(now_ms, tx->next_ms)) {
+    if (!navkit_isotp_after(now_ms, tx->next_ms)) {
         return 0u;
     }
     n = (uint16_t)(tx->len - tx->done);
-    if (n > CAN_TP_CF_DATA) {
-        n = CAN_TP_CF_DATA;
+    if (n > ISOTP_CF_DATA) {
+        n = ISOTP_CF_DATA;
     }
-    pci[0] = (uint8_t)((CAN_TP_CF << 4) | tx->sn);
-    can_tp_copy(pci + 1, tx->buf + tx->done, n);
-    can_tp_fill(out, tx->id, pci, (uint8_t)(n + 1u));
+    pci[0] = (uint8_t)((ISOTP_CF << 4) | tx->sn);
+    navkit_isotp_copy(pci + 1, tx->buf + tx->done, n);
+    navkit_isotp_fill(out, tx->id, pci, (uint8_t)(n + 1u));
     tx->done = (uint16_t)(tx->done + n);
     tx->sn = (uint8_t)((tx->sn + 1u) & 0x0Fu);
     tx->next_ms = now_ms + tx->st_ms;

@@ -1,11 +1,14 @@
-/* can_tp: ISO 15765-2 (ISO-TP) on classic CAN for the micro link (prefix can_tp_).
+/* navkit_isotp: ISO 15765-2 (ISO-TP) on classic CAN for the micro link, both ends (the
+ * firmware's CAN transport, the host's SLCAN link). Hand-written runtime beside the frame
+ * parser (navkit_wire.h); the generated navkit_proto.h includes this header when the spec
+ * has a CAN mapping.
  *
  * The spec's [can] mapping (docs/protocol.md, CAN): each serial frame, whole, is one ISO-TP
  * message on its message's 11-bit identifier, every CAN frame padded to 8 data bytes, the
- * receiver's flow control on the message's fc identifier. Portable C99, no heap: the
- * buffers are sized from the spec's largest frame of each direction.
+ * receiver's flow control on the message's fc identifier. Portable C99, no heap: each
+ * buffer holds the largest frame of either direction (NAVKIT_ISOTP_MAX_BYTES).
  *
- * Receiving (can_tp_rx_*), as ISO 15765-2 defines it and navkit.can does it in Python:
+ * Receiving (navkit_isotp_rx_*), as ISO 15765-2 defines it and navkit.can does it in Python:
  *   - a single frame (PCI 0x0L, L 1..7) completes a message at once;
  *   - a first frame (0x1L LL, length 8..4095) starts one and asks for a flow control
  *     (continue, NAVKIT_CAN_FC_BLOCK_SIZE, NAVKIT_CAN_FC_ST_MIN), or an overflow when it
@@ -18,34 +21,39 @@
  *   - a frame on a receiving identifier that is no well-formed ISO-TP frame (fewer than
  *     8 data bytes, extended or remote, PCI type 3-15, a bad length) is refused (bad_frame);
  *     frames on other identifiers are other nodes' traffic, ignored.
- * Sending (can_tp_tx_*): one message at a time; the first frame, then the consecutive
+ * Sending (navkit_isotp_tx_*): one message at a time; the first frame, then the consecutive
  * frames as the flow control allows (block size; STmin in whole ms, a sub-ms STmin taken
  * as 1 ms); a wait flow control restarts the NAVKIT_CAN_N_BS_MS wait, an overflow or an
  * invalid status abandons the message, as does no flow control within that wait.
- * Times are the caller's ms clock (wrapping uint32 arithmetic).
+ * Times are the caller's ms clock (wrapping uint32 arithmetic). No statics: all state is
+ * in the structs, so several can coexist.
  */
-#ifndef NAVKIT_CAN_TP_H
-#define NAVKIT_CAN_TP_H
+#ifndef NAVKIT_ISOTP_H
+#define NAVKIT_ISOTP_H
 
 #include <stdint.h>
 
 #include "navkit/navkit_proto.h"
 
-/* Flags a target ORs into a received identifier (hal_can_read): the core refuses such frames. */
-#define CAN_TP_EXT 0x8000u /* an extended (29-bit) identifier frame */
-#define CAN_TP_RTR 0x4000u /* a remote frame */
-#define CAN_TP_ID_MASK 0x07FFu /* the 11-bit identifier */
+#ifdef __cplusplus
+extern "C" {
+#endif
 
-/* bytes: the receive buffer of the micro (the largest host -> micro frame) */
-#define CAN_TP_RX_MAX NAVKIT_CAN_MAX_TO_MICRO_BYTES
-/* bytes: the send buffer of the micro (the largest micro -> host frame) */
-#define CAN_TP_TX_MAX NAVKIT_CAN_MAX_TO_HOST_BYTES
+/* Flags a target ORs into a received identifier: such frames are refused. */
+#define NAVKIT_ISOTP_EXT 0x8000u /* an extended (29-bit) identifier frame */
+#define NAVKIT_ISOTP_RTR 0x4000u /* a remote frame */
+#define NAVKIT_ISOTP_ID_MASK 0x07FFu /* the 11-bit identifier */
+
+/* bytes: a receive or send buffer, the largest frame of either direction */
+#define NAVKIT_ISOTP_MAX_BYTES \
+    (NAVKIT_CAN_MAX_TO_MICRO_BYTES > NAVKIT_CAN_MAX_TO_HOST_BYTES ? NAVKIT_CAN_MAX_TO_MICRO_BYTES \
+                                                                  : NAVKIT_CAN_MAX_TO_HOST_BYTES)
 
 /* One classic CAN data frame as the core sends it: 11-bit identifier, 8 data bytes. */
 typedef struct {
     uint16_t id;
     uint8_t data[8];
-} can_tp_frame_t;
+} navkit_isotp_frame_t;
 
 /* Receiver counters (wrap). */
 typedef struct {
@@ -56,10 +64,10 @@ typedef struct {
     uint16_t restarted;  /* messages aborted by a new first or single frame */
     uint16_t timeout;    /* messages aborted for want of the next consecutive frame (N_Cr) */
     uint16_t overflow;   /* first frames longer than the buffer, answered with an overflow */
-} can_tp_rx_stats_t;
+} navkit_isotp_rx_stats_t;
 
 typedef struct {
-    uint8_t buf[CAN_TP_RX_MAX]; /* the message being received, or the one just completed */
+    uint8_t buf[NAVKIT_ISOTP_MAX_BYTES]; /* the message being received, or the one just completed */
     uint16_t have;        /* bytes in buf */
     uint16_t want;        /* bytes of the message in progress */
     uint16_t id;          /* its identifier */
@@ -68,8 +76,8 @@ typedef struct {
     uint8_t active;       /* 1 while a message is in progress */
     uint8_t sn;           /* sequence number of the next consecutive frame, 0..15 */
     uint8_t block;        /* consecutive frames left in this block (0: no block size) */
-    can_tp_rx_stats_t stats;
-} can_tp_rx_t;
+    navkit_isotp_rx_stats_t stats;
+} navkit_isotp_rx_t;
 
 /* Sender counters (wrap). */
 typedef struct {
@@ -79,10 +87,10 @@ typedef struct {
     uint16_t overflow; /* messages abandoned on an overflow flow control */
     uint16_t bad_fc;   /* malformed flow controls, and messages abandoned on an invalid status */
     uint16_t wait;     /* wait flow controls */
-} can_tp_tx_stats_t;
+} navkit_isotp_tx_stats_t;
 
 typedef struct {
-    uint8_t buf[CAN_TP_TX_MAX]; /* the message: the caller writes it, then can_tp_tx_start() */
+    uint8_t buf[NAVKIT_ISOTP_MAX_BYTES]; /* the message: the caller writes it, then navkit_isotp_tx_start() */
     uint16_t len;         /* bytes of the message (0: idle) */
     uint16_t done;        /* bytes sent so far */
     uint16_t id;          /* identifier of its frames */
@@ -93,31 +101,34 @@ typedef struct {
     uint8_t waiting;      /* 1: the first frame went, no flow control yet */
     uint8_t block;        /* consecutive frames left before the next flow control (0: all) */
     uint8_t sn;           /* sequence number of the next consecutive frame */
-    can_tp_tx_stats_t stats;
-} can_tp_tx_t;
+    navkit_isotp_tx_stats_t stats;
+} navkit_isotp_tx_t;
 
 /* Empty receiver for the messages travelling towards dir, zero counters. */
-void can_tp_rx_init(can_tp_rx_t *rx, navkit_dir_t dir);
-/* Handle one received frame (id: 11-bit identifier | CAN_TP_EXT/CAN_TP_RTR; dlc 0..8 data
+void navkit_isotp_rx_init(navkit_isotp_rx_t *rx, navkit_dir_t dir);
+/* Handle one received frame (id: 11-bit identifier | NAVKIT_ISOTP_EXT/NAVKIT_ISOTP_RTR; dlc 0..8 data
  * bytes) at now_ms. Returns the bytes of the message it completes (in rx->buf, valid until
  * the next call), else 0. Sets *fc_out = 1 and fills *fc when a flow control must go out. */
-uint16_t can_tp_rx_frame(can_tp_rx_t *rx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms,
-                         can_tp_frame_t *fc, uint8_t *fc_out);
+uint16_t navkit_isotp_rx_frame(navkit_isotp_rx_t *rx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms,
+                         navkit_isotp_frame_t *fc, uint8_t *fc_out);
 /* Abort a message whose next consecutive frame is overdue at now_ms (N_Cr). */
-void can_tp_rx_poll(can_tp_rx_t *rx, uint32_t now_ms);
+void navkit_isotp_rx_poll(navkit_isotp_rx_t *rx, uint32_t now_ms);
 
 /* Idle sender, zero counters. */
-void can_tp_tx_init(can_tp_tx_t *tx);
+void navkit_isotp_tx_init(navkit_isotp_tx_t *tx);
 /* 1 while a message is being sent. */
-uint8_t can_tp_tx_busy(const can_tp_tx_t *tx);
-/* Send the len bytes (1..CAN_TP_TX_MAX) the caller wrote into tx->buf, as the frames of
+uint8_t navkit_isotp_tx_busy(const navkit_isotp_tx_t *tx);
+/* Send the len bytes (1..NAVKIT_ISOTP_MAX_BYTES) the caller wrote into tx->buf, as the frames of
  * message type msg_type, from now_ms. Returns 1, or 0 (counted in busy) while another
  * message is being sent or for a bad len or msg_type. */
-uint8_t can_tp_tx_start(can_tp_tx_t *tx, uint16_t len, uint16_t msg_type, uint32_t now_ms);
+uint8_t navkit_isotp_tx_start(navkit_isotp_tx_t *tx, uint16_t len, uint16_t msg_type, uint32_t now_ms);
 /* Take a frame seen on the bus: a flow control for the message being sent (others are ignored). */
-void can_tp_tx_frame(can_tp_tx_t *tx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms);
+void navkit_isotp_tx_frame(navkit_isotp_tx_t *tx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms);
 /* The next frame due at now_ms into *out: 1, or 0 when none is (abandons a message whose
  * flow control is overdue). Call until 0 while the bus takes frames. */
-uint8_t can_tp_tx_next(can_tp_tx_t *tx, uint32_t now_ms, can_tp_frame_t *out);
+uint8_t navkit_isotp_tx_next(navkit_isotp_tx_t *tx, uint32_t now_ms, navkit_isotp_frame_t *out);
 
-#endif /* NAVKIT_CAN_TP_H */
+#ifdef __cplusplus
+}
+#endif
+#endif /* NAVKIT_ISOTP_H */
