@@ -388,8 +388,9 @@ static void test_inputs(void)
         }
         for (i = 0; i < 4; i++) {
             long want = (long)(echo[i] / (k + 1));
-            /* within 10 us (1.7 mm): the pin-change interrupt may wait behind another */
-            check(labs((long)h.last.sonar_echo[i] - want) <= 10, "sonar %d: %u us, want %ld +/- 10", i,
+            /* within 20 us (3.4 mm): each edge's pin-change interrupt may wait ~300 cycles
+               behind the longest other interrupt and the encoders' (docs/avr.md) */
+            check(labs((long)h.last.sonar_echo[i] - want) <= 20, "sonar %d: %u us, want %ld +/- 20", i,
                   h.last.sonar_echo[i], want);
         }
         check(h.last.gyro_raw == gyro, "gyro_raw %d, want %d", h.last.gyro_raw, gyro);
