@@ -10,7 +10,7 @@ debs=(
   build-essential cmake ninja-build pkg-config
   libgtest-dev libinih-dev
   clang
-  gcc-avr avr-libc binutils-avr simavr libsimavr-dev avrdude arduino-core-avr
+  gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude arduino-core-avr
   python3-venv libatomic1
 )
 
