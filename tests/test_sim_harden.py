@@ -233,3 +233,17 @@ def test_a_long_run_shows_how_far_it_is(tmp_path):
         os.close(slave)
     assert re.fullmatch(r"\r50 of 100 s simulated \(50 %\), \d+x real time, ~\d+ s left; Ctrl-C stops it "
                         r"cleanly\x1b\[K\r\x1b\[K", out), repr(out)
+
+
+def test_the_speed_line_gives_the_loop_and_the_whole_command(tmp_path):
+    import re
+
+    require_build()
+    (tmp_path / "m.toml").write_text("duration_s = 2.0\n")
+    r = _sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out", "--no-plot"])
+    assert r.returncode == 0, r.stderr
+    loop = re.search(r"^speed +2\.0 s simulated in ([0-9.]+) s wall = [0-9.]+x real time", r.stdout, re.M)
+    whole = re.search(r"^ +the whole command: ([0-9.]+) s wall = [0-9.]+x real time \(with Python's start-up, "
+                      r"the outputs and plot\.png\)$", r.stdout, re.M)
+    assert loop and whole, r.stdout
+    assert float(whole.group(1)) >= float(loop.group(1)), "the command holds the loop"

@@ -136,4 +136,21 @@ def run(args) -> int:
           f"heading {t.get('heading_deg', 0):.1f} deg  v {t.get('v_mm_s', 0):.0f} mm/s")
     print(f"speed     {s['sim_time_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall "
           f"= {s['realtime_factor']}x real time, {s['frames']} host frames")
+    whole = _process_wall_s()
+    if whole:
+        print(f"          the whole command: {whole:.2f} s wall = {s['sim_time_s'] / whole:.1f}x real time "
+              f"(with Python's start-up, the outputs and plot.png)")
     return 0
+
+
+def _process_wall_s() -> float | None:
+    """Wall time (s) since this process started (/proc: its start time and the uptime,
+    10 ms ticks); None where /proc does not say."""
+    import os
+
+    try:
+        start = int(open("/proc/self/stat").read().rsplit(")", 1)[1].split()[19])
+        uptime = float(open("/proc/uptime").read().split()[0])
+        return uptime - start / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
