@@ -39,7 +39,7 @@ def test_the_hash_covers_the_mapping_and_not_its_docs(tmp_path):
     base = load(spec_path()).hash
     moved = load(_spec(tmp_path, "micro_data = { id = 0x180,", "micro_data = { id = 0x182,"))
     assert moved.hash != base
-    for old, new in (("n_cr_ms = 100", "n_cr_ms = 101"), ("padding = 0xCC", "padding = 0x55"),
+    for old, new in (("n_cr_ms = 1000", "n_cr_ms = 1001"), ("padding = 0xCC", "padding = 0x55"),
                      ("fc_st_min = 0\n", "fc_st_min = 0xF1\n")):
         assert load(_spec(tmp_path, old, new)).hash != base, old
     reworded = load(_spec(tmp_path, 'transport_doc = "ISO 15765-2 on', 'transport_doc = "ISO-TP on'))
@@ -82,8 +82,8 @@ def test_the_mapping_reaches_the_c_header_and_the_docs():
                                                       "(only 11-bit identifiers are supported)"),
     ("padding = 0xCC", "padding = 256", "padding = 256", "can.padding: must be an integer in 0..255"),
     ("fc_st_min = 0\n", "fc_st_min = 0x80\n", "fc_st_min = 0x80", "can.fc_st_min: 0x80 is a reserved STmin"),
-    ("n_bs_ms = 100", "n_bs_ms = true", "n_bs_ms = true", "can.n_bs_ms: must be an integer in 1..60000, not True"),
-    ("n_cr_ms = 100", "n_cr_ms = 100\nfd = true", "fd = true", "[can]: unknown key 'fd'"),
+    ("n_bs_ms = 1000", "n_bs_ms = true", "n_bs_ms = true", "can.n_bs_ms: must be an integer in 1..60000, not True"),
+    ("n_cr_ms = 1000", "n_cr_ms = 1000\nfd = true", "fd = true", "[can]: unknown key 'fd'"),
 ])
 def test_a_bad_mapping_is_refused_at_its_line(tmp_path, old, new, needle, reason):
     path = _spec(tmp_path, old, new)
