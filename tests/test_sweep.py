@@ -211,6 +211,25 @@ def _mcap_size_or_die_on_seed_2(run_dir, summary):
     return {"mcap_bytes": (Path(run_dir) / "run.mcap").stat().st_size}
 
 
+def test_pil_sweep(mission_file, tmp_path):
+    """firmware="avr": the runs are processor in the loop (the AVR image in simavr), with
+    the same table's figures."""
+    import json
+
+    from navkit.paths import build_dir
+    from navkit.sweep import RunSpec, run_sweep
+
+    if not (build_dir() / "fmus" / "navkit_firmware_avr.fmu").exists():
+        pytest.skip("not built: navkit_firmware_avr.fmu")
+    res = run_sweep(mission_file, [RunSpec(seed=1), RunSpec(seed=2)], tmp_path, workers=2,
+                    progress=False, plot=False, firmware="avr")
+    assert [r.status for r in res] == ["ok", "ok"], [r.error for r in res]
+    for r in res:
+        assert abs(r.figures["err_x_mm"]) < 15 and abs(r.figures["err_heading_deg"]) < 2, r.figures
+        assert r.figures["watchdog_stops"] == 0 and r.figures["planner_accepted"] == 2
+    assert json.loads((tmp_path / "sweep.json").read_text())["firmware"] == "avr"
+
+
 def test_sweep_on_a_scheduler(mission_file, local_tables, tmp_path):
     """--scheduler: the same sweep on a scheduler and a worker started here with the dask
     CLIs on 127.0.0.1 gives the same table as the LocalCluster."""
@@ -244,9 +263,8 @@ def test_sweep_on_a_scheduler(mission_file, local_tables, tmp_path):
             (local_tables[1][0] / "results.csv").read_text()
         assert address in (out / "sweep.json").read_text()
     finally:
-        for proc in reversed(procs):
+        for proc in reversed(procs):     # the worker first: it says goodbye to the scheduler
             proc.terminate()
-        for proc in procs:
             try:
                 proc.wait(timeout=15)
             except subprocess.TimeoutExpired:

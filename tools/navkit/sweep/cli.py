@@ -50,6 +50,10 @@ def add_arguments(parser) -> None:
                         help="host config folder (default: <repo>/config)")
     parser.add_argument("--build", type=Path, default=None,
                         help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+    parser.add_argument("--firmware", choices=("fmu", "avr"), default="fmu",
+                        help="fmu: the firmware core compiled for this machine (software in the "
+                        "loop, default); avr: the AVR image in simavr (processor in the loop), "
+                        "as navkit sim --firmware")
     parser.add_argument("--keep", choices=KEEP, default="failed",
                         help="run folders kept in OUT/runs/NNNN (default: failed)")
     parser.add_argument("--no-plot", action="store_true", help="skip summary.png")
@@ -111,13 +115,13 @@ def run(args) -> int:
     build = (args.build or build_dir()).resolve()
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     if args.bench:
-        return bench(mission_path, build, args.bench_runs)
+        return bench(mission_path, build, args.bench_runs, args.firmware)
     try:
         mission = load(mission_path)
     except MissionError as e:
         _err(str(e))
         return 1
-    plant_fmu = fmu_paths(build)[1]
+    plant_fmu = fmu_paths(build, args.firmware)[1]
     if not plant_fmu.exists():
         _err(f"{plant_fmu} not found: build first (cmake --build {build})")
         return 1
@@ -132,11 +136,13 @@ def run(args) -> int:
     print(f"sweep     {mission.path}: {len(runs)} run{'s' if len(runs) != 1 else ''}"
           f" ({'%d samples' % args.samples if args.samples else 'grid'}"
           f"{', ' + ', '.join(varied) if varied else ''}; seeds 1..{args.seeds})"
-          f" on {args.scheduler or 'a LocalCluster'}", flush=True)
+          f"{', PIL' if args.firmware == 'avr' else ''} on {args.scheduler or 'a LocalCluster'}",
+          flush=True)
     try:
         results, stats = sweep(mission_path, runs, out, scheduler=args.scheduler,
                                workers=args.workers, progress=not args.no_progress,
-                               keep=args.keep, build=build, plot=not args.no_plot, meta=meta)
+                               keep=args.keep, build=build, plot=not args.no_plot, meta=meta,
+                               firmware=args.firmware)
     except SweepInterrupted as e:
         done = e.results
         print(f"interrupted: {len(done)} of {len(runs)} runs finished; their table: "
@@ -188,10 +194,10 @@ def _spread(results: list, expect: dict) -> str:
             f"{describe(worst[1].spec, worst[1].index)}")
 
 
-def bench(mission_path: Path, build: Path, n: int) -> int:
-    """Runs per minute of `n` runs (seeds 1..n) of the mission on a LocalCluster of 1 and
-    of 2 workers (cluster start-up not counted), their ratio, and whether both gave the
-    same table."""
+def bench(mission_path: Path, build: Path, n: int, firmware: str = "fmu") -> int:
+    """Runs per minute of `n` runs (seeds 1..n) of the mission with the `firmware` FMU on a
+    LocalCluster of 1 and of 2 workers (cluster start-up not counted), their ratio, and
+    whether both gave the same table."""
     from navkit.sim.mission import MissionError
     from navkit.sweep.plan import SweepError
     from navkit.sweep.runner import RunSpec, default_workers, sweep
@@ -199,14 +205,15 @@ def bench(mission_path: Path, build: Path, n: int) -> int:
     runs = [RunSpec(seed=s) for s in range(1, n + 1)]
     rates, tables = {}, {}
     print(f"sweep benchmark: {mission_path}, {n} runs (seeds 1..{n}) per worker count, "
-          f"LocalCluster on this machine ({build})")
+          f"firmware {firmware}, LocalCluster on this machine ({build})")
     print(f"  {default_workers()} CPUs, 1-minute load average before: {os.getloadavg()[0]:.2f} "
           f"(other work on the CPUs skews the figures)")
     for workers in (1, 2):
         with tempfile.TemporaryDirectory(prefix="navkit-sweep-bench-") as tmp:
             try:
                 results, stats = sweep(mission_path, runs, Path(tmp), workers=workers,
-                                       progress=False, keep="none", build=build, plot=False)
+                                       progress=False, keep="none", build=build, plot=False,
+                                       firmware=firmware)
             except (SweepError, MissionError) as e:
                 _err(str(e))
                 return 1

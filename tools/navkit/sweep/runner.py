@@ -93,9 +93,11 @@ def describe(spec: RunSpec, index: int | None = None) -> str:
 
 
 def run_one(mission, spec: RunSpec, index: int, *, build: Path, out: Path,
-            keep: str = "failed", extract=None, marker: Path | None = None) -> RunResult:
+            keep: str = "failed", extract=None, marker: Path | None = None,
+            firmware: str = "fmu") -> RunResult:
     """Do run `index` of a sweep: Mission `mission` with `spec`'s plant overrides (they
-    win over the mission's [plant] table), seed and config, build folder `build`. Its
+    win over the mission's [plant] table), seed and config, build folder `build`, the
+    `firmware` FMU ("fmu": SIL, "avr": PIL, as `navkit sim --firmware`). Its
     outputs go to `out`/runs/NNNN when `keep` says to keep them ("all", or "failed" and
     it failed), else to a temporary folder removed afterwards. `extract(run_dir,
     summary) -> dict` (a module-level function, so it can be sent to the workers) adds
@@ -106,14 +108,14 @@ def run_one(mission, spec: RunSpec, index: int, *, build: Path, out: Path,
         Path(marker).parent.mkdir(parents=True, exist_ok=True)
         Path(marker).touch()
     try:
-        return _run_one(mission, spec, index, build, Path(out), keep, extract)
+        return _run_one(mission, spec, index, build, Path(out), keep, extract, firmware)
     finally:
         if marker is not None:
             Path(marker).unlink(missing_ok=True)
 
 
 def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: str,
-             extract) -> RunResult:
+             extract, firmware: str) -> RunResult:
     from navkit.sim.harness import SimError, SimOptions, run
     from navkit.sim.mission import MissionError
     from navkit.sweep.table import figures
@@ -131,7 +133,8 @@ def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: s
     try:
         with contextlib.redirect_stderr(err):
             summary = run(SimOptions(mission=m, out=work, seed=spec.seed, config_dir=spec.config,
-                                     build=build, plot=False, pin_cpu=False, log_inline=True))
+                                     build=build, firmware=firmware, plot=False, pin_cpu=False,
+                                     log_inline=True))
             figs = figures(summary, mission.expect)
             if extract is not None:
                 figs.update(extract(work, summary))
@@ -347,15 +350,19 @@ def _drive(client, submit, runs: list, results: list, bar: _Progress, stop,
     return False
 
 
-def _check_local(build: Path, runs: list) -> list:
+def _check_local(build: Path, runs: list, firmware: str = "fmu") -> list:
     """The plant parameters the runs vary, in first-use order; SweepError for a key the
     built plant FMU lacks or the harness sets (naming runs[i]) and for a build without
-    the host or the FMUs."""
+    the host, the `firmware` FMU or the plant FMU."""
     from navkit.sim.harness import fmu_paths, host_path
     from navkit.sim.mission import RESERVED_PLANT_KEYS
     from navkit.sweep.plan import plant_parameters
 
-    for p in (host_path(build), *fmu_paths(build)):
+    from navkit.sim.pil import FIRMWARES
+
+    if firmware not in FIRMWARES:
+        raise SweepError(f"firmware {firmware!r}: one of {', '.join(FIRMWARES)}")
+    for p in (host_path(build), *fmu_paths(build, firmware)):
         if not p.exists():
             raise SweepError(f"{p} not found: build first (cmake --build {build})")
     params = plant_parameters(fmu_paths(build)[1])
@@ -376,7 +383,7 @@ def _check_local(build: Path, runs: list) -> list:
 def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
           workers: int | None = None, progress: bool = True, keep: str = "failed",
           extract=None, build: Path | None = None, plot: bool = True,
-          meta: dict | None = None) -> tuple[list, dict]:
+          meta: dict | None = None, firmware: str = "fmu") -> tuple[list, dict]:
     """run_sweep, also returning its timing: {"cluster_start_s", "runs_wall_s" (first
     submission to last result), "runs_per_minute", "workers"}."""
     from navkit.paths import build_dir
@@ -391,7 +398,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
     build = Path(build or build_dir()).resolve()
     runs = [dataclasses.replace(r, config=Path(r.config).resolve() if r.config else None)
             for r in runs]
-    varied = _check_local(build, runs)
+    varied = _check_local(build, runs, firmware)
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     shutil.rmtree(out / "runs", ignore_errors=True)     # an earlier sweep's kept runs
@@ -415,6 +422,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
                 return client.submit(run_one, m, spec, i, build=build, out=out, keep=keep,
                                      extract=extract, pure=False, retries=0,
                                      marker=markers / f"{i:06d}" if markers else None,
+                                     firmware=firmware,
                                      key=f"navkit-run-{token}-{i:06d}-{attempt}")
 
             try:
@@ -440,7 +448,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
     doc = {"mission": str(m.path), "build": str(build), "runs": len(runs),
            "finished": len(results), "failed": sum(not r.ok for r in results),
            "interrupted": interrupted, "varied": varied, "expect": m.expect,
-           "scheduler": scheduler or "LocalCluster", **stats, **(meta or {}),
+           "scheduler": scheduler or "LocalCluster", "firmware": firmware, **stats, **(meta or {}),
            "run_wall_s": {r.index: round(r.wall_s, 3) for r in results}}
     (out / "sweep.json").write_text(json.dumps(doc, indent=2, default=str) + "\n")
     if interrupted:
@@ -450,17 +458,19 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
 
 def run_sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
               workers: int | None = None, progress: bool = True, keep: str = "failed",
-              extract=None, build: Path | None = None, plot: bool = True) -> list:
+              extract=None, build: Path | None = None, plot: bool = True,
+              firmware: str = "fmu") -> list:
     """Run mission file `mission` once per RunSpec of `runs` on Dask; return their
     RunResults in the order of `runs` (deterministic per spec: the same figures whatever
     the workers and the order runs finish in). Writes `out`/results.csv (+ .parquet with
     pyarrow), summary.png (unless `plot` is False), sweep.json (timing, not
     deterministic) and the kept runs' folders `out`/runs/NNNN (`keep`: none, failed,
-    all). `scheduler` "tcp://HOST:PORT" uses an existing cluster, else a LocalCluster of
+    all). `firmware` "fmu" runs the SIL firmware FMU, "avr" the AVR image in simavr (PIL).
+    `scheduler` "tcp://HOST:PORT" uses an existing cluster, else a LocalCluster of
     `workers` processes (default: one per CPU). `progress` shows a bar on a terminal
     (lines otherwise) on stderr. Raises SweepError (bad runs, no build, no scheduler),
     MissionError (the mission file), SweepInterrupted on Ctrl-C (after writing the table
     of the runs that finished). An earlier sweep's `out`/runs is removed first. Workers
     run one thread each (a run redirects sys.stderr while it runs)."""
     return sweep(mission, runs, out, scheduler=scheduler, workers=workers, progress=progress,
-                 keep=keep, extract=extract, build=build, plot=plot)[0]
+                 keep=keep, extract=extract, build=build, plot=plot, firmware=firmware)[0]
