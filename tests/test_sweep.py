@@ -172,7 +172,7 @@ def test_sweep_deterministic_and_survives_failing_runs(local_tables):
         assert float(r["err_pos_mm"]) >= abs(float(r["err_x_mm"]))
         assert r["watchdog_stops"] == "0" and r["planner_accepted"] == "2", r
         assert int(r["h2m_sent"]) > 50 and r["h2m_received"] == r["h2m_sent"], r
-        assert r["crc_errors"] == "0" and r["host_state"] == "running", r
+        assert r["crc_errors"] == "0" and r["host_state"] == "running" and r["host_exit"] == "0", r
         assert float(r["odo_err_mm"]) < 20, r
         assert not (d1 / "runs" / f"{int(r['run']):04d}").exists(), "ok runs not kept"
     # more Coulomb friction, same mass: the runs differ (the figures are the runs')

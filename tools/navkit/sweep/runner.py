@@ -131,7 +131,7 @@ def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: s
     status, error, figs = "ok", "", {}
     t0 = time.perf_counter()
     try:
-        with contextlib.redirect_stderr(err):
+        with contextlib.redirect_stderr(err), _fd_captured(1) as native:
             summary = run(SimOptions(mission=m, out=work, seed=spec.seed, config_dir=spec.config,
                                      build=build, firmware=firmware, plot=False, pin_cpu=False,
                                      log_inline=True))
@@ -143,7 +143,8 @@ def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: s
     except Exception as e:  # noqa: BLE001 - any failure of one run is that run's result
         status, error = "failed", f"{type(e).__name__}: {e}"
     wall = time.perf_counter() - t0
-    result = RunResult(index, spec, status, error, figs, None, err.getvalue(), wall)
+    result = RunResult(index, spec, status, error, figs, None,
+                       err.getvalue() + native.getvalue(), wall)
     if keep == "all" or (keep == "failed" and status != "ok"):
         if work != kept:
             shutil.rmtree(kept, ignore_errors=True)
@@ -154,6 +155,36 @@ def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: s
     else:
         shutil.rmtree(work, ignore_errors=True)
     return result
+
+
+class _Captured:
+    """What a file descriptor received while captured (text, after the capture)."""
+
+    def __init__(self):
+        self.text = ""
+
+    def getvalue(self) -> str:
+        return self.text
+
+
+@contextlib.contextmanager
+def _fd_captured(fd: int):
+    """Capture what native code writes to file descriptor `fd` (1: stdout) in the block,
+    e.g. simavr's "Loaded ... .text" lines of a PIL run, which would otherwise land on the
+    sweep's terminal from a worker process; yields a _Captured filled at the end."""
+    cap = _Captured()
+    sys.stdout.flush()
+    with tempfile.TemporaryFile() as tmp:
+        saved = os.dup(fd)
+        os.dup2(tmp.fileno(), fd)
+        try:
+            yield cap
+        finally:
+            sys.stdout.flush()
+            os.dup2(saved, fd)
+            os.close(saved)
+            tmp.seek(0)
+            cap.text = tmp.read().decode(errors="replace")
 
 
 class _Progress:

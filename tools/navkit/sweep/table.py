@@ -37,6 +37,7 @@ FIGURES = {
     "planner_accepted": "planner commands the host accepted, count",
     "planner_refused": "planner commands not accepted (rejected, not implemented, timeout), count",
     "host_state": "the host at the end: running, exited, killed",
+    "host_exit": "the host's exit status (0: it shut down normally at the end)",
     "frames": "host frames, count",
     "sim_time_s": "simulated time, s",
 }
@@ -97,6 +98,7 @@ def figures(summary: dict, expect: dict | None = None) -> dict:
     f["planner_accepted"] = planner.get("accepted")
     f["planner_refused"] = len(planner.get("refused") or [])
     f["host_state"] = (summary.get("host") or {}).get("state")
+    f["host_exit"] = (summary.get("host") or {}).get("exit_status")
     f["frames"] = summary.get("frames")
     f["sim_time_s"] = summary.get("sim_time_s")
     return f
