@@ -348,11 +348,12 @@ def test_ctrl_c_keeps_the_finished_runs(tmp_path):
     assert f"interrupted: {len(rows)} of 40 runs finished" in out_text, out_text
 
 
-def test_bench_command(mission_file):
+def test_bench_command(mission_file, tmp_path):
     """`navkit sweep --bench` (make bench-sweep) prints runs per minute for 1 and 2
     workers, their ratio and that both tables agree (2 runs each here; figures come from
-    the command, not from this test)."""
-    p = _navkit("sweep", "--bench", "--bench-runs", "2", "--mission", str(mission_file))
+    the command, not from this test). Its temporary folders go into tmp_path."""
+    p = _navkit("sweep", "--bench", "--bench-runs", "2", "--mission", str(mission_file),
+                env=dict(os.environ, TMPDIR=str(tmp_path)))
     assert p.returncode == 0, p.stdout + p.stderr
     lines = p.stdout.splitlines()
     assert any(line.strip().startswith("1 worker : 2 runs in") and "runs/min" in line for line in lines)
