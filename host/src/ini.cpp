@@ -23,6 +23,7 @@
 
 #include "navkit/ini_file.hpp"
 #include "navkit/options.hpp"
+#include "navkit/slcan.hpp"
 
 namespace navkit {
 namespace {
@@ -219,6 +220,23 @@ Table nav_table(Config &c)
          }},
         {"stop_bits", int_key(&m.stop_bits, 1, 2)},
         {"latency_timer_ms", int_key(&m.latency_timer_ms, 0, 255)},
+        {"link", checked_key(&m.link, micro_link_error)},
+        {"can_bitrate", [&m](const std::string &v) -> std::string {
+             long x;
+             const std::string why = ini_parse_int(v, false, &x);
+             if (!why.empty()) {
+                 return why;
+             }
+             if (Slcan::bitrate_command(static_cast<int>(x)).empty() || x > INT32_MAX) {
+                 std::string list;
+                 for (int b : Slcan::bitrates()) {
+                     list += (list.empty() ? "" : ", ") + std::to_string(b);
+                 }
+                 return std::to_string(x) + " is not a bit rate an SLCAN adapter sets (" + list + ")";
+             }
+             m.can_bitrate = static_cast<int>(x);
+             return "";
+         }},
     };
     navkit_micro_cfg_geometry_t &g = m.geometry;
     t["micro_cfg_geometry"] = {
@@ -436,6 +454,11 @@ std::string ini_parse_real(const std::string &v, double *out)
     }
     *out = x;
     return "";
+}
+
+std::string micro_link_error(const std::string &v)
+{
+    return (v == "serial" || v == "slcan") ? "" : "'" + v + "' is not serial or slcan";
 }
 
 std::string shm_name_error(const std::string &v)

@@ -59,6 +59,9 @@ int main(int argc, char **argv)
     if (!o.port.empty()) {
         cfg.micro.port = o.port;
     }
+    if (!o.link.empty()) {
+        cfg.micro.link = o.link;
+    }
     if (o.rate_hz > 0) {
         cfg.exec.frame_rate_hz = o.rate_hz;
     }

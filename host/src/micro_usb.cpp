@@ -304,6 +304,9 @@ void MicroUsb::reset_parser()
     base_ = counters();  // decode failures are kept in base_ already
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
     seen_schema_mismatch_ = 0;
+    slcan_ = Slcan();  // link = slcan: the old connection's lines and messages are gone
+    navkit_isotp_rx_init(&can_rx_, NAVKIT_DIR_TO_HOST);
+    navkit_isotp_tx_init(&can_tx_);
 }
 
 void MicroUsb::open_port(bool starting)
@@ -326,7 +329,13 @@ void MicroUsb::open_port(bool starting)
     // restarted without a micro reset, another micro plugged in): download ours whole
     config_again();
     rejected_seen_ = 0;  // its refusals so far are news (ours may be among them)
-    con_.print("micro port %s open (%s, raw)", port_.path().c_str(), SerialPort::line_settings(cfg_).c_str());
+    if (slcan()) {
+        adapter_pending_ = true;  // its set-up goes out at the start of the next frame (begin_frame)
+        con_.print("micro port %s open (%s, raw; SLCAN adapter, CAN at %d bit/s, ISO-TP)", port_.path().c_str(),
+                   SerialPort::line_settings(cfg_).c_str(), cfg_.can_bitrate);
+    } else {
+        con_.print("micro port %s open (%s, raw)", port_.path().c_str(), SerialPort::line_settings(cfg_).c_str());
+    }
     const std::string lt = SerialPort::latency_timer_path(port_.path(), port_.roots());
     if (!lt.empty() && cfg_.latency_timer_ms > 0) {
         std::ofstream f(lt);
@@ -363,6 +372,12 @@ void MicroUsb::begin_frame(int64_t now_us)
     if (!port_.is_open()) {
         open_port();
     }
+    if (adapter_pending_ && port_.is_open()) {
+        // the SLCAN adapter: channel closed (as another program may have left it), bit rate,
+        // open; written in a frame, so lockstep counts its bytes as the frame's
+        adapter_pending_ = false;
+        can_write(Slcan::open_commands(cfg_.can_bitrate));
+    }
 }
 
 static int64_t mono_ms()
@@ -387,35 +402,41 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
             port_lost("read failed or hung up");
             break;
         }
-        const uint8_t *d = buf;
-        size_t len = static_cast<size_t>(n);
-        while (len) {
-            const size_t k = navkit_parser_feed(&parser_, d, len);
-            d += k;
-            len -= k;
-            const uint8_t *f;
-            size_t fl;
-            while (navkit_parser_next(&parser_, &f, &fl)) {
-                // the parser only returns micro_data (DIR_TO_HOST); the newest one wins.
-                // One that does not decode, or has a field outside the spec's range, is
-                // dropped and counted (decode_failures). One of another spec's hash (our
-                // length, so it decodes) is used for nothing but saying so: its words
-                // may mean other things.
-                navkit_micro_data_t m;
-                int bad = -1;
-                const bool decoded = navkit_micro_data_decode(f, fl, &m) == NAVKIT_OK;
-                if (decoded && m.spec_hash != NAVKIT_SPEC_HASH) {
-                    foreign_last = true;
-                    foreign_hash = m.spec_hash;
-                } else if (decoded && navkit_micro_data_check(&m, &bad) == NAVKIT_OK) {
-                    *out = m;
-                    got++;
-                    foreign_last = false;
-                } else {
-                    base_.decode_failures++;
-                    last_bad_field_ = bad;
+        // bytes of frames (the line's, or one reassembled ISO-TP message's) through the parser
+        auto take = [&](const uint8_t *d, size_t len) {
+            while (len) {
+                const size_t k = navkit_parser_feed(&parser_, d, len);
+                d += k;
+                len -= k;
+                const uint8_t *f;
+                size_t fl;
+                while (navkit_parser_next(&parser_, &f, &fl)) {
+                    // the parser only returns micro_data (DIR_TO_HOST); the newest one wins.
+                    // One that does not decode, or has a field outside the spec's range, is
+                    // dropped and counted (decode_failures). One of another spec's hash (our
+                    // length, so it decodes) is used for nothing but saying so: its words
+                    // may mean other things.
+                    navkit_micro_data_t m;
+                    int bad = -1;
+                    const bool decoded = navkit_micro_data_decode(f, fl, &m) == NAVKIT_OK;
+                    if (decoded && m.spec_hash != NAVKIT_SPEC_HASH) {
+                        foreign_last = true;
+                        foreign_hash = m.spec_hash;
+                    } else if (decoded && navkit_micro_data_check(&m, &bad) == NAVKIT_OK) {
+                        *out = m;
+                        got++;
+                        foreign_last = false;
+                    } else {
+                        base_.decode_failures++;
+                        last_bad_field_ = bad;
+                    }
                 }
             }
+        };
+        if (slcan()) {
+            can_take(buf, static_cast<size_t>(n), take);
+        } else {
+            take(buf, static_cast<size_t>(n));
         }
         total += n;
         if (want_bytes < 0) {
@@ -463,6 +484,14 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
         if (c.decode_failures) {
             why += std::string(why.empty() ? "" : "; ") + "last decode failure: " +
                    (last_bad_field_ >= 0 ? navkit_micro_data_field_name(last_bad_field_) : "not a micro_data");
+        }
+        if (c.can_errors) {
+            const navkit_isotp_rx_stats_t &r = can_rx_.stats;
+            why += std::string(why.empty() ? "" : "; ") + "CAN " + std::to_string(c.can_errors) +
+                   " (since the port opened: ISO-TP refused " + std::to_string(r.bad_frame) + " frames, aborted " +
+                   std::to_string(r.wrong_sn) + " out of sequence, " + std::to_string(r.restarted) + " restarted, " +
+                   std::to_string(r.timeout) + " timed out, " + std::to_string(r.overflow) + " too long; " +
+                   std::to_string(slcan_.bad_lines()) + " adapter lines no frame)";
         }
         con_.print("micro link: bad CRC %llu, unknown type %llu, bad length %llu, other spec %llu, "
                    "decode failures %llu, dropped bytes %llu so far (%s)",
@@ -589,8 +618,72 @@ void MicroUsb::queue_command(const navkit_micro_cmd_t &cmd, bool is_new)
     last_.time_tag = tag;
 }
 
+template <class Take> void MicroUsb::can_take(const uint8_t *buf, size_t len, Take take_frame_bytes)
+{
+    std::vector<SlcanFrame> frames;
+    slcan_.feed(buf, len, &frames);
+    for (const SlcanFrame &sf : frames) {
+        const uint16_t id = static_cast<uint16_t>((sf.id & NAVKIT_ISOTP_ID_MASK) | (sf.extended ? NAVKIT_ISOTP_EXT : 0u) |
+                                                  (sf.remote ? NAVKIT_ISOTP_RTR : 0u));
+        navkit_isotp_frame_t fc;
+        uint8_t fc_out = 0;
+        navkit_isotp_tx_frame(&can_tx_, id, sf.data, sf.dlc, can_ms());
+        const uint16_t n = navkit_isotp_rx_frame(&can_rx_, id, sf.data, sf.dlc, can_ms(), &fc, &fc_out);
+        if (fc_out && port_.is_open()) {
+            can_write(Slcan::frame_command(fc.id, fc.data));
+        }
+        if (n) {
+            take_frame_bytes(can_rx_.buf, n);
+            // an ISO-TP message is one frame: what the parser still holds (a message that was
+            // no whole frame) belongs to no later message (as the firmware's CAN link does)
+            parser_.stats.dropped_bytes += parser_.have;
+            parser_.offset += parser_.have;
+            parser_.have = 0;
+        }
+    }
+    navkit_isotp_rx_poll(&can_rx_, can_ms());
+    can_pump();  // the consecutive frames a flow control just let go
+}
+
+void MicroUsb::can_write(const std::string &line)
+{
+    const long n = port_.write_all(reinterpret_cast<const uint8_t *>(line.data()), line.size());
+    if (n < 0) {
+        port_lost("write failed");
+        return;
+    }
+    if (static_cast<size_t>(n) != line.size()) {
+        tx_errors_++;
+    }
+    tx_frame_ += static_cast<uint32_t>(n);
+}
+
+void MicroUsb::can_pump()
+{
+    navkit_isotp_frame_t f;
+    while (port_.is_open() && navkit_isotp_tx_next(&can_tx_, can_ms(), &f)) {
+        can_write(Slcan::frame_command(f.id, f.data));
+    }
+}
+
+void MicroUsb::can_send(const uint8_t *buf, size_t len)
+{
+    if (navkit_isotp_tx_busy(&can_tx_) || len > sizeof can_tx_.buf) {
+        tx_errors_++;  // the last message still waits for its flow control: this one is skipped
+        return;
+    }
+    std::memcpy(can_tx_.buf, buf, len);
+    navkit_isotp_tx_start(&can_tx_, static_cast<uint16_t>(len), navkit_frame_type(buf), can_ms());
+    can_pump();
+    stop_last_ = false;
+}
+
 void MicroUsb::write_frame(const uint8_t *buf, size_t len)
 {
+    if (slcan()) {
+        can_send(buf, len);
+        return;
+    }
     const long n = port_.write_all(buf, len);
     if (n < 0) {
         port_lost("write failed");
@@ -656,6 +749,24 @@ void MicroUsb::send()
     write_frame(buf, n);
 }
 
+void MicroUsb::can_flush(int wait_ms)
+{
+    const int64_t start_ms = mono_ms();
+    const int64_t start_us = now_us_;
+    while (port_.is_open() && navkit_isotp_tx_busy(&can_tx_) && mono_ms() < start_ms + wait_ms) {
+        pollfd p{port_.fd(), POLLIN, 0};
+        poll(&p, 1, 10);
+        uint8_t in[256];
+        const long n = port_.read_some(in, sizeof in);
+        if (n < 0) {
+            port_lost("read failed or hung up");
+            break;
+        }
+        now_us_ = start_us + 1000 * (mono_ms() - start_ms);  // ISO-TP's clock moves on meanwhile
+        can_take(in, static_cast<size_t>(n), [](const uint8_t *, size_t) {});  // micro_data: not wanted now
+    }
+}
+
 bool MicroUsb::send_stop(uint16_t dio)
 {
     if (!port_.is_open() || mismatch_ || !configured_) {
@@ -664,6 +775,16 @@ bool MicroUsb::send_stop(uint16_t dio)
     queue_command(stop_command(dio), true);
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
     const uint64_t errs = tx_errors_;
+    if (slcan()) {
+        // outside the frame loop (shutdown): the message still going out first, then the
+        // stop, each given up to 200 ms for its flow control, so the stop goes out whole
+        can_flush(200);
+        const uint16_t sent = can_tx_.stats.sent;
+        write_frame(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
+        can_flush(200);
+        stop_last_ = port_.is_open() && can_tx_.stats.sent != sent;
+        return stop_last_;
+    }
     write_frame(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
     stop_last_ = port_.is_open() && tx_errors_ == errs;
     return stop_last_;
@@ -693,6 +814,9 @@ LinkCounters MicroUsb::counters() const
     c.bad_length += s.bad_length;
     c.schema_mismatch += s.schema_mismatch;
     c.dropped_bytes += s.dropped_bytes;
+    const navkit_isotp_rx_stats_t &r = can_rx_.stats;
+    c.can_errors += static_cast<uint64_t>(r.bad_frame) + r.wrong_sn + r.restarted + r.timeout + r.overflow +
+                    slcan_.bad_lines();
     return c;
 }
 

@@ -12,6 +12,8 @@ const char *usage()
     return "usage: navkit-host [options]\n"
            "  --config DIR       folder of NavAndControl.ini and sensors.ini (default: config)\n"
            "  --port PATH        serial port of the micro, or 'auto' (overrides [micro] port)\n"
+           "  --link serial|slcan  frames on the line, or CAN frames through an SLCAN adapter\n"
+           "                     (overrides [micro] link)\n"
            "  --rate HZ          frame rate (overrides [executive] frame_rate_hz)\n"
            "  --clock real|lockstep  real time (default) or one frame per lockstep tick\n"
            "  --lockstep-fd N    the lockstep socket (with --clock lockstep)\n"
@@ -45,7 +47,7 @@ std::string parse_options(int argc, char **argv, Options *o)
             o->help = true;
         } else if (a == "--record") {
             o->record = true;
-        } else if (a == "--config" || a == "--port" || a == "--rate" || a == "--clock" ||
+        } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--clock" ||
                    a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
             if (!value(&v)) {
                 return a + ": needs a value" +
@@ -58,6 +60,12 @@ std::string parse_options(int argc, char **argv, Options *o)
                 o->config_dir = v;
             } else if (a == "--port") {
                 o->port = v;
+            } else if (a == "--link") {
+                const std::string why = micro_link_error(v);  // as [micro] link: one rule
+                if (!why.empty()) {
+                    return a + ": " + why;
+                }
+                o->link = v;
             } else if (a == "--rate") {
                 // decimal as the INI's numbers (no hex, inf or nan)
                 if (!ini_parse_real(v, &o->rate_hz).empty() || !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {

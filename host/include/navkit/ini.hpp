@@ -51,6 +51,9 @@ std::string ini_parse_real(const std::string &v, double *out);
 // lockstep the driver checks its own frame (navkit sim --frame-ms).
 std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms);
 
+// [micro] link (and --link): serial or slcan; "" if v is one, else why not.
+std::string micro_link_error(const std::string &v);
+
 // Checks of [executive] values (and of --shm, --log-dir): "" if v is fine, else why not.
 // A POSIX shared-memory name: '/' then 1..NAME_MAX characters, no other '/'.
 std::string shm_name_error(const std::string &v);
@@ -80,6 +83,9 @@ struct MicroCfg {
     char parity = 'N';               // N, E or O
     int stop_bits = 1;
     int latency_timer_ms = 1;        // FTDI latency timer, where sysfs lets us set it; 0 = leave
+    std::string link = "serial";     // serial: frames on the line; slcan: CAN frames through an
+                                     // SLCAN USB-CAN adapter on the port (docs/can.md)
+    int can_bitrate = static_cast<int>(NAVKIT_CAN_BITRATE);  // bit/s of the CAN bus (slcan)
     navkit_micro_cfg_geometry_t geometry{};
     navkit_micro_cfg_motion_t motion{};
     navkit_micro_cfg_io_t io{};

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "navkit/ini.hpp"
+#include "navkit/slcan.hpp"
 
 extern "C" {
 #include "navkit/navkit_proto.h"
@@ -77,8 +78,14 @@ struct LinkCounters {
                                    // field outside the spec's range (dropped)
     uint64_t schema_mismatch = 0;  // CRC-good micro_data of another spec's length
     uint64_t dropped_bytes = 0;    // bytes not part of a returned frame
-    // Frames rejected for any reason (lisp_data.link_errors): the five frame counters.
-    uint64_t rejected() const { return bad_crc + unknown_type + bad_length + decode_failures + schema_mismatch; }
+    uint64_t can_errors = 0;       // link = slcan: CAN frames ISO-TP refused, ISO-TP messages
+                                   // aborted (lost, reordered, restarted, timed out, overflowed),
+                                   // adapter lines that were no frame
+    // Frames rejected for any reason (lisp_data.link_errors): the six frame counters.
+    uint64_t rejected() const
+    {
+        return bad_crc + unknown_type + bad_length + decode_failures + schema_mismatch + can_errors;
+    }
 };
 
 class MicroUsb {
@@ -135,6 +142,19 @@ private:
     // A micro that runs spec `hash` (not ours): not driven, said once a second.
     void note_foreign_hash(uint32_t hash);
     void write_frame(const uint8_t *buf, size_t len);
+    // link = slcan (docs/can.md): each frame one ISO-TP message of SLCAN lines. can_take():
+    // the adapter's bytes to ISO-TP (flow controls go out at once), each message reassembled
+    // to take_frame_bytes; can_send(): start a message (skipped, counted in tx_errors, while
+    // the last is still going out); can_pump(): the frames ISO-TP lets go now.
+    bool slcan() const { return cfg_.link == "slcan"; }
+    template <class Take> void can_take(const uint8_t *buf, size_t len, Take take_frame_bytes);
+    void can_send(const uint8_t *buf, size_t len);
+    void can_pump();
+    // Outside the frame loop: read the port until the message going out is sent whole
+    // (its flow control came), at most wait_ms ms.
+    void can_flush(int wait_ms);
+    void can_write(const std::string &line);
+    uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); }  // ISO-TP clock: frame time
     void reset_parser();
     // Our config is no longer known to be in force: download it again from geometry on.
     void config_again();
@@ -149,6 +169,10 @@ private:
     Console &con_;
     SerialPort port_;
     navkit_parser_t parser_{};
+    Slcan slcan_;                // link = slcan: the adapter's lines
+    navkit_isotp_rx_t can_rx_{}; // link = slcan: micro_data reassembly
+    navkit_isotp_tx_t can_tx_{}; // link = slcan: the message going out
+    bool adapter_pending_ = false;  // link = slcan: the port opened, the adapter not set up yet
     std::string last_open_error_;
     int64_t now_us_ = 0;
     int64_t last_rx_us_ = -1;

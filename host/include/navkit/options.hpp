@@ -12,6 +12,7 @@ constexpr double kMaxRateHz = 1000.0;
 struct Options {
     std::string config_dir = "config";
     std::string port;          // "" = INI
+    std::string link;          // "" = INI ([micro] link: serial or slcan)
     double rate_hz = 0;        // 0 = INI
     bool lockstep = false;
     int lockstep_fd = -1;
