@@ -1,0 +1,73 @@
+"""A CAN gateway for co-simulation: stands where the USB-CAN adapter and the micro's CAN
+transport would be, between a host speaking SLCAN on its serial port (`[micro] link =
+slcan`) and a firmware speaking the serial link (the firmware FMU, a test's micro).
+
+    host --SLCAN bytes--> SlcanAdapter --CAN frames--> ISO-TP (the micro's side) --frames--> firmware
+    host <--SLCAN lines-- SlcanAdapter <--CAN frames-- ISO-TP <--serial bytes, cut into frames-- firmware
+
+Every CAN frame on the simulated bus (both directions, flow controls included) goes to an
+optional python-can listener (a `can.Logger` writes a candump-style log or any format it
+knows). Times are the caller's seconds (simulated time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import can
+
+from navkit import can as nc
+from navkit import protocol as p
+from navkit.can_slcan import SlcanAdapter
+
+__all__ = ["CanGateway"]
+
+
+@dataclass
+class CanGateway:
+    """The gateway. `from_host()` takes the host's bytes, `from_micro()` the firmware's;
+    each returns what goes where. `listener` (a python-can Listener, e.g. can.Logger) gets
+    every frame on the bus; `frames` counts them."""
+
+    listener: can.Listener | None = None
+    adapter: SlcanAdapter = field(default_factory=SlcanAdapter)
+    micro: nc.Endpoint = field(default_factory=lambda: nc.Endpoint("micro"))
+    frames: int = 0
+    skipped: int = 0            # the firmware's frames dropped while the last one was going out
+    _serial: p.Parser = field(default_factory=lambda: p.Parser(p.DIR_TO_HOST))
+
+    def _bus(self, msg: can.Message, t: float, rx: bool) -> None:
+        self.frames += 1
+        if self.listener is not None:
+            msg.timestamp = t
+            msg.is_rx = rx  # rx: towards the host (as the adapter receives it)
+            self.listener.on_message_received(msg)
+
+    def _to_host(self, t: float) -> bytes:
+        """The micro's frames due now (flow controls, micro_data) as SLCAN lines."""
+        out = bytearray()
+        for m in self.micro.poll(t):
+            self._bus(m, t, True)
+            out += self.adapter.to_host(m)
+        return bytes(out)
+
+    def from_host(self, data: bytes, t: float) -> tuple[bytes, bytes]:
+        """(bytes back to the host: the adapter's answers and the micro's frames now due,
+        the serial frames the firmware receives)."""
+        reply, frames = self.adapter.feed(data)
+        to_micro = bytearray()
+        for m in frames:
+            self._bus(m, t, False)
+            r = self.micro.feed(m, t)
+            if r is not None:
+                to_micro += r.data
+        return reply + self._to_host(t), bytes(to_micro)
+
+    def from_micro(self, data: bytes, t: float) -> bytes:
+        """The firmware's serial bytes: each whole frame one ISO-TP message (one at a time:
+        a frame while the last is still going out is dropped, as the firmware's CAN build
+        skips a reply then); returns the SLCAN lines for the host now due."""
+        for e in self._serial.feed(data):
+            if isinstance(e, p.Frame) and not self.micro.send(e.raw, t):
+                self.skipped += 1
+        return self._to_host(t)
