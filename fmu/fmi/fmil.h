@@ -106,31 +106,40 @@ void fmil_log(const fmil_instance_t *c, fmil_status_t st, const char *fmt, ...)
  * model refused (logged through log first). */
 fmil_instance_t *fmil_new(const char *name, const char *resources, int logging, const char *api, fmil_log_fn log,
                           void *env, void (*callback)(void));
+/* fmil_model_free, then the instance. */
 void fmil_free(fmil_instance_t *c);
+/* FMIL_OK if call fn is legal in c's state, else logs why and returns FMIL_ERROR. */
 fmil_status_t fmil_allowed(const fmil_instance_t *c, fmil_fn_t fn);
 /* SetDebugLogging: on != 0 switches logEvents on, for categories (n of them; none = all);
  * an unknown category is an error. */
 fmil_status_t fmil_set_debug_logging(fmil_instance_t *c, int on, size_t n, const char *const categories[]);
+/* EnterInitializationMode: the time becomes start_time (s); the model will start afresh. */
 fmil_status_t fmil_enter_init(fmil_instance_t *c, double start_time);
+/* ExitInitializationMode: fmil_model_start if parameters changed, then StepMode. */
 fmil_status_t fmil_exit_init(fmil_instance_t *c);
+/* Terminate: StepMode -> Terminated. */
 fmil_status_t fmil_terminate(fmil_instance_t *c);
+/* Reset: fmil_model_start_values, time 0 s, Instantiated. */
 fmil_status_t fmil_reset(fmil_instance_t *c);
 /* Get/Set of nvr scalars of type (not FMIL_STR/FMIL_BIN): values is an array of that
  * type's C type with nvals (== nvr) elements; fn names the API function in messages. */
 fmil_status_t fmil_get(fmil_instance_t *c, const uint32_t vr[], size_t nvr, void *values, size_t nvals,
                        fmil_type_t type, const char *fn);
+/* Set: as Get the other way; each variable must be settable now (inputs until Terminated,
+ * parameters before StepMode), then fmil_model_inputs_changed runs. */
 fmil_status_t fmil_set(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const void *values, size_t nvals,
                        fmil_type_t type, const char *fn);
-/* Strings: get points values[i] at the value (valid until it is set again); set copies
- * (NULL = ""). */
+/* Get of String variables: points values[i] at the value (valid until it is set again). */
 fmil_status_t fmil_get_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *values[],
                                size_t nvals, const char *fn);
+/* Set of String variables: copies values[i] (NULL = "", shorter than FMIL_STR_MAX). */
 fmil_status_t fmil_set_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *const values[],
                                size_t nvals, const char *fn);
-/* Binary: get points values[i] at the bytes (valid until the next step or set) and sets
- * sizes[i]; set copies sizes[i] bytes (at most the variable's cap). */
+/* Get of Binary variables: points values[i] at the bytes (valid until the next step or
+ * set) and sets sizes[i] (bytes). */
 fmil_status_t fmil_get_binaries(fmil_instance_t *c, const uint32_t vr[], size_t nvr, size_t sizes[],
                                 const uint8_t *values[], size_t nvals, const char *fn);
+/* Set of Binary variables: copies sizes[i] bytes (at most the variable's cap) of values[i]. */
 fmil_status_t fmil_set_binaries(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const size_t sizes[],
                                 const uint8_t *const values[], size_t nvals, const char *fn);
 /* Get/Set of a type the model has no variable of: FMIL_OK for nvr = 0, else an error. */
