@@ -18,6 +18,11 @@
  * shared word is accessed with aligned 32-bit atomics; the seqlock
  * writer makes seq odd, writes, makes it even (+2 per message); the reader copies
  * between two equal, even reads of seq, retrying a bounded number of times.
+ * Another process of the host's user can cut the region short (ftruncate): every access
+ * first checks its size, and a region shorter than the layout is closed (r->base NULL,
+ * r->error says so; reads return 0 and writes do nothing) instead of a SIGBUS. A cut in
+ * the moment between that check and the access still raises SIGBUS: a planner that must
+ * survive even that guards its accesses as navkit-host does (host/src/comm.cpp).
  */
 #ifndef NAVKIT_RCOMM_H
 #define NAVKIT_RCOMM_H
@@ -39,7 +44,8 @@ extern "C" {
 
 typedef struct {
     uint8_t *base;     /* the mapped region, NULL when closed */
-    char error[160];   /* why navkit_rcomm_open failed */
+    int fd;            /* the region, kept for the size check of every access; -1 closed */
+    char error[160];   /* why navkit_rcomm_open failed, or why the region was closed */
 } navkit_rcomm_t;
 
 static inline uint32_t *navkit_rcomm_word_(navkit_rcomm_t *r, size_t off)
@@ -84,6 +90,7 @@ static inline int navkit_rcomm_open(navkit_rcomm_t *r, const char *name)
     void *p;
     int fd, why;
     r->base = NULL;
+    r->fd = -1;
     r->error[0] = '\0';
     fd = shm_open(name, O_RDWR, 0);
     if (fd < 0) {
@@ -114,17 +121,20 @@ static inline int navkit_rcomm_open(navkit_rcomm_t *r, const char *name)
         return -1;
     }
     p = mmap(NULL, NAVKIT_RCOMM_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-    close(fd);
     if (p == MAP_FAILED) {
+        close(fd);
         snprintf(r->error, sizeof r->error, "rcomm %s: mmap failed", name);
         return -1;
     }
     r->base = (uint8_t *)p;
+    r->fd = fd;
     if (__atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_MAGIC_OFFSET), __ATOMIC_ACQUIRE) != NAVKIT_RCOMM_MAGIC ||
         __atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_VERSION_OFFSET), __ATOMIC_RELAXED) != NAVKIT_RCOMM_VERSION ||
         __atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_SPEC_HASH_OFFSET), __ATOMIC_RELAXED) != NAVKIT_SPEC_HASH) {
         munmap(p, NAVKIT_RCOMM_SIZE);
+        close(fd);
         r->base = NULL;
+        r->fd = -1;
         snprintf(r->error, sizeof r->error, "rcomm %s: magic, version or spec hash differ", name);
         return -1;
     }
@@ -133,10 +143,30 @@ static inline int navkit_rcomm_open(navkit_rcomm_t *r, const char *name)
 
 static inline void navkit_rcomm_close(navkit_rcomm_t *r)
 {
-    if (r->base) {
+    if (r->base) {  /* fd is the region's only while it is mapped */
         munmap(r->base, NAVKIT_RCOMM_SIZE);
+        close(r->fd);
         r->base = NULL;
+        r->fd = -1;
     }
+}
+
+/* 1 when the region is open and whole; else 0, and a region cut short by another
+ * process is closed with r->error saying so (its next access would be a SIGBUS). */
+static inline int navkit_rcomm_whole_(navkit_rcomm_t *r)
+{
+    struct stat st;
+    st.st_size = -1;
+    if (!r->base) {
+        return 0;
+    }
+    if (fstat(r->fd, &st) == 0 && st.st_size >= (off_t)NAVKIT_RCOMM_SIZE) {
+        return 1;
+    }
+    navkit_rcomm_close(r);
+    snprintf(r->error, sizeof r->error, "rcomm: the region was cut to %lld bytes by another process (%u needed): closed",
+             (long long)st.st_size, (unsigned)NAVKIT_RCOMM_SIZE);
+    return 0;
 }
 
 /* Seqlock write of n words into the slot at byte offset slot. */
@@ -181,30 +211,45 @@ static inline int navkit_rcomm_read_slot_(navkit_rcomm_t *r, size_t slot, int32_
 /* Bump the planner heartbeat (the host stops the robot after planner_timeout without it). */
 static inline void navkit_rcomm_heartbeat(navkit_rcomm_t *r)
 {
+    if (!navkit_rcomm_whole_(r)) {
+        return;
+    }
     __atomic_fetch_add(navkit_rcomm_word_(r, NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET), 1u, __ATOMIC_RELEASE);
 }
 
 /* Write a whole lisp_cmd (a changed time tag, word 0, marks a new command) and beat. */
 static inline void navkit_rcomm_write_cmd(navkit_rcomm_t *r, const int32_t words[NAVKIT_LISP_CMD_WORDS])
 {
+    if (!navkit_rcomm_whole_(r)) {
+        return;
+    }
     navkit_rcomm_write_slot_(r, NAVKIT_RCOMM_LISP_CMD_OFFSET, words, NAVKIT_LISP_CMD_WORDS);
     navkit_rcomm_heartbeat(r);
 }
 
 static inline void navkit_rcomm_write_emotion(navkit_rcomm_t *r, const int32_t words[NAVKIT_EMOTION_WORDS])
 {
+    if (!navkit_rcomm_whole_(r)) {
+        return;
+    }
     navkit_rcomm_write_slot_(r, NAVKIT_RCOMM_EMOTION_OFFSET, words, NAVKIT_EMOTION_WORDS);
 }
 
 /* The host's latest lisp_data: 1 = copied, 0 = none yet (or torn for every retry). */
 static inline int navkit_rcomm_read_data(navkit_rcomm_t *r, int32_t words[NAVKIT_LISP_DATA_WORDS])
 {
+    if (!navkit_rcomm_whole_(r)) {
+        return 0;
+    }
     return navkit_rcomm_read_slot_(r, NAVKIT_RCOMM_LISP_DATA_OFFSET, words, NAVKIT_LISP_DATA_WORDS);
 }
 
 /* The host's frame counter. */
 static inline uint32_t navkit_rcomm_host_heartbeat(navkit_rcomm_t *r)
 {
+    if (!navkit_rcomm_whole_(r)) {
+        return 0;
+    }
     return __atomic_load_n(navkit_rcomm_word_(r, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET), __ATOMIC_ACQUIRE);
 }
 

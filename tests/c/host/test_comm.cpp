@@ -320,3 +320,23 @@ TEST(Comm, AGuardedFaultIsCountedOnlyInsideTheRegion)
     EXPECT_EQ(c.lost(), "");
     c.shutdown();
 }
+
+TEST(Comm, ThePlannersHeaderClosesARegionCutShort)
+{
+    const std::string name = unique_name("cut-client");
+    Comm c(name, "");
+    c.init();
+    navkit_rcomm_t r;
+    ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+    ASSERT_EQ(truncate(("/dev/shm" + name).c_str(), 0), 0);
+    int32_t w[NAVKIT_LISP_DATA_WORDS];
+    EXPECT_EQ(navkit_rcomm_read_data(&r, w), 0) << "no SIGBUS: the size is checked first";
+    EXPECT_EQ(r.base, nullptr);
+    EXPECT_EQ(std::string(r.error), "rcomm: the region was cut to 0 bytes by another process (" +
+                                        std::to_string(NAVKIT_RCOMM_SIZE) + " needed): closed");
+    int32_t cmd[NAVKIT_LISP_CMD_WORDS] = {1};
+    navkit_rcomm_write_cmd(&r, cmd);  // does nothing on a closed region
+    navkit_rcomm_heartbeat(&r);
+    EXPECT_EQ(navkit_rcomm_host_heartbeat(&r), 0u);
+    navkit_rcomm_close(&r);
+}
