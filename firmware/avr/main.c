@@ -3,7 +3,8 @@
  * Start: reset cause, board peripherals, fw_init(), the tick timer at the core's period,
  * the watchdog, interrupts on. Main loop (hal.h, ordering contract 1): feed the watchdog;
  * run fw_tick() for one due tick (GPIOR0 marks it for the board simulator's profile);
- * when no tick is due and bytes wait on UART0, fw_link_poll() (marked too) and then
+ * when no tick is due and bytes wait on UART0 or the last poll stopped at its one-frame
+ * bound (FW_LINK_FRAMES_PER_POLL = 1, fw_link_pending()), fw_link_poll() (marked too) and then
  * follow the tick period the core has now (a config may change the rate); with nothing to
  * do, sleep until an interrupt. A tick that falls due during a long poll runs right after
  * it: none is lost (up to 255 pending).
@@ -87,7 +88,7 @@ int main(void)
             continue;
         }
 #endif
-        if (board_uart_rx_ready()) {
+        if (board_uart_rx_ready() || fw_link_pending(&board_fw)) {
             GPIOR0 = BOARD_PROF_POLL;
             fw_link_poll(&board_fw);
             GPIOR0 = BOARD_PROF_IDLE;
@@ -95,7 +96,7 @@ int main(void)
             continue;
         }
         cli();
-        if (!board_tick_due() && !board_uart_rx_ready()) {
+        if (!board_tick_due() && !board_uart_rx_ready() && !fw_link_pending(&board_fw)) {
             sleep_enable();
             sei(); /* the instruction after sei runs first: no wake-up is missed */
             sleep_cpu();

@@ -57,6 +57,11 @@ void fw_link_poll(fw_t *fw)
     link_poll(fw);
 }
 
+uint8_t fw_link_pending(const fw_t *fw)
+{
+    return link_pending(fw);
+}
+
 float fw_fwd_distance(const fw_t *fw)
 {
     return odom_distance(&fw->odom, fw->fwd.ref_l, fw->fwd.ref_r, fw->cfg.mm_per_count);

@@ -74,6 +74,10 @@ uint32_t fw_tick_period_us(const fw_t *fw);
 void fw_tick(fw_t *fw);
 /* Handle the link: call between ticks. */
 void fw_link_poll(fw_t *fw);
+/* 1 if fw_link_poll() should run again although the UART may be empty: the last poll
+ * stopped at its frame bound (FW_LINK_FRAMES_PER_POLL, link.h) with bytes read but not yet
+ * handled; always 0 without a bound. */
+uint8_t fw_link_pending(const fw_t *fw);
 /* micro_data.status bits (NAVKIT_MICRO_STATUS_*). */
 uint16_t fw_status(const fw_t *fw);
 /* Watchdog stop now: decelerate to rest, servos hold, DIO outputs safe, latch. */

@@ -17,6 +17,7 @@ void link_reset(link_t *l)
     l->mc_datalog = NAVKIT_MC_DATALOG_NONE;
     l->have_tag = 0u;
     l->tag_pending = 0u;
+    l->more = 0u;
 #if FW_LINK_CAN
     navkit_isotp_rx_init(&l->can_rx, NAVKIT_DIR_TO_MICRO);
     navkit_isotp_tx_init(&l->can_tx);
@@ -496,24 +497,63 @@ static void link_reply(fw_t *fw)
     hal_uart_write(fw->hal, buf, n);
 }
 
+/* Handle the complete frames the parser holds, up to the poll's bound; returns 1 when the
+   bound is reached (*frames counts this poll's frames). */
+static uint8_t link_frames(fw_t *fw, uint8_t *frames)
+{
+    const uint8_t *frame;
+    size_t flen;
+    while (navkit_parser_next(&fw->link.parser, &frame, &flen)) {
+        if (link_frame(fw, frame, flen)) {
+            link_reply(fw);
+        }
+        if (FW_LINK_FRAMES_PER_POLL != 0u) {
+            ++*frames;
+            if (*frames == FW_LINK_FRAMES_PER_POLL) {
+                return 1u;
+            }
+        }
+    }
+    return 0u;
+}
+
+/* With a bound, a poll first takes the frames its parser kept (it stopped at the bound last
+   time), then reads the UART chunk by chunk. At the bound it still feeds the rest of the
+   chunk in hand: the frame just handled leaves its room in the parser, at least the
+   smallest frame (36 bytes) >= LINK_RX_CHUNK, so no byte read is lost. */
 void link_poll(fw_t *fw)
 {
     uint8_t chunk[LINK_RX_CHUNK];
     size_t got;
+    uint8_t frames = 0u;
+    fw->link.more = 0u;
+    if (FW_LINK_FRAMES_PER_POLL != 0u && link_frames(fw, &frames)) {
+        fw->link.more = 1u;
+        return;
+    }
     while ((got = hal_uart_read(fw->hal, chunk, sizeof chunk)) > 0u) {
         const uint8_t *p = chunk;
         while (got > 0u) {
-            const uint8_t *frame;
-            size_t flen;
             size_t took = navkit_parser_feed(&fw->link.parser, p, got);
             p += took;
             got -= took;
-            while (navkit_parser_next(&fw->link.parser, &frame, &flen)) {
-                if (link_frame(fw, frame, flen)) {
-                    link_reply(fw);
+            if (link_frames(fw, &frames)) {
+                fw->link.more = 1u;
+                while (got > 0u && (took = navkit_parser_feed(&fw->link.parser, p, got)) > 0u) {
+                    p += took;
+                    got -= took;
                 }
+                if (got == 0u) {
+                    return;
+                }
+                frames = 0u; /* cannot happen (see above): rather exceed the bound than lose bytes */
             }
         }
     }
 }
 #endif
+
+uint8_t link_pending(const fw_t *fw)
+{
+    return fw->link.more;
+}

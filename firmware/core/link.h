@@ -47,6 +47,15 @@ struct fw;
    bytes per poll */
 #define LINK_RX_CHUNK 16u
 
+/* frames: the most one link_poll() handles on the UART (hal.h, ordering contract 1); 0 =
+   no bound: it drains the UART and handles every complete frame. A target whose frame
+   takes a large share of its tick period sets 1 (the AVR image): the bytes after that
+   frame stay in the UART's RX (and the parser) for the next poll, and link_pending()
+   says when a poll is due although the UART may be empty. The CAN transport drains. */
+#ifndef FW_LINK_FRAMES_PER_POLL
+#define FW_LINK_FRAMES_PER_POLL 0u
+#endif
+
 typedef struct {
     navkit_parser_t parser;  /* frame parser and its counters */
     uint16_t last_tag;       /* time tag of the last handled micro_cmd */
@@ -58,6 +67,7 @@ typedef struct {
     uint16_t mc_datalog;     /* NAVKIT_MC_DATALOG_* selection */
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
     uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
+    uint8_t more;            /* the last poll stopped at FW_LINK_FRAMES_PER_POLL: the parser may hold a frame */
 #if FW_LINK_CAN
     navkit_isotp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
     navkit_isotp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
@@ -67,8 +77,12 @@ typedef struct {
 /* Empty parser, zero counters, no time tag seen. */
 void link_reset(link_t *l);
 /* Drain the UART (or, with FW_LINK_CAN, the CAN RX, and send what ISO-TP lets go) and
- * handle every complete frame (see the contract in hal.h). */
+ * handle every complete frame; with FW_LINK_FRAMES_PER_POLL, at most that many frames,
+ * the UART read only up to the last of them (see the contract in hal.h). */
 void link_poll(struct fw *fw);
+/* 1 if the last link_poll() stopped at its frame bound (FW_LINK_FRAMES_PER_POLL): call it
+ * again even with the UART empty, as the bytes it has read may hold another frame. */
+uint8_t link_pending(const struct fw *fw);
 /* Fill d with the current telemetry (what the next micro_data will carry, except its
  * own time tag). */
 void link_telemetry(const struct fw *fw, navkit_micro_data_t *d);

@@ -10,7 +10,8 @@
  *   UART0     bytes are fed to the RX IRQ one per frame time at the image's baud rate; the
  *             TX IRQ fills the read queue (simavr paces TX by the data-register-empty flag);
  *   profile   writes to GPIOR0 (board.h, BOARD_PROF_*) open and close a timed section;
- *             the stack pointer is checked after every instruction.
+ *             the stack pointer is checked after every instruction; the tick timer's
+ *             interrupt requests (Timer3 compare A) time each tick's lateness.
  * Register addresses come from avr-libc's <avr/iom2560.h> (data-space addresses).
  */
 #include <stdio.h>
@@ -27,6 +28,7 @@
 #include <sim_elf.h>
 #include <sim_hex.h>
 #include <sim_io.h>
+#include <sim_interrupts.h>
 #include <sim_irq.h>
 
 /* avr-libc's register map as plain data-space addresses (as simavr's cores include it) */
@@ -118,6 +120,8 @@ struct board_sim {
     uint8_t prof_mark;
     uint64_t prof_start;
     board_sim_profile_t prof;
+    uint64_t tick_due_at[256]; /* cycles: requests of the ticks not yet started, a ring */
+    uint8_t tick_due_head, tick_due_tail;
 };
 
 /* ---------------------------------------------------------------- small helpers */
@@ -393,8 +397,29 @@ static void sim_gpior0_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *pa
             }
         }
     }
+    if (v == BOARD_PROF_TICK && b->tick_due_tail != b->tick_due_head) {
+        uint64_t late = now - b->tick_due_at[b->tick_due_tail++];
+        b->prof.tick_late_total_cycles += late;
+        if (late > b->prof.tick_late_worst_cycles) {
+            b->prof.tick_late_worst_cycles = (uint32_t)((late > 0xFFFFFFFFull) ? 0xFFFFFFFFull : late);
+        }
+    }
     b->prof_mark = v;
     b->prof_start = now;
+}
+
+/* The tick timer's interrupt is requested: a tick falls due now (the image counts it in
+ * that interrupt and serves due ticks oldest first, as this ring does). */
+static void sim_tick_requested(avr_irq_t *irq, uint32_t value, void *param)
+{
+    board_sim_t *b = (board_sim_t *)param;
+    (void)irq;
+    /* simavr signals a compare match also while its interrupt is off (the image programs
+       the timer, then clears the flag and enables it): only enabled ones make ticks */
+    if (value != 0u && (b->avr->data[TIMSK3] & (1u << OCIE3A)) != 0u &&
+        (uint8_t)(b->tick_due_head + 1u) != b->tick_due_tail) {
+        b->tick_due_at[b->tick_due_head++] = b->avr->cycle;
+    }
 }
 
 /* ---------------------------------------------------------------- resets */
@@ -422,6 +447,7 @@ static void sim_after_reset(board_sim_t *b)
         avr->data[MCUSR] = 0u; /* what the stk500v2 bootloader hands the image */
     }
     b->prof_mark = BOARD_PROF_IDLE;
+    b->tick_due_head = b->tick_due_tail = 0u; /* the image starts with no tick due */
     for (i = 0; i < 2; i++) {
         sim_enc_t *e = &b->enc[i];
         uint32_t p = (uint32_t)e->pos & 3u;
@@ -599,6 +625,8 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), sim_uart_xoff, b);
     /* profile */
     avr_register_io_write(avr, GPIOR0, sim_gpior0_write, b);
+    avr_irq_register_notify(avr_get_interrupt_irq(avr, TIMER3_COMPA_vect_num) + AVR_INT_IRQ_PENDING,
+                            sim_tick_requested, b);
     b->prof.stack_min_sp = BOARD_RAMEND;
     /* a power-on start */
     avr->data[MCUSR] = (uint8_t)(1u << PORF);

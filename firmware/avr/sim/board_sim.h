@@ -47,6 +47,11 @@ typedef struct {
     uint32_t watchdog_resets;      /* of which by the hardware watchdog */
     uint16_t stack_min_sp;         /* the lowest stack pointer seen (a data address; RAMEND = 0x21FF) */
     uint16_t stack_max_bytes;      /* bytes: deepest stack, RAMEND - stack_min_sp */
+    /* tick lateness: cycles from the tick timer's interrupt request (Timer3 compare A: the
+     * moment a tick falls due) to the start of the fw_tick() that serves it, due ticks
+     * served oldest first; what a long fw_link_poll() (or a run of ticks) holds them up */
+    uint32_t tick_late_worst_cycles; /* cycles: the latest tick */
+    uint64_t tick_late_total_cycles; /* cycles: all ticks' lateness together (mean = this / ticks) */
 } board_sim_profile_t;
 
 /* A board running image_path (.elf, or .hex/.ihex: Intel HEX) from reset. On failure

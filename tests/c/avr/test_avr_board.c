@@ -597,10 +597,79 @@ static void test_footprint(void)
            (unsigned long)p.poll_worst_cycles,
            (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) / ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
            100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
+    printf("tick lateness (timer request to fw_tick start): worst %lu mean %lu cycles (%.2f / %.2f tick periods)\n",
+           (unsigned long)p.tick_late_worst_cycles,
+           (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
+           (double)p.tick_late_worst_cycles / 40000.0,
+           (double)(p.tick_late_total_cycles - p0.tick_late_total_cycles) / (double)(p.ticks - p0.ticks) / 40000.0);
     check(ram_end <= 0x1000ul, "static RAM ends at 0x%lx, past the reset markers at 0x1000", ram_end);
     check(p.stack_min_sp > 0x1000u + 8u, "the stack reached 0x%x, into the reset markers at 0x1000", p.stack_min_sp);
     check(h.last.status & NAVKIT_MICRO_STATUS_CONFIGURED, "the busy run lost its configuration");
     check(p.resets == 0u, "the board reset during the busy run");
+    board_sim_free(b);
+}
+
+/* The host's traffic at 400 Hz: the three configs at start-up, then a micro_cmd every
+ * 10 ms (100 Hz, about the line rate: 116 bytes take ~10 ms) for 2 s with a new command
+ * (new time tag: a move with heading select, a servo) every 100 ms and repeats in
+ * between, encoders turning and every sensor read. No tick may start more than
+ * TICK_LATE_MAX_CYCLES after its timer requested it (hal.h, ordering contract 1: a poll
+ * handles at most one frame), and every frame must arrive whole (the simulated line
+ * carries 10/11 of the baud rate, so the last frames arrive after the 2 s). */
+#define TICK_LATE_MAX_CYCLES 48000u /* cycles: 1.2 tick periods at 400 Hz (3 ms) */
+static void test_tick_late(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560.elf");
+    host_t h;
+    navkit_micro_cmd_t c;
+    board_sim_profile_t p;
+    uint16_t tag = 100u;
+    int i;
+    host_init(&h);
+    board_sim_set_gyro_raw(b, 1310);
+    board_sim_set_compass(b, 900u);
+    for (i = 0; i < 4; i++) {
+        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
+        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
+    }
+    run_for(b, MS(20));
+    configure(b, &h, 400u, 1000u);
+    navkit_micro_cmd_defaults(&c);
+    c.speed = 300;
+    c.turn_rate = 900;
+    c.rc0_param0 = 300;
+    c.rc0_param1 = 300;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    for (i = 0; i < 200; i++) {
+        if (i % 10 == 0) { /* a new command every 100 ms */
+            c.time_tag = tag++;
+            c.fwd_cmd = NAVKIT_FWD_CMD_START;
+            c.distance = 2000 + 10 * i;
+            c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+            c.turn_distance = (i % 20 == 0) ? 900 : -900;
+            c.rc0_param2 = (int16_t)((i % 20 == 0) ? 300 : -300);
+        }
+        send_cmd(b, &c);
+        board_sim_set_encoders(b, 20 * i, 18 * i, board_sim_cycles(b) + MS(10));
+        run_for(b, MS(10));
+        host_drain(&h, b);
+    }
+    run_for(b, MS(300));
+    host_drain(&h, b);
+    ping(b, &h, 50000u); /* the counters after every frame */
+    board_sim_profile(b, &p);
+    printf("host traffic at 400 Hz: %lu ticks, tick lateness worst %lu mean %lu cycles (bound %u); fw_link_poll %lu polls, "
+           "worst %lu mean %lu cycles; fw_tick worst %lu mean %lu cycles\n",
+           (unsigned long)p.ticks, (unsigned long)p.tick_late_worst_cycles,
+           (unsigned long)(p.tick_late_total_cycles / (p.ticks ? p.ticks : 1u)), TICK_LATE_MAX_CYCLES,
+           (unsigned long)p.polls, (unsigned long)p.poll_worst_cycles, (unsigned long)p.poll_mean_cycles,
+           (unsigned long)p.tick_worst_cycles, (unsigned long)p.tick_mean_cycles);
+    check(p.tick_late_worst_cycles <= TICK_LATE_MAX_CYCLES, "a tick started %lu cycles after it fell due (bound %u)",
+          (unsigned long)p.tick_late_worst_cycles, TICK_LATE_MAX_CYCLES);
+    check(h.last.rx_good == frames_sent, "the board counted %u good frames of %u sent", h.last.rx_good, frames_sent);
+    check(h.last.rx_bad_crc == 0u && h.last.rx_dropped_bytes == 0u, "the link lost bytes: %u bad CRC, %u dropped",
+          h.last.rx_bad_crc, h.last.rx_dropped_bytes);
+    check(p.resets == 0u, "the board reset");
     board_sim_free(b);
 }
 
@@ -612,7 +681,7 @@ int main(int argc, char **argv)
     } tests[] = { { "link", test_link },         { "uart", test_uart },     { "encoders", test_encoders },
                   { "outputs", test_outputs },   { "inputs", test_inputs },
                   { "tick_rate", test_tick_rate }, { "watchdog", test_watchdog },
-                  { "footprint", test_footprint } };
+                  { "footprint", test_footprint }, { "tick_late", test_tick_late } };
     size_t i;
     if (argc != 3) {
         fprintf(stderr, "usage: %s TEST IMAGE_DIR\n", argv[0]);
