@@ -105,7 +105,7 @@ def _alive(pids) -> set:
             (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z")}
 
 
-def _start(tmp_path):
+def _start(tmp_path, *extra):
     """navkit sim of a long mission in its own session, with TMPDIR its own; returns the
     process once the run is under way (host and log worker started)."""
     (tmp_path / "m.toml").write_text(_LONG)
@@ -113,7 +113,7 @@ def _start(tmp_path):
     tmp.mkdir()
     env = dict(os.environ, TMPDIR=str(tmp))
     p = subprocess.Popen([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "m.toml"),
-                          "--out", str(tmp_path / "out")], env=env, stdout=subprocess.PIPE,
+                          "--out", str(tmp_path / "out"), *extra], env=env, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline:
@@ -153,9 +153,12 @@ def test_a_signal_stops_the_run_cleanly(tmp_path, sig, group, status):
     assert not _alive(kids)
 
 
-def test_a_harness_killed_outright_leaves_no_child_and_a_closed_log(tmp_path):
+@pytest.mark.parametrize("mode", [(), ("--realtime",)], ids=["lockstep", "realtime"])
+def test_a_harness_killed_outright_leaves_no_child_and_a_closed_log(tmp_path, mode):
+    """In lockstep the host sees its socket's EOF; in real time it runs on its own clock
+    and gets SIGTERM when the harness dies."""
     require_build()
-    p = _start(tmp_path)
+    p = _start(tmp_path, *mode)
     kids = _descendants(p.pid)
     assert len(kids) >= 2
     p.kill()                                  # SIGKILL to the harness alone

@@ -96,12 +96,14 @@ class _Progress:
             self.shown = False
 
 
-def _end_with_parent() -> None:
-    """In a child before exec: SIGTERM when the harness ends, however it ends (the host
-    then shuts down as on SIGTERM: stop sent, region removed)."""
+def _end_with_parent():
+    """A preexec_fn for a child: SIGTERM when the harness ends, however it ends (the host
+    then shuts down as on SIGTERM: stop sent, region removed). libc's prctl is looked up
+    here, in the harness, so the child between fork and exec only calls it (no dlopen)."""
     import ctypes
 
-    ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))   # PR_SET_PDEATHSIG
+    prctl = ctypes.CDLL(None, use_errno=True).prctl
+    return lambda: prctl(1, int(signal.SIGTERM))   # PR_SET_PDEATHSIG
 
 
 @dataclass
@@ -552,12 +554,14 @@ class _Run:
         if not self.opts.realtime and self.opts.pin_cpu:
             self._pin()
         # its own process group: a terminal's Ctrl-C reaches the harness, which ends the
-        # host in order (lockstep EOF, or SIGINT in real time); _end_with_parent ends it if
-        # the harness dies without doing so
+        # host in order (lockstep EOF, or SIGINT in real time). A harness that dies without
+        # doing so ends it too: in lockstep the host sees the socket's EOF; in real time it
+        # runs on its own clock, so it gets SIGTERM then (_end_with_parent; only there, as
+        # code between fork and exec is best avoided in a threaded sweep worker)
         self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=self.host_log,
                                      stderr=subprocess.STDOUT, pass_fds=pass_fds,
                                      cwd=str(self.out), process_group=0,
-                                     preexec_fn=_end_with_parent)
+                                     preexec_fn=_end_with_parent() if self.opts.realtime else None)
         if self.lock:
             self.lock.started()
         self.planner = _Planner(self.shm)
