@@ -60,7 +60,7 @@ def test_truth_bytes_template_formats_as_str(tmp_path):
     template and encode() gave (same float conversion), tricky values included."""
     import struct
 
-    from navkit.sim.record import _Decoder
+    from navkit.sim.record import _HEADING_ROUNDS_TO_360, _Decoder, _heading_wrapped
 
     columns = ["x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s"] \
         + [f"servo_deg_{i}" for i in range(8)] + ["dio_out"]
@@ -74,7 +74,14 @@ def test_truth_bytes_template_formats_as_str(tmp_path):
                                              else rng.uniform(-1e4, 1e4) for _ in columns[:-1]]
                     + [float(rng.randrange(4096))]) + (0.0,)
         dio = int(row[dec.dio_col]) & 0xFFF
-        want = (str_fmt % (dec.truth_get(row) + (dio,))).encode()
+        vals = dec.truth_get(row)
+        if vals[dec.heading_at] >= _HEADING_ROUNDS_TO_360:
+            vals = _heading_wrapped(vals, dec.heading_at)
+        want = (str_fmt % (vals + (dio,))).encode()
         assert dec._truth_text(row) == want
+    # a heading that would print as 360.0000 is written as 0 (0 <= heading_deg < 360)
+    for h, text in ((359.99996, b'"heading_deg":0.0000'), (359.99994, b'"heading_deg":359.9999')):
+        row = (1.0, 0.0, 0.0, 0.0, h) + (0.0,) * (len(columns) - 4) + (0.0,)
+        assert text in dec._truth_text(row)
     dec.handle(("T", struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
     assert dec.finish()["counts"]["/truth"] == 1

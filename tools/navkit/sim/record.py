@@ -133,6 +133,19 @@ def _config_schema() -> dict:
                            "fields": {"type": "object"}}}
 
 
+# /truth's heading_deg is written with 4 decimals and lies in 0 <= h < 360: a plant heading
+# within half a last digit below 360 would print as 360.0000, so it is written as 0.
+_HEADING_ROUNDS_TO_360 = 359.99995
+
+
+def _heading_wrapped(vals: tuple, at: int) -> tuple:
+    """`vals`, with the heading at index `at` set to 0.0 if it would print as 360.0000
+    (_HEADING_ROUNDS_TO_360 <= h < 360 deg); any other value as it is."""
+    if vals[at] < 360.0:
+        return vals[:at] + (0.0,) + vals[at + 1:]
+    return vals
+
+
 class Recorder:
     """Writes `run.mcap`. Call `reserve(t0_ns, t1_ns)` before writing messages whose log
     times lie in [t0_ns, t1_ns] (at most `flush_every_s` apart), `write(topic, t_ns, obj)`
@@ -422,8 +435,8 @@ class _Decoder:
         parts, sel = [], []
         # fixed decimals: 1 us of time, 0.1 um / 0.0001 deg of truth (and twice as fast
         # to format as the shortest repr)
-        for k in ("t", "x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s",
-                  "w_deg_s"):
+        keys = ("t", "x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s")
+        for k in keys:
             parts.append(f'"{k}":%.6f' if k == "t" else f'"{k}":%.4f')
             sel.append(0 if k == "t" else idx.get(k))
         parts.append('"servo_deg":[' + ",".join(["%.4f"] * 8) + "]")
@@ -433,6 +446,7 @@ class _Decoder:
         # a bytes template: bytes % formats a float as str % does (PyOS_double_to_string)
         # in about half the time of str % and encode()
         self.truth_fmt = ("{" + ",".join(parts) + "}").encode()
+        self.heading_at = keys.index("heading_deg")     # its place in truth_get's tuple
         # a column the plant lacks reads as 0.0: index `width` of a row padded with 0.0
         self.truth_get = operator.itemgetter(*[width if i is None else i for i in sel])
 
@@ -463,7 +477,10 @@ class _Decoder:
 
     def _truth_text(self, row) -> bytes:
         dio = int(row[self.dio_col]) & 0xFFF if self.dio_col else 0
-        return self.truth_fmt % (self.truth_get(row) + (dio,))
+        vals = self.truth_get(row)
+        if vals[self.heading_at] >= _HEADING_ROUNDS_TO_360:
+            vals = _heading_wrapped(vals, self.heading_at)
+        return self.truth_fmt % (vals + (dio,))
 
     def handle(self, item) -> None:
         kind = item[0]
@@ -515,6 +532,7 @@ class _Decoder:
             self.rx[item[1]].restart()
         elif kind == "T":        # truth rows: (T, raw doubles), in time order
             fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
+            hdg_at = self.heading_at
             raw = item[1]
             t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
             t1 = round(self.first_t(raw, len(raw) - self.row_struct.size)[0] * 1e3) * 1_000_000
@@ -529,7 +547,10 @@ class _Decoder:
                 t_ns = round(row[0] * 1e3) * 1_000_000
                 if not whole:
                     rec.reserve(t_ns, t_ns)
-                write(t_ns, fmt % (get(row) + (dio,)))
+                vals = get(row)
+                if vals[hdg_at] >= _HEADING_ROUNDS_TO_360:
+                    vals = _heading_wrapped(vals, hdg_at)
+                write(t_ns, fmt % (vals + (dio,)))
             if row is not None:
                 self.last_row = row
         elif kind == "C":        # planner command: (C, t_ns, dict, mission entry)
