@@ -7,9 +7,6 @@
 #include "fmi2Functions.h" /* exports the fmi2 functions (visibility default) */
 #include "fmil.h"
 
-/* One instance's FMI 2 extras live in the layer's instance: start time from SetupExperiment. */
-static double fmil2_start_time(const fmil_instance_t *c) { return c ? c->time : 0.0; }
-
 /* The fmi2Status of a layer result. */
 static fmi2Status fmil2_status(fmil_status_t st)
 {
@@ -79,7 +76,8 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
 fmi2Status fmi2EnterInitializationMode(fmi2Component comp)
 {
     fmil_instance_t *c = (fmil_instance_t *)comp;
-    return fmil2_status(fmil_enter_init(c, fmil2_start_time(c)));
+    /* the start time: SetupExperiment's, else 0 s (instantiation and Reset set it) */
+    return fmil2_status(fmil_enter_init(c, c ? c->time : 0.0));
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component comp) { return fmil2_status(fmil_exit_init((fmil_instance_t *)comp)); }
