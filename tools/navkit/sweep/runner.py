@@ -286,7 +286,9 @@ def _client(scheduler: str | None, workers: int | None):
     #   submits again those it only held, rather than Dask running a crashing run on
     #   three more workers.
     # - The scheduler runs in this process: its log line on such a death would only repeat
-    #   the run's failed row.
+    #   the run's failed row. The workers log nothing below CRITICAL: what goes wrong in a
+    #   run is in its row, and their shutdown races (a heartbeat to a scheduler closing)
+    #   are no news.
     sched_log = logging.getLogger("distributed.scheduler")
     level = sched_log.level
     sched_log.setLevel(logging.CRITICAL)
@@ -297,7 +299,7 @@ def _client(scheduler: str | None, workers: int | None):
             with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
                 cluster = LocalCluster(n_workers=workers or default_workers(),
                                        threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+                                       dashboard_address=None, silence_logs=logging.CRITICAL)
         finally:
             if main:
                 signal.signal(signal.SIGINT, old)
