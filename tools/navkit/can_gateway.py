@@ -8,10 +8,16 @@ slcan`) and a firmware speaking the serial link (the firmware FMU, a test's micr
 Every CAN frame on the simulated bus (both directions, flow controls included) goes to an
 optional python-can listener (a `can.Logger` writes a candump-style log or any format it
 knows). Times are the caller's seconds (simulated time).
+
+Line noise (`noise(ber)`) is what CAN makes of it: a frame hit by a bit error is destroyed
+by an error frame and sent again by the controller, so nothing is lost or corrupted; the
+error frames are counted and logged (each try of FRAME_BITS bits fails with probability
+1 - (1 - ber)^FRAME_BITS).
 """
 
 from __future__ import annotations
 
+import random
 from dataclasses import dataclass, field
 
 import can
@@ -20,7 +26,10 @@ from navkit import can as nc
 from navkit import protocol as p
 from navkit.can_slcan import SlcanAdapter
 
-__all__ = ["CanGateway"]
+__all__ = ["CanGateway", "FRAME_BITS", "MAX_TRIES"]
+
+FRAME_BITS = 111   # bits of a classic 8-byte data frame with an 11-bit identifier, unstuffed
+MAX_TRIES = 32     # error frames before a frame goes through anyway (a bus this bad is off)
 
 
 @dataclass
@@ -34,10 +43,26 @@ class CanGateway:
     micro: nc.Endpoint = field(default_factory=lambda: nc.Endpoint("micro"))
     frames: int = 0
     skipped: int = 0            # the firmware's frames dropped while the last one was going out
+    error_frames: int = 0       # frames destroyed by line noise and sent again
     _serial: p.Parser = field(default_factory=lambda: p.Parser(p.DIR_TO_HOST))
+    _p_error: float = 0.0       # probability that one try of a frame meets a bit error
+    _rng: random.Random | None = None
+
+    def noise(self, ber: float, rng: random.Random | None = None) -> None:
+        """Line noise from now on: bit error rate `ber` (0: none), drawn from `rng`."""
+        self._p_error = 1.0 - (1.0 - ber) ** FRAME_BITS if ber > 0 else 0.0
+        self._rng = rng or self._rng or random.Random(0)
 
     def _bus(self, msg: can.Message, t: float, rx: bool) -> None:
         self.frames += 1
+        tries = 0
+        while self._p_error and tries < MAX_TRIES and self._rng.random() < self._p_error:
+            tries += 1
+            self.error_frames += 1
+            if self.listener is not None:
+                self.listener.on_message_received(can.Message(timestamp=t, is_error_frame=True,
+                                                              arbitration_id=msg.arbitration_id, is_rx=rx,
+                                                              is_extended_id=False))
         if self.listener is not None:
             msg.timestamp = t
             msg.is_rx = rx  # rx: towards the host (as the adapter receives it)

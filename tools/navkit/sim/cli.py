@@ -43,6 +43,10 @@ def add_arguments(parser) -> None:
                         "default); avr: the flashed ATmega2560 image executing in simavr "
                         "(navkit_firmware_avr.fmu, processor in the loop; control_rate at most "
                         "the image's 400 Hz: docs/pil.md)")
+    parser.add_argument("--link", choices=("serial", "can"), default="serial",
+                        help="serial: the host's frames on its port (default); can: the host on "
+                        "[micro] link = slcan, the harness as its USB-CAN adapter (ISO-TP on a simulated "
+                        "bus, every frame in can.log; docs/can.md)")
     parser.add_argument("--frame-ms", type=float, default=None,
                         help="host frame period in ms, a whole number; the micro's watchdog_timeout must "
                         "outlast two frames (default: from NavAndControl.ini)")
@@ -103,7 +107,7 @@ def run(args) -> int:
         return 1
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
                       config_dir=args.config, build=build, plant_fmu=args.plant,
-                      firmware=args.firmware,
+                      firmware=args.firmware, link=args.link,
                       frame_s=args.frame_ms / 1000 if args.frame_ms is not None else None,
                       plot=not args.no_plot, progress=not args.no_progress)
     from navkit.sim.harness import SimInterrupted

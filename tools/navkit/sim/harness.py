@@ -118,6 +118,8 @@ class SimOptions:
     build: Path | None = None          # default: navkit.paths.build_dir()
     plant_fmu: Path | None = None      # default: <build>/fmus/navkit_plant.fmu; see plant.check
     firmware: str = "fmu"              # "fmu" (SIL) or "avr" (PIL: the AVR image in simavr); navkit.sim.pil
+    link: str = "serial"               # "serial", or "can": the host on [micro] link = slcan, the
+                                       # harness as the USB-CAN adapter (navkit.can_gateway)
     frame_s: float | None = None       # host frame period; default: from the config
     truth_hz: float = 50.0
     plot: bool = True
@@ -476,6 +478,7 @@ class _Run:
         self.noise_until = None
         self.noise_stats = {"flips": 0, "drops": 0, "inserts": 0}
         self.unplug_until = None
+        self.gateway = self.can_log = None   # --link can: navkit.can_gateway, can.log's writer
         self.rx_count = 0
         self.frames = 0
         self.host_exit = None
@@ -549,6 +552,14 @@ class _Run:
             pass_fds = (self.lock.host_fd(),)
         if self.opts.frame_s and self.opts.realtime:
             cmd += ["--rate", f"{1.0 / self.frame_s:g}"]  # lockstep: the driver sets the time
+        if self.opts.link == "can":
+            import can
+
+            from navkit.can_gateway import CanGateway
+
+            cmd += ["--link", "slcan"]
+            self.can_log = can.Logger(str(self.out / "can.log"))  # candump -L format
+            self.gateway = CanGateway(listener=self.can_log)
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")
         if not self.opts.realtime and self.opts.pin_cpu:
@@ -659,6 +670,9 @@ class _Run:
             pass
         if self.port is not None:
             self.port.close()
+        if self.can_log is not None:
+            self.can_log.stop()
+            self.can_log = None
         if self.log is not None:
             self.results = self.log.close()
             self.log = None
@@ -763,10 +777,14 @@ class _Run:
             self._end_noise()
             self.noise = LineNoise(f.params["ber"], self.noise_rng)
             self.noise_until = t + f.duration_s
+            if self.gateway is not None:
+                self.gateway.noise(f.params["ber"], self.noise_rng)
         elif f.kind == "planner_silent":
             self.silent_until = t + f.duration_s if f.duration_s else float("inf")
 
     def _end_noise(self) -> None:
+        if self.gateway is not None:
+            self.gateway.noise(0.0)
         if self.noise is not None:
             for k in self.noise_stats:
                 self.noise_stats[k] += getattr(self.noise, k)
@@ -786,30 +804,45 @@ class _Run:
             self.silent_until = None
             self._event(t_ns, "planner_resumes", {})
 
-    def _to_host(self, tx: bytes) -> int:
+    def _to_host(self, tx: bytes, micro: bytes | None = None) -> int:
         """The micro's bytes (after line noise) to the host's port; returns how many went.
-        What the host receives goes to the log's receiver count ("m2h")."""
+        What the host receives goes to the log's receiver count ("m2h"). Over CAN `tx` is
+        SLCAN lines and `micro` the chunk's serial bytes they carry (the log's count: the
+        host gets those frames, or none of a chunk that had none)."""
         sent = tx
-        if self.noise is not None:
+        if self.noise is not None and self.gateway is None:  # over CAN: the gateway's error frames
             tx = self.noise.apply(tx)
+        if micro and self.host_state == "running" and self.port.plugged:
+            # over CAN the chunk's bytes reach the host whole, as ISO-TP lets them go (its
+            # frame may still be on the way when the chunk's lines are written)
+            self.log.received("m2h", None)
         if not tx or self.host_state != "running" or not self.port.plugged:
             return 0
         t1 = time.perf_counter()
         n = self.port.write(tx)
         self.times["pty"] += time.perf_counter() - t1
-        self.log.received("m2h", None if tx is sent and n == len(tx) else tx[:n])
+        if micro is None:
+            self.log.received("m2h", None if tx is sent and n == len(tx) else tx[:n])
         return n
 
     def _to_micro(self, host_bytes: bytes) -> bytes:
         """The host's bytes after line noise, as the micro receives them ("h2m")."""
         if not host_bytes:
             return host_bytes
-        if self.noise is None:
+        if self.noise is None or self.gateway is not None:
             self.log.received("h2m", None)
             return host_bytes
         rx = self.noise.apply(host_bytes)
         self.log.received("h2m", rx)
         return rx
+
+    def _can_out(self, back: bytes, tx: bytes, t_ns: int) -> tuple:
+        """_to_host's arguments for the micro's bytes `tx`: (tx,); over CAN (the adapter's
+        answers and frames due, `back`, then the micro's frames as ISO-TP SLCAN lines, tx).
+        The log keeps the micro's serial frames (log.micro): the host gets those either way."""
+        if self.gateway is None:
+            return (tx,)
+        return back + self.gateway.from_micro(tx, t_ns / 1e9), tx
 
     def _lisp_raw(self):
         c = self.planner.client
@@ -839,6 +872,7 @@ class _Run:
         gc.freeze()
         gone = False            # the /host/frame saying the host is gone is written
         progress = self.progress = _Progress(self.m.duration_s) if self.opts.progress else None
+        can_back = b""          # --link can: the adapter's answers and frames due for the host
         loop0 = pc()
         for k in range(n_frames):
             t_ns = k * frame_ns
@@ -867,6 +901,9 @@ class _Run:
                     tx_bytes, flags = done
                     host_bytes = port.read_exact(tx_bytes)
                     times["pty"] += pc() - t2
+                    if self.gateway is not None:  # SLCAN lines in; the micro's frames, back
+                        back, host_bytes = self.gateway.from_host(host_bytes, t_ns / 1e9)
+                        can_back += back
                     log.frame(k, t_ns, self.rx_count, tx_bytes, flags, host_bytes,
                               lisp_raw(), "running" if self.unplug_until is None else "unplugged")
                     if flags & 1:
@@ -888,14 +925,15 @@ class _Run:
             times["fmus"] += pc() - t1
             log.truth(rows)
             log.micro(t_ns + split * 1_000_000, tx)
-            self.rx_count = self._to_host(tx)
+            self.rx_count = self._to_host(*self._can_out(can_back, tx, t_ns + split * 1_000_000))
+            can_back = b""
             if split < spf:
                 t1 = pc()
                 tx2, rows2 = coupler.run_raw(spf - split)
                 times["fmus"] += pc() - t1
                 log.truth(rows2)
                 log.micro(t_ns + frame_ns, tx2)
-                self.rx_count += self._to_host(tx2)
+                self.rx_count += self._to_host(*self._can_out(b"", tx2, t_ns + frame_ns))
             log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
             if progress is not None and k & 63 == 0:
                 progress.at(t_ns / 1e9)
@@ -927,12 +965,15 @@ class _Run:
                 self.host_state = "exited"
             host_bytes = self.port.read_available()
             tx_host += len(host_bytes)
+            back = b""
+            if self.gateway is not None:  # SLCAN lines in; the micro's frames, back
+                back, host_bytes = self.gateway.from_host(host_bytes, t_ns / 1e9)
             self.log.host(t_ns, host_bytes)
             host_bytes = self._to_micro(host_bytes)
             tx, rows = self.coupler.run_raw(chunk_steps, host_bytes)
             self.log.truth(rows)
             self.log.micro(t_ns + chunk_ns, tx)
-            rx += self._to_host(tx)
+            rx += self._to_host(*self._can_out(back, tx, t_ns + chunk_ns))
             if t_ns >= next_frame_ns:
                 if self.host_state == "running":
                     if self.silent_until is None:
@@ -994,6 +1035,7 @@ class _Run:
                 "resyncs": h2m.get("resyncs", 0) + m2h.get("resyncs", 0),
                 "line_noise": dict(self.noise_stats),
                 "bytes_dropped_at_port": self.port.dropped if self.port else 0,
+                "transport": self.opts.link,
             },
             "memory_peak_mib": {
                 "harness": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
@@ -1011,6 +1053,11 @@ class _Run:
             "time_share_s": {k: round(v, 3) for k, v in self.times.items()},
             "log_worker_cpu_s": res.get("cpu_s"),
         }
+        if self.gateway is not None:  # --link can: the simulated bus (can.log holds its frames)
+            g = self.gateway
+            out["link"]["can"] = {"frames": g.frames, "error_frames": g.error_frames,
+                                  "micro_replies_skipped": g.skipped, "adapter": dict(g.adapter.stats),
+                                  "micro_iso_tp_rx": dict(g.micro.rx.stats), "micro_iso_tp_tx": dict(g.micro.tx.stats)}
         if self.fmu_split:
             out["fmu_split_s"] = [round(x, 3) for x in self.fmu_split]
         if self.rate_note:

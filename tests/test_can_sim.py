@@ -1,0 +1,104 @@
+"""`navkit sim --link can`: the real host on `[micro] link = slcan`, the harness as its
+USB-CAN adapter (navkit.can_gateway), the firmware FMU behind. The demo mission ends where
+it ends over serial, every planner command accepted, no watchdog stop; the bus's frames in
+can.log decode with `navkit can dump`; line noise becomes error frames, and CAN resends."""
+
+import json
+import subprocess
+import sys
+
+from navkit.paths import repo_root
+from test_sim_util import run_mission
+
+DEMO = (repo_root() / "config" / "missions" / "demo.toml").read_text()
+
+
+def test_the_demo_over_can_ends_where_it_ends_over_serial(tmp_path_factory):
+    serial = run_mission(tmp_path_factory, "demo-serial", DEMO)
+    can = run_mission(tmp_path_factory, "demo-can", DEMO, link="can")
+    a, b = serial.summary, can.summary
+    for key in ("x_mm", "y_mm", "yaw_deg"):
+        assert abs(a["truth"][key] - b["truth"][key]) < 5, (key, a["truth"], b["truth"])
+    assert b["planner"]["accepted"] == b["planner"]["commands"] == a["planner"]["commands"]
+    assert b["watchdog_stops"] == 0 and b["link"]["transport"] == "can" and a["link"]["transport"] == "serial"
+    c = b["link"]["can"]
+    assert c["adapter"]["refused"] == 0 and c["micro_replies_skipped"] == 0
+    rx = c["micro_iso_tp_rx"]
+    assert rx["good"] > 200 and rx["wrong_sn"] == rx["timeout"] == rx["bad_frame"] == 0
+    # the host's micro_data arrive as over serial: one per message, none lost
+    m2h = b["link"]["micro_to_host"]
+    assert m2h["frames_received"] == m2h["frames_sent"] and m2h["host_link_errors"] == 0
+    # the bus log decodes with the spec, both ways, nothing refused
+    r = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(can.out / "can.log")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    names = [json.loads(ln)["message"] for ln in r.stdout.splitlines()]
+    assert len(names) - names.count("micro_data") == rx["good"], "every message the micro got, in the log"
+    assert names.count("micro_data") == c["micro_iso_tp_tx"]["sent"], "every micro_data it sent whole"
+    assert [n for n in names if n != "micro_data"][:3] == ["micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"]
+    assert f"{c['frames']} frames" in r.stderr
+
+
+def test_line_noise_over_can_is_error_frames_and_nothing_lost(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "noise-can", """
+duration_s = 6.0
+[[fault]]
+t = 1.0
+kind = "line_noise"
+ber = 2e-4
+duration_s = 4.0
+[[command]]
+t = 0.5
+fwd_cmd = 1
+speed = 300
+distance = 1000
+""", link="can")
+    s = r.summary
+    c = s["link"]["can"]
+    assert c["error_frames"] > 10, c          # ~2 % of the frames meet a bit error at 2e-4
+    assert c["micro_iso_tp_rx"]["wrong_sn"] == 0 and s["link"]["micro_to_host"]["host_link_errors"] == 0
+    assert s["link"]["line_noise"]["flips"] == 0, "no byte is corrupted: CAN resends"
+    assert abs(s["truth"]["distance_mm"] - 1000) <= 15 and s["watchdog_stops"] == 0
+
+
+def test_an_unplugged_adapter_comes_back_and_commands_flow_again(tmp_path_factory):
+    """The host reopens the port and sets the adapter up again (C, Sn, O); the next command
+    goes through."""
+    r = run_mission(tmp_path_factory, "unplug-can", """
+duration_s = 9.0
+[[command]]
+t = 1.5
+fwd_cmd = 1
+speed = 200
+distance = 5000
+[[fault]]
+t = 3.0
+kind = "unplug"
+duration_s = 1.0
+[[command]]
+t = 6.0
+fwd_cmd = 1
+speed = 200
+distance = 400
+""", link="can")
+    assert r.truth_at(3.0)["v_mm_s"] > 180
+    assert all(abs(m["v_mm_s"]) < 2 for m in r.truth_between(4.5, 6.0)), "watchdog stop"
+    d6 = r.truth_at(6.0)["distance_mm"]
+    assert abs(r.truth[-1]["distance_mm"] - (d6 + 400)) <= 15, "commands flow again"
+    assert r.summary["link"]["can"]["adapter"]["commands"] > 0
+    assert (r.out / "host.log").read_text().count("SLCAN adapter, CAN at 500000 bit/s") == 2
+
+
+def test_real_time_over_can(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "realtime-can", """
+duration_s = 2.5
+[[command]]
+t = 0.5
+fwd_cmd = 1
+speed = 300
+distance = 300
+""", link="can", realtime=True)
+    s = r.summary
+    assert s["mode"] == "realtime" and abs(s["truth"]["distance_mm"] - 300) <= 15
+    m2h = s["link"]["micro_to_host"]
+    assert m2h["frames_received"] == m2h["frames_sent"] > 10 and m2h["crc_errors"] == 0
