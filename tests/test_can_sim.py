@@ -102,3 +102,17 @@ distance = 300
     assert s["mode"] == "realtime" and abs(s["truth"]["distance_mm"] - 300) <= 15
     m2h = s["link"]["micro_to_host"]
     assert m2h["frames_received"] == m2h["frames_sent"] > 10 and m2h["crc_errors"] == 0
+
+
+def test_bench_sim_over_can_prints_its_figures(capsys):
+    import argparse
+
+    from navkit import sim_bench
+    from test_sim_util import require_build
+
+    require_build()
+    parser = argparse.ArgumentParser()
+    sim_bench.add_arguments(parser)
+    assert sim_bench.run(parser.parse_args(["--minutes", "0.5", "--link", "can"])) == 0
+    out = capsys.readouterr().out
+    assert "real-time factor" in out and "can link: " in out and " CAN frames)" in out

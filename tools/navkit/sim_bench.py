@@ -26,6 +26,9 @@ def add_arguments(parser) -> None:
                         help="keep the run's outputs here (default: a temporary folder)")
     parser.add_argument("--build", type=Path, default=None,
                         help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+    parser.add_argument("--link", choices=("serial", "can"), default="serial",
+                        help="the micro link: serial (default) or can (navkit sim --link can: "
+                        "SLCAN and ISO-TP through the harness; docs/can.md)")
 
 
 def bench_mission(minutes: float) -> str:
@@ -58,7 +61,7 @@ def run(args) -> int:
         out = args.out or Path(tmp) / "out"
         mission = loads(bench_mission(args.minutes), Path(tmp) / "bench.toml")
         opts = SimOptions(mission=mission, out=out, seed=args.seed, build=args.build,
-                          plot=False, timing=True)
+                          plot=False, timing=True, link=args.link)
         try:
             s = run_sim(opts)
         except (MissionError, SimError) as e:
@@ -68,7 +71,8 @@ def run(args) -> int:
     share = s["time_share_s"]
     print(f"simulated {s['sim_time_s']:.0f} s in {wall:.2f} s wall: "
           f"real-time factor {s['realtime_factor']}x ({s['frames']} host frames of "
-          f"{s['frame_s'] * 1000:.0f} ms, FMUs at 1 kHz)")
+          f"{s['frame_s'] * 1000:.0f} ms, FMUs at 1 kHz, {args.link} link"
+          + (f": {s['link']['can']['frames']} CAN frames" if args.link == "can" else "") + ")")
     rest = wall - sum(share.values())
     parts = dict(share, startup_and_shutdown=rest)
     names = {"fmus": "FMUs (native coupler)", "pty": "pty reads/writes",
