@@ -167,3 +167,15 @@ def test_bad_runs(runs, tmp_path, case, message):
 def test_bad_option(runs):
     p = _navkit(runs["a"], runs["a"], "--pos-tol", "-1")
     assert p.returncode == 2 and "a finite number of at least 0" in p.stderr
+
+
+def test_micro_data_placed_by_the_micros_clock():
+    """/micro/data sampled at micro_time since the micro's reset, not at its log time (the
+    end of the FMU call that carried it); after a micro_reset fault at the harness's event
+    time, else at the log time minus micro_time."""
+    from navkit.compare import _micro_times
+
+    micro = [(0.04, {"micro_time": 3}), (0.14, {"micro_time": 103}),
+             (2.04, {"micro_time": 5}), (2.14, {"micro_time": 105}),   # reset at 2.0 s
+             (5.04, {"micro_time": 7})]                                # reset, no event
+    assert list(_micro_times(micro, [2.0])) == pytest.approx([0.003, 0.103, 2.005, 2.105, 5.04])
