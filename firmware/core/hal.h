@@ -11,16 +11,19 @@
  *      hal_uart_*; it reads the UART RX until hal_uart_read() returns 0, and writes a
  *      whole micro_data frame only when hal_uart_tx_free() says it fits (otherwise that
  *      frame is skipped, never half-sent). Bound: a build with FW_LINK_FRAMES_PER_POLL
- *      = N (link.h; the AVR image: 1) handles at most N complete frames per call and
- *      returns after the Nth with the later bytes left in the RX (and its parser); then
- *      fw_link_pending() is 1 and the target calls fw_link_poll() again, after any due
- *      tick, even with the RX empty. Without it (0, the default) a call handles every
- *      frame there is. So a due tick waits for at most one frame's handling (a micro_cmd
- *      applied, its micro_data built and sent), never for a backlog. That handling can
- *      still take most of a tick period on a slow target (a 16 MHz AVR at 400 Hz): such
- *      a target counts due ticks in its timer interrupt and runs fw_tick() for each from
- *      its main loop, fw_link_poll() when none is due; a delayed tick then runs late,
- *      none lost (docs/firmware.md, AVR budget; docs/avr.md, tick lateness).
+ *      = N (link.h; the AVR image: 1) handles at most N complete frames per call,
+ *      returns after the Nth with the later bytes left in the RX (and its parser), and
+ *      sends that frame's micro_data in the next call, which does nothing else (each
+ *      frame's reply still goes out before the next frame is handled); while
+ *      fw_link_pending() is 1 the target calls fw_link_poll() again, after any due tick,
+ *      even with the RX empty. Without it (0, the default) a call handles every frame
+ *      there is and answers each at once. So with N = 1 a due tick waits for one piece
+ *      of link work at most (one frame decoded and applied, or one micro_data built and
+ *      sent), never for a backlog of frames. A slow target (a 16 MHz AVR at 400 Hz,
+ *      where a tick takes most of its period) counts due ticks in its timer interrupt
+ *      and runs fw_tick() for each from its main loop, fw_link_poll() when none is due;
+ *      a delayed tick then runs late, none lost (docs/firmware.md, AVR budget;
+ *      docs/avr.md, tick lateness).
  *   2. The target calls fw_tick() once per control period (fw_tick_period_us()).
  *      fw_tick() calls every input wire (hal_enc_*, hal_gyro_raw, hal_compass,
  *      hal_adc, hal_sonar_echo, hal_dio_in) at its start, exactly once each, and

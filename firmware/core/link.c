@@ -18,6 +18,7 @@ void link_reset(link_t *l)
     l->have_tag = 0u;
     l->tag_pending = 0u;
     l->more = 0u;
+    l->reply_due = 0u;
 #if FW_LINK_CAN
     navkit_isotp_rx_init(&l->can_rx, NAVKIT_DIR_TO_MICRO);
     navkit_isotp_tx_init(&l->can_tx);
@@ -498,14 +499,24 @@ static void link_reply(fw_t *fw)
 }
 
 /* Handle the complete frames the parser holds, up to the poll's bound; returns 1 when the
-   bound is reached (*frames counts this poll's frames). */
+   bound is reached (*frames counts this poll's frames). Without a bound each frame's
+   micro_data goes out at once; with one it is left due (reply_due) and goes out before
+   the next frame is handled, by the next poll at the latest. */
 static uint8_t link_frames(fw_t *fw, uint8_t *frames)
 {
     const uint8_t *frame;
     size_t flen;
     while (navkit_parser_next(&fw->link.parser, &frame, &flen)) {
-        if (link_frame(fw, frame, flen)) {
+        if (FW_LINK_FRAMES_PER_POLL != 0u && fw->link.reply_due) {
+            fw->link.reply_due = 0u;
             link_reply(fw);
+        }
+        if (link_frame(fw, frame, flen)) {
+            if (FW_LINK_FRAMES_PER_POLL != 0u) {
+                fw->link.reply_due = 1u;
+            } else {
+                link_reply(fw);
+            }
         }
         if (FW_LINK_FRAMES_PER_POLL != 0u) {
             ++*frames;
@@ -517,16 +528,26 @@ static uint8_t link_frames(fw_t *fw, uint8_t *frames)
     return 0u;
 }
 
-/* With a bound, a poll first takes the frames its parser kept (it stopped at the bound last
-   time), then reads the UART chunk by chunk. At the bound it still feeds the rest of the
-   chunk in hand: the frame just handled leaves its room in the parser, at least the
-   smallest frame (36 bytes) >= LINK_RX_CHUNK, so no byte read is lost. */
+/* With a bound, a poll that finds a reply due sends it and ends there (the reply is one
+   piece of work, the frame before it the other: a due tick waits for one of them at most);
+   else it first takes the frames its parser kept (it stopped at the bound last time), then
+   reads the UART chunk by chunk. At the bound it still feeds the rest of the chunk in
+   hand: the frame just handled leaves its room in the parser, at least the smallest frame
+   (36 bytes) >= LINK_RX_CHUNK, so no byte read is lost. */
 void link_poll(fw_t *fw)
 {
     uint8_t chunk[LINK_RX_CHUNK];
     size_t got;
     uint8_t frames = 0u;
-    fw->link.more = 0u;
+    if (FW_LINK_FRAMES_PER_POLL != 0u) {
+        fw->link.more = 0u; /* set only with a bound */
+    }
+    if (FW_LINK_FRAMES_PER_POLL != 0u && fw->link.reply_due) {
+        fw->link.reply_due = 0u;
+        link_reply(fw);
+        fw->link.more = 1u; /* the parser may hold the next frame */
+        return;
+    }
     if (FW_LINK_FRAMES_PER_POLL != 0u && link_frames(fw, &frames)) {
         fw->link.more = 1u;
         return;
@@ -555,5 +576,5 @@ void link_poll(fw_t *fw)
 
 uint8_t link_pending(const fw_t *fw)
 {
-    return fw->link.more;
+    return (uint8_t)(fw->link.more | fw->link.reply_due);
 }

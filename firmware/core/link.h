@@ -48,10 +48,12 @@ struct fw;
 #define LINK_RX_CHUNK 16u
 
 /* frames: the most one link_poll() handles on the UART (hal.h, ordering contract 1); 0 =
-   no bound: it drains the UART and handles every complete frame. A target whose frame
-   takes a large share of its tick period sets 1 (the AVR image): the bytes after that
-   frame stay in the UART's RX (and the parser) for the next poll, and link_pending()
-   says when a poll is due although the UART may be empty. The CAN transport drains. */
+   no bound: it drains the UART, handles every complete frame and answers each at once. A
+   target whose frame takes a large share of its tick period sets 1 (the AVR image): the
+   bytes after that frame stay in the UART's RX (and the parser) for the next poll, the
+   frame's micro_data goes out in the next poll (before any later frame is handled), and
+   link_pending() says when a poll is due although the UART may be empty. The CAN
+   transport drains. */
 #ifndef FW_LINK_FRAMES_PER_POLL
 #define FW_LINK_FRAMES_PER_POLL 0u
 #endif
@@ -68,6 +70,7 @@ typedef struct {
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
     uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
     uint8_t more;            /* the last poll stopped at FW_LINK_FRAMES_PER_POLL: the parser may hold a frame */
+    uint8_t reply_due;       /* with a bound: the last frame's micro_data is still to go out (next poll) */
 #if FW_LINK_CAN
     navkit_isotp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
     navkit_isotp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
@@ -78,10 +81,12 @@ typedef struct {
 void link_reset(link_t *l);
 /* Drain the UART (or, with FW_LINK_CAN, the CAN RX, and send what ISO-TP lets go) and
  * handle every complete frame; with FW_LINK_FRAMES_PER_POLL, at most that many frames,
- * the UART read only up to the last of them (see the contract in hal.h). */
+ * the UART read only up to the last of them, or only the reply left due by the poll
+ * before (see the contract in hal.h). */
 void link_poll(struct fw *fw);
-/* 1 if the last link_poll() stopped at its frame bound (FW_LINK_FRAMES_PER_POLL): call it
- * again even with the UART empty, as the bytes it has read may hold another frame. */
+/* 1 if the last link_poll() stopped at its frame bound (FW_LINK_FRAMES_PER_POLL) or left a
+ * reply due: call it again even with the UART empty (the bytes it has read may hold
+ * another frame; the reply goes out then). */
 uint8_t link_pending(const struct fw *fw);
 /* Fill d with the current telemetry (what the next micro_data will carry, except its
  * own time tag). */

@@ -189,6 +189,8 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
     if (p->consume) {
         parser_drop(p, p->consume);
         p->consume = 0;
+    } else if (p->have < p->want) {
+        return 0; /* a caller feeding a few bytes at a time pays little per call */
     }
     for (;;) {
         uint16_t i = 0, type, words, claimed, n;
@@ -201,6 +203,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
             parser_drop(p, i);
         }
         if (p->have < 2u) {
+            p->want = (uint16_t)(p->have + 1u); /* the next byte is judged (or dropped) */
             return 0;
         }
         if (p->buf[1] != start_hi) {
@@ -209,6 +212,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
             continue;
         }
         if (p->have < 2u * (NAVKIT_LENGTH_WORD + 1u)) {
+            p->want = (uint16_t)(2u * (NAVKIT_LENGTH_WORD + 1u));
             return 0;
         }
         type = navkit_frame_type(p->buf);
@@ -227,6 +231,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
             }
             n = (uint16_t)(2u * claimed);
             if (p->have < n) {
+                p->want = n;
                 return 0;
             }
             if (navkit_get_u16(p->buf + n - 2u) != navkit_crc16(p->buf, n - 2u)) {
@@ -240,6 +245,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
         }
         n = (uint16_t)(2u * words);
         if (p->have < n) {
+            p->want = n;
             return 0;
         }
         if (navkit_get_u16(p->buf + n - 2u) != navkit_crc16(p->buf, n - 2u)) {
@@ -247,6 +253,7 @@ int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len)
             continue;
         }
         p->stats.good++;
+        p->want = 0u;
         p->consume = n;
         *frame = p->buf;
         *len = n;

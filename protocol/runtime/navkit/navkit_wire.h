@@ -120,6 +120,10 @@ typedef struct {
 /* Incremental frame parser. Fixed size: a buffer for the longest frame of any spec
  * version (NAVKIT_MAX_FRAME_WORDS words, to judge other versions' frames) plus counters. */
 typedef struct navkit_parser {
+    uint16_t want;             /* bytes: next() found the candidate at buf[0] short; until
+                                  `have` reaches this it returns 0 at once, as judging it
+                                  again could change nothing (first: a short displacement
+                                  for the AVR's stores) */
     uint8_t buf[2u * NAVKIT_MAX_FRAME_WORDS];
     uint16_t have;             /* bytes in buf */
     uint16_t consume;          /* bytes of the frame returned last, dropped on the next call */

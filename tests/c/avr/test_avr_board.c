@@ -614,9 +614,10 @@ static void test_footprint(void)
  * (new time tag: a move with heading select, a servo) every 100 ms and repeats in
  * between, encoders turning and every sensor read. No tick may start more than
  * TICK_LATE_MAX_CYCLES after its timer requested it (hal.h, ordering contract 1: a poll
- * handles at most one frame), and every frame must arrive whole (the simulated line
+ * handles at most one frame, its reply goes out in the next), and every frame must arrive
+ * whole (the simulated line
  * carries 10/11 of the baud rate, so the last frames arrive after the 2 s). */
-#define TICK_LATE_MAX_CYCLES 48000u /* cycles: 1.2 tick periods at 400 Hz (3 ms) */
+#define TICK_LATE_MAX_CYCLES 40000u /* cycles: one tick period at 400 Hz (2.5 ms) */
 static void test_tick_late(void)
 {
     board_sim_t *b = open_image("navkit-mega2560.elf");
