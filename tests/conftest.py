@@ -24,3 +24,127 @@ def prop_seed(request) -> int:
 def prop_count(request) -> int:
     """Number of random cases per property test."""
     return request.config.getoption("--prop-count")
+
+
+# ---------------------------------------------------------------- FMUs in fmpy
+# A test module of one FMU names its file in a module-level `FMU` (pathlib.Path); the
+# fixtures below open that file.
+
+
+@pytest.fixture(scope="session")
+def status_bit():
+    """status_bit(name) -> the mask of micro_status flag `name`, from the spec (bit values
+    are never hard-coded in tests)."""
+    from navkit import protocol
+
+    def bit(name: str) -> int:
+        return 1 << protocol.SPEC.enums["micro_status"].values[name]
+    return bit
+
+
+@pytest.fixture(scope="module")
+def unzipped(request, tmp_path_factory) -> str:
+    """The folder the module's FMU is extracted into (one per module)."""
+    import fmpy
+    fmu = request.module.FMU
+    return fmpy.extract(str(fmu), unzipdir=str(tmp_path_factory.mktemp(fmu.stem)))
+
+
+@pytest.fixture(scope="module")
+def md(request):
+    """The module's FMU's model description, validated by fmpy on reading."""
+    import fmpy
+    return fmpy.read_model_description(str(request.module.FMU), validate=True)
+
+
+class Fmu3:
+    """One FMI 3 co-simulation instance of an FMU, its variables addressed by name through
+    the setter and getter of each one's type. `vr` maps names to value references, `log`
+    keeps the FMU's messages (str), `t` is the instance's time (s) and `h` the step of
+    run() (s)."""
+
+    def __init__(self, unzipdir, md, name, h=0.001):
+        from fmpy.fmi3 import FMU3Slave
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.vr = {n: v.valueReference for n, v in self.vars.items()}
+        self.log = []
+        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir,
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(logMessage=lambda env, st, cat, msg: self.log.append(msg.decode()))
+        self.t, self.h = 0.0, h
+
+    def start(self, **params):
+        """Initialization mode from t = 0 with `params` set in it, then step mode."""
+        self.fmu.enterInitializationMode(startTime=0.0)
+        self.set(**params)
+        self.fmu.exitInitializationMode()
+        self.t = 0.0
+
+    def set(self, **values):
+        for name, value in values.items():
+            v = self.vars[name]
+            cast = {"Float64": float, "String": str, "Binary": bytes, "Boolean": bool}.get(v.type, int)
+            getattr(self.fmu, f"set{v.type}")([v.valueReference], [cast(value)])
+
+    def get(self, name):
+        v = self.vars[name]
+        return getattr(self.fmu, f"get{v.type}")([v.valueReference])[0]
+
+    def step(self, h=None, rx=b""):
+        """One doStep of h seconds (default self.h); an FMU with a serial link gets rx in
+        serial_rx and returns the bytes of serial_tx, others return b""."""
+        h = self.h if h is None else h
+        if "serial_rx" in self.vr:
+            self.fmu.setBinary([self.vr["serial_rx"]], [rx])
+        self.fmu.doStep(self.t, h)
+        self.t += h
+        return bytes(self.fmu.getBinary([self.vr["serial_tx"]])[0]) if "serial_tx" in self.vr else b""
+
+    def run(self, seconds, watch=()):
+        """Steps of self.h for `seconds`; {name: [value after each step]} for `watch`."""
+        rows = {n: [] for n in watch}
+        for _ in range(round(seconds / self.h)):
+            self.step()
+            for n in watch:
+                rows[n].append(self.get(n))
+        return rows
+
+    def frames(self, seconds, rx=b"", h=0.001, frame_period=0.1, before=None, after=None):
+        """Steps of h for `seconds`, the host sending rx every frame_period (s, as it repeats
+        its last command); before(self) and after(self, h) run around each step (a plant
+        model's inputs and update). Returns the fields of the micro_data frames sent back."""
+        from navkit import protocol
+        parser = protocol.Parser(protocol.DIR_TO_HOST)
+        out = []
+        every = round(frame_period / h)
+        for k in range(round(seconds / h)):
+            if before:
+                before(self)
+            tx = self.step(h, rx if k % every == 0 else b"")
+            if after:
+                after(self, h)
+            for ev in parser.feed(tx):
+                assert isinstance(ev, protocol.Frame), ev
+                out.append(ev.fields)
+        return out
+
+    def free(self):
+        self.fmu.freeInstance()
+
+
+@pytest.fixture
+def fmu3(unzipped, md):
+    """fmu3(name="fmu", start=True, **params) -> a Fmu3 of the module's FMU, started with
+    `params` set in initialization mode unless start=False; freed when the test ends."""
+    made = []
+
+    def make(name="fmu", start=True, **params):
+        inst = Fmu3(unzipped, md, name)
+        made.append(inst)
+        if start:
+            inst.start(**params)
+        return inst
+
+    yield make
+    for inst in made:
+        inst.free()

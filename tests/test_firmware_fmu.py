@@ -10,16 +10,12 @@ from __future__ import annotations
 
 import math
 import re
-import shutil
-import tempfile
-import tomllib
 from xml.etree import ElementTree
 
 import pytest
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy.fmi1 import FMICallException  # noqa: E402
-from fmpy.fmi3 import FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 from navkit import protocol  # noqa: E402
@@ -34,65 +30,11 @@ TRACK_MM = 300.0
 LSB_PER_DPS = 131.0
 
 
-def status_bit(name: str) -> int:
-    """micro_status flag `name` from the spec (bit values, never hard-coded)."""
-    spec = tomllib.loads((repo_root() / "protocol" / "navkit.toml").read_text())
-    return 1 << spec["flags"]["micro_status"]["values"][name]
-
-
-@pytest.fixture(scope="module")
-def unzipped():
-    d = tempfile.mkdtemp(prefix="navkit_fw_fmu_")
-    fmpy.extract(str(FMU), d)
-    yield d
-    shutil.rmtree(d, ignore_errors=True)
-
-
-@pytest.fixture(scope="module")
-def md():
-    return fmpy.read_model_description(str(FMU), validate=True)
-
-
-class Micro:
-    """One firmware FMU instance in step mode, addressed by variable name."""
-
-    def __init__(self, unzipdir, md, name="micro", baud=None, start=True):
-        self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate()
-        self.t = 0.0
-        if start:
-            self.start(baud)
-
-    def start(self, baud=None):
-        self.fmu.enterInitializationMode(startTime=0.0)
-        if baud is not None:
-            self.fmu.setUInt32([self.vr["baud"]], [baud])
-        self.fmu.exitInitializationMode()
-        self.t = 0.0
-
-    def set_int(self, **kw):
-        self.fmu.setInt32([self.vr[k] for k in kw], list(kw.values()))
-
-    def set_real(self, **kw):
-        self.fmu.setFloat64([self.vr[k] for k in kw], list(kw.values()))
-
-    def real(self, name):
-        return self.fmu.getFloat64([self.vr[name]])[0]
-
-    def int(self, name):
-        return self.fmu.getInt32([self.vr[name]])[0]
-
-    def step(self, h=0.001, rx=b""):
-        """One doStep of h seconds with rx arriving; returns the bytes sent."""
-        self.fmu.setBinary([self.vr["serial_rx"]], [rx])
-        self.fmu.doStep(self.t, h)
-        self.t += h
-        return bytes(self.fmu.getBinary([self.vr["serial_tx"]])[0])
-
-    def free(self):
-        self.fmu.freeInstance()
+@pytest.fixture
+def micro(fmu3):
+    """micro(name="micro", start=True, **params) -> an instance of the firmware FMU
+    (conftest's Fmu3)."""
+    return lambda name="micro", **kw: fmu3(name, **kw)
 
 
 class Wheels:
@@ -106,13 +48,13 @@ class Wheels:
         self.dist = 0.0
         self.yaw_cw = 0.0
 
-    def drive(self, micro: Micro):
+    def drive(self, micro):
         w_cw = (self.v[0] - self.v[1]) / TRACK_MM * 180.0 / math.pi
-        micro.set_int(enc_left=math.floor(self.enc[0]), enc_right=math.floor(self.enc[1]),
-                      gyro_raw=round(-w_cw * LSB_PER_DPS) + self.bias)
+        micro.set(enc_left=math.floor(self.enc[0]), enc_right=math.floor(self.enc[1]),
+                  gyro_raw=round(-w_cw * LSB_PER_DPS) + self.bias)
 
-    def advance(self, micro: Micro, h: float):
-        duties = (micro.real("motor_left_duty"), micro.real("motor_right_duty"))
+    def advance(self, micro, h: float):
+        duties = (micro.get("motor_left_duty"), micro.get("motor_right_duty"))
         for i, d in enumerate(duties):
             self.v[i] += (d * self.top - self.v[i]) * h / (self.tau + h)
             self.enc[i] += self.v[i] * h / MM_PER_COUNT
@@ -130,23 +72,12 @@ def config_frames(hash_override=None):
     return frames
 
 
-def run(micro: Micro, wheels: Wheels | None, seconds: float, frame: bytes = b"",
+def run(micro, wheels: Wheels | None, seconds: float, frame: bytes = b"",
         frame_period: float = 0.1) -> list[dict]:
     """Co-simulate in 1 ms steps; the host repeats `frame` every frame_period. Returns the
     micro_data frames received."""
-    parser = protocol.Parser(protocol.DIR_TO_HOST)
-    data = []
-    every = round(frame_period / 0.001)
-    for k in range(round(seconds / 0.001)):
-        if wheels:
-            wheels.drive(micro)
-        tx = micro.step(0.001, frame if (frame and k % every == 0) else b"")
-        if wheels:
-            wheels.advance(micro, 0.001)
-        for ev in parser.feed(tx):
-            assert isinstance(ev, protocol.Frame), ev
-            data.append(ev.fields)
-    return data
+    return micro.frames(seconds, frame, 0.001, frame_period,
+                        before=wheels and wheels.drive, after=wheels and wheels.advance)
 
 
 def cmd(tag, **fields):
@@ -234,23 +165,20 @@ def test_description_has_the_internals_contract(md):
     assert md.coSimulation.modelIdentifier == "navkit_firmware"
 
 
-def test_every_described_variable_is_served_by_the_code(unzipped, md):
+def test_every_described_variable_is_served_by_the_code(micro, md):
     """Each variable of the description can be read through its type's getter, and a
     value reference the description does not have is refused."""
-    m = Micro(unzipped, md)
-    try:
-        getters = {"Float64": m.fmu.getFloat64, "Int32": m.fmu.getInt32, "UInt32": m.fmu.getUInt32,
-                   "Binary": m.fmu.getBinary}
-        for v in md.modelVariables:
-            getters[v.type]([v.valueReference])
-        with pytest.raises(FMICallException):
-            m.fmu.getFloat64([999])
-        with pytest.raises(FMICallException):
-            m.fmu.getInt32([m.vr["motor_left_duty"]])  # right number, wrong type
-        with pytest.raises(FMICallException):
-            m.set_real(motor_left_duty=0.5)  # outputs cannot be set
-    finally:
-        m.free()
+    m = micro()
+    getters = {"Float64": m.fmu.getFloat64, "Int32": m.fmu.getInt32, "UInt32": m.fmu.getUInt32,
+               "Binary": m.fmu.getBinary}
+    for v in md.modelVariables:
+        getters[v.type]([v.valueReference])
+    with pytest.raises(FMICallException):
+        m.fmu.getFloat64([999])
+    with pytest.raises(FMICallException):
+        m.fmu.getInt32([m.vr["motor_left_duty"]])  # right number, wrong type
+    with pytest.raises(FMICallException):
+        m.set(motor_left_duty=0.5)  # outputs cannot be set
 
 
 def test_simulates_in_fmpy():
@@ -262,207 +190,179 @@ def test_simulates_in_fmpy():
 # ---------------------------------------------------------------- FMI behaviour
 
 
-def test_state_table_and_step_sizes(unzipped, md):
-    m = Micro(unzipped, md, start=False)
-    try:
-        with pytest.raises(FMICallException):
-            m.fmu.doStep(0.0, 0.001)  # not in step mode yet
-        m.start()
-        m.fmu.setDebugLogging(True, ["logEvents", "logStatusError"])
-        with pytest.raises(FMICallException):
-            m.fmu.setDebugLogging(True, ["logEverything"])  # no such category
-        with pytest.raises(FMICallException):
-            m.fmu.setUInt32([m.vr["baud"]], [9600])  # fixed parameter, step mode
-        m.step(0.001)
-        m.step(0.1)  # 100 control ticks
-        assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.101)
-        with pytest.raises(FMICallException):
-            m.fmu.doStep(m.t, 0.0015)  # not a whole number of 1 ms ticks
-        with pytest.raises(FMICallException):
-            m.fmu.doStep(m.t + 0.5, 0.001)  # not the current time
-        m.fmu.terminate()
-        with pytest.raises(FMICallException):
-            m.fmu.doStep(m.t, 0.001)
-        m.fmu.reset()
-        m.start()
-        m.step(0.001)
-    finally:
-        m.free()
+def test_state_table_and_step_sizes(micro):
+    m = micro(start=False)
+    with pytest.raises(FMICallException):
+        m.fmu.doStep(0.0, 0.001)  # not in step mode yet
+    m.start()
+    m.fmu.setDebugLogging(True, ["logEvents", "logStatusError"])
+    with pytest.raises(FMICallException):
+        m.fmu.setDebugLogging(True, ["logEverything"])  # no such category
+    with pytest.raises(FMICallException):
+        m.fmu.setUInt32([m.vr["baud"]], [9600])  # fixed parameter, step mode
+    m.step(0.001)
+    m.step(0.1)  # 100 control ticks
+    assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.101)
+    with pytest.raises(FMICallException):
+        m.fmu.doStep(m.t, 0.0015)  # not a whole number of 1 ms ticks
+    with pytest.raises(FMICallException):
+        m.fmu.doStep(m.t + 0.5, 0.001)  # not the current time
+    m.fmu.terminate()
+    with pytest.raises(FMICallException):
+        m.fmu.doStep(m.t, 0.001)
+    m.fmu.reset()
+    m.start()
+    m.step(0.001)
 
 
-def test_control_rate_from_config(unzipped, md):
+def test_control_rate_from_config(micro):
     """control_rate = 500 Hz: a 2 ms tick, so 1 ms steps are refused and 2 ms ones run one
     tick; the step that carries the config still ends on time."""
-    m = Micro(unzipped, md)
-    try:
-        geo = protocol.defaults("micro_cfg_geometry")
-        geo["control_rate"] = 500
-        m.step(0.1, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=1))
-        assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.1)
-        with pytest.raises(FMICallException):
-            m.fmu.doStep(m.t, 0.001)
-        parser = protocol.Parser(protocol.DIR_TO_HOST)
-        tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=2))
-        for _ in range(50):
-            tx += m.step(0.002)
-        t0 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
-        tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=3))
-        for _ in range(50):
-            tx += m.step(0.002)
-        t1 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
-        assert t1 - t0 == 102  # 51 ticks of 2 ms
-    finally:
-        m.free()
+    m = micro()
+    geo = protocol.defaults("micro_cfg_geometry")
+    geo["control_rate"] = 500
+    m.step(0.1, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=1))
+    assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.1)
+    with pytest.raises(FMICallException):
+        m.fmu.doStep(m.t, 0.001)
+    parser = protocol.Parser(protocol.DIR_TO_HOST)
+    tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=2))
+    for _ in range(50):
+        tx += m.step(0.002)
+    t0 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
+    tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=3))
+    for _ in range(50):
+        tx += m.step(0.002)
+    t1 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
+    assert t1 - t0 == 102  # 51 ticks of 2 ms
 
 
-def test_unconfigured_until_three_configs_and_again_after_reset(unzipped, md):
-    m = Micro(unzipped, md)
+def test_unconfigured_until_three_configs_and_again_after_reset(micro, status_bit):
+    m = micro()
     w = Wheels()
     configured = status_bit("configured")
-    try:
-        data = run(m, w, 0.3, cmd(5, fwd_cmd=1, speed=200, distance=500))
-        assert len(data) == 3 and not data[-1]["status"] & configured
-        assert data[-1]["cmd_rejected"] == 1 and data[-1]["last_reject"] == 1
-        assert w.dist == 0.0
-        # a config built from another spec is refused and counted
-        data = run(m, w, 0.05, config_frames(hash_override=protocol.SPEC_HASH ^ 1))
-        assert data[-1]["rx_schema_mismatch"] == 3 and not data[-1]["status"] & configured
-        data = run(m, w, 0.05, config_frames())
-        assert len(data) == 3  # one micro_data per host frame
-        assert data[-1]["status"] & configured
-        assert data[-1]["spec_hash"] == protocol.SPEC_HASH
-        # fmi3Reset = micro reset: unconfigured again
-        m.fmu.reset()
-        m.start()
-        data = run(m, w, 0.05, cmd(6, fwd_cmd=1, speed=200, distance=500))
-        assert not data[-1]["status"] & configured and data[-1]["rx_schema_mismatch"] == 0
-    finally:
-        m.free()
+    data = run(m, w, 0.3, cmd(5, fwd_cmd=1, speed=200, distance=500))
+    assert len(data) == 3 and not data[-1]["status"] & configured
+    assert data[-1]["cmd_rejected"] == 1 and data[-1]["last_reject"] == 1
+    assert w.dist == 0.0
+    # a config built from another spec is refused and counted
+    data = run(m, w, 0.05, config_frames(hash_override=protocol.SPEC_HASH ^ 1))
+    assert data[-1]["rx_schema_mismatch"] == 3 and not data[-1]["status"] & configured
+    data = run(m, w, 0.05, config_frames())
+    assert len(data) == 3  # one micro_data per host frame
+    assert data[-1]["status"] & configured
+    assert data[-1]["spec_hash"] == protocol.SPEC_HASH
+    # fmi3Reset = micro reset: unconfigured again
+    m.fmu.reset()
+    m.start()
+    data = run(m, w, 0.05, cmd(6, fwd_cmd=1, speed=200, distance=500))
+    assert not data[-1]["status"] & configured and data[-1]["rx_schema_mismatch"] == 0
 
 
-def test_forward_move_closed_loop(unzipped, md):
-    m = Micro(unzipped, md)
+def test_forward_move_closed_loop(micro, status_bit):
+    m = micro()
     w = Wheels()
-    try:
-        run(m, w, 1.2)  # gyro calibration
-        run(m, w, 0.05, config_frames())
-        frame = cmd(10, fwd_cmd=1, speed=250, distance=800, mc_datalog_cmd=3)
-        data = run(m, w, 5.0, frame)
-        assert len(data) == 50  # one reply per frame the host sent
-        peak = max(d["fwd_speed"] for d in data)
-        assert 230 <= peak <= 265
-        assert max(d["mc_datalog"][0] for d in data) == pytest.approx(250, abs=2)  # reference speed
-        last = data[-1]
-        assert w.dist == pytest.approx(800, abs=5)
-        assert last["distance"] == pytest.approx(800, abs=5)
-        assert last["x"] == pytest.approx(800, abs=6) and abs(last["y"]) <= 3
-        assert last["status"] & status_bit("fwd_done")
-        assert last["ack_time_tag"] == 10
-        assert abs(last["enc_left"] - round(w.enc[0])) <= 1
-    finally:
-        m.free()
+    run(m, w, 1.2)  # gyro calibration
+    run(m, w, 0.05, config_frames())
+    frame = cmd(10, fwd_cmd=1, speed=250, distance=800, mc_datalog_cmd=3)
+    data = run(m, w, 5.0, frame)
+    assert len(data) == 50  # one reply per frame the host sent
+    peak = max(d["fwd_speed"] for d in data)
+    assert 230 <= peak <= 265
+    assert max(d["mc_datalog"][0] for d in data) == pytest.approx(250, abs=2)  # reference speed
+    last = data[-1]
+    assert w.dist == pytest.approx(800, abs=5)
+    assert last["distance"] == pytest.approx(800, abs=5)
+    assert last["x"] == pytest.approx(800, abs=6) and abs(last["y"]) <= 3
+    assert last["status"] & status_bit("fwd_done")
+    assert last["ack_time_tag"] == 10
+    assert abs(last["enc_left"] - round(w.enc[0])) <= 1
 
 
-def test_pivot_and_heading_select_across_north(unzipped, md):
-    m = Micro(unzipped, md)
+def test_pivot_and_heading_select_across_north(micro, status_bit):
+    m = micro()
     w = Wheels(gyro_bias=40)
-    try:
-        run(m, w, 1.2)
-        run(m, w, 0.05, config_frames())
-        data = run(m, w, 4.0, cmd(20, turn_cmd=1, turn_rate=450, turn_distance=-900))  # 90 deg left
-        assert w.yaw_cw == pytest.approx(-90, abs=2)
-        assert data[-1]["heading"] == pytest.approx(2700, abs=20)
-        assert data[-1]["turn_progress"] == pytest.approx(-900, abs=20)
-        # HdgSel from 270 to 30: shortest way is 120 deg clockwise, through north
-        data = run(m, w, 6.0, cmd(21, turn_cmd=10, turn_rate=450, turn_distance=300))
-        assert w.yaw_cw == pytest.approx(30, abs=1.5)
-        assert data[-1]["heading"] == pytest.approx(300, abs=10)
-        assert data[-1]["status"] & status_bit("hdg_active")
-        # an unimplemented turn code is refused and counted
-        data = run(m, w, 0.2, cmd(22, turn_cmd=20, turn_distance=100))
-        assert data[-1]["last_reject"] == 20 and data[-1]["cmd_rejected"] == 1
-    finally:
-        m.free()
+    run(m, w, 1.2)
+    run(m, w, 0.05, config_frames())
+    data = run(m, w, 4.0, cmd(20, turn_cmd=1, turn_rate=450, turn_distance=-900))  # 90 deg left
+    assert w.yaw_cw == pytest.approx(-90, abs=2)
+    assert data[-1]["heading"] == pytest.approx(2700, abs=20)
+    assert data[-1]["turn_progress"] == pytest.approx(-900, abs=20)
+    # HdgSel from 270 to 30: shortest way is 120 deg clockwise, through north
+    data = run(m, w, 6.0, cmd(21, turn_cmd=10, turn_rate=450, turn_distance=300))
+    assert w.yaw_cw == pytest.approx(30, abs=1.5)
+    assert data[-1]["heading"] == pytest.approx(300, abs=10)
+    assert data[-1]["status"] & status_bit("hdg_active")
+    # an unimplemented turn code is refused and counted
+    data = run(m, w, 0.2, cmd(22, turn_cmd=20, turn_distance=100))
+    assert data[-1]["last_reject"] == 20 and data[-1]["cmd_rejected"] == 1
 
 
-def test_watchdog_stop(unzipped, md):
-    m = Micro(unzipped, md)
+def test_watchdog_stop(micro, status_bit):
+    m = micro()
     w = Wheels()
-    try:
-        run(m, w, 1.2)
-        run(m, w, 0.05, config_frames())
-        run(m, w, 2.0, cmd(30, fwd_cmd=1, speed=300, distance=2000000000))
-        assert sum(w.v) / 2 == pytest.approx(300, abs=20)
-        run(m, w, 1.5)  # the host goes quiet
-        assert abs(w.v[0]) < 1 and abs(w.v[1]) < 1
-        data = run(m, w, 0.1, cmd(30, fwd_cmd=1, speed=300, distance=2000000000))  # repeat: no resume
-        assert data[-1]["status"] & status_bit("watchdog_stop")
-        assert data[-1]["watchdog_stops"] == 1
-        run(m, w, 1.0, cmd(31, fwd_cmd=1, speed=300, distance=2000000000))  # new start
-        assert sum(w.v) / 2 == pytest.approx(300, abs=20)
-    finally:
-        m.free()
+    run(m, w, 1.2)
+    run(m, w, 0.05, config_frames())
+    run(m, w, 2.0, cmd(30, fwd_cmd=1, speed=300, distance=2000000000))
+    assert sum(w.v) / 2 == pytest.approx(300, abs=20)
+    run(m, w, 1.5)  # the host goes quiet
+    assert abs(w.v[0]) < 1 and abs(w.v[1]) < 1
+    data = run(m, w, 0.1, cmd(30, fwd_cmd=1, speed=300, distance=2000000000))  # repeat: no resume
+    assert data[-1]["status"] & status_bit("watchdog_stop")
+    assert data[-1]["watchdog_stops"] == 1
+    run(m, w, 1.0, cmd(31, fwd_cmd=1, speed=300, distance=2000000000))  # new start
+    assert sum(w.v) / 2 == pytest.approx(300, abs=20)
 
 
-def test_uart_runs_at_the_baud_rate(unzipped, md):
+def test_uart_runs_at_the_baud_rate(micro):
     """At 9600 baud a 36-byte config frame needs 37.5 ms on the line, and the micro_data
     reply (n bytes) n * 1.04 ms: the reply starts after the frame arrived and ends that
     much later."""
-    m = Micro(unzipped, md, baud=9600)
-    try:
-        frame = protocol.encode_frame("micro_cfg_geometry", protocol.defaults("micro_cfg_geometry"), time_tag=1)
-        n = len(protocol.encode_frame("micro_data", protocol.defaults("micro_data"), time_tag=1))
-        reply_ms = n * 10 / 9.6
-        got = []
-        for k in range(300):
-            tx = m.step(0.001, frame if k == 0 else b"")
-            got.extend((k, b) for b in tx)
-        first, last = got[0][0], got[-1][0]
-        assert len(got) == n
-        assert 36 <= first <= 40
-        assert 36 + math.floor(reply_ms) - 1 <= last <= 40 + math.ceil(reply_ms) + 1
-        assert protocol.decode_frame(bytes(b for _, b in got))[0] == "micro_data"
-        # one 100 ms step at 115200 baud carries frame and reply in the same step
-        m.fmu.reset()
-        m.start(baud=115200)
-        assert protocol.decode_frame(m.step(0.1, frame))[0] == "micro_data"
-    finally:
-        m.free()
+    m = micro(baud=9600)
+    frame = protocol.encode_frame("micro_cfg_geometry", protocol.defaults("micro_cfg_geometry"), time_tag=1)
+    n = len(protocol.encode_frame("micro_data", protocol.defaults("micro_data"), time_tag=1))
+    reply_ms = n * 10 / 9.6
+    got = []
+    for k in range(300):
+        tx = m.step(0.001, frame if k == 0 else b"")
+        got.extend((k, b) for b in tx)
+    first, last = got[0][0], got[-1][0]
+    assert len(got) == n
+    assert 36 <= first <= 40
+    assert 36 + math.floor(reply_ms) - 1 <= last <= 40 + math.ceil(reply_ms) + 1
+    assert protocol.decode_frame(bytes(b for _, b in got))[0] == "micro_data"
+    # one 100 ms step at 115200 baud carries frame and reply in the same step
+    m.fmu.reset()
+    m.start(baud=115200)
+    assert protocol.decode_frame(m.step(0.1, frame))[0] == "micro_data"
 
 
-def test_instances_are_independent(unzipped, md):
-    a, b = Micro(unzipped, md, "a"), Micro(unzipped, md, "b")
+def test_instances_are_independent(micro, status_bit):
+    a, b = micro("a"), micro("b")
     wa, wb = Wheels(), Wheels()
-    try:
-        run(a, wa, 0.05, config_frames())
-        da = run(a, wa, 1.0, cmd(3, fwd_cmd=1, speed=200, distance=100))
-        db = run(b, wb, 1.0, cmd(3, fwd_cmd=1, speed=200, distance=100))
-        assert da[-1]["status"] & status_bit("configured")
-        assert not db[-1]["status"] & status_bit("configured")
-        assert wa.dist == pytest.approx(100, abs=5) and wb.dist == 0.0
-    finally:
-        a.free()
-        b.free()
+    run(a, wa, 0.05, config_frames())
+    da = run(a, wa, 1.0, cmd(3, fwd_cmd=1, speed=200, distance=100))
+    db = run(b, wb, 1.0, cmd(3, fwd_cmd=1, speed=200, distance=100))
+    assert da[-1]["status"] & status_bit("configured")
+    assert not db[-1]["status"] & status_bit("configured")
+    assert wa.dist == pytest.approx(100, abs=5) and wb.dist == 0.0
 
 
-def test_servo_dio_and_sensors(unzipped, md):
-    m = Micro(unzipped, md)
-    try:
-        run(m, None, 0.05, config_frames())
-        m.set_int(dio_in=0x0A00, compass_raw=1234)
-        m.set_real(ir_voltage_0=2.5, battery_voltage=12.0, sonar_echo_1=5800.0)
-        data = run(m, None, 0.6, cmd(4, rc2_param0=1000, rc2_param1=300, rc2_param2=9999,
-                                     dio_command=0x0FF9))
-        assert m.real("servo_pulse_2") == 1800.0 and m.real("servo_pulse_0") == 0.0
-        assert m.int("dio_dir") == 0x00FF and m.int("dio_out") == 0x00F9
-        d = data[-1]
-        assert d["servo_pos"][2] == 300
-        assert d["dio_state"] == 0x0AF9
-        assert d["adc"][0] == 512 and d["adc"][4] == 819  # 12 V / 3 on a 5 V, 10-bit ADC
-        # the board has ch0-4 only: the spare words are 0, and no FMU input feeds them
-        assert d["adc"][5:] == [0, 0, 0]
-        adc_inputs = [v.name for v in md.modelVariables if v.causality == "input" and "ADC ch" in v.description]
-        assert sorted(adc_inputs) == ["battery_voltage"] + [f"ir_voltage_{i}" for i in range(4)]
-        assert d["sonar_echo"][1] == 5800 and d["compass"] == 1234
-    finally:
-        m.free()
+def test_servo_dio_and_sensors(micro, md):
+    m = micro()
+    run(m, None, 0.05, config_frames())
+    m.set(dio_in=0x0A00, compass_raw=1234)
+    m.set(ir_voltage_0=2.5, battery_voltage=12.0, sonar_echo_1=5800.0)
+    data = run(m, None, 0.6, cmd(4, rc2_param0=1000, rc2_param1=300, rc2_param2=9999,
+                                 dio_command=0x0FF9))
+    assert m.get("servo_pulse_2") == 1800.0 and m.get("servo_pulse_0") == 0.0
+    assert m.get("dio_dir") == 0x00FF and m.get("dio_out") == 0x00F9
+    d = data[-1]
+    assert d["servo_pos"][2] == 300
+    assert d["dio_state"] == 0x0AF9
+    assert d["adc"][0] == 512 and d["adc"][4] == 819  # 12 V / 3 on a 5 V, 10-bit ADC
+    # the board has ch0-4 only: the spare words are 0, and no FMU input feeds them
+    assert d["adc"][5:] == [0, 0, 0]
+    adc_inputs = [v.name for v in md.modelVariables if v.causality == "input" and "ADC ch" in v.description]
+    assert sorted(adc_inputs) == ["battery_voltage"] + [f"ir_voltage_{i}" for i in range(4)]
+    assert d["sonar_echo"][1] == 5800 and d["compass"] == 1234

@@ -10,9 +10,6 @@ and DIO levels come back as outputs.
 
 from __future__ import annotations
 
-import shutil
-import tempfile
-import tomllib
 import zipfile
 from xml.etree import ElementTree
 
@@ -20,11 +17,10 @@ import pytest
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy.fmi1 import FMICallException  # noqa: E402
-from fmpy.fmi3 import FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 from navkit import protocol  # noqa: E402
-from navkit.paths import build_dir, repo_root  # noqa: E402
+from navkit.paths import build_dir  # noqa: E402
 
 FMU = build_dir() / "fmus" / "navkit_firmware_avr.fmu"
 SIL_FMU = build_dir() / "fmus" / "navkit_firmware.fmu"
@@ -34,97 +30,10 @@ F_CPU = 16_000_000
 RATE = 400  # Hz: the AVR build's control_rate ceiling (NAVKIT_AVR_RATE_MAX)
 
 
-def status_bit(name: str) -> int:
-    spec = tomllib.loads((repo_root() / "protocol" / "navkit.toml").read_text())
-    return 1 << spec["flags"]["micro_status"]["values"][name]
-
-
-@pytest.fixture(scope="module")
-def unzipped():
-    d = tempfile.mkdtemp(prefix="navkit_fw_avr_fmu_")
-    fmpy.extract(str(FMU), d)
-    yield d
-    shutil.rmtree(d, ignore_errors=True)
-
-
-@pytest.fixture(scope="module")
-def md():
-    return fmpy.read_model_description(str(FMU), validate=True)
-
-
-class Board:
-    """One AVR firmware FMU instance in step mode, addressed by variable name; `log` keeps
-    the FMU's messages."""
-
-    def __init__(self, unzipdir, md, name="avr", start=True, **params):
-        self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.log = []
-        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(logMessage=lambda env, st, cat, msg: self.log.append(msg.decode()))
-        self.t = 0.0
-        if start:
-            self.start(**params)
-
-    def start(self, **params):
-        self.fmu.enterInitializationMode(startTime=0.0)
-        for k, v in params.items():
-            (self.fmu.setString if isinstance(v, str) else self.fmu.setUInt32)([self.vr[k]], [v])
-        self.fmu.exitInitializationMode()
-        self.t = 0.0
-
-    def set_int(self, **kw):
-        self.fmu.setInt32([self.vr[k] for k in kw], list(kw.values()))
-
-    def set_real(self, **kw):
-        self.fmu.setFloat64([self.vr[k] for k in kw], list(kw.values()))
-
-    def real(self, name):
-        return self.fmu.getFloat64([self.vr[name]])[0]
-
-    def int(self, name):
-        return self.fmu.getInt32([self.vr[name]])[0]
-
-    def u32(self, name):
-        return self.fmu.getUInt32([self.vr[name]])[0]
-
-    def u64(self, name):
-        return self.fmu.getUInt64([self.vr[name]])[0]
-
-    def step(self, h=0.001, rx=b""):
-        self.fmu.setBinary([self.vr["serial_rx"]], [rx])
-        self.fmu.doStep(self.t, h)
-        self.t += h
-        return bytes(self.fmu.getBinary([self.vr["serial_tx"]])[0])
-
-    def run(self, seconds, rx=b"", h=0.001, frame_period=0.1):
-        """Steps of h for `seconds`, the host repeating rx every frame_period (s, as it
-        repeats its last command); the micro_data frames back."""
-        parser = protocol.Parser(protocol.DIR_TO_HOST)
-        out = []
-        every = round(frame_period / h)
-        for k in range(round(seconds / h)):
-            for ev in parser.feed(self.step(h, rx if k % every == 0 else b"")):
-                assert isinstance(ev, protocol.Frame), ev
-                out.append(ev.fields)
-        return out
-
-    def free(self):
-        self.fmu.freeInstance()
-
-
 @pytest.fixture
-def board(unzipped, md):
-    made = []
-
-    def make(**kw):
-        b = Board(unzipped, md, **kw)
-        made.append(b)
-        return b
-
-    yield make
-    for b in made:
-        b.free()
+def board(fmu3):
+    """board(start=True, **params) -> an instance of the AVR firmware FMU (conftest's Fmu3)."""
+    return lambda **kw: fmu3("avr", **kw)
 
 
 def configs(rate=RATE, tag=1):
@@ -196,43 +105,43 @@ def test_steps_run_exact_cycles_for_any_step_size(board):
     for h in (0.001, 0.0013, 0.0025, 0.0001):
         b.step(h)
         end += round(h * F_CPU)
-        assert 0 <= b.u64("avr_cycles") - end <= 5, h
+        assert 0 <= b.get("avr_cycles") - end <= 5, h
     for _ in range(997):
         b.step(0.0001)
-    assert 0 <= b.u64("avr_cycles") - round(0.1046 * F_CPU) <= 5
-    assert b.real("time") == pytest.approx(b.t)
+    assert 0 <= b.get("avr_cycles") - round(0.1046 * F_CPU) <= 5
+    assert b.get("time") == pytest.approx(b.t)
 
 
-def test_configured_over_uart_at_the_ceiling_rate_and_refused_above(board):
+def test_configured_over_uart_at_the_ceiling_rate_and_refused_above(board, status_bit):
     """control_rate 401 Hz is refused (unconfigured, as on the real board); 400 Hz is taken
     and the tick timer then runs at 400 Hz (prof_ticks over 0.25 s)."""
     b = board()
-    data = b.run(0.1, configs(rate=RATE + 1))
+    data = b.frames(0.1, configs(rate=RATE + 1))
     assert data and not data[-1]["status"] & status_bit("configured")
     assert data[-1]["spec_hash"] == protocol.SPEC_HASH
-    data = b.run(0.1, configs(rate=RATE, tag=10))
+    data = b.frames(0.1, configs(rate=RATE, tag=10))
     assert data[-1]["status"] & status_bit("configured")
-    ticks0, t0 = b.u32("prof_ticks"), b.t
-    b.run(0.25)
-    assert b.u32("prof_ticks") - ticks0 == pytest.approx(RATE * (b.t - t0), abs=1)
-    assert 0 < b.u32("prof_tick_mean_cycles") <= b.u32("prof_tick_worst_cycles") < F_CPU // RATE
-    assert 0 < b.u32("prof_poll_mean_cycles") <= b.u32("prof_poll_worst_cycles")
-    assert b.u64("prof_tick_total_cycles") <= b.u64("avr_cycles")
+    ticks0, t0 = b.get("prof_ticks"), b.t
+    b.frames(0.25)
+    assert b.get("prof_ticks") - ticks0 == pytest.approx(RATE * (b.t - t0), abs=1)
+    assert 0 < b.get("prof_tick_mean_cycles") <= b.get("prof_tick_worst_cycles") < F_CPU // RATE
+    assert 0 < b.get("prof_poll_mean_cycles") <= b.get("prof_poll_worst_cycles")
+    assert b.get("prof_tick_total_cycles") <= b.get("avr_cycles")
 
 
 def test_pins_carry_the_plant_and_the_micro(board):
     """ADC voltages, sonar echo, DIO inputs in; servo pulse and DIO levels measured at the
     pins out; the same values the SIL firmware FMU reports for the same inputs."""
     b = board()
-    b.run(0.1, configs())
-    b.set_int(dio_in=0x0A00, compass_raw=1234)
-    b.set_real(ir_voltage_0=2.5, battery_voltage=12.0, sonar_echo_1=5800.0)
+    b.frames(0.1, configs())
+    b.set(dio_in=0x0A00, compass_raw=1234)
+    b.set(ir_voltage_0=2.5, battery_voltage=12.0, sonar_echo_1=5800.0)
     frame = protocol.encode_frame("micro_cmd", {"rc2_param0": 1000, "rc2_param1": 300, "rc2_param2": 9999,
                                                 "dio_command": 0x0FF9}, time_tag=4)
-    data = b.run(0.6, frame)  # the servo reaches 30 deg (1800 us) by then, as in the SIL test
+    data = b.frames(0.6, frame)  # the servo reaches 30 deg (1800 us) by then, as in the SIL test
     # the width the image makes, as timed at the pin (its compare interrupt's latency in it)
-    assert b.real("servo_pulse_2") == pytest.approx(1800.0, abs=5) and b.real("servo_pulse_0") == 0.0
-    assert b.int("dio_dir") == 0x00FF and b.int("dio_out") == 0x00F9
+    assert b.get("servo_pulse_2") == pytest.approx(1800.0, abs=5) and b.get("servo_pulse_0") == 0.0
+    assert b.get("dio_dir") == 0x00FF and b.get("dio_out") == 0x00F9
     d = data[-1]
     assert d["servo_pos"][2] == 300 and d["dio_state"] == 0x0AF9
     assert abs(d["adc"][0] - 512) <= 1 and abs(d["adc"][4] - 819) <= 1
@@ -240,14 +149,14 @@ def test_pins_carry_the_plant_and_the_micro(board):
     assert d["compass"] == 1234
 
 
-def test_reset_is_a_power_cycle(board):
+def test_reset_is_a_power_cycle(board, status_bit):
     b = board()
-    b.run(0.1, configs())
-    assert 0 <= b.u64("avr_cycles") - round(0.1 * F_CPU) <= 5
+    b.frames(0.1, configs())
+    assert 0 <= b.get("avr_cycles") - round(0.1 * F_CPU) <= 5
     b.fmu.reset()
     b.start()
-    data = b.run(0.1, protocol.encode_frame("micro_cmd", {}, time_tag=7))
-    assert 0 <= b.u64("avr_cycles") - round(0.1 * F_CPU) <= 5
+    data = b.frames(0.1, protocol.encode_frame("micro_cmd", {}, time_tag=7))
+    assert 0 <= b.get("avr_cycles") - round(0.1 * F_CPU) <= 5
     assert not data[-1]["status"] & status_bit("configured")
 
 

@@ -23,72 +23,16 @@ pytestmark = pytest.mark.skipif(not FMU.exists(), reason=f"{FMU} not built")
 WHEEL_D_MM, CPR, TRACK_MM = 100.0, 2000, 300.0
 
 
-@pytest.fixture(scope="module")
-def unzipped(tmp_path_factory):
-    return extract(str(FMU), unzipdir=str(tmp_path_factory.mktemp("plant")))
-
-
-@pytest.fixture(scope="module")
-def md(unzipped):
-    return read_model_description(unzipped)
-
-
-class Plant:
-    """One instance of the plant FMU, initialized with `params`, stepped from t = 0."""
-
-    def __init__(self, md, unzipped, h=0.001, **params):
-        self.vars = {v.name: v for v in md.modelVariables}
-        self.log = []
-        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipped,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName="plant")
-        self.fmu.instantiate(logMessage=lambda env, st, cat, msg: self.log.append(msg.decode()))
-        self.t, self.h = 0.0, h
-        self.set(**params)
-        self.fmu.enterInitializationMode(startTime=0.0)
-        self.fmu.exitInitializationMode()
-
-    def set(self, **values):
-        for name, value in values.items():
-            v = self.vars[name]
-            if v.type == "Float64":
-                self.fmu.setFloat64([v.valueReference], [float(value)])
-            elif v.type == "Int32":
-                self.fmu.setInt32([v.valueReference], [int(value)])
-            else:
-                self.fmu.setString([v.valueReference], [str(value)])
-
-    def get(self, name):
-        v = self.vars[name]
-        getter = {"Float64": self.fmu.getFloat64, "Int32": self.fmu.getInt32, "String": self.fmu.getString}[v.type]
-        return getter([v.valueReference])[0]
-
-    def run(self, seconds, watch=()):
-        """Steps for `seconds`; returns {name: [value after each step]} for `watch`."""
-        rows = {n: [] for n in watch}
-        for _ in range(round(seconds / self.h)):
-            self.fmu.doStep(self.t, self.h)
-            self.t += self.h
-            for n in watch:
-                rows[n].append(self.get(n))
-        return rows
-
-    def close(self):
-        self.fmu.terminate()
-        self.fmu.freeInstance()
-
-
 @pytest.fixture
-def plant(md, unzipped):
-    made = []
-
+def plant(fmu3):
+    """plant(**params) -> an instance of the plant FMU (conftest's Fmu3) with `params` set
+    before initialization, stepped from t = 0 in steps of its `h` (s)."""
     def make(**params):
-        p = Plant(md, unzipped, **params)
-        made.append(p)
+        p = fmu3("plant", start=False)
+        p.set(**params)
+        p.start()
         return p
-
-    yield make
-    for p in made:
-        p.close()
+    return make
 
 
 def steady_speed_mm_s(duty, vbat, d_mm=WHEEL_D_MM):
