@@ -181,21 +181,23 @@ def test_sweep_deterministic_and_survives_failing_runs(local_tables):
 
 
 def test_sweep_api_seeds_keep_and_a_dying_worker(mission_file, tmp_path):
-    """The Python API: results in run order, per-seed figures, kept folders, an extract
-    function's figures; a run whose worker process dies under it (as with a crashing
-    FMU) fails naming it, and the others (one held by the dying worker) finish on the
-    restarted workers."""
+    """The Python API: results in run order, per-seed figures, an extract function's
+    figures; a run whose worker process dies under it (as with a crashing FMU) fails
+    naming it and its folder (kept like any failed run's), and the others (one held by
+    the dying worker) finish on the restarted workers."""
     from navkit.sweep import RunSpec, run_sweep
 
     runs = [RunSpec(plant={"mass_kg": 14.0}, seed=s) for s in (3, 2, 4, 3)]
-    res = run_sweep(mission_file, runs, tmp_path, workers=2, progress=False, keep="all",
+    res = run_sweep(mission_file, runs, tmp_path, workers=2, progress=False, keep="failed",
                     extract=_mcap_size_or_die_on_seed_2)
     assert [r.index for r in res] == [0, 1, 2, 3] and [r.spec.seed for r in res] == [3, 2, 4, 3]
     assert [r.status for r in res] == ["ok", "failed", "ok", "ok"], [r.error for r in res]
     assert res[1].error.startswith("KilledWorker: the worker process running it died (a crash")
+    assert res[1].out == tmp_path / "runs" / "0001" and (res[1].out / "host.log").exists()
+    assert str(res[1].out) in res[1].error, "the failed run's folder is named"
     ok = [res[i] for i in (0, 2, 3)]
-    assert all(r.out == tmp_path / "runs" / f"{r.index:04d}" for r in ok)
-    assert all((r.out / "run.mcap").exists() and r.figures["mcap_bytes"] > 0 for r in ok)
+    assert all(r.out is None and r.figures["mcap_bytes"] > 0 for r in ok), "ok runs not kept"
+    assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == ["0001"]
     assert res[0].figures == res[3].figures, "same spec, same figures"
     assert res[0].figures != res[2].figures, "another seed, other noise"
     x, y, hdg = res[0].final_pose

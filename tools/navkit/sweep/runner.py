@@ -102,20 +102,20 @@ def run_one(mission, spec: RunSpec, index: int, *, build: Path, out: Path,
     it failed), else to a temporary folder removed afterwards. `extract(run_dir,
     summary) -> dict` (a module-level function, so it can be sent to the workers) adds
     figures of its own while the run's outputs exist. `marker`, a file that exists while
-    the run executes, tells whose run a worker process died in. Never raises for a failed
-    run."""
+    the run executes and names its output folder, tells whose run a worker process died
+    in and where its outputs are. Never raises for a failed run."""
     if marker is not None:
         Path(marker).parent.mkdir(parents=True, exist_ok=True)
         Path(marker).touch()
     try:
-        return _run_one(mission, spec, index, build, Path(out), keep, extract, firmware)
+        return _run_one(mission, spec, index, build, Path(out), keep, extract, firmware, marker)
     finally:
         if marker is not None:
             Path(marker).unlink(missing_ok=True)
 
 
 def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: str,
-             extract, firmware: str) -> RunResult:
+             extract, firmware: str, marker: Path | None) -> RunResult:
     from navkit.sim.harness import SimError, SimOptions, run
     from navkit.sim.mission import MissionError
     from navkit.sweep.table import figures
@@ -126,6 +126,8 @@ def _run_one(mission, spec: RunSpec, index: int, build: Path, out: Path, keep: s
         work = kept
     else:
         work = Path(tempfile.mkdtemp(prefix=f"navkit-sweep-{index:04d}-"))
+    if marker is not None:
+        Path(marker).write_text(str(work))
     m = dataclasses.replace(mission, plant={**mission.plant, **spec.plant})
     err = io.StringIO()
     status, error, figs = "ok", "", {}
@@ -262,8 +264,8 @@ def default_workers() -> int:
 @contextlib.contextmanager
 def _client(scheduler: str | None, workers: int | None):
     """A distributed Client: of a new LocalCluster (`workers` single-threaded worker
-    processes, default one per CPU, no dashboard) or connected to `scheduler`. SweepError
-    when the scheduler cannot be reached."""
+    processes, default one per CPU) or connected to `scheduler`. SweepError when the
+    scheduler cannot be reached."""
     import logging
 
     import dask
@@ -297,9 +299,12 @@ def _client(scheduler: str | None, workers: int | None):
         old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
         try:
             with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                # the scheduler's HTTP server (health, metrics; the dashboard needs bokeh)
+                # on a free loopback port, not 8787: that may be another cluster's
                 cluster = LocalCluster(n_workers=workers or default_workers(),
                                        threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.CRITICAL)
+                                       dashboard_address="127.0.0.1:0",
+                                       silence_logs=logging.CRITICAL)
         finally:
             if main:
                 signal.signal(signal.SIGINT, old)
@@ -316,7 +321,7 @@ def _client(scheduler: str | None, workers: int | None):
 
 
 def _drive(client, submit, runs: list, results: list, bar: _Progress, stop,
-           markers: Path | None) -> bool:
+           markers: Path | None, salvage) -> bool:
     """Run every RunSpec of `runs` through `submit(i, spec, attempt) -> Future`, appending
     each RunResult to `results` as it comes, until done or `stop` (a threading.Event) is
     set; then cancel what is in flight and return True.
@@ -326,8 +331,9 @@ def _drive(client, submit, runs: list, results: list, bar: _Progress, stop,
     when one ends. With `markers` (a folder where run i's file `i` exists while it
     executes, on this machine: a LocalCluster, whose scheduler allows no retries), a
     worker process that dies takes the runs it held (KilledWorker): the one it executed
-    fails, the others are submitted again. Without, a KilledWorker is the cluster's
-    verdict after its own retries: a failed run."""
+    fails (`salvage(i, folder)` keeps or removes the output folder its marker names and
+    returns the kept one or None), the others are submitted again. Without, a KilledWorker
+    is the cluster's verdict after its own retries: a failed run."""
     from distributed import as_completed
 
     todo = iter(enumerate(runs))
@@ -369,11 +375,14 @@ def _drive(client, submit, runs: list, results: list, bar: _Progress, stop,
                     attempts[i] += 1        # held, not executed, by the worker that died
                     add(i)
                     continue
-                if marker is not None:
-                    marker.unlink(missing_ok=True)
+                folder = None
+                if marker is not None and marker.exists():
+                    folder = salvage(i, Path(marker.read_text()) if marker.read_text() else None)
+                    marker.unlink()
                 why = ("the worker process running it died (a crash in the run? see the "
-                       "worker's log)" if killed else str(e))
-                r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {why}")
+                       "worker's log" + (f" and {folder}" if folder else "") + ")"
+                       if killed else str(e))
+                r = RunResult(i, runs[i], "failed", f"{type(e).__name__}: {why}", out=folder)
             results.append(r)
             bar.update(r)
         fill()
@@ -381,6 +390,22 @@ def _drive(client, submit, runs: list, results: list, bar: _Progress, stop,
         client.cancel(list(inflight.values()), force=True)
         return True
     return False
+
+
+def _salvage(out: Path, index: int, folder: Path | None, keep: str) -> Path | None:
+    """The output folder `folder` of run `index`, whose worker process died under it:
+    moved to `out`/runs/NNNN (returned) unless `keep` is "none" (removed)."""
+    if folder is None or not folder.exists():
+        return None
+    kept = out / "runs" / f"{index:04d}"
+    if keep == "none":
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+    if folder != kept:
+        shutil.rmtree(kept, ignore_errors=True)
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(folder), str(kept))
+    return kept
 
 
 def _check_local(build: Path, runs: list, firmware: str = "fmu") -> list:
@@ -461,7 +486,8 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
 
             try:
                 with _ctrl_c() as stop:
-                    interrupted = _drive(client, submit, runs, results, bar, stop, markers)
+                    interrupted = _drive(client, submit, runs, results, bar, stop, markers,
+                                         lambda i, folder: _salvage(out, i, folder, keep))
             finally:
                 if markers is not None:
                     shutil.rmtree(markers, ignore_errors=True)
