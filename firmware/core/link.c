@@ -475,6 +475,7 @@ void link_poll(fw_t *fw)
             l->parser.stats.dropped_bytes += l->parser.have;
             l->parser.offset += l->parser.have;
             l->parser.have = 0u;
+            l->parser.want = 0u;
         }
     }
     navkit_isotp_rx_poll(&l->can_rx, fw->ms);

@@ -639,6 +639,7 @@ template <class Take> void MicroUsb::can_take(const uint8_t *buf, size_t len, Ta
             parser_.stats.dropped_bytes += parser_.have;
             parser_.offset += parser_.have;
             parser_.have = 0;
+            parser_.want = 0;
         }
     }
     navkit_isotp_rx_poll(&can_rx_, can_ms());
