@@ -211,19 +211,26 @@ def _solve_pi(target: complex, w: float, dt: float, td: float) -> tuple[float, f
 
 
 @dataclass
-class WheelDesign:
-    """A wheel design: the gains (continuous values and as quantised raw config values),
-    margins and predicted step of both, and what it was designed for."""
+class _LoopDesign:
+    """What a loop design of either kind carries: margins (margins()) and predicted step
+    figures (step_info()) of the loop as designed and with the quantised gain(s), the
+    targets it was designed for, and the plant it was designed on."""
 
-    gains: WheelGains
-    quantised: WheelGains
-    raw: dict
     margins: dict
     margins_quantised: dict
     step: dict
     step_quantised: dict
     targets: dict
     plant: object = field(repr=False)
+
+
+@dataclass
+class WheelDesign(_LoopDesign):
+    """A wheel design: the gains (continuous values and as quantised raw config values)."""
+
+    gains: WheelGains
+    quantised: WheelGains
+    raw: dict
 
 
 def quantise_wheel(g: WheelGains) -> tuple[dict, WheelGains]:
@@ -433,7 +440,8 @@ def design_wheel(model, dt: float, pm_deg: float = 60.0, bandwidth_hz: float | N
                "integral_ratio": ratio, "ff_weight": w, "derivative": derivative,
                "compute_delay_ticks": compute_delay, "control_rate_hz": 1.0 / dt,
                "crossover_design_hz": wc / (2 * math.pi)}
-    return WheelDesign(g, gq, raw, out[0][0], out[1][0], out[0][1], out[1][1], targets, p)
+    return WheelDesign(gains=g, quantised=gq, raw=raw, margins=out[0][0], margins_quantised=out[1][0],
+                       step=out[0][1], step_quantised=out[1][1], targets=targets, plant=p)
 
 
 def heading_plant(wheel_t):
@@ -446,18 +454,12 @@ def heading_plant(wheel_t):
 
 
 @dataclass
-class HeadingDesign:
-    """heading_kp ((deg/s)/deg) as designed and quantised, raw value, margins and step."""
+class HeadingDesign(_LoopDesign):
+    """heading_kp ((deg/s)/deg) as designed and quantised, and its raw config value."""
 
     kp: float
     kp_quantised: float
     raw: int
-    margins: dict
-    margins_quantised: dict
-    step: dict
-    step_quantised: dict
-    targets: dict
-    plant: object = field(repr=False)
 
 
 def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = None,
@@ -520,7 +522,8 @@ def design_heading(wheel_t, pm_deg: float = 60.0, bandwidth_hz: float | None = N
         out.append((margins(loop), {"step": step_info(t, t_end=step_s)}))
     targets = {"phase_margin_deg": pm_deg, "bandwidth_hz": bandwidth_hz, "overshoot_pct": overshoot_pct,
                "gain_margin_min_db": gm_min_db, "crossover_design_hz": wc / (2 * math.pi)}
-    return HeadingDesign(kp, kq, raw, out[0][0], out[1][0], out[0][1], out[1][1], targets, gh)
+    return HeadingDesign(kp=kp, kp_quantised=kq, raw=raw, margins=out[0][0], margins_quantised=out[1][0],
+                         step=out[0][1], step_quantised=out[1][1], targets=targets, plant=gh)
 
 
 def heading_response(wheel_t, kp: float, target_deg: float, rate_dps: float, accel_dps2: float,
