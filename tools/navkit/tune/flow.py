@@ -104,6 +104,41 @@ def _truth(out: Path, col: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array([r["t"] for r in rows]), np.array([r[col] for r in rows])
 
 
+def _truth_turn(out: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Times (s) and truth heading of a run as the turn from its start heading (deg,
+    clockwise positive, in (-180, 180])."""
+    t, h = _truth(out, "heading_deg")
+    return t, np.where(h > 180.0, h - 360.0, h)
+
+
+def _verify(args, out: Path, mission: Path, firmware: str, read, final: float, level: float,
+            tp: np.ndarray, yp: np.ndarray, t_end: float, never: str):
+    """Co-simulate the verification mission into out/verify and set its truth (read(run
+    folder) -> times s, values) beside the prediction (tp s, yp): both aligned where they
+    first reach level * final, the run cut to the prediction's t_end (s). Returns the step
+    figures of the run over `final`, with overshoot_pct past `final` and the RMS and largest
+    deviation from the prediction (the values' unit); the aligned times and values; the run
+    time (s) that became 0; the run folder. Raises TuneError "<run>: <never>" when the run
+    never reaches the level."""
+    vdir = out / "verify"
+    exp.run_cosim(mission, vdir, config_dir=out / "config", build=args.build,
+                  frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed, firmware=firmware)
+    ts, ys = read(vdir)
+    t_sim = _align(ts, ys, level * final)
+    t_pred = _align(tp, yp, level * final)
+    if not math.isfinite(t_sim):
+        raise TuneError(f"{vdir}: {never}")
+    start = t_sim - t_pred
+    keep = (ts >= start) & (ts <= start + t_end)
+    tsim, ysim = ts[keep] - start, ys[keep]
+    info = dsg.step_info(tsim, ysim / final)
+    info["overshoot_pct"] = max(float(ysim.max()) - final, 0.0) / final * 100.0
+    diff = ysim - np.interp(tsim, tp, yp)
+    info["rms_deviation"] = float(np.sqrt(np.mean(diff ** 2)))
+    info["max_deviation"] = float(np.max(np.abs(diff)))
+    return info, tsim, ysim, start, vdir
+
+
 def _info_text(rows: list) -> str:
     lines = [f"{'':<22}{'rise s':>8}{'settle s':>10}{'overshoot %':>13}"]
     for label, info in rows:
@@ -128,8 +163,7 @@ def extract_turn(run_dir: Path, summary: dict, *, t0: float, target: float) -> d
     """Figures of a verification heading select (navkit.sweep extract): overshoot (%) of the
     truth heading (deg, clockwise from the start) past `target` after t0 (s), and the final
     heading error (deg)."""
-    t, h = _truth(run_dir, "heading_deg")
-    h = np.where(h > 180.0, h - 360.0, h)
+    t, h = _truth_turn(run_dir)
     keep = t >= t0
     peak = float(h[keep].max()) if keep.any() else math.nan
     return {"overshoot_pct": max(peak - target, 0.0) / target * 100.0, "final_error_deg": float(h[-1] - target)}
@@ -270,23 +304,10 @@ def tune_wheel(args) -> dict:
                                 note="navkit tune wheel: verification move")
         verify_mission = out / "verify_wheel.toml"
         verify_mission.write_text(text)
-        vdir = out / "verify"
-        exp.run_cosim(verify_mission, vdir, config_dir=out / "config", build=args.build,
-                      frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed, firmware=args.firmware)
-        ts, vs = _truth(vdir, "v_mm_s")
-        t_sim = _align(ts, vs, 0.05 * speed)
-        t_pred = _align(tp, yp, 0.05 * speed)
-        if not math.isfinite(t_sim):
-            raise TuneError(f"{vdir}: the verification move never reached 5 % of {speed:g} mm/s")
-        start = t_sim - t_pred
-        keep = (ts >= start) & (ts <= start + t_end)
-        tsim, ysim = ts[keep] - start, vs[keep]
-        sim_info = dsg.step_info(tsim, ysim / speed)
-        sim_info["overshoot_pct"] = max(float(ysim.max()) - speed, 0.0) / speed * 100.0
-        # how far prediction and co-simulation part: RMS and largest difference (mm/s)
-        diff = ysim - np.interp(tsim, tp, yp)
-        sim_info["rms_deviation"] = float(np.sqrt(np.mean(diff ** 2)))
-        sim_info["max_deviation"] = float(np.max(np.abs(diff)))
+        # how far prediction and co-simulation part: deviations in mm/s
+        sim_info, tsim, ysim, start, vdir = _verify(
+            args, out, verify_mission, args.firmware, lambda d: _truth(d, "v_mm_s"), speed, 0.05, tp, yp,
+            t_end, f"the verification move never reached 5 % of {speed:g} mm/s")
         curves.append(("co-simulated (truth speed)", tsim, ysim))
         rows.append(("co-simulated", sim_info))
         result["simulated"] = {"move": sim_info, "run": str(vdir), "mission": str(verify_mission),
@@ -296,7 +317,19 @@ def tune_wheel(args) -> dict:
     curves.append(("setpoint", tp, speed * np.minimum(tp / (speed / accel), 1.0)))
 
     # robustness
-    result["robustness"] = _wheel_robust(args, design, model, dt, speed, accel, mission, verify_mission, out)
+    def sample_loop(m):
+        p = dsg.plant_d(m, dt, args.compute_delay)
+        loop, t = dsg.wheel_loops(design.quantised, p)
+
+        def overshoot():
+            _, yy = dsg.move_response(design.quantised, p, m, speed, speed / accel, speed / accel + SETTLE_S,
+                                      loop=loop, t=t)
+            return max(float(yy.max()) - speed, 0.0) / speed * 100.0
+        return loop, overshoot
+
+    extract = functools.partial(extract_move, t0=VERIFY_T0, t1=VERIFY_T0 + speed / accel + SETTLE_S + 0.5,
+                                speed=speed)
+    result["robustness"] = _robust(args, args.firmware, model, mission, verify_mission, out, sample_loop, extract)
 
     # figures
     from navkit.tune import plots
@@ -307,24 +340,26 @@ def tune_wheel(args) -> dict:
     plots.bode_png(out / "bode.png", loops, f"wheel loop, PM {mq['phase_margin_deg']:.1f} deg, "
                    f"GM {mq['gain_margin_db']:.1f} dB, crossover {mq['crossover_hz']:.2f} Hz")
     table = _info_text(rows) + "\n\ngains (raw): " + ", ".join(f"{k} {v}" for k, v in raw.items())
-    rb = result["robustness"]
-    if rb.get("analytic"):
-        a = rb["analytic"]
-        table += (f"\n\nMonte Carlo ({a['samples']} plants, +/-{a['variation'] * 100:g} %):\n"
-                  f"  worst PM {a['worst_phase_margin_deg']:.1f} deg, GM {a['worst_gain_margin_db']:.1f} dB,\n"
-                  f"  overshoot {a['worst_overshoot_pct']:.1f} %")
+    table += _robust_text(result["robustness"])
     plots.step_png(out / "step.png", curves, f"wheel speed, move at {speed:g} mm/s, {accel:g} mm/s^2",
                    "speed (mm/s)", table)
     (out / "tune.json").write_text(json.dumps(_jsonable(result), indent=2) + "\n")
     return result
 
 
-def _wheel_robust(args, design, model, dt, speed, accel, mission, verify_mission, out) -> dict:
+def _robust(args, firmware: str, model: ident.Model, mission, verify_mission, out: Path, sample_loop,
+            extract) -> dict:
+    """The robustness section of a tuning: over args.samples plant variations (+/-
+    args.variation) of `model`, sample_loop(scaled model) -> (open loop, overshoot()) gives
+    each sample's loop and the function of its overshoot (%, called only for a stable
+    loop); their margins (deg, dB) and overshoots, the worst of each; with
+    --cosim-samples and a verification mission, the first samples co-simulated through
+    navkit.sweep and `extract`ed (SIL only)."""
     res = {"samples": args.samples, "variation": args.variation, "seed": args.seed}
     if args.samples <= 0:
         return res
-    from navkit.sim.harness import fmu_paths
     from navkit.paths import build_dir
+    from navkit.sim.harness import fmu_paths
 
     build = Path(args.build) if args.build else build_dir()
     nominal = robust.plant_nominal(fmu_paths(build)[1], dict(mission.plant) if mission else {})
@@ -334,19 +369,11 @@ def _wheel_robust(args, design, model, dt, speed, accel, mission, verify_mission
     samples = robust.draw(args.samples, args.seed, args.variation)
     per = []
     for f in samples:
-        kr, tr, dr = robust.model_ratios(nominal, f)
-        m = model.scaled(kr, tr, dr)
-        p = dsg.plant_d(m, dt, args.compute_delay)
-        loop, t = dsg.wheel_loops(design.quantised, p)
+        loop, overshoot = sample_loop(model.scaled(*robust.model_ratios(nominal, f)))
         stable = dsg.stable(loop)
         mg = dsg.margins(loop) if stable else {"phase_margin_deg": math.nan, "gain_margin_db": math.nan}
-        ov = math.inf
-        if stable:
-            tt, yy = dsg.move_response(design.quantised, p, m, speed, speed / accel, speed / accel + SETTLE_S,
-                                       loop=loop, t=t)
-            ov = max(float(yy.max()) - speed, 0.0) / speed * 100.0
         per.append({"factors": f, "stable": stable, "phase_margin_deg": mg["phase_margin_deg"],
-                    "gain_margin_db": mg["gain_margin_db"], "overshoot_pct": ov})
+                    "gain_margin_db": mg["gain_margin_db"], "overshoot_pct": overshoot() if stable else math.inf})
     res["analytic"] = {
         "samples": len(per), "variation": args.variation, "unstable": sum(not p["stable"] for p in per),
         "worst_phase_margin_deg": robust.worst(per, "phase_margin_deg", True),
@@ -354,14 +381,22 @@ def _wheel_robust(args, design, model, dt, speed, accel, mission, verify_mission
         "worst_overshoot_pct": robust.worst(per, "overshoot_pct", False),
         "per_sample": per,
     }
-    if args.cosim_samples > 0 and verify_mission is not None and args.firmware != "fmu":
+    if args.cosim_samples > 0 and verify_mission is not None and firmware != "fmu":
         res["cosim_note"] = "co-simulated samples run the firmware FMU only (navkit.sweep): skipped for --firmware avr"
     elif args.cosim_samples > 0 and verify_mission is not None:
-        t1 = VERIFY_T0 + speed / accel + SETTLE_S + 0.5
-        ext = functools.partial(extract_move, t0=VERIFY_T0, t1=t1, speed=speed)
         res["cosim"] = _sweep(verify_mission, samples[:args.cosim_samples], nominal, out / "config",
-                              out / "robust", args.build, args.workers, ext)
+                              out / "robust", args.build, args.workers, extract)
     return res
+
+
+def _robust_text(res: dict) -> str:
+    """The Monte Carlo lines of a step plot's table ("" without an analytic part)."""
+    a = res.get("analytic")
+    if not a:
+        return ""
+    return (f"\n\nMonte Carlo ({a['samples']} plants, +/-{a['variation'] * 100:g} %):\n"
+            f"  worst PM {a['worst_phase_margin_deg']:.1f} deg, GM {a['worst_gain_margin_db']:.1f} dB,\n"
+            f"  overshoot {a['worst_overshoot_pct']:.1f} %")
 
 
 # ---------------------------------------------------------------- heading
@@ -436,23 +471,10 @@ def tune_heading(args) -> dict:
         verify_mission = out / "verify_heading.toml"
         verify_mission.write_text(exp.mission_text(mission, VERIFY_T0 + t_end + 1.0, [cmd],
                                                    note="navkit tune heading: verification heading select"))
-        vdir = out / "verify"
-        exp.run_cosim(verify_mission, vdir, config_dir=out / "config", build=args.build,
-                      frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed, firmware=firmware)
-        ts, hs = _truth(vdir, "heading_deg")
-        hs = np.where(hs > 180.0, hs - 360.0, hs)
-        t_sim = _align(ts, hs, 0.02 * target)
-        t_pred = _align(tp, yp, 0.02 * target)
-        if not math.isfinite(t_sim):
-            raise TuneError(f"{vdir}: the verification heading select never turned 2 % of {target:g} deg")
-        start = t_sim - t_pred
-        keep = (ts >= start) & (ts <= start + t_end)
-        tsim, hsim = ts[keep] - start, hs[keep]
-        sim_info = dsg.step_info(tsim, hsim / target)
-        sim_info["overshoot_pct"] = max(float(hsim.max()) - target, 0.0) / target * 100.0
-        diff = hsim - np.interp(tsim, tp, yp)  # deg
-        sim_info["rms_deviation"] = float(np.sqrt(np.mean(diff ** 2)))
-        sim_info["max_deviation"] = float(np.max(np.abs(diff)))
+        # deviations in deg
+        sim_info, tsim, hsim, start, vdir = _verify(
+            args, out, verify_mission, firmware, _truth_turn, target, 0.02, tp, yp, t_end,
+            f"the verification heading select never turned 2 % of {target:g} deg")
         curves.append(("co-simulated (truth heading)", tsim, hsim))
         rows.append(("co-simulated", sim_info))
         result["simulated"] = {"heading_select": sim_info, "run": str(vdir), "mission": str(verify_mission),
@@ -460,56 +482,22 @@ def tune_heading(args) -> dict:
     else:
         result["simulated"] = None
 
-    res = {"samples": args.samples, "variation": args.variation, "seed": args.seed}
-    if args.samples > 0:
-        from navkit.paths import build_dir
-        from navkit.sim.harness import fmu_paths
+    import control
 
-        build = Path(args.build) if args.build else build_dir()
-        nominal = robust.plant_nominal(fmu_paths(build)[1], dict(mission.plant) if mission else {})
-        if nominal is None:
-            res["note"] = "the plant FMU lacks the parameters the analytic part scales"
-        else:
-            samples = robust.draw(args.samples, args.seed, args.variation)
-            per = []
-            import control
+    def sample_loop(m):
+        _, twi = dsg.wheel_loops(gq, dsg.plant_d(m, dt, cd))
+        loop = hd.kp_quantised * dsg.heading_plant(twi)
+        return loop, lambda: dsg.step_info(control.feedback(loop, 1), t_end=2.0)["overshoot_pct"]
 
-            for f in samples:
-                m = model.scaled(*robust.model_ratios(nominal, f))
-                _, twi = dsg.wheel_loops(gq, dsg.plant_d(m, dt, cd))
-                loop = hd.kp_quantised * dsg.heading_plant(twi)
-                tcl = control.feedback(loop, 1)
-                stable = dsg.stable(loop)
-                mg = dsg.margins(loop) if stable else {"phase_margin_deg": math.nan, "gain_margin_db": math.nan}
-                ov = dsg.step_info(tcl, t_end=2.0)["overshoot_pct"] if stable else math.inf
-                per.append({"factors": f, "stable": stable, "phase_margin_deg": mg["phase_margin_deg"],
-                            "gain_margin_db": mg["gain_margin_db"], "overshoot_pct": ov})
-            res["analytic"] = {
-                "samples": len(per), "variation": args.variation, "unstable": sum(not p["stable"] for p in per),
-                "worst_phase_margin_deg": robust.worst(per, "phase_margin_deg", True),
-                "worst_gain_margin_db": robust.worst(per, "gain_margin_db", True),
-                "worst_overshoot_pct": robust.worst(per, "overshoot_pct", False),
-                "per_sample": per,
-            }
-            if args.cosim_samples > 0 and verify_mission is not None and firmware != "fmu":
-                res["cosim_note"] = "co-simulated samples run the firmware FMU only (navkit.sweep): skipped for avr"
-            elif args.cosim_samples > 0 and verify_mission is not None:
-                ext = functools.partial(extract_turn, t0=VERIFY_T0, target=target)
-                res["cosim"] = _sweep(verify_mission, samples[:args.cosim_samples], nominal, out / "config",
-                                      out / "robust", args.build, args.workers, ext)
-    result["robustness"] = res
+    extract = functools.partial(extract_turn, t0=VERIFY_T0, target=target)
+    result["robustness"] = _robust(args, firmware, model, mission, verify_mission, out, sample_loop, extract)
 
     from navkit.tune import plots
 
     plots.bode_png(out / "bode.png", [("designed", hd.kp * hd.plant), ("quantised", hd.kp_quantised * hd.plant)],
                    f"heading loop, PM {mq['phase_margin_deg']:.1f} deg, GM {mq['gain_margin_db']:.1f} dB, "
                    f"crossover {mq['crossover_hz']:.2f} Hz")
-    table = _info_text(rows) + f"\n\nheading_kp raw {hd.raw} (was {previous})"
-    if res.get("analytic"):
-        a = res["analytic"]
-        table += (f"\n\nMonte Carlo ({a['samples']} plants, +/-{a['variation'] * 100:g} %):\n"
-                  f"  worst PM {a['worst_phase_margin_deg']:.1f} deg, GM {a['worst_gain_margin_db']:.1f} dB,\n"
-                  f"  overshoot {a['worst_overshoot_pct']:.1f} %")
+    table = _info_text(rows) + f"\n\nheading_kp raw {hd.raw} (was {previous})" + _robust_text(result["robustness"])
     plots.step_png(out / "step.png", curves + [("target", tp, np.full_like(tp, target))],
                    f"heading select to {target:g} deg at {rate:g} deg/s, {accel:g} deg/s^2", "heading (deg)", table)
     (out / "tune.json").write_text(json.dumps(_jsonable(result), indent=2) + "\n")
