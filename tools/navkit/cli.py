@@ -7,9 +7,10 @@ Each subcommand lives in its own module, imported only when that subcommand runs
 
 import argparse
 import importlib
+import math
 import sys
 
-__all__ = ["main", "SUBCOMMANDS", "positive_int"]
+__all__ = ["main", "SUBCOMMANDS", "positive_int", "count_int", "positive_float", "fraction"]
 
 # name -> (module, one-line help)
 SUBCOMMANDS = {
@@ -31,15 +32,44 @@ SUBCOMMANDS = {
 }
 
 
-def positive_int(text: str) -> int:
-    """argparse type of a count option: an integer of at least 1 (decimal or 0x)."""
+def _int_at_least(text: str, least: int) -> int:
+    """An integer (decimal or 0x) of at least `least`, else argparse's one-line error."""
     try:
         n = int(text, 0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {n}")
+    if n < least:
+        raise argparse.ArgumentTypeError(f"must be at least {least}, not {n}")
     return n
+
+
+def positive_int(text: str) -> int:
+    """argparse type of a count option: an integer of at least 1 (decimal or 0x)."""
+    return _int_at_least(text, 1)
+
+
+def count_int(text: str) -> int:
+    """argparse type of a count option that may be 0: an integer of at least 0 (decimal or 0x)."""
+    return _int_at_least(text, 0)
+
+
+def positive_float(text: str) -> float:
+    """argparse type of a positive, finite number (in the option's unit)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, not {text}")
+    return v
+
+
+def fraction(text: str) -> float:
+    """argparse type of a fraction: a number above 0 and below 1."""
+    v = positive_float(text)
+    if v >= 1:
+        raise argparse.ArgumentTypeError(f"must be below 1, not {text}")
+    return v
 
 
 def main(argv=None) -> int:

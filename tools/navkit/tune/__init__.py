@@ -13,64 +13,37 @@ co-simulation runs), `config` (the tuned config copy), `robust` (plant variation
 
 from __future__ import annotations
 
-import argparse
-import math
 import sys
 from pathlib import Path
+
+from navkit.cli import count_int, fraction, positive_float
 
 __all__ = ["add_arguments", "run"]
 
 
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, not {text}")
-    return v
-
-
-def _fraction(text: str) -> float:
-    v = _positive_float(text)
-    if v >= 1:
-        raise argparse.ArgumentTypeError(f"must be below 1, not {text}")
-    return v
-
-
 def _count_fraction(text: str) -> float:
     """0 or a fraction below 1."""
-    return 0.0 if text.strip() in ("0", "0.0") else _fraction(text)
-
-
-def _count(text: str) -> int:
-    try:
-        v = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be 0 or more, not {v}")
-    return v
+    return 0.0 if text.strip() in ("0", "0.0") else fraction(text)
 
 
 def _common(p, pm_help: str) -> None:
     p.add_argument("--out", "-o", type=Path, required=True, help="output folder (tune.json, PNGs, config/)")
-    p.add_argument("--pm", type=_positive_float, default=60.0, help=pm_help)
-    p.add_argument("--bandwidth", type=_positive_float, default=None, metavar="HZ",
+    p.add_argument("--pm", type=positive_float, default=60.0, help=pm_help)
+    p.add_argument("--bandwidth", type=positive_float, default=None, metavar="HZ",
                    help="crossover frequency (Hz) instead of the automatic choice")
-    p.add_argument("--overshoot", type=_positive_float, default=5.0, metavar="PCT",
+    p.add_argument("--overshoot", type=positive_float, default=5.0, metavar="PCT",
                    help="largest predicted overshoot (%%, default 5)")
-    p.add_argument("--gm-min", type=_positive_float, default=6.0, metavar="DB",
+    p.add_argument("--gm-min", type=positive_float, default=6.0, metavar="DB",
                    help="least gain margin (dB, default 6)")
-    p.add_argument("--samples", type=_count, default=50, metavar="N",
+    p.add_argument("--samples", type=count_int, default=50, metavar="N",
                    help="Monte Carlo plant samples, analytic (default 50; 0 = none)")
-    p.add_argument("--cosim-samples", type=_count, default=0, metavar="M",
+    p.add_argument("--cosim-samples", type=count_int, default=0, metavar="M",
                    help="co-simulate the first M samples through navkit.sweep (default 0)")
-    p.add_argument("--variation", type=_fraction, default=0.2,
+    p.add_argument("--variation", type=fraction, default=0.2,
                    help="plant variation of the Monte Carlo, +/- fraction (default 0.2)")
     p.add_argument("--seed", type=int, default=1, help="seed of the samples and of the co-simulations (default 1)")
     p.add_argument("--workers", type=int, default=None, help="Dask workers of --cosim-samples (default: one per CPU)")
-    p.add_argument("--frame-ms", type=_positive_float, default=20.0,
+    p.add_argument("--frame-ms", type=positive_float, default=20.0,
                    help="host frame of the tuner's co-simulations (ms, default 20: a 50 Hz datalog)")
     p.add_argument("--no-verify", action="store_true", help="skip the co-simulated verification")
     p.add_argument("--build", type=Path, default=None, help="build folder (default: $NAVKIT_BUILD_DIR or build/)")
@@ -90,25 +63,25 @@ def add_arguments(parser) -> None:
     w.add_argument("--model", choices=("auto", "fopdt", "sopdt"), default="auto",
                    help="model to design on (auto: sopdt if its NRMSE is 10 %% lower)")
     w.add_argument("--derivative", action="store_true", help="PID (kd = kp*0.25/wc) instead of PI")
-    w.add_argument("--compute-delay", type=_count, default=1, metavar="TICKS",
+    w.add_argument("--compute-delay", type=count_int, default=1, metavar="TICKS",
                    help="computation delay of a tick in the loop (ticks, default 1)")
     w.add_argument("--gain-spread", type=_count_fraction, default=0.2, metavar="FRAC",
                    help="the overshoot limit (and the heading's on top) also holds with a motor constant this "
                    "much weaker: gain / (1 - FRAC), time constants / (1 - FRAC)^2 (default 0.2; 0 = the "
                    "identified model alone)")
-    w.add_argument("--max-nrmse", type=_positive_float, default=0.3, help="worst acceptable fit (default 0.3)")
-    w.add_argument("--step-speed", type=_positive_float, default=None, metavar="MM_S",
+    w.add_argument("--max-nrmse", type=positive_float, default=0.3, help="worst acceptable fit (default 0.3)")
+    w.add_argument("--step-speed", type=positive_float, default=None, metavar="MM_S",
                    help="verification move speed (mm/s; default 40 %% of the model's top speed, at most 300)")
-    w.add_argument("--step-accel", type=_positive_float, default=3000.0, metavar="MM_S2",
+    w.add_argument("--step-accel", type=positive_float, default=3000.0, metavar="MM_S2",
                    help="verification move acceleration (mm/s^2, default 3000)")
     _common(w, "phase margin target (deg, default 60)")
     h = sub.add_parser("heading", help="the heading-select gain (heading_kp) on top of tuned wheel loops")
     h.add_argument("--wheel", type=Path, required=True, help="the --out folder of `navkit tune wheel`")
     h.add_argument("--mission", type=Path, default=None,
                    help="mission whose plant verifies (default: the wheel tuning's mission)")
-    h.add_argument("--turn-deg", type=_positive_float, default=90.0, help="verification heading select (deg)")
-    h.add_argument("--turn-rate", type=_positive_float, default=60.0, help="its rate (deg/s, default 60)")
-    h.add_argument("--turn-accel", type=_positive_float, default=180.0, help="its acceleration (deg/s^2)")
+    h.add_argument("--turn-deg", type=positive_float, default=90.0, help="verification heading select (deg)")
+    h.add_argument("--turn-rate", type=positive_float, default=60.0, help="its rate (deg/s, default 60)")
+    h.add_argument("--turn-accel", type=positive_float, default=180.0, help="its acceleration (deg/s^2)")
     _common(h, "phase margin target (deg, default 60)")
 
 
