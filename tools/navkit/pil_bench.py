@@ -13,6 +13,8 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+from navkit.sim_bench import add_run_arguments, run_or_report
+
 __all__ = ["add_arguments", "run"]
 
 F_CPU_HZ = 16_000_000  # the board's clock: cycles per second
@@ -22,11 +24,7 @@ def add_arguments(parser) -> None:
     """Arguments of `navkit bench-pil`."""
     parser.add_argument("--mission", "-m", type=Path, default=None,
                         help="mission TOML (default: config/missions/demo.toml)")
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=None,
-                        help="keep both runs here (pil/ and sil/; default: a temporary folder)")
-    parser.add_argument("--build", type=Path, default=None,
-                        help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+    add_run_arguments(parser, "keep both runs here (pil/ and sil/; default: a temporary folder)")
 
 
 def _us(cycles: float) -> str:
@@ -40,8 +38,7 @@ def run(args) -> int:
     from navkit.compare import CompareError, compare_runs
     from navkit.paths import repo_root
     from navkit.sim.cli import DEFAULT_MISSION
-    from navkit.sim.harness import SimError, SimOptions
-    from navkit.sim.harness import run as run_sim
+    from navkit.sim.harness import SimOptions
     from navkit.sim.mission import MissionError, load
 
     try:
@@ -55,10 +52,8 @@ def run(args) -> int:
         for fw in ("avr", "fmu"):
             opts = SimOptions(mission=mission, out=out / ("pil" if fw == "avr" else "sil"), seed=args.seed,
                               build=args.build, plot=False, firmware=fw)
-            try:
-                runs[fw] = run_sim(opts)
-            except (MissionError, SimError) as e:
-                print(f"navkit bench-pil: {'PIL' if fw == 'avr' else 'SIL'} run: {e}", file=sys.stderr)
+            runs[fw] = run_or_report(opts, f"bench-pil: {'PIL' if fw == 'avr' else 'SIL'} run")
+            if runs[fw] is None:
                 return 1
         try:
             c = compare_runs(out / "sil", out / "pil")

@@ -11,21 +11,41 @@ of the harness, the log worker and the host.
 from __future__ import annotations
 
 import resource
+import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "bench_mission"]
+__all__ = ["add_arguments", "run", "bench_mission", "add_run_arguments", "run_or_report"]
+
+
+def add_run_arguments(parser, out_help: str) -> None:
+    """The options of a co-simulation benchmark (bench-sim, bench-pil): --seed, --out
+    (out_help says what it keeps), --build."""
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=None, help=out_help)
+    parser.add_argument("--build", type=Path, default=None,
+                        help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+
+
+def run_or_report(opts, what: str) -> dict | None:
+    """navkit.sim.harness.run(opts): its summary, or None after one line on stderr,
+    "navkit <what>: <error>", for a mission or run error."""
+    from navkit.sim.harness import SimError
+    from navkit.sim.harness import run as run_sim
+    from navkit.sim.mission import MissionError
+
+    try:
+        return run_sim(opts)
+    except (MissionError, SimError) as e:
+        print(f"navkit {what}: {e}", file=sys.stderr)
+        return None
 
 
 def add_arguments(parser) -> None:
     """Arguments of `navkit bench-sim`."""
     parser.add_argument("--minutes", type=float, default=10.0,
                         help="simulated minutes (default 10)")
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=None,
-                        help="keep the run's outputs here (default: a temporary folder)")
-    parser.add_argument("--build", type=Path, default=None,
-                        help="build folder (default: $NAVKIT_BUILD_DIR or <repo>/build)")
+    add_run_arguments(parser, "keep the run's outputs here (default: a temporary folder)")
     parser.add_argument("--link", choices=("serial", "can"), default="serial",
                         help="the micro link: serial (default) or can (navkit sim --link can: "
                         "SLCAN and ISO-TP through the harness; docs/can.md)")
@@ -53,19 +73,16 @@ def bench_mission(minutes: float) -> str:
 
 def run(args) -> int:
     """Run the benchmark and print its figures; 0 on success."""
-    from navkit.sim.harness import SimError, SimOptions
-    from navkit.sim.harness import run as run_sim
-    from navkit.sim.mission import MissionError, loads
+    from navkit.sim.harness import SimOptions
+    from navkit.sim.mission import loads
 
     with tempfile.TemporaryDirectory(prefix="navkit-bench-") as tmp:
         out = args.out or Path(tmp) / "out"
         mission = loads(bench_mission(args.minutes), Path(tmp) / "bench.toml")
         opts = SimOptions(mission=mission, out=out, seed=args.seed, build=args.build,
                           plot=False, timing=True, link=args.link)
-        try:
-            s = run_sim(opts)
-        except (MissionError, SimError) as e:
-            print(f"navkit bench-sim: {e}")
+        s = run_or_report(opts, "bench-sim")
+        if s is None:
             return 1
     wall = s["wall_time_s"]
     share = s["time_share_s"]
