@@ -750,11 +750,14 @@ void MicroUsb::send()
     write_frame(buf, n);
 }
 
-void MicroUsb::can_flush(int wait_ms)
+void MicroUsb::can_flush()
 {
+    // ISO-TP's own clock ends the wait: no flow control within N_Bs abandons the message
+    // (can_pump); the bound below only guards against a clock that does not move
     const int64_t start_ms = mono_ms();
     const int64_t start_us = now_us_;
-    while (port_.is_open() && navkit_isotp_tx_busy(&can_tx_) && mono_ms() < start_ms + wait_ms) {
+    while (port_.is_open() && navkit_isotp_tx_busy(&can_tx_) &&
+           mono_ms() < start_ms + 2 * static_cast<int64_t>(NAVKIT_CAN_N_BS_MS)) {
         pollfd p{port_.fd(), POLLIN, 0};
         poll(&p, 1, 10);
         uint8_t in[256];
@@ -765,6 +768,7 @@ void MicroUsb::can_flush(int wait_ms)
         }
         now_us_ = start_us + 1000 * (mono_ms() - start_ms);  // ISO-TP's clock moves on meanwhile
         can_take(in, static_cast<size_t>(n), [](const uint8_t *, size_t) {});  // micro_data: not wanted now
+        can_pump();  // also notices an overdue flow control
     }
 }
 
@@ -778,11 +782,11 @@ bool MicroUsb::send_stop(uint16_t dio)
     const uint64_t errs = tx_errors_;
     if (slcan()) {
         // outside the frame loop (shutdown): the message still going out first, then the
-        // stop, each given up to 200 ms for its flow control, so the stop goes out whole
-        can_flush(200);
+        // stop, each given ISO-TP's N_Bs for its flow control, so the stop goes out whole
+        can_flush();
         const uint16_t sent = can_tx_.stats.sent;
         write_frame(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
-        can_flush(200);
+        can_flush();
         stop_last_ = port_.is_open() && can_tx_.stats.sent != sent;
         return stop_last_;
     }

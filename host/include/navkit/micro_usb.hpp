@@ -150,9 +150,9 @@ private:
     template <class Take> void can_take(const uint8_t *buf, size_t len, Take take_frame_bytes);
     void can_send(const uint8_t *buf, size_t len);
     void can_pump();
-    // Outside the frame loop: read the port until the message going out is sent whole
-    // (its flow control came), at most wait_ms ms.
-    void can_flush(int wait_ms);
+    // Outside the frame loop: read the port until the message going out is sent whole (its
+    // flow control came) or ISO-TP gives it up (no flow control within N_Bs).
+    void can_flush();
     void can_write(const std::string &line);
     uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); }  // ISO-TP clock: frame time
     void reset_parser();
