@@ -161,3 +161,34 @@ def test_an_slcan_adapter_on_a_pty(tmp_path):
     # the spec's bit rate, listen-only (a listener never sends: nothing was refused either)
     assert adapter.bitrate == nc.CAN.bitrate and modes == [True] and adapter.stats["refused"] == 0
     assert not adapter.is_open  # closed at the end ("C")
+
+
+def test_any_python_can_interface_live(capsys):
+    """--interface NAME --channel CH: python-can's own buses (here its in-process virtual
+    one, as socketcan's can0 would be), frames sent while the tool listens."""
+    from navkit.cli import main
+
+    frames = _traffic()
+    sender = can.Bus(interface="virtual", channel="nk-dump-test")
+    stop = threading.Event()
+
+    def send():
+        time.sleep(0.3)
+        for m in frames:
+            if stop.is_set():
+                return
+            sender.send(m)
+    th = threading.Thread(target=send, daemon=True)
+    th.start()
+    try:
+        rc = main(["can", "dump", "--interface", "virtual", "--channel", "nk-dump-test", "--count", "6",
+                   "--seconds", "20"])
+    finally:
+        stop.set()
+        th.join(5)
+        sender.shutdown()
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    msgs, errors = _lines(out.out)
+    assert errors == [] and [(m["message"], m["time_tag"]) for m in msgs][:2] == [("micro_cmd", 0), ("micro_data", 0)]
+    assert len(msgs) == 6 and "6 messages" in out.err
