@@ -59,6 +59,10 @@ distance = 1000
     assert c["micro_iso_tp_rx"]["wrong_sn"] == 0 and s["link"]["micro_to_host"]["host_link_errors"] == 0
     assert s["link"]["line_noise"]["flips"] == 0, "no byte is corrupted: CAN resends"
     assert abs(s["truth"]["distance_mm"] - 1000) <= 15 and s["watchdog_stops"] == 0
+    # can.log holds the error frames; navkit can dump counts them and finds nothing refused
+    d = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(r.out / "can.log")],
+                       capture_output=True, text=True, timeout=120)
+    assert d.returncode == 0 and f"{c['error_frames']} error frames" in d.stderr, d.stderr[-1000:]
 
 
 def test_an_unplugged_adapter_comes_back_and_commands_flow_again(tmp_path_factory):

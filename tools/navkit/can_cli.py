@@ -12,7 +12,7 @@ frame checks as the serial link (navkit.protocol's parser and spec check) and pr
 one JSON object: time (s), CAN identifier, message name and its fields in spec order.
 Every frame ISO-TP refuses, every message it aborts, and every reassembled message the
 frame checks refuse prints as an error line naming the frame (its number in the stream,
-time, identifier) and the reason. Flow control frames and other identifiers print nothing.
+time, identifier) and the reason. Flow control frames, other identifiers and bus error frames (counted) print nothing.
 At the end (the log's end, --count messages, --seconds of listening, or Ctrl-C) the
 counters go to stderr. The exit status is 0 only if nothing was refused or aborted.
 """
@@ -79,6 +79,7 @@ class Dumper:
         self.frames = 0
         self.messages = 0
         self.bad = 0
+        self.error_frames = 0   # bus error frames (the controller sends the frame again): counted
 
     def _error(self, k: int, msg, text: str) -> None:
         self.bad += 1
@@ -90,6 +91,9 @@ class Dumper:
         from navkit import protocol as p
         k = self.frames
         self.frames += 1
+        if msg.is_error_frame:
+            self.error_frames += 1
+            return
         for direction, rx in self.rx.items():
             before = dict(rx.stats)
             got = rx.feed(msg, msg.timestamp)
@@ -118,7 +122,8 @@ class Dumper:
                     self._error(k, msg, f"{got.message}: {e.length} of its {len(got.data)} bytes rejected: {e.reason}")
 
     def summary(self) -> str:
-        parts = [f"{self.frames} frames, {self.messages} messages"]
+        parts = [f"{self.frames} frames, {self.messages} messages"
+                 + (f", {self.error_frames} error frames" if self.error_frames else "")]
         for direction, rx in self.rx.items():
             counts = ", ".join(f"{k} {v}" for k, v in rx.stats.items() if v and k != "good")
             parts.append(f"{direction.replace('_', ' ')}: {rx.stats['good']} reassembled" + (f", {counts}" if counts else ""))
