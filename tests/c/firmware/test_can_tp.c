@@ -3,7 +3,7 @@
  * same messages, send the same flow controls and count the same, frame by frame; the
  * sender must cut each whole message into the same frames. Then the sender's own rules:
  * flow control wait, overflow, invalid status, timeouts, block size, STmin.
- * Usage: fw_test_can_tp tests/vectors/can.txt */
+ * Usage: fw_test_can_tp [--list | --case NAME] tests/vectors/can.txt */
 #include <stdio.h>
 #include <string.h>
 
@@ -177,9 +177,13 @@ static void run_case(const char *line)
     }
 }
 
-static void test_vectors(const char *path)
+/* The golden vectors file, the program's last argument (main() keeps it for test_vectors). */
+static const char *vectors_path;
+
+static void test_vectors(void)
 {
     static char line[LINE_MAX_CHARS];
+    const char *path = vectors_path;
     int cases = 0;
     FILE *fp = fopen(path, "r");
     if (!fp) {
@@ -266,13 +270,13 @@ static void test_sender_rules(void)
     CHECK(!navkit_isotp_tx_start(&tx, 2u, 99u, 4000u)); /* no identifier for an unknown msg_type */
 }
 
+static const check_case_t cases[] = {
+    CHECK_CASE(vectors),
+    CHECK_CASE(sender_rules),
+};
+
 int main(int argc, char **argv)
 {
-    if (argc != 2) {
-        fprintf(stderr, "usage: %s tests/vectors/can.txt\n", argv[0]);
-        return 2;
-    }
-    test_vectors(argv[1]);
-    test_sender_rules();
-    CHECK_DONE();
+    vectors_path = argv[argc - 1];
+    return check_main(argc, argv, cases, sizeof cases / sizeof cases[0], "tests/vectors/can.txt");
 }

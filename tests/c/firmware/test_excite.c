@@ -332,15 +332,18 @@ static void test_link_refused(void)
     CHECK(excite_active(&fw.excite) && data().cmd_rejected == 5);
 }
 
-int main(void)
+static const check_case_t cases[] = {
+    CHECK_CASE(step),
+    CHECK_CASE(bounded),
+    CHECK_CASE(chirp),
+    CHECK_CASE(prbs),
+    CHECK_CASE(refused),
+    CHECK_CASE(link_step_and_datalog),
+    CHECK_CASE(link_ended_by_stop_and_watchdog),
+    CHECK_CASE(link_refused),
+};
+
+int main(int argc, char **argv)
 {
-    test_step();
-    test_bounded();
-    test_chirp();
-    test_prbs();
-    test_refused();
-    test_link_step_and_datalog();
-    test_link_ended_by_stop_and_watchdog();
-    test_link_refused();
-    CHECK_DONE();
+    return check_main(argc, argv, cases, sizeof cases / sizeof cases[0], NULL);
 }

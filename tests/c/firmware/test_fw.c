@@ -1397,33 +1397,36 @@ static void test_stop_braking_dt(void)
     }
 }
 
-int main(void)
+static const check_case_t cases[] = {
+    CHECK_CASE(unconfigured),
+    CHECK_CASE(forward_move),
+    CHECK_CASE(modify_reverse),
+    CHECK_CASE(stop_latch),
+    CHECK_CASE(speed_limited_plant),
+    CHECK_CASE(turns),
+    CHECK_CASE(watchdog_stop),
+    CHECK_CASE(watchdog_timeout_config),
+    CHECK_CASE(servo_dio_sensors),
+    CHECK_CASE(forever_then_modify),
+    CHECK_CASE(limits_and_signs),
+    CHECK_CASE(zero_takes_configured_default),
+    CHECK_CASE(turn_modify_stop_latch),
+    CHECK_CASE(watchdog_turn_and_safe_state),
+    CHECK_CASE(hdg_hold_keeps_bias_fresh),
+    CHECK_CASE(compass_fusion_closed_loop),
+    CHECK_CASE(datalog_selections),
+    CHECK_CASE(servo_slot_without_command),
+    CHECK_CASE(time_tags_across_reset),
+    CHECK_CASE(unconfigured_refuses_every_command),
+    CHECK_CASE(unconfigured_first_command_never_runs),
+    CHECK_CASE(pending_repeat_checked),
+    CHECK_CASE(control_rate_change_mid_period),
+    CHECK_CASE(pending_dropped_by_watchdog),
+    CHECK_CASE(watchdog_hdg_sel),
+    CHECK_CASE(stop_braking_dt),
+};
+
+int main(int argc, char **argv)
 {
-    test_unconfigured();
-    test_forward_move();
-    test_modify_reverse();
-    test_stop_latch();
-    test_speed_limited_plant();
-    test_turns();
-    test_watchdog_stop();
-    test_watchdog_timeout_config();
-    test_servo_dio_sensors();
-    test_forever_then_modify();
-    test_limits_and_signs();
-    test_zero_takes_configured_default();
-    test_turn_modify_stop_latch();
-    test_watchdog_turn_and_safe_state();
-    test_hdg_hold_keeps_bias_fresh();
-    test_compass_fusion_closed_loop();
-    test_datalog_selections();
-    test_servo_slot_without_command();
-    test_time_tags_across_reset();
-    test_unconfigured_refuses_every_command();
-    test_unconfigured_first_command_never_runs();
-    test_pending_repeat_checked();
-    test_control_rate_change_mid_period();
-    test_pending_dropped_by_watchdog();
-    test_watchdog_hdg_sel();
-    test_stop_braking_dt();
-    CHECK_DONE();
+    return check_main(argc, argv, cases, sizeof cases / sizeof cases[0], NULL);
 }

@@ -474,7 +474,7 @@ static void test_config(void)
     g.control_rate = 500;
     CHECK(config_geometry(&c, &g) == CONFIG_OK);
     CHECK(c.tick_us == 2000u && c.odom.sign_l == -1 && c.odom.xy_ticks == 5u && c.still_ticks == 125u);
-    /* the build's ceiling (the spec's 2000 here; firmware_rate_ceiling and the AVR cycles
+    /* the build's ceiling (the spec's 2000 here; firmware.rate_ceiling.* and the AVR cycles
        test build a 400 Hz one) */
     g.control_rate = (uint16_t)(CONFIG_RATE_MAX + 1u);
     CHECK(config_geometry(&c, &g) == CONFIG_ERR_RANGE && c.control_rate == 500u && c.tick_us == 2000u);
@@ -580,23 +580,26 @@ static void test_fw_schedule(void)
     }
 }
 
-int main(void)
+static const check_case_t cases[] = {
+    CHECK_CASE(wrap),
+    CHECK_CASE(wrap_near_sweep),
+    CHECK_CASE(heading),
+    CHECK_CASE(heading_moving_calibration),
+    CHECK_CASE(heading_fold),
+    CHECK_CASE(odom),
+    CHECK_CASE(odom_long_run_precision),
+    CHECK_CASE(wheel),
+    CHECK_CASE(servo_goto),
+    CHECK_CASE(servo_scan),
+    CHECK_CASE(dio),
+    CHECK_CASE(watchdog),
+    CHECK_CASE(motion_rules),
+    CHECK_CASE(turn_hdg_shortest),
+    CHECK_CASE(config),
+    CHECK_CASE(fw_schedule),
+};
+
+int main(int argc, char **argv)
 {
-    test_wrap();
-    test_wrap_near_sweep();
-    test_heading();
-    test_heading_moving_calibration();
-    test_heading_fold();
-    test_odom();
-    test_odom_long_run_precision();
-    test_wheel();
-    test_servo_goto();
-    test_servo_scan();
-    test_dio();
-    test_watchdog();
-    test_motion_rules();
-    test_turn_hdg_shortest();
-    test_config();
-    test_fw_schedule();
-    CHECK_DONE();
+    return check_main(argc, argv, cases, sizeof cases / sizeof cases[0], NULL);
 }

@@ -11,7 +11,8 @@
  * the axis must settle within the stop tolerance in bounded time, with stops (which must
  * never reverse), the stop latch, and "forever" targets modified to near ones.
  * Seed and count: --seed N (0..2^64-1) --count MOVES (1..1e9; the second run does a tenth
- * of the count, rounded up, so at least one); anything else exits with 2 and a message
+ * of the count, rounded up, so at least one); --case NAME runs one case (the property runs
+ * are the case "property"), --list names them; anything else exits with 2 and a message
  * naming the argument. ctest runs the short default, a long run is the binary run by
  * hand (docs/firmware.md). */
 #include <errno.h>
@@ -509,55 +510,47 @@ static int prop_arg(const char *prog, const char *opt, const char *text, unsigne
     return 1;
 }
 
-/* Parse "--seed N" (0..2^64-1) / "--count N" (1..PROP_COUNT_MAX moves); returns 0, or
-   prints what is wrong and returns 1. */
-static int parse_args(int argc, char **argv, unsigned long long *seed, unsigned long *count)
+/* The property runs' seed (--seed) and moves (--count). */
+static unsigned long long prop_seed = 20051018ull;
+static unsigned long prop_count = 20000ul;
+
+/* Parse "--seed N" (0..2^64-1), "--count N" (1..PROP_COUNT_MAX moves) and "--case NAME"
+   (*name: one case alone, else NULL); returns 0, or prints what is wrong and returns 1. */
+static int parse_args(int argc, char **argv, const char **name)
 {
     int i;
     unsigned long long v;
     for (i = 1; i < argc; i += 2) {
-        if (i + 1 >= argc || (strcmp(argv[i], "--seed") != 0 && strcmp(argv[i], "--count") != 0)) {
-            fprintf(stderr, "%s: argument %d '%s': usage: %s [--seed N] [--count MOVES]\n", argv[0], i, argv[i],
-                    argv[0]);
+        if (i + 1 >= argc ||
+            (strcmp(argv[i], "--seed") != 0 && strcmp(argv[i], "--count") != 0 && strcmp(argv[i], "--case") != 0)) {
+            fprintf(stderr, "%s: argument %d '%s': usage: %s [--list | --case NAME] [--seed N] [--count MOVES]\n",
+                    argv[0], i, argv[i], argv[0]);
             return 1;
         }
-        if (strcmp(argv[i], "--seed") == 0) {
+        if (strcmp(argv[i], "--case") == 0) {
+            *name = argv[i + 1];
+        } else if (strcmp(argv[i], "--seed") == 0) {
             if (!prop_arg(argv[0], "--seed", argv[i + 1], 0u, ULLONG_MAX, &v)) {
                 return 1;
             }
-            *seed = v;
+            prop_seed = v;
         } else {
             if (!prop_arg(argv[0], "--count", argv[i + 1], 1u, PROP_COUNT_MAX, &v)) {
                 return 1;
             }
-            *count = (unsigned long)v;
+            prop_count = (unsigned long)v;
         }
     }
     return 0;
 }
 
-int main(int argc, char **argv)
+/* The property runs: prop_count random moves from prop_seed, then the tracked axis. */
+static void test_property(void)
 {
-    unsigned long long seed = 20051018ull;
-    unsigned long count = 20000ul;
     unsigned long i, failed = 0;
-    clock_t t0;
-    if (parse_args(argc, argv, &seed, &count)) {
-        return 2;
-    }
-
-    test_trapezoid();
-    test_triangle();
-    test_stop_distance();
-    test_stop();
-    test_stop_never_reverses();
-    test_reverse();
-    test_track();
-    test_forever_then_modify();
-
-    t0 = clock();
-    rng_state = seed;
-    for (i = 0; i < count; i++) {
+    clock_t t0 = clock();
+    rng_state = prop_seed;
+    for (i = 0; i < prop_count; i++) {
         if (prop_case(i)) {
             failed++;
             if (failed >= 10) {
@@ -567,11 +560,11 @@ int main(int argc, char **argv)
     }
     printf("property: seed %llu, %lu moves, %lu failed; max |accel| excess %.3g of amax, max speed excess %.3g "
            "of the limit, max final error %.3g u\n",
-           seed, i, failed, prop_stats.accel_excess, prop_stats.speed_excess, prop_stats.final_err);
+           prop_seed, i, failed, prop_stats.accel_excess, prop_stats.speed_excess, prop_stats.final_err);
     CHECK(failed == 0);
     failed = 0;
     /* a tenth as many tracked moves, rounded up: every count runs at least one */
-    for (i = 0; i < (count + 9u) / 10u; i++) {
+    for (i = 0; i < (prop_count + 9u) / 10u; i++) {
         if (prop_tracked_case(i)) {
             failed++;
             if (failed >= 10) {
@@ -582,5 +575,29 @@ int main(int argc, char **argv)
     printf("tracked property: %lu moves, %lu failed; max final error %.3g u (tolerance 5); %.1f s in all\n", i,
            failed, prop_stats.tracked_err, (double)(clock() - t0) / CLOCKS_PER_SEC);
     CHECK(failed == 0);
-    CHECK_DONE();
+}
+
+static const check_case_t cases[] = {
+    CHECK_CASE(trapezoid),
+    CHECK_CASE(triangle),
+    CHECK_CASE(stop_distance),
+    CHECK_CASE(stop),
+    CHECK_CASE(stop_never_reverses),
+    CHECK_CASE(reverse),
+    CHECK_CASE(track),
+    CHECK_CASE(forever_then_modify),
+    CHECK_CASE(property),
+};
+
+int main(int argc, char **argv)
+{
+    const char *name = NULL;
+    if (argc == 2 && strcmp(argv[1], "--list") == 0) {
+        check_list(cases, sizeof cases / sizeof cases[0]);
+        return EXIT_SUCCESS;
+    }
+    if (parse_args(argc, argv, &name)) {
+        return 2;
+    }
+    return check_run(argv[0], name, cases, sizeof cases / sizeof cases[0]);
 }

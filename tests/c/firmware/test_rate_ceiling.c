@@ -66,9 +66,12 @@ static void test_config_above_ceiling(void)
     CHECK_NEAR(h.dist_mm, 1000.0, 5.0);
 }
 
-int main(void)
+static const check_case_t cases[] = {
+    CHECK_CASE(reset_at_ceiling),
+    CHECK_CASE(config_above_ceiling),
+};
+
+int main(int argc, char **argv)
 {
-    test_reset_at_ceiling();
-    test_config_above_ceiling();
-    CHECK_DONE();
+    return check_main(argc, argv, cases, sizeof cases / sizeof cases[0], NULL);
 }
