@@ -1,10 +1,43 @@
-"""Shared pytest options: seeded property tests take their seed and count from the
-command line (`pytest --prop-seed 7 --prop-count 100000`) or the environment
-(NAVKIT_PROP_SEED, NAVKIT_PROP_COUNT)."""
+"""Shared pytest options and fixtures: the build the tests need (a missing one stops the run
+with one message), seeded property tests' seed and count from the command line (`pytest
+--prop-seed 7 --prop-count 100000`) or the environment (NAVKIT_PROP_SEED, NAVKIT_PROP_COUNT),
+the FMU helpers."""
 
 import os
 
 import pytest
+
+
+# ---------------------------------------------------------------- the build
+# Most tests run the built host, FMUs and coupler (navkit.paths.build_dir()). Without them a
+# bare `pytest` stops before collecting with one message naming the build folder and the
+# fix, never a run of skips that reads as green. NAVKIT_TEST_WITHOUT_BUILD=1 opts out: the
+# tests that need no build run, the others skip (their own require_build / skipif).
+
+
+def _build_missing() -> list:
+    """The build products the co-simulation tests need that the build folder lacks."""
+    from navkit.paths import build_dir
+    from navkit.sim.coupler import library_path
+    from navkit.sim.harness import fmu_paths, host_path
+
+    b = build_dir()
+    return [p for p in (host_path(b), *fmu_paths(b), library_path(b)) if not p.exists()]
+
+
+def pytest_configure(config):
+    """Stop the run (pytest.UsageError: exit status 4) when the build folder lacks a product
+    of _build_missing(), unless opted out or only asked for --help/--version."""
+    if config.option.help or config.option.version or os.environ.get("NAVKIT_TEST_WITHOUT_BUILD") == "1":
+        return
+    missing = _build_missing()
+    if missing:
+        from navkit.paths import build_dir
+
+        raise pytest.UsageError(
+            f"{build_dir()}: not built (no {', '.join(p.name for p in missing)}): run `make build`, or set "
+            "NAVKIT_BUILD_DIR to a built folder (NAVKIT_TEST_WITHOUT_BUILD=1 runs only the tests that need "
+            "no build)")
 
 
 def pytest_addoption(parser):
