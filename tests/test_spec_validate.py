@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from navkit.paths import repo_root, spec_path
+from navkit.paths import build_dir, repo_root, spec_path
 from navkit.spec import SpecError, load
 
 NAVKIT = [sys.executable, "-m", "navkit"]
@@ -315,7 +315,8 @@ finally:
 print("OK")
 '''
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
-                       env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
+                       env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin",
+                            "NAVKIT_BUILD_DIR": str(build_dir())})   # the planner library it wraps
     assert r.returncode == 0 and r.stdout == "OK\n", r.stderr
 
 

@@ -14,67 +14,8 @@
 
 namespace navkit {
 
-// Every shared word is read and written with atomic 32-bit accesses (aligned: the
-// layout's offsets are multiples of 4); byte order is fixed to little-endian by
-// navkit_put_u32/navkit_get_u32 on the local copies.
-static uint32_t load32(const uint8_t *base, size_t off, int order)
-{
-    return __atomic_load_n(reinterpret_cast<const uint32_t *>(base + off), order);
-}
-
-static void store32(uint8_t *base, size_t off, uint32_t v, int order)
-{
-    __atomic_store_n(reinterpret_cast<uint32_t *>(base + off), v, order);
-}
-
-static uint32_t le32(uint32_t native)
-{
-    uint8_t b[4];
-    std::memcpy(b, &native, 4);
-    return navkit_get_u32(b);
-}
-
-static uint32_t native32(uint32_t le)
-{
-    uint8_t b[4];
-    navkit_put_u32(b, le);
-    uint32_t v;
-    std::memcpy(&v, b, 4);
-    return v;
-}
-
-bool Comm::seqlock_read(const uint8_t *base, size_t slot_off, uint8_t *out, size_t nbytes)
-{
-    // Reader: copy between two equal, even reads of seq; bounded retries.
-    for (int attempt = 0; attempt < 1000; attempt++) {
-        const uint32_t s1 = le32(load32(base, slot_off, __ATOMIC_ACQUIRE));
-        if (s1 & 1u) {
-            continue;  // a write is in progress
-        }
-        for (size_t i = 0; i < nbytes; i += 4) {
-            navkit_put_u32(out + i, le32(load32(base, slot_off + NAVKIT_RCOMM_SLOT_WORDS_OFFSET + i, __ATOMIC_RELAXED)));
-        }
-        __atomic_thread_fence(__ATOMIC_ACQUIRE);
-        const uint32_t s2 = le32(load32(base, slot_off, __ATOMIC_RELAXED));
-        if (s1 == s2) {
-            return s1 != 0;  // seq 0: never written
-        }
-    }
-    return false;
-}
-
-void Comm::seqlock_write(uint8_t *base, size_t slot_off, const uint8_t *in, size_t nbytes)
-{
-    // Writer: seq odd, words, seq even (+2 per message).
-    uint32_t s = le32(load32(base, slot_off, __ATOMIC_RELAXED));
-    s += (s & 1u) ? 1u : 0u;  // a writer that died mid-write left it odd
-    store32(base, slot_off, native32(s + 1), __ATOMIC_RELAXED);
-    __atomic_thread_fence(__ATOMIC_RELEASE);
-    for (size_t i = 0; i < nbytes; i += 4) {
-        store32(base, slot_off + NAVKIT_RCOMM_SLOT_WORDS_OFFSET + i, native32(navkit_get_u32(in + i)), __ATOMIC_RELAXED);
-    }
-    store32(base, slot_off, native32(s + 2), __ATOMIC_RELEASE);
-}
+// Every shared word goes through navkit_rcomm_slot.h (aligned 32-bit atomics, the
+// region's little-endian byte order, the seqlock): the planner library runs the same code.
 
 // The SIGBUS guard of the mapped region: another process of our user may ftruncate() it
 // under us, and the next access to a page past its new end faults. An access made
@@ -229,9 +170,9 @@ void Comm::init()
     base_ = static_cast<uint8_t *>(p);
     install_bus_guard();
     // header last-but-magic-last: a client that sees the magic sees the rest
-    store32(base_, NAVKIT_RCOMM_VERSION_OFFSET, native32(NAVKIT_RCOMM_VERSION), __ATOMIC_RELAXED);
-    store32(base_, NAVKIT_RCOMM_SPEC_HASH_OFFSET, native32(NAVKIT_SPEC_HASH), __ATOMIC_RELAXED);
-    store32(base_, NAVKIT_RCOMM_MAGIC_OFFSET, native32(NAVKIT_RCOMM_MAGIC), __ATOMIC_RELEASE);
+    navkit_rcomm_store(base_, NAVKIT_RCOMM_VERSION_OFFSET, NAVKIT_RCOMM_VERSION, __ATOMIC_RELAXED);
+    navkit_rcomm_store(base_, NAVKIT_RCOMM_SPEC_HASH_OFFSET, NAVKIT_SPEC_HASH, __ATOMIC_RELAXED);
+    navkit_rcomm_store(base_, NAVKIT_RCOMM_MAGIC_OFFSET, NAVKIT_RCOMM_MAGIC, __ATOMIC_RELEASE);
 }
 
 void Comm::shutdown()
@@ -252,43 +193,52 @@ void Comm::shutdown()
 
 bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
 {
-    uint8_t b[NAVKIT_LISP_CMD_BYTES];
+    int32_t w[NAVKIT_LISP_CMD_WORDS];
     bool ok = false;
-    if (!guarded([&] { ok = seqlock_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, b, sizeof b); }) || !ok) {
+    if (!guarded([&] {
+            ok = navkit_rcomm_slot_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
+                                        NAVKIT_LISP_CMD_WORDS);
+        }) || !ok) {
         return false;
     }
-    navkit_lisp_cmd_load(b, out);
+    navkit_lisp_cmd_unpack(w, out);
     return true;
 }
 
 bool Comm::read_emotion(navkit_emotion_t *out) const
 {
-    uint8_t b[NAVKIT_EMOTION_BYTES];
+    int32_t w[NAVKIT_EMOTION_WORDS];
     bool ok = false;
-    if (!guarded([&] { ok = seqlock_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, b, sizeof b); }) || !ok) {
+    if (!guarded([&] {
+            ok = navkit_rcomm_slot_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
+                                        NAVKIT_EMOTION_WORDS);
+        }) || !ok) {
         return false;
     }
-    navkit_emotion_load(b, out);
+    navkit_emotion_unpack(w, out);
     return true;
 }
 
 void Comm::send_lisp_data(const navkit_lisp_data_t &d)
 {
-    uint8_t b[NAVKIT_LISP_DATA_BYTES];
-    navkit_lisp_data_store(&d, b);
-    guarded([&] { seqlock_write(base_, NAVKIT_RCOMM_LISP_DATA_OFFSET, b, sizeof b); });
+    int32_t w[NAVKIT_LISP_DATA_WORDS];
+    navkit_lisp_data_pack(&d, w);
+    guarded([&] {
+        navkit_rcomm_slot_write(base_, NAVKIT_RCOMM_LISP_DATA_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
+                                NAVKIT_LISP_DATA_WORDS);
+    });
 }
 
 uint32_t Comm::planner_heartbeat() const
 {
     uint32_t v = 0;
-    guarded([&] { v = le32(load32(base_, NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET, __ATOMIC_ACQUIRE)); });
+    guarded([&] { v = navkit_rcomm_load(base_, NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET, __ATOMIC_ACQUIRE); });
     return v;
 }
 
 void Comm::set_host_heartbeat(uint32_t v)
 {
-    guarded([&] { store32(base_, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, native32(v), __ATOMIC_RELEASE); });
+    guarded([&] { navkit_rcomm_store(base_, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, v, __ATOMIC_RELEASE); });
 }
 
 }  // namespace navkit

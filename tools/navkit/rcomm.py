@@ -1,5 +1,6 @@
 """`navkit.rcomm`: the planner's end of the host's rcomm shared memory (the seed's
-RComm.dll), laid out as protocol/navkit.toml [links.rcomm] says (docs/protocol.md).
+RComm.dll), a ctypes wrapper over the planner library libnavkit_rcomm.so
+(planner/include/navkit_rcomm.h), laid out as protocol/navkit.toml [links.rcomm] says.
 
     >>> with Client("/navkit") as c:                     # doctest: +SKIP
     ...     c.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 1000})
@@ -7,116 +8,125 @@ RComm.dll), laid out as protocol/navkit.toml [links.rcomm] says (docs/protocol.m
     ...     data = c.read_data()                          # dict of lisp_data, or None
 
 Values are raw integers as in the spec (mm, mm/s, mm/s^2, deg x 10, deg/s x 10; see
-docs/protocol.md). The host creates the region; a client only opens it, checks its
-magic, layout version, spec hash and owner, and then:
+docs/protocol.md). The host creates the region; a client only opens it. Every rule of
+the client lives in the library, once, and this module only converts: the name check
+("/" then 1..255 characters, no other "/", not "." or ".."), opening without following
+a symbolic link, the owner rule (ours; another user's only when its group is one of
+ours with read and write, the host's `shm_group`, mode 0660; never world-writable),
+the magic, layout version and spec hash, the seqlock of lisp_cmd, emotion and
+lisp_data (the one navkit-host runs too: planner/include/navkit_rcomm_slot.h), the
+atomic heartbeat, and the size check before every access (a region cut short by
+another process raises RcommError instead of a SIGBUS; a cut in the microseconds
+between that check and the access still ends the process).
 
-- writes `lisp_cmd` and `emotion` behind a seqlock (seq odd, words, seq even, +2 per
-  message), so the host never reads a torn message;
-- reads `lisp_data` behind the same seqlock (bounded retries);
-- bumps the planner heartbeat word, which the host watches (planner_timeout, s).
-A planner should call heartbeat() at least once per host frame while it lives;
-write_cmd() bumps it too.
-
-Names are POSIX shared-memory names as the host takes them (`--shm`, shm_name): "/"
-then 1..255 characters, no other "/", not "." or ".."; the region is opened without
-following a symbolic link. Another process of the host's user can cut the region short
-(ftruncate) while it is in use: every access first checks its size, and a region shorter
-than the layout raises RcommError instead of a SIGBUS (a cut in the microseconds between
-that check and the access still ends the process: Python cannot guard a mapped access).
-
-Owner rule (the same as rcomm.h's): a region owned by our user is accepted; one of
-another user only when its group is one of ours and its mode gives that group read and
-write (the host's `shm_group = NAME`, mode 0660); a world-writable region never.
-
-Memory model, and what this module relies on: every shared word (seqlock counters,
-message words, heartbeats) is read and written as one aligned 4-byte atomic access
-with sequentially consistent ordering, through GCC's libatomic (`__atomic_load_4`,
-`__atomic_store_4`, `__atomic_fetch_add_4`, called with ctypes; libatomic1 comes with
-the GCC runtime on every Linux this kit supports). Python has no fence and CPython's
-mmap slice and struct writes are byte copies of no stated width or order, so they are
-used for nothing shared (one exception, read_data_raw_still(), for a caller that knows
-the host is not running). With every access sequentially consistent the seqlock is
-correct on weakly ordered CPUs too (aarch64), not only on x86's TSO: a reader that sees
-any word of a new message also sees the odd counter before it. The heartbeat is an
-atomic read-modify-write of the shared word (fetch-add), so two writers never lose a
-beat. Words are native-endian, and the region is little-endian: little-endian hosts
-only (x86-64, aarch64 Linux).
+The layout passed to the library is this package's spec's (protocol.SPEC.rcomm), so a
+client follows the spec it reads. The library is `<build>/planner/libnavkit_rcomm.so`
+(`$NAVKIT_BUILD_DIR` or `<repo>/build`, navkit.paths.build_dir); words are exchanged as
+the region's little-endian bytes: little-endian hosts only (x86-64, aarch64 Linux).
 """
 
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import errno
-import mmap
-import os
-import stat
-import struct
+import sys
 
 from navkit import protocol
 
-__all__ = ["Client", "RcommError", "name_refusal", "owner_refusal"]
+__all__ = ["Client", "RcommError", "library_path", "name_refusal", "owner_refusal"]
 
 _LAYOUT = protocol.SPEC.rcomm      # the region as the spec lays it out ([links.rcomm]), bytes
-_MAGIC, _VERSION, _SPEC = (_LAYOUT.header[w] for w in ("magic", "version", "spec_hash"))
-_PLANNER_HEARTBEAT = _LAYOUT.header["planner_heartbeat"]
-_HOST_HEARTBEAT = _LAYOUT.header["host_heartbeat"]
-_WORDS_AT = _LAYOUT.slot_words_at  # a slot's words, after its seq at +0
-_RETRIES = 1000
-_LISP_DATA_SIZE = protocol.SPEC.messages["lisp_data"].size   # bytes
-_SEQ_CST = 5                        # __ATOMIC_SEQ_CST
-
-
-def _libatomic():
-    """GCC's libatomic: 4-byte atomic load, store and fetch-add (see the module docstring)."""
-    lib = ctypes.CDLL(ctypes.util.find_library("atomic") or "libatomic.so.1")
-    load = getattr(lib, "__atomic_load_4")
-    load.argtypes, load.restype = [ctypes.c_void_p, ctypes.c_int], ctypes.c_uint32
-    store = getattr(lib, "__atomic_store_4")
-    store.argtypes, store.restype = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_int], None
-    fetch_add = getattr(lib, "__atomic_fetch_add_4")
-    fetch_add.argtypes = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_int]
-    fetch_add.restype = ctypes.c_uint32
-    return load, store, fetch_add
-
-
-_load4, _store4, _fetch_add4 = _libatomic()
+_SLOTS = ("lisp_cmd", "lisp_data", "emotion")
+_BYTES = {m: protocol.SPEC.messages[m].size for m in _SLOTS}   # bytes per message
+_WHY_BYTES = 320                    # a refusal text's buffer, bytes
 
 
 class RcommError(ConnectionError):
-    """The region is missing, refused by the owner rule, or of another layout or spec;
-    the text says why."""
+    """The region is missing, refused (name, link, owner rule), of another layout or
+    spec, cut short or closed; the text says why."""
+
+
+class _Layout(ctypes.Structure):
+    """navkit_rcomm_layout_t: every field a uint32, byte offsets and sizes."""
+    _fields_ = [(f, ctypes.c_uint32) for f in (
+        "magic", "version", "spec_hash", "size",
+        "magic_at", "version_at", "spec_hash_at", "planner_heartbeat_at", "host_heartbeat_at",
+        "slot_words_at", "lisp_cmd_at", "lisp_data_at", "emotion_at",
+        "lisp_cmd_words", "lisp_data_words", "emotion_words")]
+
+
+def _spec_layout() -> _Layout:
+    """This package's spec's layout, for navkit_rcomm_open_layout."""
+    h = _LAYOUT.header
+    return _Layout(_LAYOUT.magic, _LAYOUT.version, protocol.SPEC_HASH, _LAYOUT.size,
+                   h["magic"], h["version"], h["spec_hash"], h["planner_heartbeat"], h["host_heartbeat"],
+                   _LAYOUT.slot_words_at, *(_LAYOUT.slots[m] for m in _SLOTS),
+                   *(_BYTES[m] // 4 for m in _SLOTS))
+
+
+def library_path():
+    """Where the planner library is: `<build>/planner/libnavkit_rcomm.so` (pathlib.Path)."""
+    from navkit.paths import build_dir
+    return build_dir() / "planner" / "libnavkit_rcomm.so"
+
+
+_lib = None
+
+
+def _library():
+    """The loaded library with its prototypes (once). FileNotFoundError (not an
+    RcommError: nothing to wait for) when it is not built."""
+    global _lib
+    if _lib is not None:
+        return _lib
+    if sys.byteorder != "little":
+        raise RcommError("rcomm: the Python client exchanges little-endian words: little-endian hosts only")
+    path = library_path()
+    if not path.is_file():
+        raise FileNotFoundError(errno.ENOENT, "the planner library is not built (make build, or cmake --build "
+                                "BUILD --target navkit_rcomm)", str(path))
+    lib = ctypes.CDLL(str(path))
+    h, u32, i, p = ctypes.c_void_p, ctypes.c_uint32, ctypes.c_int, ctypes.c_char_p
+    for name, args, res in (
+            ("navkit_rcomm_open_layout", [p, ctypes.POINTER(_Layout)], h),
+            ("navkit_rcomm_close", [h], None),
+            ("navkit_rcomm_error", [h], p),
+            ("navkit_rcomm_write_cmd", [h, p], i),
+            ("navkit_rcomm_write_emotion", [h, p], i),
+            ("navkit_rcomm_read_data", [h, ctypes.c_void_p], i),
+            ("navkit_rcomm_read_cmd", [h, ctypes.c_void_p], i),
+            ("navkit_rcomm_heartbeat", [h], i),
+            ("navkit_rcomm_host_heartbeat", [h, ctypes.POINTER(u32)], i),
+            ("navkit_rcomm_planner_heartbeat", [h, ctypes.POINTER(u32)], i),
+            ("navkit_rcomm_owner_check", [ctypes.c_uint, ctypes.c_uint, ctypes.c_uint, p, ctypes.c_size_t], i),
+            ("navkit_rcomm_name_check", [p, p, ctypes.c_size_t], i)):
+        f = getattr(lib, name)
+        f.argtypes, f.restype = args, res
+    _lib = lib
+    return lib
+
+
+def _text(b: bytes) -> str:
+    return b.decode(errors="surrogateescape")
 
 
 def owner_refusal(uid: int, gid: int, mode: int) -> str:
     """Why a client may not use a region of owner uid, group gid and mode (st_mode),
-    or "" when it may (the owner rule of the module docstring)."""
-    if mode & 0o002:
-        return f"world-writable (mode {mode & 0o777:03o})"
-    if uid == os.geteuid():
-        return ""
-    if mode & 0o060 == 0o060 and (gid == os.getegid() or gid in os.getgroups()):
-        return ""
-    return (f"owned by uid {uid}, not us, and group {gid} is not ours with rw "
-            f"(mode {mode & 0o777:03o})")
-
-
-_NAME_MAX = 255                     # bytes of a shared-memory name after its "/" (NAME_MAX)
+    or "" when it may (the library's owner rule, navkit_rcomm_owner_check)."""
+    why = ctypes.create_string_buffer(_WHY_BYTES)
+    _library().navkit_rcomm_owner_check(uid, gid, mode, why, _WHY_BYTES)
+    return _text(why.value)
 
 
 def name_refusal(name: str) -> str:
     """Why `name` is not a POSIX shared-memory name the host takes, or "" when it is
-    (the rule of the module docstring)."""
-    rest = name[1:]
-    if (not name.startswith("/") or not rest or "/" in rest or rest in (".", "..")
-            or len(rest.encode(errors="surrogateescape")) > _NAME_MAX or "\0" in rest):
-        return (f"{name!r} is not a POSIX shared-memory name ('/' then 1..{_NAME_MAX} characters, "
-                "no other '/', not . or ..)")
-    return ""
-
-
-def _path(name: str) -> str:
-    return "/dev/shm" + name
+    (the library's rule, navkit_rcomm_name_check)."""
+    raw = name.encode(errors="surrogateescape")
+    if b"\0" in raw:
+        return f"{name!r} is not a POSIX shared-memory name (a NUL character)"
+    why = ctypes.create_string_buffer(_WHY_BYTES)
+    _library().navkit_rcomm_name_check(raw, why, _WHY_BYTES)
+    return _text(why.value)
 
 
 class Client:
@@ -124,123 +134,60 @@ class Client:
 
     def __init__(self, name: str = "/navkit"):
         self.name = name
-        self._mm = None
-        self._anchor = None
-        self._fd = -1
+        self._h = None
+        lib = self._lib = _library()
         why = name_refusal(name)
         if why:
             raise RcommError(f"rcomm {why}")
-        try:
-            fd = os.open(_path(name), os.O_RDWR | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK)
-        except OSError as e:
-            if e.errno == errno.ELOOP:
-                raise RcommError(f"rcomm {name}: {_path(name)} is a symbolic link: refused") from None
-            raise RcommError(f"rcomm {name}: {e.strerror}") from None
-        try:
-            st = os.fstat(fd)
-            if not stat.S_ISREG(st.st_mode):
-                raise RcommError(f"rcomm {name}: {_path(name)} is not a shared-memory region: refused")
-            why = owner_refusal(st.st_uid, st.st_gid, st.st_mode)
-            if why:
-                raise RcommError(f"rcomm {name}: {why}: refused")
-            if st.st_size < _LAYOUT.size:
-                raise RcommError(f"rcomm {name}: {st.st_size} bytes, the layout needs {_LAYOUT.size}")
-            self._mm = mmap.mmap(fd, _LAYOUT.size)
-        except BaseException:
-            os.close(fd)
-            raise
-        self._fd = fd                      # kept open: every access checks the region's size
-        # the mapping's address for libatomic; released in close() before the unmap
-        self._anchor = ctypes.c_char.from_buffer(self._mm)
-        self._base = ctypes.addressof(self._anchor)
-        magic, version, spec = (self._word(o) for o in (_MAGIC, _VERSION, _SPEC))
-        if magic != _LAYOUT.magic or version != _LAYOUT.version:
-            self.close()
-            raise RcommError(f"rcomm {name}: magic 0x{magic:08X} version {version}, expected "
-                             f"0x{_LAYOUT.magic:08X} version {_LAYOUT.version}")
-        if spec != protocol.SPEC_HASH:
-            self.close()
-            raise RcommError(f"rcomm {name}: spec hash 0x{spec:08X}, ours 0x{protocol.SPEC_HASH:08X}")
-        self._off = _LAYOUT.slots
+        h = lib.navkit_rcomm_open_layout(name.encode(errors="surrogateescape"), ctypes.byref(_spec_layout()))
+        if not h:
+            raise MemoryError("rcomm: no memory for a handle")
+        error = _text(lib.navkit_rcomm_error(h))
+        if error:
+            lib.navkit_rcomm_close(h)
+            raise RcommError(error)
+        self._h = h
+        self._data = ctypes.create_string_buffer(_BYTES["lisp_data"])   # read_data's copy
+        self._cmd = ctypes.create_string_buffer(_BYTES["lisp_cmd"])
+        self._word = ctypes.c_uint32()
 
-    # ------------------------------------------------------------ shared words
-    def _open(self) -> None:
-        """Raise RcommError after close() (the mapping's address is gone), or when the
-        region is shorter than the layout now (cut by another process: the access would
-        end this process with SIGBUS); the client is closed then."""
-        if self._mm is None:
+    def _handle(self) -> int:
+        """The open handle; RcommError after close()."""
+        if self._h is None:
             raise RcommError(f"rcomm {self.name}: closed")
-        size = os.fstat(self._fd).st_size
-        if size < _LAYOUT.size:
-            self.close()
-            raise RcommError(f"rcomm {self.name}: the region was cut to {size} bytes by another process "
-                             f"(the layout needs {_LAYOUT.size}): closed")
+        return self._h
 
-    def _word(self, off: int) -> int:
-        """Atomic load of the uint32 at byte offset off (seq_cst)."""
-        return _load4(self._base + off, _SEQ_CST)
+    def _failed(self) -> RcommError:
+        """The library's reason for a -1 (the region was cut short: it is closed)."""
+        return RcommError(_text(self._lib.navkit_rcomm_error(self._h)))
 
-    def _set_word(self, off: int, value: int) -> None:
-        """Atomic store of a uint32 at byte offset off (seq_cst)."""
-        _store4(self._base + off, value & 0xFFFFFFFF, _SEQ_CST)
-
-    # ------------------------------------------------------------ seqlock
-    def _write(self, slot: str, data: bytes) -> None:
-        """Seqlock write of whole little-endian words: seq odd, words, seq even (+2)."""
-        self._open()
-        off = self._off[slot]
-        words = struct.unpack(f"<{len(data) // 4}I", data)
-        seq = self._word(off)
-        seq += seq & 1                     # a writer that died mid-write left it odd
-        self._set_word(off, seq + 1)
-        for i, w in enumerate(words):
-            self._set_word(off + _WORDS_AT + 4 * i, w)
-        self._set_word(off, seq + 2)
-
-    def _read(self, slot: str, size: int) -> bytes | None:
-        """Seqlock read: the words between two equal even reads of seq (bounded retries)."""
-        self._open()
-        off = self._off[slot]
-        n = size // 4
-        for _ in range(_RETRIES):
-            s1 = self._word(off)
-            if s1 & 1:
-                continue
-            words = [self._word(off + _WORDS_AT + 4 * i) for i in range(n)]
-            if self._word(off) == s1:
-                return struct.pack(f"<{n}I", *words) if s1 else None
-        return None
+    def _read(self, fn, buf) -> bytes | None:
+        got = fn(self._handle(), buf)
+        if got < 0:
+            raise self._failed()
+        return buf.raw if got else None
 
     # ------------------------------------------------------------ planner API
     def write_cmd(self, fields: dict) -> None:
         """Write one whole lisp_cmd (unset fields 0; values must fit int32, the host
         range-checks them) and bump the heartbeat. A changed time_tag (ms) marks a new
         command for the host."""
-        self._write("lisp_cmd", protocol.to_bytes("lisp_cmd", fields))
-        self.heartbeat()
+        if self._lib.navkit_rcomm_write_cmd(self._handle(), protocol.to_bytes("lisp_cmd", fields)) < 0:
+            raise self._failed()
 
     def write_emotion(self, fields: dict) -> None:
         """Write one whole emotion message (unset fields 0) for the face."""
-        self._write("emotion", protocol.to_bytes("emotion", fields))
+        if self._lib.navkit_rcomm_write_emotion(self._handle(), protocol.to_bytes("emotion", fields)) < 0:
+            raise self._failed()
 
     def read_data_raw(self) -> bytes | None:
         """The little-endian bytes of the host's latest lisp_data, or None before the
         host's first frame (or if every bounded retry met a write in progress)."""
-        return self._read("lisp_data", _LISP_DATA_SIZE)
+        return self._read(self._lib.navkit_rcomm_read_data, self._data)
 
-    def read_data_raw_still(self) -> bytes | None:
-        """read_data_raw() in one copy, for a caller that knows the host is not running
-        (a lockstep driver between a frame's done and its next tick): the slot's bytes
-        are one plain slice of the mapping taken between two atomic reads of an even,
-        unchanged seq, instead of one atomic call per word. If seq says a write was in
-        progress after all, the seqlock read of read_data_raw() answers."""
-        self._open()
-        off = self._off["lisp_data"]
-        s1 = self._word(off)
-        data = self._mm[off + _WORDS_AT:off + _WORDS_AT + _LISP_DATA_SIZE]
-        if s1 & 1 or self._word(off) != s1:
-            return self.read_data_raw()
-        return data if s1 else None
+    # A lockstep driver's read between a frame's done and its next tick: the library's
+    # seqlock read is one call already, so it is read_data_raw.
+    read_data_raw_still = read_data_raw
 
     def read_data(self) -> dict | None:
         """The host's latest lisp_data as a dict of raw values, or None (see read_data_raw)."""
@@ -249,36 +196,38 @@ class Client:
 
     def read_cmd(self) -> dict | None:
         """The lisp_cmd currently in the region (what the host will read), or None."""
-        raw = self._read("lisp_cmd", protocol.SPEC.messages["lisp_cmd"].size)
+        raw = self._read(self._lib.navkit_rcomm_read_cmd, self._cmd)
         return None if raw is None else protocol.from_bytes("lisp_cmd", raw)
 
     def heartbeat(self) -> None:
         """Bump the planner heartbeat word (the host stops the robot when it stays
         unchanged for planner_timeout seconds)."""
-        self._open()
-        _fetch_add4(self._base + _PLANNER_HEARTBEAT, 1, _SEQ_CST)
+        if self._lib.navkit_rcomm_heartbeat(self._handle()) < 0:
+            raise self._failed()
 
     beat = heartbeat  # the co-simulation harness's name
 
+    def _get(self, fn) -> int:
+        if fn(self._handle(), ctypes.byref(self._word)) < 0:
+            raise self._failed()
+        return self._word.value
+
     def host_heartbeat(self) -> int:
         """The host's frame counter (it advances once per host frame)."""
-        self._open()
-        return self._word(_HOST_HEARTBEAT)
+        return self._get(self._lib.navkit_rcomm_host_heartbeat)
 
     def planner_heartbeat(self) -> int:
         """The planner heartbeat word as it is in the region (every client's beats)."""
-        self._open()
-        return self._word(_PLANNER_HEARTBEAT)
+        return self._get(self._lib.navkit_rcomm_planner_heartbeat)
 
     def close(self) -> None:
         """Unmap the region (the host owns it and removes it at shutdown)."""
-        self._anchor = None                # the buffer export must end before the unmap
-        if self._mm is not None:
-            self._mm.close()
-            self._mm = None
-        if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
+        if self._h is not None:
+            self._lib.navkit_rcomm_close(self._h)
+            self._h = None
+
+    def __del__(self):
+        self.close()
 
     def __enter__(self) -> "Client":
         return self

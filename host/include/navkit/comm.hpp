@@ -1,8 +1,9 @@
 // Comm: the seed's Comm class plus its RComm.dll, as POSIX shared memory laid out per
 // docs/internals.md: header words, then the lisp_cmd, lisp_data and emotion slots, each
-// behind a seqlock. The host creates the region (mode 0600, or 0660 with a group) and
-// holds an flock() on it while it runs; it refuses a region owned by another user or
-// locked by a running host, replaces a stale one of its user, and unlinks it at shutdown.
+// behind a seqlock (planner/include/navkit_rcomm_slot.h, the planner library's own code).
+// The host creates the region (mode 0600, or 0660 with a group) and holds an flock() on
+// it while it runs; it refuses a region owned by another user or locked by a running
+// host, replaces a stale one of its user, and unlinks it at shutdown.
 // A region another process cut short (ftruncate) is let go at the next access, never a
 // SIGBUS: every access checks the size and runs under a SIGBUS guard (comm.cpp).
 #pragma once
@@ -14,6 +15,7 @@
 extern "C" {
 #include "navkit/navkit_proto.h"
 }
+#include "navkit_rcomm_slot.h"
 
 namespace navkit {
 
@@ -39,10 +41,6 @@ public:
     // Called between each access's size check and the access (tests: another process
     // cutting the region in that moment); empty by default.
     void set_between_check_and_access(std::function<void()> f) { between_ = std::move(f); }
-
-    // Seqlock on a mapped slot (seq word at slot_off, then nbytes): exposed for tests.
-    static bool seqlock_read(const uint8_t *base, size_t slot_off, uint8_t *out, size_t nbytes);
-    static void seqlock_write(uint8_t *base, size_t slot_off, const uint8_t *in, size_t nbytes);
 
 private:
     // Runs access() on the mapping when it is whole and returns true; false (and the

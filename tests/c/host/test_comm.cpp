@@ -1,5 +1,5 @@
-// Comm: the rcomm region (layout, mode, shm_group, owner check), seqlocks, and the planner's C
-// header rcomm.h against the host's side.
+// Comm: the rcomm region (layout, mode, shm_group, owner check), the seqlock of
+// navkit_rcomm_slot.h, and the planner library libnavkit_rcomm.so against the host's side.
 #include <gtest/gtest.h>
 
 #include <csignal>
@@ -13,7 +13,8 @@
 #include <unistd.h>
 
 #include "navkit/comm.hpp"
-#include "navkit/rcomm.h"
+#include "navkit_rcomm.h"
+#include "navkit_rcomm_slot.h"
 
 using namespace navkit;
 
@@ -32,9 +33,9 @@ TEST(Comm, RegionLayoutModeAndUnlink)
         ASSERT_EQ(stat(("/dev/shm" + name).c_str(), &st), 0);
         EXPECT_EQ(st.st_mode & 0777, 0600u);
         EXPECT_EQ(st.st_size, static_cast<off_t>(NAVKIT_RCOMM_SIZE));
-        navkit_rcomm_t r;
-        ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
-        navkit_rcomm_close(&r);
+        navkit_rcomm_t *r = navkit_rcomm_open(name.c_str());
+        EXPECT_STREQ(navkit_rcomm_error(r), "");
+        navkit_rcomm_close(r);
         c.shutdown();
         EXPECT_NE(stat(("/dev/shm" + name).c_str(), &st), 0) << "removed at shutdown";
     }
@@ -45,8 +46,8 @@ TEST(Comm, PlannerHeaderRoundTrip)
     const std::string name = unique_name("roundtrip");
     Comm c(name, "");
     c.init();
-    navkit_rcomm_t r;
-    ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+    navkit_rcomm_t *r = navkit_rcomm_open(name.c_str());
+    ASSERT_STREQ(navkit_rcomm_error(r), "");
 
     navkit_lisp_cmd_t out;
     EXPECT_FALSE(c.read_lisp_cmd(&out)) << "nothing written yet";
@@ -59,7 +60,7 @@ TEST(Comm, PlannerHeaderRoundTrip)
     int32_t w[NAVKIT_LISP_CMD_WORDS];
     navkit_lisp_cmd_pack(&in, w);
     const uint32_t hb0 = c.planner_heartbeat();
-    navkit_rcomm_write_cmd(&r, w);
+    ASSERT_EQ(navkit_rcomm_write_cmd(r, w), 0);
     ASSERT_TRUE(c.read_lisp_cmd(&out));
     EXPECT_EQ(out.time_tag, 4242);
     EXPECT_EQ(out.distance, -2000000000);
@@ -73,35 +74,38 @@ TEST(Comm, PlannerHeaderRoundTrip)
     c.send_lisp_data(d);
     c.set_host_heartbeat(77);
     int32_t dw[NAVKIT_LISP_DATA_WORDS];
-    ASSERT_TRUE(navkit_rcomm_read_data(&r, dw));
+    ASSERT_EQ(navkit_rcomm_read_data(r, dw), 1);
     navkit_lisp_data_t back;
     navkit_lisp_data_unpack(dw, &back);
     EXPECT_EQ(back.frame, 77);
     EXPECT_EQ(back.ir_range[3], 555);
-    EXPECT_EQ(navkit_rcomm_host_heartbeat(&r), 77u);
+    uint32_t hb = 0;
+    ASSERT_EQ(navkit_rcomm_host_heartbeat(r, &hb), 0);
+    EXPECT_EQ(hb, 77u);
 
     int32_t ew[NAVKIT_EMOTION_WORDS] = {1, 0, 50, 60, 0, 0, 0, 1};
-    navkit_rcomm_write_emotion(&r, ew);
+    ASSERT_EQ(navkit_rcomm_write_emotion(r, ew), 0);
     navkit_emotion_t e;
     ASSERT_TRUE(c.read_emotion(&e));
     EXPECT_EQ(e.happiness, 50);
     EXPECT_EQ(e.talking, 1);
-    navkit_rcomm_close(&r);
+    navkit_rcomm_close(r);
 }
 
 TEST(Comm, SeqlockReaderNeverTakesAWriteInProgress)
 {
-    uint8_t region[64] = {};
-    const uint8_t msg[8] = {1, 2, 3, 4, 5, 6, 7, 8};
-    uint8_t out[8];
-    EXPECT_FALSE(Comm::seqlock_read(region, 0, out, 8)) << "seq 0: never written";
-    Comm::seqlock_write(region, 0, msg, 8);
+    alignas(4) uint8_t region[64] = {};
+    const int32_t msg[2] = {0x04030201, -8};
+    int32_t out[2];
+    EXPECT_EQ(navkit_rcomm_slot_read(region, 0, 4, out, 2), 0) << "seq 0: never written";
+    navkit_rcomm_slot_write(region, 0, 4, msg, 2);
     EXPECT_EQ(navkit_get_u32(region), 2u);
-    ASSERT_TRUE(Comm::seqlock_read(region, 0, out, 8));
-    EXPECT_EQ(std::memcmp(out, msg, 8), 0);
+    EXPECT_EQ(region[4], 0x01) << "the region is little-endian";
+    ASSERT_EQ(navkit_rcomm_slot_read(region, 0, 4, out, 2), 1);
+    EXPECT_EQ(std::memcmp(out, msg, sizeof msg), 0);
     navkit_put_u32(region, 3);  // a writer stopped half way
-    EXPECT_FALSE(Comm::seqlock_read(region, 0, out, 8));
-    Comm::seqlock_write(region, 0, msg, 8);
+    EXPECT_EQ(navkit_rcomm_slot_read(region, 0, 4, out, 2), 0);
+    navkit_rcomm_slot_write(region, 0, 4, msg, 2);
     EXPECT_EQ(navkit_get_u32(region), 6u) << "the next writer skips the odd value";
 }
 
@@ -135,9 +139,9 @@ TEST(Comm, StaleRegionOfOurOwnIsReplaced)
     close(fd);
     Comm c(name, "");
     c.init();
-    navkit_rcomm_t r;
-    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
-    navkit_rcomm_close(&r);
+    navkit_rcomm_t *r = navkit_rcomm_open(name.c_str());
+    EXPECT_STREQ(navkit_rcomm_error(r), "");
+    navkit_rcomm_close(r);
 }
 
 TEST(Comm, ASecondHostIsRefusedWhileTheFirstRuns)
@@ -155,10 +159,12 @@ TEST(Comm, ASecondHostIsRefusedWhileTheFirstRuns)
         EXPECT_NE(w.find("rcomm " + name + ": in use by a running navkit-host"), std::string::npos) << w;
         EXPECT_NE(w.find("--shm NAME"), std::string::npos) << w;
     }
-    navkit_rcomm_t r;
-    ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << "the first host's region is untouched: " << r.error;
-    EXPECT_EQ(navkit_rcomm_host_heartbeat(&r), 5u);
-    navkit_rcomm_close(&r);
+    navkit_rcomm_t *r = navkit_rcomm_open(name.c_str());
+    ASSERT_STREQ(navkit_rcomm_error(r), "") << "the first host's region is untouched";
+    uint32_t hb = 0;
+    EXPECT_EQ(navkit_rcomm_host_heartbeat(r, &hb), 0);
+    EXPECT_EQ(hb, 5u);
+    navkit_rcomm_close(r);
     first.shutdown();
     Comm third(name, "");
     third.init();  // the first has ended: the name is free again
@@ -168,11 +174,11 @@ TEST(Comm, ClientOwnerRules)
 {
     const uid_t me = geteuid();
     const gid_t mine = getegid();
-    EXPECT_EQ(navkit_rcomm_owner_check(me, 12345, 0600), 0) << "ours";
-    EXPECT_EQ(navkit_rcomm_owner_check(me, mine, 0666), 1) << "world-writable: never";
-    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0660), 0) << "another user's, shared with our group";
-    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0600), 2) << "our group, but the mode does not share it";
-    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine + 54321, 0660), 2) << "a group that is not ours";
+    EXPECT_EQ(navkit_rcomm_owner_check(me, 12345, 0600, nullptr, 0), 0) << "ours";
+    EXPECT_EQ(navkit_rcomm_owner_check(me, mine, 0666, nullptr, 0), 1) << "world-writable: never";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0660, nullptr, 0), 0) << "another user's, shared with our group";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0600, nullptr, 0), 2) << "our group, but the mode does not share it";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine + 54321, 0660, nullptr, 0), 2) << "a group that is not ours";
 }
 
 TEST(Comm, ClientOpensAnotherUsersRegionSharedWithItsGroup)
@@ -184,18 +190,20 @@ TEST(Comm, ClientOpensAnotherUsersRegionSharedWithItsGroup)
     Comm c(name, "");
     c.init();
     const std::string path = "/dev/shm" + name;
-    navkit_rcomm_t r;
     ASSERT_EQ(chown(path.c_str(), 65534, getegid()), 0);
     ASSERT_EQ(chmod(path.c_str(), 0660), 0);
-    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
-    navkit_rcomm_close(&r);
+    navkit_rcomm_t *r = navkit_rcomm_open(name.c_str());
+    EXPECT_STREQ(navkit_rcomm_error(r), "");
+    navkit_rcomm_close(r);
     ASSERT_EQ(chown(path.c_str(), 65534, 65534), 0);
-    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), -1) << "another user, a group not ours";
-    EXPECT_NE(std::string(r.error).find("not ours"), std::string::npos) << r.error;
+    r = navkit_rcomm_open(name.c_str());
+    EXPECT_NE(std::string(navkit_rcomm_error(r)).find("not ours"), std::string::npos) << "another user, a group not ours";
+    navkit_rcomm_close(r);
     ASSERT_EQ(chown(path.c_str(), 0, 0), 0);
     ASSERT_EQ(chmod(path.c_str(), 0666), 0);
-    EXPECT_EQ(navkit_rcomm_open(&r, name.c_str()), -1) << "world-writable";
-    EXPECT_NE(std::string(r.error).find("world-writable"), std::string::npos) << r.error;
+    r = navkit_rcomm_open(name.c_str());
+    EXPECT_NE(std::string(navkit_rcomm_error(r)).find("world-writable"), std::string::npos) << navkit_rcomm_error(r);
+    navkit_rcomm_close(r);
 }
 
 TEST(Comm, ShmGroupGivesTheGroupAndMode0660)
@@ -326,17 +334,19 @@ TEST(Comm, ThePlannersHeaderClosesARegionCutShort)
     const std::string name = unique_name("cut-client");
     Comm c(name, "");
     c.init();
-    navkit_rcomm_t r;
-    ASSERT_EQ(navkit_rcomm_open(&r, name.c_str()), 0) << r.error;
+    navkit_rcomm_t *r = navkit_rcomm_open(name.c_str());
+    ASSERT_STREQ(navkit_rcomm_error(r), "");
     ASSERT_EQ(truncate(("/dev/shm" + name).c_str(), 0), 0);
     int32_t w[NAVKIT_LISP_DATA_WORDS];
-    EXPECT_EQ(navkit_rcomm_read_data(&r, w), 0) << "no SIGBUS: the size is checked first";
-    EXPECT_EQ(r.base, nullptr);
-    EXPECT_EQ(std::string(r.error), "rcomm: the region was cut to 0 bytes by another process (" +
-                                        std::to_string(NAVKIT_RCOMM_SIZE) + " needed): closed");
+    EXPECT_EQ(navkit_rcomm_read_data(r, w), -1) << "no SIGBUS: the size is checked first";
+    EXPECT_EQ(std::string(navkit_rcomm_error(r)), "rcomm " + name +
+                                                      ": the region was cut to 0 bytes by another process (the layout needs " +
+                                                      std::to_string(NAVKIT_RCOMM_SIZE) + "): closed");
     int32_t cmd[NAVKIT_LISP_CMD_WORDS] = {1};
-    navkit_rcomm_write_cmd(&r, cmd);  // does nothing on a closed region
-    navkit_rcomm_heartbeat(&r);
-    EXPECT_EQ(navkit_rcomm_host_heartbeat(&r), 0u);
-    navkit_rcomm_close(&r);
+    EXPECT_EQ(navkit_rcomm_write_cmd(r, cmd), -1) << "does nothing on a closed region";
+    EXPECT_EQ(navkit_rcomm_heartbeat(r), -1);
+    uint32_t hb = 7;
+    EXPECT_EQ(navkit_rcomm_host_heartbeat(r, &hb), -1);
+    EXPECT_EQ(hb, 7u) << "nothing read";
+    navkit_rcomm_close(r);
 }
