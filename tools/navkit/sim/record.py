@@ -2,6 +2,9 @@
 
 Log time (and publish time) of every message is the simulated time in ns, never the wall
 clock, so two runs of the same (mission, config, seed) give identical message contents.
+Foxglove's timeline shows it as 1970-01-01 00:00:00 UTC plus the simulated time.
+Beside the navkit topics (TOPICS), the same run in Foxglove's well-known schemas
+(navkit.sim.foxglove: poses, transforms, path, log; SI units).
 No chunk spans more than `flush_every_s` (1 s) of simulated time (latest minus earliest log
 time in it), whatever the frame period, so a run that is killed keeps everything before its
 last second: chunks are closed at frame ends before a frame that would pass that span, and
@@ -15,6 +18,8 @@ import operator
 import resource
 import struct
 from pathlib import Path
+
+from navkit.sim import foxglove
 
 __all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS",
            "HOST_STATES"]
@@ -167,6 +172,12 @@ class Recorder:
             sid = self._w.register_schema(schema["title"], "jsonschema",
                                           json.dumps(schema, sort_keys=True).encode())
             self._chan[topic] = self._w.register_channel(topic, "json", sid)
+        fox_ids = {}
+        for topic, name in foxglove.TOPICS.items():
+            if name not in fox_ids:
+                text = json.dumps(foxglove.SCHEMAS[name], sort_keys=True).encode()
+                fox_ids[name] = self._w.register_schema(name, "jsonschema", text)
+            self._chan[topic] = self._w.register_channel(topic, "json", fox_ids[name])
         self._w.add_metadata("navkit", {k: str(v) for k, v in metadata.items()})
         self._n = {topic: [0] for topic in self._chan}    # messages so far = last sequence
         self._writers = {topic: self._make_writer(topic) for topic in self._chan}
@@ -449,6 +460,14 @@ class _Decoder:
         self.heading_at = keys.index("heading_deg")     # its place in truth_get's tuple
         # a column the plant lacks reads as 0.0: index `width` of a row padded with 0.0
         self.truth_get = operator.itemgetter(*[width if i is None else i for i in sel])
+        # the Foxglove topics: the truth's pose (x_mm, y_mm, yaw_deg), the odometry of
+        # micro_data (x, y, heading), events and commands
+        self.fox = foxglove.FoxgloveWriter(self.rec.writer)
+        self.fox_truth = operator.itemgetter(*[idx.get(k, width)
+                                               for k in ("x_mm", "y_mm", "yaw_deg")])
+        odo = [protocol.SPEC.messages["micro_data"].field(n) for n in ("x", "y", "heading")]
+        self.odom_at = [(struct.Struct("<" + _STRUCT_CODES[f.type]).unpack_from, f.byte_offset)
+                        for f in odo]
 
     def _datalog_texts(self, protocol):
         """A function (t_ns, micro_data frame) writing /micro/datalog when the frame's
@@ -514,6 +533,8 @@ class _Decoder:
                     self.last_micro_raw = frame
                     write(t_ns, js)
                     self.datalog(t_ns, frame)
+                    (ux, ox), (uy, oy), (uh, oh) = self.odom_at
+                    self.fox.odom(t_ns, ux(frame, ox)[0], uy(frame, oy)[0], uh(frame, oh)[0])
                     wd = bool(status(frame, at)[0] & wd_mask)
                     if wd and not self.wd_on:
                         self.watchdog_stops += 1
@@ -533,6 +554,7 @@ class _Decoder:
         elif kind == "T":        # truth rows: (T, raw doubles), in time order
             fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
             hdg_at = self.heading_at
+            fox, fox_get, fox_ns = self.fox.truth, self.fox_truth, foxglove.TRUTH_PERIOD_NS
             raw = item[1]
             t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
             t1 = round(self.first_t(raw, len(raw) - self.row_struct.size)[0] * 1e3) * 1_000_000
@@ -551,16 +573,20 @@ class _Decoder:
                 if vals[hdg_at] >= _HEADING_ROUNDS_TO_360:
                     vals = _heading_wrapped(vals, hdg_at)
                 write(t_ns, fmt % (vals + (dio,)))
+                if not t_ns % fox_ns:
+                    fox(t_ns, *fox_get(row))
             if row is not None:
                 self.last_row = row
         elif kind == "C":        # planner command: (C, t_ns, dict, mission entry)
             rec.reserve(item[1], item[1])
             rec.write("/planner/cmd", item[1], item[2])
+            self.fox.command(item[1], item[2], item[3])
             self.commands += 1
             self.pending[item[2]["time_tag"]] = (item[3], item[2])
         elif kind == "E":        # event: (E, t_ns, kind, detail)
             rec.reserve(item[1], item[1])
             rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
+            self.fox.event(item[1], item[2], item[3])
         elif kind == "S":        # end of a frame: (S, end of the next frame, ns)
             rec.flush_before(item[1])
 

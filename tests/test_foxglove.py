@@ -1,0 +1,235 @@
+"""run.mcap's Foxglove topics (navkit.sim.foxglove): every message of a real short
+co-simulation validates against Foxglove's official JSON schema of its schema name, and
+carries the run's values in SI units (truth and odometry poses, transforms, path, log).
+
+The official JSON schemas are the ones Foxglove publishes in the npm package
+@foxglove/schemas (dist/jsonschema), read with node, installed into .venv/node_modules by
+`npm install --prefix .venv @foxglove/schemas@2.1.0` (or set NAVKIT_FOXGLOVE_SCHEMAS to
+the package's folder); without them those tests skip, saying so."""
+
+import json
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from test_sim_util import run_mission
+
+pytestmark = pytest.mark.timeout(120)
+
+MISSION = """
+duration_s = 4.0
+[[key]]
+t = 0.5
+key = "R"
+[[command]]
+t = 0.5
+fwd_cmd = 1
+speed = 300
+distance = 400
+turn_mode = 1
+turn_rate = 600
+turn_distance = -300
+[[fault]]
+t = 2.0
+kind = "unplug"
+duration_s = 0.5
+"""
+
+NEW_TOPICS = {"/foxglove/truth_pose": "foxglove.PoseInFrame",
+              "/foxglove/odom_pose": "foxglove.PoseInFrame",
+              "/tf": "foxglove.FrameTransform",
+              "/foxglove/path": "foxglove.PosesInFrame",
+              "/foxglove/log": "foxglove.Log"}
+
+
+def _schemas_dir() -> Path:
+    env = os.environ.get("NAVKIT_FOXGLOVE_SCHEMAS")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[1] / ".venv" / "node_modules" / "@foxglove" / "schemas"
+
+
+@pytest.fixture(scope="module")
+def official():
+    """{schema name: Foxglove's official JSON schema} from @foxglove/schemas."""
+    index = _schemas_dir() / "dist" / "jsonschema" / "index.js"
+    node = shutil.which("node")
+    if node is None or not index.exists():
+        pytest.skip(f"Foxglove's JSON schemas not installed ({index}, node {node}): "
+                    "npm install --prefix .venv @foxglove/schemas@2.1.0")
+    out = subprocess.run([node, "-e", "process.stdout.write(JSON.stringify("
+                          "require(process.argv[1])))", str(index)],
+                         capture_output=True, check=True, timeout=30).stdout
+    return {s["title"]: s for s in json.loads(out).values() if "title" in s}
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    return run_mission(tmp_path_factory, "foxglove", MISSION)
+
+
+def _yaw(q: dict) -> float:
+    """Yaw (rad, CCW) of a rotation about +z; x and y must be 0."""
+    assert q["x"] == 0 and q["y"] == 0
+    assert q["z"] ** 2 + q["w"] ** 2 == pytest.approx(1.0, abs=1e-8)
+    return 2.0 * math.atan2(q["z"], q["w"])
+
+
+def _same_angle(a: float, b: float, tol: float) -> bool:
+    return abs(math.remainder(a - b, 2 * math.pi)) <= tol
+
+
+def test_every_message_fits_the_official_schema(run, official):
+    import jsonschema
+    from mcap.reader import make_reader
+
+    validators = {name: jsonschema.Draft202012Validator(official[name])
+                  for name in set(NEW_TOPICS.values())}
+    seen = dict.fromkeys(NEW_TOPICS, 0)
+    with open(run.out / "run.mcap", "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            name = NEW_TOPICS.get(channel.topic)
+            if name is None:
+                continue
+            assert (schema.name, schema.encoding, channel.message_encoding) == \
+                (name, "jsonschema", "json"), channel.topic
+            msg = json.loads(message.data)
+            validators[name].validate(msg)
+            ts = msg["timestamp"]
+            assert ts["sec"] * 1_000_000_000 + ts["nsec"] == message.log_time, \
+                "timestamp = log time = simulated time"
+            seen[channel.topic] += 1
+    assert all(seen.values()), seen
+    assert run.summary["messages"]["/foxglove/truth_pose"] == seen["/foxglove/truth_pose"]
+
+
+def test_a_message_off_the_official_schema_is_refused(official):
+    """The validation above can fail: a pose in mm with a missing w, or a Log level name."""
+    import jsonschema
+
+    bad_pose = {"timestamp": {"sec": 0, "nsec": 0}, "frame_id": "world",
+                "pose": {"position": {"x": 1, "y": 2, "z": 0},
+                         "orientation": {"x": 0, "y": 0, "z": 0}}}
+    bad_log = {"timestamp": {"sec": 0, "nsec": 0}, "level": "INFO", "message": "m",
+               "name": "n", "file": "", "line": 0}
+    for name, msg in (("foxglove.PoseInFrame", bad_pose), ("foxglove.Log", bad_log)):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(msg, official[name])
+
+
+def test_truth_and_odometry_poses_in_metres_and_quaternions(run):
+    from navkit.sim.foxglove import TRUTH_PERIOD_NS
+
+    truth = {round(t, 3): m for t, m in run.messages("/truth")}
+    poses = run.messages("/foxglove/truth_pose")
+    ts = [t for t, _ in poses]
+    assert ts[0] == 0 and ts[-1] == pytest.approx(4.0)
+    assert all(b - a == pytest.approx(TRUTH_PERIOD_NS / 1e9) for a, b in zip(ts, ts[1:]))
+    moved = 0.0
+    for t, m in poses:
+        tr = truth[round(t, 3)]
+        p = m["pose"]["position"]
+        assert m["frame_id"] == "world"
+        assert (p["x"], p["y"], p["z"]) == pytest.approx((tr["x_mm"] / 1e3, tr["y_mm"] / 1e3, 0),
+                                                        abs=1e-6)
+        assert _same_angle(_yaw(m["pose"]["orientation"]), math.radians(tr["yaw_deg"]), 1e-6)
+        moved = max(moved, p["x"])
+    assert moved > 0.3, "the command drove the robot about 400 mm forward"
+
+    micro = run.messages("/micro/data")
+    odom = run.messages("/foxglove/odom_pose")
+    assert len(odom) == len(micro) > 0
+    for (t, m), (tm, d) in zip(odom, micro):
+        assert t == tm
+        p = m["pose"]["position"]
+        assert (p["x"], p["y"]) == pytest.approx((d["x"] / 1e3, d["y"] / 1e3), abs=1e-9)
+        # the micro's heading is clockwise (deg x 10), the pose's yaw counter-clockwise
+        assert _same_angle(_yaw(m["pose"]["orientation"]), -math.radians(d["heading"] / 10), 1e-7)
+    # the odometry follows the truth (within a few cm and degrees after the move)
+    last_t, last = odom[-1]
+    tr = run.truth_at(last_t)
+    assert last["pose"]["position"]["x"] == pytest.approx(tr["x_mm"] / 1e3, abs=0.05)
+    assert _same_angle(_yaw(last["pose"]["orientation"]), math.radians(tr["yaw_deg"]), 0.1)
+    assert abs(tr["yaw_deg"]) > 10, "the command turned the robot"
+
+
+def test_transforms_carry_both_poses(run):
+    tf = run.messages("/tf")
+    by_child = {}
+    for t, m in tf:
+        assert m["parent_frame_id"] == "world"
+        by_child.setdefault(m["child_frame_id"], []).append((t, m))
+    assert set(by_child) == {"base_link", "odom_base_link"}
+    for child, topic in (("base_link", "/foxglove/truth_pose"),
+                         ("odom_base_link", "/foxglove/odom_pose")):
+        poses = run.messages(topic)
+        assert len(by_child[child]) == len(poses)
+        for (t, m), (tp, p) in zip(by_child[child], poses):
+            assert t == tp
+            assert m["translation"] == p["pose"]["position"]
+            assert m["rotation"] == p["pose"]["orientation"]
+
+
+def test_path_grows_and_ends_at_the_robot(run):
+    from navkit.sim.foxglove import PATH_MAX, PATH_STEP_M
+
+    paths = run.messages("/foxglove/path")
+    ts = [t for t, _ in paths]
+    assert len(set(int(t) for t in ts)) == len(ts), "at most one per simulated second"
+    lengths = [len(m["poses"]) for _, m in paths]
+    assert lengths == sorted(lengths) and lengths[-1] <= PATH_MAX
+    first = paths[-1][1]["poses"][0]["position"]
+    assert (first["x"], first["y"]) == (0.0, 0.0), "the path starts at the start pose"
+    t, last = paths[-1]
+    end = last["poses"][-1]["position"]
+    tr = run.truth_at(t)
+    assert math.hypot(end["x"] - tr["x_mm"] / 1e3, end["y"] - tr["y_mm"] / 1e3) < PATH_STEP_M
+
+
+def test_path_stays_bounded_on_a_long_drive(tmp_path, official):
+    """Thousands of path poses (a 100 m drive) through the real Recorder: at most PATH_MAX
+    in a message, the first pose kept, the latest last, evenly thinned."""
+    import jsonschema
+
+    from navkit.sim.foxglove import PATH_MAX, FoxgloveWriter
+    from navkit.sim.record import Recorder
+    from navkit.sim.results import read_mcap
+
+    rec = Recorder(tmp_path / "run.mcap", {})
+    fox = FoxgloveWriter(rec.writer)
+    for k in range(5000):          # 0.2 m/s, truth rows at 50 Hz, 100 s: 400 path steps
+        t_ns = k * 20_000_000
+        rec.reserve(t_ns, t_ns)
+        fox.truth(t_ns, k * 4.0, 0.0, 0.0)
+    rec.close()
+    paths = [json.loads(d) for _, topic, d in read_mcap(tmp_path / "run.mcap").messages
+             if topic == "/foxglove/path"]
+    secs = [p["timestamp"]["sec"] for p in paths]
+    assert len(set(secs)) == len(secs) >= 90, "about once per simulated second"
+    last = paths[-1]
+    jsonschema.validate(last, official["foxglove.PosesInFrame"])
+    xs = [p["position"]["x"] for p in last["poses"]]
+    assert PATH_MAX // 2 <= len(xs) <= PATH_MAX
+    t = last["timestamp"]["sec"] + last["timestamp"]["nsec"] / 1e9
+    assert t >= 98.0, "published while it grows"
+    assert xs[0] == 0.0 and xs[-1] == pytest.approx(0.2 * t, abs=0.05), "0.2 m/s"
+    steps = [b - a for a, b in zip(xs, xs[1:])]
+    assert max(steps) < 2.5 * min(steps), "thinned evenly, not just cut"
+
+
+def test_log_has_events_and_commands_at_their_times(run):
+    logs = run.messages("/foxglove/log")
+    got = [(round(t, 3), m["level"], m["message"].split(" ")[0]) for t, m in logs]
+    assert (0.5, 2, "key") in got
+    assert (0.5, 2, "planner:") in got
+    assert (2.0, 3, "unplug") in got, "a fault is a warning"
+    assert (2.5, 2, "plug") in got
+    cmd = next(m["message"] for _, m in logs if m["message"].startswith("planner:"))
+    assert "[[command]] #1" in cmd and "speed=300" in cmd and "distance=400" in cmd
+    assert all(m["name"] == "navkit-sim" for _, m in logs)
+    events = run.messages("/events")
+    assert len(logs) == len(events) + run.summary["planner"]["commands"]
