@@ -82,15 +82,13 @@ int navkit_rcomm_owner_check(uid_t uid, gid_t gid, mode_t mode, char *why, size_
 int navkit_rcomm_name_check(const char *name, char *why, size_t why_size)
 {
     const char *rest = name ? name + 1 : NULL;
-    size_t len;
     rcomm_say(why, why_size, "%s", "");
     if (!name || name[0] != '/' || !rest[0] || strchr(rest, '/') || !strcmp(rest, ".") || !strcmp(rest, "..") ||
-        (len = strlen(rest)) > RCOMM_NAME_MAX) {
+        strlen(rest) > RCOMM_NAME_MAX) {
         rcomm_say(why, why_size, "'%s' is not a POSIX shared-memory name ('/' then 1..%d characters, no other '/', not . or ..)",
                   name ? name : "(null)", RCOMM_NAME_MAX);
         return -1;
     }
-    (void)len;
     return 0;
 }
 

@@ -329,7 +329,7 @@ TEST(Comm, AGuardedFaultIsCountedOnlyInsideTheRegion)
     c.shutdown();
 }
 
-TEST(Comm, ThePlannersHeaderClosesARegionCutShort)
+TEST(Comm, ThePlannerLibraryClosesARegionCutShort)
 {
     const std::string name = unique_name("cut-client");
     Comm c(name, "");
