@@ -14,6 +14,7 @@
  *             interrupt requests (Timer3 compare A) time each tick's lateness.
  * Register addresses come from avr-libc's <avr/iom2560.h> (data-space addresses).
  */
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -488,6 +489,18 @@ static void sim_parts_power_on(board_sim_t *b)
 
 /* ---------------------------------------------------------------- loading */
 
+/* simavr's logger for every board of the process: errors and warnings go to stderr; its
+ * chatter (an ELF's "Loaded ..." lines, traces) is dropped, since stdout belongs to the
+ * program embedding the board (the harness prints its own lines there). A message of a
+ * core keeps that core's log level as well. */
+static void sim_logger(avr_t *avr, const int level, const char *format, va_list ap)
+{
+    if (level > LOG_WARNING || (avr != NULL && avr->log < (uint8_t)level)) {
+        return;
+    }
+    vfprintf(stderr, format, ap);
+}
+
 static int sim_load(board_sim_t *b, const char *path, char *err, size_t err_len)
 {
     FILE *f = fopen(path, "rb");
@@ -557,6 +570,7 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
     }
     b->to_avr.buf = (uint8_t *)malloc(BOARD_SIM_UART_QUEUE);
     b->from_avr.buf = (uint8_t *)malloc(BOARD_SIM_UART_QUEUE);
+    avr_global_logger_set(sim_logger);
     avr = avr_make_mcu_by_name(BOARD_MCU_NAME);
     if (b->to_avr.buf == NULL || b->from_avr.buf == NULL || avr == NULL) {
         sim_errf(err, err_len, "%s: simavr has no atmega2560 core (or out of memory)", image_path);
