@@ -107,6 +107,27 @@ def test_every_message_fits_the_official_schema(run, official):
     assert run.summary["messages"]["/foxglove/truth_pose"] == seen["/foxglove/truth_pose"]
 
 
+def test_our_schemas_name_the_official_fields(official):
+    """The schemas run.mcap carries (ours: they give the units) have the official ones'
+    names, types and properties, and require at least what they require, down through
+    nested objects and arrays."""
+    from navkit.sim.foxglove import SCHEMAS, TOPICS
+
+    def walk(ours, theirs, where):
+        if "type" in theirs:
+            assert ours.get("type") == theirs["type"], where
+        if "properties" in theirs:
+            assert set(ours["properties"]) == set(theirs["properties"]), where
+            assert set(ours.get("required", ())) >= set(theirs.get("required", ())), where
+            for k, v in ours["properties"].items():
+                walk(v, theirs["properties"][k], f"{where}.{k}")
+        if "items" in theirs:
+            walk(ours["items"], theirs["items"], where + "[]")
+
+    for name in set(TOPICS.values()):
+        walk(SCHEMAS[name], official[name], name)
+
+
 def test_a_message_off_the_official_schema_is_refused(official):
     """The validation above can fail: a pose in mm with a missing w, or a Log level name."""
     import jsonschema
