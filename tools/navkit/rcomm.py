@@ -130,7 +130,8 @@ def name_refusal(name: str) -> str:
 
 
 class Client:
-    """An open rcomm region `name` (e.g. "/navkit", the host's --shm)."""
+    """An open rcomm region `name` (e.g. "/navkit", the host's --shm). One Client per
+    thread, as the library's handle (its copy buffers are the client's own)."""
 
     def __init__(self, name: str = "/navkit"):
         self.name = name
