@@ -203,8 +203,8 @@ def test_state_table_and_step_sizes(micro):
     m.step(0.001)
     m.step(0.1)  # 100 control ticks
     assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.101)
-    with pytest.raises(FMICallException):
-        m.fmu.doStep(m.t, 0.0015)  # not a whole number of 1 ms ticks
+    m.step(0.0015)  # not a whole number of 1 ms ticks: runs the ticks due in it
+    assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.1025)
     with pytest.raises(FMICallException):
         m.fmu.doStep(m.t + 0.5, 0.001)  # not the current time
     m.fmu.terminate()
@@ -215,26 +215,30 @@ def test_state_table_and_step_sizes(micro):
     m.step(0.001)
 
 
-def test_control_rate_from_config(micro):
-    """control_rate = 500 Hz: a 2 ms tick, so 1 ms steps are refused and 2 ms ones run one
-    tick; the step that carries the config still ends on time."""
+@pytest.mark.parametrize("rate", [500, 400])
+def test_control_rate_from_config(micro, rate):
+    """control_rate 500 or 400 Hz: a 2 or 2.5 ms tick under the harness's 1 ms steps runs
+    at its own rate (a tick in the steps that hold its time), so the micro's clock keeps
+    simulated time; the step that carries the config still ends on time."""
     m = micro()
     geo = protocol.defaults("micro_cfg_geometry")
-    geo["control_rate"] = 500
+    geo["control_rate"] = rate
     m.step(0.1, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=1))
     assert m.fmu.getFloat64([m.vr["time"]])[0] == pytest.approx(0.1)
-    with pytest.raises(FMICallException):
-        m.fmu.doStep(m.t, 0.001)
     parser = protocol.Parser(protocol.DIR_TO_HOST)
-    tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=2))
-    for _ in range(50):
-        tx += m.step(0.002)
-    t0 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
-    tx = m.step(0.002, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=3))
-    for _ in range(50):
-        tx += m.step(0.002)
-    t1 = [e.fields for e in parser.feed(tx)][-1]["micro_time"]
-    assert t1 - t0 == 102  # 51 ticks of 2 ms
+
+    def micro_time_after(tag: int) -> int:
+        """micro_time (ms) of the reply to a config sent now, after 20 ms of 1 ms steps."""
+        tx = m.step(0.001, protocol.encode_frame("micro_cfg_geometry", geo, time_tag=tag))
+        for _ in range(19):
+            tx += m.step(0.001)
+        return [e.fields for e in parser.feed(tx)][-1]["micro_time"]
+
+    t0 = micro_time_after(2)
+    for _ in range(80):
+        m.step(0.001)
+    t1 = micro_time_after(3)
+    assert t1 - t0 == 100  # 100 ms of 1 ms steps: 50 ticks of 2 ms or 40 of 2.5 ms
 
 
 def test_unconfigured_until_three_configs_and_again_after_reset(micro, status_bit):

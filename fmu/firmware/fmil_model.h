@@ -45,11 +45,11 @@ typedef struct {
     fmil_binary_t serial_rx;   /* -> rx_stage: bytes for the next doStep */
     fmil_binary_t serial_tx;   /* -> hal.wire: bytes of the last doStep */
     uint8_t rx_stage[FWFMU_RX_CAP];
-    /* the last step size that passed the checks (NaN: none yet), the tick period it was
-     * checked with, and the ticks per step that follow from the two */
-    double step_h;             /* s */
-    uint32_t step_period_us;
-    uint64_t step_ticks;
+    /* the control ticks' schedule on the simulated clock, us since t_start: tick k runs at
+     * the previous tick's time plus the tick period in force after it (a config may change
+     * the period), in the doStep whose interval [t, t + h) holds that time */
+    double t_start;            /* s: the time the model started at */
+    uint64_t next_tick_us;     /* us since t_start */
 } fmil_model_t;
 
 #endif /* FWFMU_FMIL_MODEL_H */

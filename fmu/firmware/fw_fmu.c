@@ -12,7 +12,10 @@
  *     core at that rate, tick by tick; bytes the core writes queue in a TX FIFO and leave
  *     at that rate into serial_tx (the bytes of this doStep).
  * Per control tick: UART RX delivery, fw_link_poll(), fw_tick(), UART TX drain.
- * doStep(h) runs h / tick ticks; h must be a whole number of ticks.
+ * doStep(h) runs the ticks due in [t, t + h): the first at the start time, each next one
+ * a tick period (as configured when it is scheduled) after the one before, on a
+ * microsecond clock, so any step size works and a tick period that does not divide the
+ * step (400 Hz under 1 ms steps) keeps its rate exactly.
  */
 #include <math.h>
 #include <string.h>
@@ -179,7 +182,8 @@ void fmil_model_start_values(fmil_instance_t *c)
         h->sonar_v[i] = NAN;
     }
     m->serial_rx.len = m->serial_tx.len = 0u;
-    m->step_h = NAN;
+    m->t_start = 0.0;
+    m->next_tick_us = 0u;
     fw_init(&m->fw, h);
     /* outputs as the micro holds them before its first tick: everything off */
     m->io.motor_left_duty = m->io.motor_right_duty = 0.0;
@@ -196,6 +200,7 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
     }
     m->hal.baud = m->baud;
     m->time = c->time;
+    m->t_start = c->time;
     return FMIL_OK;
 }
 
@@ -205,23 +210,9 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
 {
     fmil_model_t *m = &c->model;
     struct hal *h = &m->hal;
-    uint32_t period_us = fw_tick_period_us(&m->fw);
-    uint64_t n, k;
+    /* the step's end on the microsecond clock of the tick schedule */
+    uint64_t end_us = (uint64_t)llround((t + h_s - m->t_start) * 1e6);
     size_t i;
-    if (!(h_s == m->step_h && period_us == m->step_period_us)) {
-        /* a new step size or tick period (else the last one's checked result holds) */
-        double ticks_f = h_s * 1e6 / (double)period_us;
-        n = (uint64_t)floor(ticks_f + 0.5);
-        if (n < 1u || fabs(ticks_f - (double)n) > 1e-6 * (double)n) {
-            fmil_log(c, FMIL_ERROR, "%sDoStep: communicationStepSize %.9f s is not a whole number of control ticks of %u us",
-                     c->api, h_s, (unsigned)period_us);
-            return FMIL_ERROR;
-        }
-        m->step_h = h_s;
-        m->step_period_us = period_us;
-        m->step_ticks = n;
-    }
-    n = m->step_ticks;
     /* serial_rx joins the RX FIFO; a full FIFO drops the excess (like a real UART) */
     for (i = 0; i < m->serial_rx.len; i++) {
         if (h->rx_len < FWFMU_RX_CAP) {
@@ -236,8 +227,9 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
     }
     m->serial_rx.len = 0u;
     m->serial_tx.len = 0u;
-    for (k = 0; k < n; k++) {
-        fwfmu_tick(m); /* a config may change the tick period: the step still ends at t + h */
+    while (m->next_tick_us < end_us) {
+        fwfmu_tick(m); /* a config may change the tick period: the next tick takes the new one */
+        m->next_tick_us += fw_tick_period_us(&m->fw);
     }
     m->time = t + h_s;
     return FMIL_OK;
