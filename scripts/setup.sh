@@ -31,6 +31,12 @@ need() {
 for p in "${debs[@]}"; do
   need "$p"
 done
+# npm fetches Foxglove's official JSON schemas for the MCAP tests (below); a node that
+# brings its own npm is enough, else Debian's nodejs and npm
+if ! command -v npm >/dev/null 2>&1; then
+  need nodejs
+  need npm
+fi
 root=$([[ $(id -u) -eq 0 ]] && echo 1 || echo 0)
 updated=0
 llvm=$(clang_major)
@@ -71,4 +77,12 @@ if [[ ! -f $stamp || $(cat "$stamp") != "$want" ]]; then
   .venv/bin/python -m pip install -q --upgrade pip
   .venv/bin/python -m pip install -q -e '.[test]'
   echo "$want" > "$stamp"
+fi
+
+# Foxglove's published JSON schemas (npm @foxglove/schemas), which tests/test_foxglove.py
+# validates run.mcap's Foxglove topics against
+fox=.venv/node_modules/@foxglove/schemas/package.json
+if [[ ! -f $fox ]]; then
+  echo "setup: installing Foxglove's JSON schemas (npm @foxglove/schemas) into .venv"
+  npm install --prefix .venv --no-save --no-audit --no-fund --loglevel=error @foxglove/schemas@2.1.0 >/dev/null
 fi
