@@ -30,16 +30,73 @@ namespace {
 
 // A key's parser: "" on success, else the reason the value is refused.
 using Setter = std::function<std::string(const std::string &)>;
-using Section = std::map<std::string, Setter>;
+// A key's value as it is now in the Config, as JSON text (--print-config).
+using Getter = std::function<std::string()>;
+// One key of a table: how its INI text is read into the Config and how its value is shown.
+struct Key {
+    Setter set;
+    Getter json;
+};
+using Section = std::map<std::string, Key>;
 using Table = std::map<std::string, Section>;
+
+// JSON of a finite number, the fewest digits that read back as x.
+std::string json_number(double x)
+{
+    char buf[32];
+    if (x == std::floor(x) && std::fabs(x) < 1e15) {
+        std::snprintf(buf, sizeof buf, "%.0f", x);  // a whole number without an exponent
+        return buf;
+    }
+    for (int prec = 1; prec <= 17; prec++) {
+        std::snprintf(buf, sizeof buf, "%.*g", prec, x);
+        if (std::strtod(buf, nullptr) == x) {
+            break;
+        }
+    }
+    return buf;
+}
+
+// JSON of a string: quoted, with '"', '\\' and control characters escaped (other bytes as they are).
+std::string json_string(const std::string &v)
+{
+    std::string out = "\"";
+    for (const char ch : v) {
+        const unsigned char u = static_cast<unsigned char>(ch);
+        if (ch == '"' || ch == '\\') {
+            out += '\\';
+            out += ch;
+        } else if (u < 0x20) {
+            char esc[8];
+            std::snprintf(esc, sizeof esc, "\\u%04x", u);
+            out += esc;
+        } else {
+            out += ch;
+        }
+    }
+    return out + "\"";
+}
+
+// The getter of an integer field *p.
+template <class T>
+Getter int_json(const T *p)
+{
+    return [p]() { return std::to_string(static_cast<long>(*p)); };
+}
+
+// The getter of a string field *p.
+Getter str_json(const std::string *p)
+{
+    return [p]() { return json_string(*p); };
+}
 
 // An integer key into *p, lo..hi (default: T's range); decimal, or also 0x hex for the
 // bit-mask keys (hex_ok).
 template <class T>
-Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max(),
-               bool hex_ok = false)
+Key int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max(),
+            bool hex_ok = false)
 {
-    return [p, lo, hi, hex_ok](const std::string &v) -> std::string {
+    Setter set = [p, lo, hi, hex_ok](const std::string &v) -> std::string {
         long x;
         const std::string why = ini_parse_int(v, hex_ok, &x);
         if (!why.empty()) {
@@ -51,20 +108,21 @@ Setter int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::num
         *p = static_cast<T>(x);
         return "";
     };
+    return Key{set, int_json(p)};
 }
 
 // A bit-mask key into *p, lo..hi: decimal or 0x hex.
 template <class T>
-Setter mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
+Key mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
 {
     return int_key(p, lo, hi, true);
 }
 
 // A sign, +1 or -1, into *p: the spec's range is -1..1, but the micro refuses 0
 // (firmware/core/config.c config_sign_ok).
-Setter sign_key(int16_t *p)
+Key sign_key(int16_t *p)
 {
-    return [p](const std::string &v) -> std::string {
+    Setter set = [p](const std::string &v) -> std::string {
         long x;
         if (!ini_parse_int(v, false, &x).empty() || (x != 1 && x != -1)) {
             return "'" + v + "' is not 1 or -1 (the micro refuses any other sign)";
@@ -72,12 +130,13 @@ Setter sign_key(int16_t *p)
         *p = static_cast<int16_t>(x);
         return "";
     };
+    return Key{set, int_json(p)};
 }
 
 // A finite number into *p, lo..hi (the key's unit).
-Setter dbl_key(double *p, double lo, double hi)
+Key dbl_key(double *p, double lo, double hi)
 {
-    return [p, lo, hi](const std::string &v) -> std::string {
+    Setter set = [p, lo, hi](const std::string &v) -> std::string {
         double x;
         const std::string why = ini_parse_real(v, &x);
         if (!why.empty()) {
@@ -91,12 +150,13 @@ Setter dbl_key(double *p, double lo, double hi)
         *p = x;
         return "";
     };
+    return Key{set, [p]() { return json_number(*p); }};
 }
 
 // The value into *p, once check (shm_name_error, ...) finds nothing wrong with it.
-Setter checked_key(std::string *p, std::string (*check)(const std::string &))
+Key checked_key(std::string *p, std::string (*check)(const std::string &))
 {
-    return [p, check](const std::string &v) -> std::string {
+    Setter set = [p, check](const std::string &v) -> std::string {
         const std::string why = check(v);
         if (!why.empty()) {
             return why;
@@ -104,37 +164,40 @@ Setter checked_key(std::string *p, std::string (*check)(const std::string &))
         *p = v;
         return "";
     };
+    return Key{set, str_json(p)};
 }
 
 // 0 or 1 into *p.
-Setter bool_key(bool *p)
+Key bool_key(bool *p)
 {
-    return [p](const std::string &v) -> std::string {
+    Setter set = [p](const std::string &v) -> std::string {
         if (v != "0" && v != "1") {
             return "'" + v + "' is not 0 or 1";
         }
         *p = v == "1";
         return "";
     };
+    return Key{set, [p]() { return std::string(*p ? "true" : "false"); }};
 }
 
 // The value as written into *p; empty only when allow_empty.
-Setter str_key(std::string *p, bool allow_empty)
+Key str_key(std::string *p, bool allow_empty)
 {
-    return [p, allow_empty](const std::string &v) -> std::string {
+    Setter set = [p, allow_empty](const std::string &v) -> std::string {
         if (v.empty() && !allow_empty) {
             return "needs a value";
         }
         *p = v;
         return "";
     };
+    return Key{set, str_json(p)};
 }
 
 // One value for all eight elements, or eight comma-separated values.
 template <class T>
-Setter array_key(T (*arr)[8])
+Key array_key(T (*arr)[8])
 {
-    return [arr](const std::string &v) -> std::string {
+    Setter set = [arr](const std::string &v) -> std::string {
         std::vector<std::string> parts;
         std::stringstream ss(v);
         std::string item;
@@ -161,6 +224,14 @@ Setter array_key(T (*arr)[8])
         std::memcpy(*arr, tmp, sizeof tmp);
         return "";
     };
+    Getter json = [arr]() {
+        std::string out = "[";
+        for (size_t i = 0; i < 8; i++) {
+            out += (i ? ", " : "") + std::to_string(static_cast<long>((*arr)[i]));
+        }
+        return out + "]";
+    };
+    return Key{set, json};
 }
 
 // NavAndControl.ini's sections and keys, each writing into c.
@@ -177,7 +248,7 @@ Table nav_table(Config &c)
         {"log_dir", str_key(&e.log_dir, false)},  // log_dir_error: main, on the folder in use
         {"record", bool_key(&e.record)},
         {"dio_default", mask_key(&e.dio_default, 0, 4095)},
-        {"mc_datalog", [&e](const std::string &v) -> std::string {
+        {"mc_datalog", {[&e](const std::string &v) -> std::string {
              long x;
              std::string why = ini_parse_int(v, false, &x);
              if (why.empty()) {
@@ -187,12 +258,12 @@ Table nav_table(Config &c)
                  e.mc_datalog = static_cast<int>(x);
              }
              return why;
-         }},
+         }, int_json(&e.mc_datalog)}},
     };
     MicroCfg &m = c.micro;
     t["micro"] = {
         {"port", str_key(&m.port, false)},
-        {"baud", [&m](const std::string &v) -> std::string {
+        {"baud", {[&m](const std::string &v) -> std::string {
              long x;
              const std::string why = ini_parse_int(v, false, &x);
              if (!why.empty()) {
@@ -209,19 +280,19 @@ Table nav_table(Config &c)
                  list += (list.empty() ? "" : ", ") + std::to_string(b);
              }
              return std::to_string(x) + " is not a supported rate (" + list + ")";
-         }},
+         }, int_json(&m.baud)}},
         {"data_bits", int_key(&m.data_bits, 5, 8)},
-        {"parity", [&m](const std::string &v) -> std::string {
+        {"parity", {[&m](const std::string &v) -> std::string {
              if (v != "N" && v != "E" && v != "O") {
                  return "'" + v + "' is not N, E or O";
              }
              m.parity = v[0];
              return "";
-         }},
+         }, [&m]() { return json_string(std::string(1, m.parity)); }}},
         {"stop_bits", int_key(&m.stop_bits, 1, 2)},
         {"latency_timer_ms", int_key(&m.latency_timer_ms, 0, 255)},
         {"link", checked_key(&m.link, micro_link_error)},
-        {"can_bitrate", [&m](const std::string &v) -> std::string {
+        {"can_bitrate", {[&m](const std::string &v) -> std::string {
              long x;
              const std::string why = ini_parse_int(v, false, &x);
              if (!why.empty()) {
@@ -236,7 +307,7 @@ Table nav_table(Config &c)
              }
              m.can_bitrate = static_cast<int>(x);
              return "";
-         }},
+         }, int_json(&m.can_bitrate)}},
     };
     navkit_micro_cfg_geometry_t &g = m.geometry;
     t["micro_cfg_geometry"] = {
@@ -281,7 +352,7 @@ Table nav_table(Config &c)
     AnimationCfg &an = c.animation;
     t["animation"] = {
         {"on", bool_key(&an.on)},
-        {"file", str_key(&an.file, false)},
+        {"file", str_key(&an.file_setting, false)},
         {"log", bool_key(&an.log)},
     };
     return t;
@@ -328,6 +399,13 @@ std::string base_name(const std::string &path)
 {
     const size_t s = path.rfind('/');
     return s == std::string::npos ? path : path.substr(s + 1);
+}
+
+// The path of the face file `setting` ([animation] file) of config folder dir: an
+// absolute setting as it is, else relative to the folder.
+std::string face_path(const std::string &dir, const std::string &setting)
+{
+    return setting[0] == '/' ? setting : dir + "/" + setting;
 }
 
 // Range check of the three config messages against the spec, naming the INI line.
@@ -384,20 +462,35 @@ void check_ir(const IniFile &ini, const Config &c)
     }
 }
 
+// The frame-vs-watchdog rule on a frame of frame_ms (ms), naming rate_hz (Hz) too when
+// the frame was given as a rate (else 0).
+std::string frame_check(double frame_ms, unsigned watchdog_timeout_ms, double rate_hz)
+{
+    if (2.0 * frame_ms < static_cast<double>(watchdog_timeout_ms)) {
+        return "";
+    }
+    char rate[40] = "";
+    if (rate_hz > 0) {
+        std::snprintf(rate, sizeof rate, " at %g Hz", rate_hz);
+    }
+    char why[240];
+    std::snprintf(why, sizeof why,
+                  "a frame of %g ms%s needs [micro_cfg_motion] watchdog_timeout above two frames "
+                  "(%g ms), not %u ms: one lost frame would stop the robot",
+                  frame_ms, rate, 2.0 * frame_ms, watchdog_timeout_ms);
+    return why;
+}
+
 }  // namespace
 
 std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms)
 {
-    const double frame_ms = 1000.0 / frame_rate_hz;
-    if (2.0 * frame_ms < static_cast<double>(watchdog_timeout_ms)) {
-        return "";
-    }
-    char why[200];
-    std::snprintf(why, sizeof why,
-                  "a frame of %g ms at %g Hz needs [micro_cfg_motion] watchdog_timeout above two frames "
-                  "(%g ms), not %u ms: one lost frame would stop the robot",
-                  frame_ms, frame_rate_hz, 2.0 * frame_ms, watchdog_timeout_ms);
-    return why;
+    return frame_check(1000.0 / frame_rate_hz, watchdog_timeout_ms, frame_rate_hz);
+}
+
+std::string frame_ms_watchdog_error(double frame_ms, unsigned watchdog_timeout_ms)
+{
+    return frame_check(frame_ms, watchdog_timeout_ms, 0.0);
 }
 
 std::string ini_parse_int(const std::string &v, bool hex_ok, long *out)
@@ -540,12 +633,19 @@ void Ini::load_file(const std::string &path, Config &cfg)
         if (k == s->second.end()) {
             return key->name + ": unknown key in [" + sec.name + "]";
         }
-        const std::string why = k->second(key->value);
+        const std::string why = k->second.set(key->value);
         return why.empty() ? "" : key->name + ": " + why;
     });
     bool any_key = false;
     for (const IniSection &sec : ini.sections) {
         any_key = any_key || !sec.keys.empty();
+    }
+    cfg.files.push_back(path);
+    for (const IniSection &sec : ini.sections) {
+        cfg.origin[sec.name] = path + ":" + std::to_string(sec.line);
+        for (const auto &k : sec.keys) {
+            cfg.origin[sec.name + "." + k.first] = path + ":" + std::to_string(k.second.line);
+        }
     }
     if (!any_key) {
         cfg.notes.push_back(path + ": no keys (empty, or only comments and sections): every value is its default");
@@ -565,10 +665,62 @@ Config Ini::load(const std::string &dir)
     Config c;
     load_file(dir + "/NavAndControl.ini", c);
     load_file(dir + "/sensors.ini", c);
-    if (c.animation.file[0] != '/') {
-        c.animation.file = dir + "/" + c.animation.file;  // read by Animation::start when on
-    }
+    c.animation.file = face_path(dir, c.animation.file_setting);
     return c;
+}
+
+Config Ini::load_path(const std::string &path)
+{
+    struct stat st;
+    if (stat(path.c_str(), &st) != 0 || S_ISDIR(st.st_mode)) {
+        return load(path);  // a missing folder: load names the file it lacks
+    }
+    Config c;
+    load_file(path, c);
+    const size_t slash = path.rfind('/');
+    c.animation.file = face_path(slash == std::string::npos ? "." : path.substr(0, slash), c.animation.file_setting);
+    return c;
+}
+
+std::string Ini::json(const Config &c)
+{
+    Config shown = c;  // the tables' getters read the copy they are built on
+    std::string out = "{\n  \"files\": [";
+    std::vector<Table> tables;
+    for (size_t i = 0; i < c.files.size(); i++) {
+        out += (i ? ", " : "") + json_string(c.files[i]);
+        tables.push_back(base_name(c.files[i]) == "NavAndControl.ini" ? nav_table(shown) : sensors_table(shown));
+    }
+    out += "],\n  \"sections\": {";
+    bool first_sec = true;
+    for (const Table &t : tables) {
+        for (const auto &sec : t) {
+            out += std::string(first_sec ? "" : ",") + "\n    " + json_string(sec.first) + ": {";
+            first_sec = false;
+            bool first_key = true;
+            for (const auto &key : sec.second) {
+                const auto o = c.origin.find(sec.first + "." + key.first);
+                out += std::string(first_key ? "" : ",") + "\n      " + json_string(key.first) +
+                       ": {\"value\": " + key.second.json() +
+                       ", \"from\": " + json_string(o == c.origin.end() ? "default" : o->second) + "}";
+                first_key = false;
+            }
+            out += "\n    }";
+        }
+    }
+    out += "\n  },\n  \"headers\": {";
+    bool first_header = true;
+    for (const Table &t : tables) {
+        for (const auto &sec : t) {
+            const auto o = c.origin.find(sec.first);
+            if (o != c.origin.end()) {
+                out += std::string(first_header ? "" : ",") + "\n    " + json_string(sec.first) + ": " +
+                       json_string(o->second);
+                first_header = false;
+            }
+        }
+    }
+    return out + "\n  }\n}\n";
 }
 
 }  // namespace navkit

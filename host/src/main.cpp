@@ -51,25 +51,38 @@ int main(int argc, char **argv)
     }
     Config cfg;
     try {
-        cfg = Ini::load(o.config_dir);
+        cfg = o.print_config ? Ini::load_path(o.config_dir) : Ini::load(o.config_dir);
     } catch (const ConfigError &e) {
         std::fprintf(stderr, "navkit-host: %s\n", e.what());
         return 1;
     }
+    // the command line over the INI, each replaced key's origin the option
     if (!o.port.empty()) {
         cfg.micro.port = o.port;
+        cfg.origin["micro.port"] = "--port";
     }
     if (!o.link.empty()) {
         cfg.micro.link = o.link;
+        cfg.origin["micro.link"] = "--link";
     }
     if (o.rate_hz > 0) {
         cfg.exec.frame_rate_hz = o.rate_hz;
+        cfg.origin["executive.frame_rate_hz"] = "--rate";
+    } else if (o.frame_ms > 0) {
+        cfg.exec.frame_rate_hz = 1000.0 / o.frame_ms;
+        cfg.origin["executive.frame_rate_hz"] = "--frame-ms";
     }
-    if (!o.lockstep) {  // the rate in use against the micro's watchdog
-        const std::string why = frame_watchdog_error(cfg.exec.frame_rate_hz, cfg.micro.motion.watchdog_timeout);
-        if (!why.empty()) {  // named where the rate came from: the command line (usage) or the INI
+    if (!o.lockstep) {  // the frame in use against the micro's watchdog
+        const unsigned watchdog_ms = cfg.micro.motion.watchdog_timeout;
+        const std::string why = o.frame_ms > 0 ? frame_ms_watchdog_error(o.frame_ms, watchdog_ms)
+                                               : frame_watchdog_error(cfg.exec.frame_rate_hz, watchdog_ms);
+        if (!why.empty()) {  // named where the frame came from: the command line (usage) or the INI
             if (o.rate_hz > 0) {
                 std::fprintf(stderr, "navkit-host: --rate %g: %s\n", o.rate_hz, why.c_str());
+                return 2;
+            }
+            if (o.frame_ms > 0) {  // the text names the frame given
+                std::fprintf(stderr, "navkit-host: --frame-ms: %s\n", why.c_str());
                 return 2;
             }
             std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.rate_watchdog_at.c_str(), why.c_str());
@@ -78,17 +91,26 @@ int main(int argc, char **argv)
     }
     if (!o.shm.empty()) {
         cfg.exec.shm_name = o.shm;
+        cfg.origin["executive.shm_name"] = "--shm";
     }
     if (!o.log_dir.empty()) {
         cfg.exec.log_dir = o.log_dir;  // checked by parse_options
-    } else {
+        cfg.origin["executive.log_dir"] = "--log-dir";
+    } else if (!o.print_config) {  // the folder the datalog would be written to: only for a run
         const std::string why = log_dir_error(cfg.exec.log_dir);
         if (!why.empty()) {
             std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.log_dir_at.c_str(), why.c_str());
             return 1;
         }
     }
-    cfg.exec.record = cfg.exec.record || o.record;
+    if (o.record) {
+        cfg.exec.record = true;
+        cfg.origin["executive.record"] = "--record";
+    }
+    if (o.print_config) {
+        std::fputs(Ini::json(cfg).c_str(), stdout);
+        return std::fflush(stdout) == 0 ? 0 : 1;
+    }
 
     install_signal_handlers();
     std::unique_ptr<Clock> clock;

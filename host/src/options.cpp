@@ -15,12 +15,16 @@ const char *usage()
            "  --link serial|slcan  frames on the line, or CAN frames through an SLCAN adapter\n"
            "                     (overrides [micro] link)\n"
            "  --rate HZ          frame rate (overrides [executive] frame_rate_hz)\n"
+           "  --frame-ms MS      the frame as a period, 1..10000 ms (instead of --rate)\n"
            "  --clock real|lockstep  real time (default) or one frame per lockstep tick\n"
            "  --lockstep-fd N    the lockstep socket (with --clock lockstep)\n"
            "  --shm NAME         rcomm shared-memory name (overrides [executive] shm_name)\n"
            "  --record           start the datalog at start-up\n"
            "  --log-dir DIR      folder of the datalog files (overrides [executive] log_dir)\n"
            "  --timing-log FILE  real time: one line per frame (scheduled, start, end ns)\n"
+           "  --print-config     print the effective configuration (JSON: every key's value and\n"
+           "                     the file:line, option or default it came from) and exit; --config\n"
+           "                     may then name one INI file\n"
            "  --help             this text\n"
            "keys: R record, S stop recording, Q quit; w/x forward/reverse, a/d turn, space stop,\n"
            "      0-9 - = toggle DIO bits 0-11 (console levels)\n";
@@ -47,7 +51,9 @@ std::string parse_options(int argc, char **argv, Options *o)
             o->help = true;
         } else if (a == "--record") {
             o->record = true;
-        } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--clock" ||
+        } else if (a == "--print-config") {
+            o->print_config = true;
+        } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--frame-ms" || a == "--clock" ||
                    a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
             if (!value(&v)) {
                 return a + ": needs a value" +
@@ -70,6 +76,12 @@ std::string parse_options(int argc, char **argv, Options *o)
                 // decimal as the INI's numbers (no hex, inf or nan)
                 if (!ini_parse_real(v, &o->rate_hz).empty() || !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {
                     return a + ": " + v + ": not a rate in 0.1..1000 Hz (the range of [executive] frame_rate_hz)";
+                }
+            } else if (a == "--frame-ms") {
+                // the periods of the rates --rate takes
+                if (!ini_parse_real(v, &o->frame_ms).empty() ||
+                    !(o->frame_ms >= 1000.0 / kMaxRateHz && o->frame_ms <= 1000.0 / kMinRateHz)) {
+                    return a + ": " + v + ": not a frame of 1..10000 ms (the periods of [executive] frame_rate_hz)";
                 }
             } else if (a == "--clock") {
                 if (v != "real" && v != "lockstep") {
@@ -107,9 +119,19 @@ std::string parse_options(int argc, char **argv, Options *o)
     if (!o->lockstep && o->lockstep_fd >= 0) {
         return "--lockstep-fd needs --clock lockstep";
     }
+    if (o->rate_hz > 0 && o->frame_ms > 0) {
+        return "--rate and --frame-ms both set the frame: give one";
+    }
     // options the lockstep clock would ignore are refused, never dropped silently
     if (o->lockstep && o->rate_hz > 0) {
         return "--rate has no effect with --clock lockstep (the driver's ticks start the frames)";
+    }
+    if (o->lockstep && o->frame_ms > 0) {
+        return "--frame-ms has no effect with --clock lockstep (the driver's ticks start the frames)";
+    }
+    if (o->print_config && (seen.count("--clock") || !o->timing_log.empty())) {
+        return std::string(seen.count("--clock") ? "--clock" : "--timing-log") +
+               " has no effect with --print-config (nothing runs)";
     }
     if (o->lockstep && !o->timing_log.empty()) {
         return "--timing-log has no effect with --clock lockstep (it times the real-time schedule)";

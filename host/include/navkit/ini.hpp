@@ -5,6 +5,7 @@
 // "file:line: key: reason".
 #pragma once
 
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -46,10 +47,14 @@ std::string ini_parse_int(const std::string &v, bool hex_ok, long *out);
 std::string ini_parse_real(const std::string &v, double *out);
 
 // The frame rate against the micro's watchdog: the watchdog must outlast two frames, so
-// that one lost or corrupted frame does not stop the robot. "" if it does, else why not.
-// main checks the rate in use (--rate or the INI's) with the real-time clock only; in
-// lockstep the driver checks its own frame (navkit sim --frame-ms).
+// that one lost or corrupted frame does not stop the robot. "" if it does, else why not
+// (naming the frame and the rate). The one check of this rule: main checks the frame in
+// use (--rate, --frame-ms or the INI's) with the real-time clock and with --print-config
+// (which the co-simulation asks about its lockstep frame), not under --clock lockstep.
 std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms);
+// The same rule for a frame given as a period of frame_ms (ms; --frame-ms): the text names
+// the frame only.
+std::string frame_ms_watchdog_error(double frame_ms, unsigned watchdog_timeout_ms);
 
 // [micro] link (and --link): serial or slcan; "" if v is one, else why not.
 std::string micro_link_error(const std::string &v);
@@ -147,7 +152,9 @@ struct SensorsCfg {
 // [animation]: the seed's face (Animation.cpp), drawn above the console's status line.
 struct AnimationCfg {
     bool on = false;                 // the seed's [Animation] On
-    std::string file = "Animation.ini";  // the face; Ini::load makes it relative to the config dir
+    std::string file_setting = "Animation.ini";  // [animation] file as written (relative: to the config dir)
+    std::string file = "Animation.ini";  // the face's path Animation::start opens (Ini::load: file_setting
+                                         // made relative to the config dir)
     bool log = false;                // stdout not a terminal: a "face:" line when the face changes
 };
 
@@ -161,6 +168,12 @@ struct Config {
     // What start-up says once about the files read (a file without any key: every value
     // its default), in file order; main prints them.
     std::vector<std::string> notes;
+    // The files read, in order (Ini::json shows their sections).
+    std::vector<std::string> files;
+    // Where each key's value came from: "section.key" (lower-case) -> "file:line" of the
+    // key, or the command-line option that replaced it ("--rate"); a key not here has its
+    // default. "section" -> "file:line" of its [header], for the sections in the files.
+    std::map<std::string, std::string> origin;
 };
 
 class Ini {
@@ -169,6 +182,14 @@ public:
     static Config load(const std::string &dir);
     // One file into cfg (the file's name decides which sections it may hold).
     static void load_file(const std::string &path, Config &cfg);
+    // load(path) for a folder; for a file (--print-config --config FILE) only that file over
+    // the defaults (its [animation] file beside it, as load does).
+    static Config load_path(const std::string &path);
+    // JSON of the effective configuration: {"files": [path, ...], "sections": {section:
+    // {key: {"value": v, "from": "file:line" | option | "default"}}}, "headers": {section:
+    // "file:line"}} for every key of the files read (values typed: numbers, strings,
+    // true/false, the servo arrays as lists); headers: the sections the files hold.
+    static std::string json(const Config &c);
 };
 
 }  // namespace navkit

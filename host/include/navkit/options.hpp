@@ -14,6 +14,7 @@ struct Options {
     std::string port;          // "" = INI
     std::string link;          // "" = INI ([micro] link: serial or slcan)
     double rate_hz = 0;        // 0 = INI
+    double frame_ms = 0;       // ms, the frame as a period (instead of --rate); 0 = INI
     bool lockstep = false;
     int lockstep_fd = -1;
     std::string shm;           // "" = INI
@@ -21,6 +22,7 @@ struct Options {
     std::string log_dir;       // "" = INI
     std::string timing_log;    // "" = none
     bool help = false;
+    bool print_config = false; // print the effective configuration as JSON and exit (Ini::json)
 };
 
 // "" on success, else the error (unknown or repeated option, missing or bad value).

@@ -34,8 +34,8 @@ from pathlib import Path
 
 from navkit.sim.mission import COMMAND_FIELDS, Mission, MissionError
 
-__all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_paths", "frame_period",
-           "check_frame", "git_revision"]
+__all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_paths", "host_config",
+           "frame_period", "check_frame", "git_revision"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
@@ -150,43 +150,36 @@ def fmu_paths(build: Path, firmware: str = "fmu") -> tuple[Path, Path]:
     return firmware_fmu(build, firmware), build / "fmus" / f"{_PLANT_NAME}.fmu"
 
 
-def _ini_number(config_dir: Path, section: str, key: str, default: float) -> float:
-    """`[section] key` of `config_dir`/NavAndControl.ini as a number, else `default` (a
-    malformed file is the host's to report, with its file:line, when it starts)."""
-    import configparser
+def host_config(config_dir: Path, build: Path | None = None, frame_s: float | None = None) -> dict:
+    """The host's effective configuration of `config_dir` (navkit.hostconfig: navkit-host
+    reads the INI files, the one reader) and its verdict on the frame: `frame_s` (s, the
+    run's --frame-ms; None: the INI's frame_rate_hz) against the micro's watchdog, the
+    host's one check of that rule. A config or frame the host refuses is a SimError with
+    its message (file:line: key: reason, or --frame-ms: reason)."""
+    from navkit.hostconfig import HostConfigError, effective_config
 
-    ini = configparser.ConfigParser(inline_comment_prefixes=(";", "#"), strict=False)
     try:
-        ini.read(Path(config_dir) / "NavAndControl.ini")
-        return ini.getfloat(section, key, fallback=default)
-    except (configparser.Error, ValueError):
-        return default
+        return effective_config(config_dir, build=build, frame_ms=frame_s * 1000 if frame_s else None)
+    except HostConfigError as e:
+        raise SimError(str(e)) from None
 
 
-def frame_period(config_dir: Path) -> float:
-    """The host frame period (s): 1 / `[executive] frame_rate_hz` of
-    `config_dir`/NavAndControl.ini, else 0.1 s (the seed's 100 ms frame, the host's default)."""
-    rate = _ini_number(config_dir, "executive", "frame_rate_hz", 10.0)
-    return 1.0 / rate if rate > 0 else 0.1
+def frame_period(config_dir: Path, build: Path | None = None) -> float:
+    """The host frame period (s): 1 / `[executive] frame_rate_hz` as navkit-host reads
+    `config_dir` (its default: 10 Hz, the seed's 100 ms frame)."""
+    from navkit.hostconfig import value
+
+    return 1.0 / value(host_config(config_dir, build), "executive", "frame_rate_hz")
 
 
-def check_frame(frame_s: float, config_dir: Path, source: str) -> int:
+def check_frame(frame_s: float, source: str) -> int:
     """The FMU steps (of STEP_S) in a host frame of `frame_s` s, which must be a whole
-    number of them and leave the micro's watchdog (`[micro_cfg_motion] watchdog_timeout`,
-    ms) more than two frames, as the host demands of its own rate; else SimError naming
-    `source` (the option or the INI key the period came from)."""
+    number of them; else SimError naming `source` (the option or the INI key the period
+    came from). The watchdog's demand on the frame is the host's (host_config)."""
     steps = round(frame_s / STEP_S)
     if steps < 1 or abs(steps * STEP_S - frame_s) > 1e-9:
         raise SimError(f"{source}: a frame of {frame_s * 1000:g} ms is not a whole number of the "
                        f"FMUs' {STEP_S * 1000:g} ms steps")
-    from navkit import protocol
-
-    watchdog_ms = _ini_number(config_dir, "micro_cfg_motion", "watchdog_timeout",
-                              protocol.defaults("micro_cfg_motion")["watchdog_timeout"])
-    if not 2 * frame_s * 1000 < watchdog_ms:
-        raise SimError(f"{source}: a frame of {frame_s * 1000:g} ms needs [micro_cfg_motion] watchdog_timeout "
-                       f"above two frames ({2 * frame_s * 1000:g} ms) in {Path(config_dir) / 'NavAndControl.ini'}, "
-                       f"not {watchdog_ms:g} ms: one lost frame would stop the robot")
     return steps
 
 
@@ -461,10 +454,11 @@ class _Run:
         self.config_dir = (Path(opts.config_dir) if opts.config_dir else repo_root() / "config").resolve()
         self.out = Path(opts.out)
         self.plant_fmu = Path(opts.plant_fmu) if opts.plant_fmu else fmu_paths(self.build)[1]
-        self.frame_s = opts.frame_s or frame_period(self.config_dir)
-        self.steps_per_frame = check_frame(
-            self.frame_s, self.config_dir,
-            "--frame-ms" if opts.frame_s else f"{self.config_dir / 'NavAndControl.ini'}: [executive] frame_rate_hz")
+        self._check_built()
+        self.host_config = host_config(self.config_dir, self.build, opts.frame_s)
+        rate = self.host_config["sections"]["executive"]["frame_rate_hz"]
+        self.frame_s = opts.frame_s or 1.0 / rate["value"]
+        self.steps_per_frame = check_frame(self.frame_s, "--frame-ms" if opts.frame_s else f"{rate['from']}: frame_rate_hz")
         self.frame_s = self.steps_per_frame * STEP_S
         self.protocol = protocol
         self.noise_rng = random.Random(f"navkit-noise-{opts.seed}")
@@ -499,14 +493,6 @@ class _Run:
 
         self._check_timeline()
         fw_fmu, plant_fmu = fmu_paths(self.build, self.opts.firmware)[0], self.plant_fmu
-        built = [(fw_fmu, "firmware" if self.opts.firmware == "fmu" else "AVR firmware (needs avr-gcc and libsimavr: "
-                  "scripts/setup.sh) FMU")]
-        if self.opts.plant_fmu is None:         # a user's plant: check() names a missing file
-            built.append((plant_fmu, "plant"))
-        for path, name in built:
-            if not path.exists():
-                raise SimError(f"{path} not found: build the {name} FMU first "
-                               f"(cmake --build <build>)")
         self._firmware_rate(fw_fmu)
         try:
             plant_md = check(plant_fmu, fw_fmu)     # FMI 3.0 co-simulation, the contract
@@ -526,8 +512,6 @@ class _Run:
         if self.opts.timing:
             self.coupler.timing(True)
         host = host_path(self.build)
-        if not host.exists():
-            raise SimError(f"{host} not found: build the host first")
         self.out.mkdir(parents=True, exist_ok=True)
         self.old_datalogs = _datalogs(self.out)   # an earlier run's, kept but not this run's
         meta = {"mission": self.m.text, "mission_file": self.m.path.name,
@@ -610,6 +594,22 @@ class _Run:
         except (OSError, AttributeError):
             pass
 
+    def _check_built(self) -> None:
+        """The build's parts the run needs, before anything asks them (the host reads the
+        config): SimError naming the first one missing (firmware FMU, plant FMU, host)."""
+        fw_fmu = fmu_paths(self.build, self.opts.firmware)[0]
+        built = [(fw_fmu, "firmware" if self.opts.firmware == "fmu" else "AVR firmware (needs avr-gcc and libsimavr: "
+                  "scripts/setup.sh) FMU")]
+        if self.opts.plant_fmu is None:         # a user's plant: check() names a missing file
+            built.append((self.plant_fmu, "plant"))
+        for path, name in built:
+            if not path.exists():
+                raise SimError(f"{path} not found: build the {name} FMU first "
+                               f"(cmake --build <build>)")
+        host = host_path(self.build)
+        if not host.exists():
+            raise SimError(f"{host} not found: build the host first")
+
     def _firmware_rate(self, fw_fmu: Path) -> None:
         """The control_rate the micro gets: the config's, or for a firmware with a lower
         ceiling (the AVR image) the ceiling, with a copy of the config folder saying so
@@ -618,11 +618,10 @@ class _Run:
 
         board = board_info(fw_fmu)
         if board is None:
-            self.control_rate = control_rate(self.config_dir)[0] or \
-                self.protocol.defaults("micro_cfg_geometry")["control_rate"]
+            self.control_rate = control_rate(self.host_config)[0]
             return
         self.config_dir, self.control_rate, self.rate_note = rate_config(
-            self.config_dir, int(board["control_rate_max"]), self.tmp)
+            self.config_dir, int(board["control_rate_max"]), self.tmp, self.host_config)
 
     def _known_plant(self, plant_md, params: dict) -> dict:
         """Drop harness defaults (seed, world_file) the plant FMU (model description

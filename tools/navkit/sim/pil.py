@@ -28,8 +28,8 @@ FIRMWARES = {"fmu": "navkit_firmware", "avr": "navkit_firmware_avr"}
 
 _SECTION = "micro_cfg_geometry"
 _KEY = "control_rate"
-_SECTION_RE = re.compile(r"^\s*\[([^\]]+)\]")
-_KEY_RE = re.compile(rf"^(\s*{_KEY}\s*=\s*)([^;#\s]*)(.*)$")
+# the key's line as written (case as the host matches it): prefix, value, the rest
+_KEY_RE = re.compile(rf"^(\s*{_KEY}\s*=\s*)([^;#\s]*)(.*)$", re.IGNORECASE)
 
 
 def firmware_fmu(build: Path, firmware: str) -> Path:
@@ -46,39 +46,40 @@ def board_info(fmu: Path) -> dict | None:
     return dict(board.attrib) if board is not None else None
 
 
-def control_rate(config_dir: Path) -> tuple[int | None, int | None]:
-    """([micro_cfg_geometry] control_rate, its line number) of `config_dir`/NavAndControl.ini;
-    (None, None) when the key is not there (the host then sends the spec's default), the
-    value None when it is not an integer (the host reports that, with its file:line)."""
-    section = None
-    for n, line in enumerate((Path(config_dir) / "NavAndControl.ini").read_text().splitlines(), 1):
-        m = _SECTION_RE.match(line)
-        if m:
-            section = m.group(1).strip()
-            continue
-        m = _KEY_RE.match(line)
-        if section == _SECTION and m:
-            try:
-                return int(m.group(2)), n
-            except ValueError:
-                return None, n
-    return None, None
+def _config(config: Path | dict, build: Path | None) -> dict:
+    """`config` when it is already the host's answer (navkit.hostconfig), else the host's
+    answer for config folder `config`."""
+    from navkit.hostconfig import effective_config
+
+    return config if isinstance(config, dict) else effective_config(config, build=build)
 
 
-def rate_config(config_dir: Path, ceiling: int, tmp: Path) -> tuple[Path, int, str | None]:
+def control_rate(config: Path | dict, build: Path | None = None) -> tuple[int, int | None]:
+    """([micro_cfg_geometry] control_rate as the host sends it, its line number in
+    NavAndControl.ini or None when the file leaves it out: the spec's default) of config
+    folder `config` as navkit-host reads it (or of its answer, navkit.hostconfig);
+    HostConfigError when the host refuses the config."""
+    from navkit.hostconfig import origin_line, value
+
+    cfg = _config(config, build)
+    return value(cfg, _SECTION, _KEY), origin_line(cfg, _SECTION, _KEY)
+
+
+def rate_config(config_dir: Path, ceiling: int, tmp: Path, config: dict | None = None,
+                build: Path | None = None) -> tuple[Path, int, str | None]:
     """The config folder a run on a micro whose control_rate ceiling is `ceiling` (Hz) uses:
     (folder, control_rate the micro gets, why it differs from the config or None).
+    `config`: the host's answer for `config_dir` when the caller has it (else asked).
 
     `config_dir` itself when its control_rate (or the spec default, without the key) is at
     most the ceiling; else a copy in `tmp`/config-pil with the key set to the ceiling on
-    the same line (appended to the section, or the section to the file, when missing)."""
-    from navkit import protocol
+    the same line (appended to the section, or the section to the file, when missing):
+    the lines are the host's (file:line of the key, of the section's header)."""
+    from navkit.hostconfig import header_line
 
+    cfg = _config(config if config is not None else config_dir, build)
     ini = Path(config_dir) / "NavAndControl.ini"
-    rate, line = control_rate(config_dir)
-    asked = rate if rate is not None else protocol.defaults(_SECTION)[_KEY]
-    if line is not None and rate is None:
-        return Path(config_dir), asked, None      # not a number: the host names file:line
+    asked, line = control_rate(cfg)
     if asked <= ceiling:
         return Path(config_dir), asked, None
     copy = Path(tmp) / "config-pil"
@@ -87,10 +88,9 @@ def rate_config(config_dir: Path, ceiling: int, tmp: Path) -> tuple[Path, int, s
     if line is not None:
         m = _KEY_RE.match(lines[line - 1].rstrip("\n"))
         lines[line - 1] = f"{m.group(1)}{ceiling}{m.group(3)}\n"
-        where = f"{ini}:{line}: [{_SECTION}] {_KEY} = {rate}"
+        where = f"{ini}:{line}: [{_SECTION}] {_KEY} = {asked}"
     else:
-        at = next((i + 1 for i, s in enumerate(lines)
-                   if (m := _SECTION_RE.match(s)) and m.group(1).strip() == _SECTION), None)
+        at = header_line(cfg, _SECTION)
         if at is None:
             lines.append(f"\n[{_SECTION}]\n")
             at = len(lines)

@@ -125,6 +125,13 @@ def run(args) -> int:
     if not plant_fmu.exists():
         _err(f"{plant_fmu} not found: build first (cmake --build {build})")
         return 1
+    from navkit.hostconfig import HostConfigError, effective_config
+
+    try:  # the host's verdict on the config once, before any run (each run's would be the same)
+        effective_config(args.config or repo_root() / "config", build=build)
+    except HostConfigError as e:
+        _err(str(e))
+        return 1
     try:
         runs, varied = plan_runs(args, plant_fmu)
     except SweepError as e:

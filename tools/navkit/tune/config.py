@@ -6,6 +6,10 @@ byte, except that in NavAndControl.ini's [micro_cfg_motion] the values of the ke
 comment block (one per tuning kind: an older block of the same kind is replaced) states
 where the values come from. Values are the raw config units of the spec (the INI holds
 raw values, as on the wire).
+
+The values, and the lines the copy rewrites, are navkit-host's answer
+(navkit.hostconfig: `navkit-host --print-config`, the one reader of the INI); the copy
+edits the text of those lines only.
 """
 
 from __future__ import annotations
@@ -25,7 +29,6 @@ class ConfigError(ValueError):
 
 
 _KEY_RE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(\s*=\s*)([^;#\r\n]*?)(\s*(?:[;#].*)?)(\r?\n?)$")
-_SEC_RE = re.compile(r"^\[([^\]]+)\]")
 
 
 def _ini(folder: Path) -> Path:
@@ -35,53 +38,61 @@ def _ini(folder: Path) -> Path:
     return ini
 
 
-def read_values(folder: Path) -> dict:
-    """{(section, key): (value text, line number)} of the folder's NavAndControl.ini."""
-    ini = _ini(folder)
-    out, section = {}, None
-    for n, line in enumerate(ini.read_text().splitlines(keepends=True), 1):
-        m = _SEC_RE.match(line)
-        if m:
-            section = m.group(1).strip()
-            continue
-        m = _KEY_RE.match(line)
-        if m and section:
-            out[(section, m.group(1))] = (m.group(3).strip(), n)
+def _host(folder: Path, build: Path | None = None) -> dict:
+    """navkit-host's answer (the host of build folder `build`, default navkit.paths.build_dir())
+    for the folder's NavAndControl.ini (navkit.hostconfig: the host is the one reader of the
+    INI); ConfigError with its file:line message."""
+    from navkit.hostconfig import HostConfigError, effective_config
+
+    try:
+        return effective_config(_ini(folder), build=build)
+    except HostConfigError as e:
+        raise ConfigError(str(e)) from None
+
+
+def read_values(folder: Path, build: Path | None = None) -> dict:
+    """{(section, key): (value, line number)} of the keys written in the folder's
+    NavAndControl.ini, their values as navkit-host reads them."""
+    from navkit.hostconfig import origin_line
+
+    cfg = _host(folder, build)
+    out = {}
+    for section, keys in cfg["sections"].items():
+        for key, v in keys.items():
+            line = origin_line(cfg, section, key)
+            if line is not None:
+                out[(section, key)] = (v["value"], line)
     return out
 
 
-def _number(folder: Path, section: str, key: str, default: float | None = None) -> float:
-    vals = read_values(folder)
-    if (section, key) not in vals:
-        if default is not None:
-            return default
-        raise ConfigError(f"{_ini(folder)}: [{section}] {key}: missing")
-    text, line = vals[(section, key)]
+def _number(folder: Path, section: str, key: str, build: Path | None) -> float:
+    """[section] key as navkit-host reads the folder's INI (the spec default when it is not
+    written), as a number."""
+    from navkit.hostconfig import value
+
+    cfg = _host(folder, build)
     try:
-        return float(text)
-    except ValueError:
-        raise ConfigError(f"{_ini(folder)}:{line}: {key}: {text!r} is not a number") from None
+        return float(value(cfg, section, key))
+    except KeyError:
+        raise ConfigError(f"{_ini(folder)}: [{section}] {key}: not a key navkit-host knows") from None
 
 
-def motion_value(folder: Path, key: str) -> float:
+def motion_value(folder: Path, key: str, build: Path | None = None) -> float:
     """[micro_cfg_motion] key as a raw number; the spec default when the INI leaves it out."""
-    from navkit import protocol
-
-    return _number(folder, _SECTION, key, float(protocol.defaults("micro_cfg_motion")[key]))
+    return _number(folder, _SECTION, key, build)
 
 
-def geometry_value(folder: Path, key: str) -> float:
+def geometry_value(folder: Path, key: str, build: Path | None = None) -> float:
     """[micro_cfg_geometry] key as a raw number; the spec default when the INI leaves it out."""
-    from navkit import protocol
-
-    return _number(folder, "micro_cfg_geometry", key, float(protocol.defaults("micro_cfg_geometry")[key]))
+    return _number(folder, "micro_cfg_geometry", key, build)
 
 
 def _marker(kind: str) -> tuple[str, str]:
     return f"; --- navkit tune {kind}: begin", f"; --- navkit tune {kind}: end"
 
 
-def write_tuned(src: Path, dst: Path, values: dict, kind: str, provenance: list[str]) -> Path:
+def write_tuned(src: Path, dst: Path, values: dict, kind: str, provenance: list[str],
+                build: Path | None = None) -> Path:
     """Copy config folder src to dst (created; files in dst of the same names are replaced)
     with [micro_cfg_motion] `values` {key: raw int} and the provenance comment lines (without
     their '; ') in a block for `kind` ('wheel' or 'heading'). Returns dst's INI path.
@@ -96,36 +107,37 @@ def write_tuned(src: Path, dst: Path, values: dict, kind: str, provenance: list[
             shutil.copy2(f, dst / f.name)
         elif f.is_dir():
             shutil.copytree(f, dst / f.name, dirs_exist_ok=True)
+    from navkit.hostconfig import header_line, origin_line
+
+    cfg = _host(src, build)
     lines = ini.read_text().splitlines(keepends=True)
     begin, end = _marker(kind)
-    out, section, skipping, found, header_at = [], None, False, set(), None
-    for line in lines:
-        if line.startswith(begin):
-            skipping = True
-            continue
-        if skipping:
-            if line.startswith(end):
-                skipping = False
-            continue
-        m = _SEC_RE.match(line)
-        if m:
-            section = m.group(1).strip()
-            out.append(line)
-            if section == _SECTION:
-                header_at = len(out)
-            continue
-        m = _KEY_RE.match(line)
-        if m and section == _SECTION and m.group(1) in values:
-            key = m.group(1)
-            found.add(key)
-            line = f"{key}{m.group(2)}{int(values[key])}{m.group(4)}{m.group(5)}"
-        out.append(line)
-    missing = sorted(set(values) - found)
+    # the lines to change, where the host found each key and the section's header
+    header_at = header_line(cfg, _SECTION)
+    at = {k: origin_line(cfg, _SECTION, k) if k in cfg["sections"][_SECTION] else None for k in values}
+    missing = sorted(k for k, n in at.items() if n is None)
     if header_at is None or missing:
         raise ConfigError(f"{ini}: [{_SECTION}] lacks {', '.join(missing) or 'the section'} "
                           f"(the tuned copy replaces existing keys only)")
+    replace = {}
+    for key, n in at.items():
+        m = _KEY_RE.match(lines[n - 1])
+        if not m:
+            raise ConfigError(f"{ini}:{n}: {key}: not a 'key = value' line the tuned copy can rewrite")
+        replace[n - 1] = f"{m.group(1)}{m.group(2)}{int(values[key])}{m.group(4)}{m.group(5)}"
+    out, skipping = [], False
+    for i, line in enumerate(lines):
+        if line.startswith(begin):  # the older block of this kind: replaced
+            skipping = True
+            continue
+        if skipping:
+            skipping = not line.startswith(end)
+            continue
+        out.append(replace.get(i, line))
+        if i == header_at - 1:
+            block_at = len(out)
     nl = "\r\n" if lines and lines[0].endswith("\r\n") else "\n"
     block = [begin + nl] + [f"; {p}{nl}" for p in provenance] + [end + nl]
-    out[header_at:header_at] = block
+    out[block_at:block_at] = block
     (dst / INI_NAME).write_text("".join(out))
     return dst / INI_NAME

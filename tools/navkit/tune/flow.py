@@ -193,9 +193,9 @@ def _wheel_setup(args):
 
     config_src = Path(args.config) if args.config else repo_root() / "config"
     try:
-        rate = cfg.geometry_value(config_src, "control_rate")
-        previous = {k: int(cfg.motion_value(config_src, k)) for k in WHEEL_KEYS}
-        pwm_limit = cfg.motion_value(config_src, "pwm_limit") * dsg._scale("pwm_limit")
+        rate = cfg.geometry_value(config_src, "control_rate", args.build)
+        previous = {k: int(cfg.motion_value(config_src, k, args.build)) for k in WHEEL_KEYS}
+        pwm_limit = cfg.motion_value(config_src, "pwm_limit", args.build) * dsg._scale("pwm_limit")
     except cfg.ConfigError as e:
         raise TuneError(str(e)) from None
     return config_src, 1.0 / rate, previous, pwm_limit
@@ -266,11 +266,11 @@ def tune_wheel(args) -> dict:
         f"crossover {mq['crossover_hz']:.2f} Hz",
         "previous: " + ", ".join(f"{k} {v}" for k, v in previous.items()),
     ]
-    config_rate = cfg.geometry_value(config_src, "control_rate")
+    config_rate = cfg.geometry_value(config_src, "control_rate", args.build)
     if abs(config_rate - 1.0 / dt) > 0.5:
         provenance.insert(-1, f"designed at {1 / dt:g} Hz, the rate the {args.firmware} firmware ran "
                               f"(control_rate here: {config_rate:g} Hz)")
-    ini = cfg.write_tuned(config_src, out / "config", raw, "wheel", provenance)
+    ini = cfg.write_tuned(config_src, out / "config", raw, "wheel", provenance, args.build)
 
     quant = {k: {"designed": v, "quantised": getattr(design.quantised, k),
                  "relative_change": (getattr(design.quantised, k) - v) / v if v else 0.0}
@@ -421,7 +421,7 @@ def tune_heading(args) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     config_src = wheel_dir / "config"
     try:
-        previous = int(cfg.motion_value(config_src, "heading_kp"))
+        previous = int(cfg.motion_value(config_src, "heading_kp", args.build))
     except cfg.ConfigError as e:
         raise TuneError(str(e)) from None
     plant = dsg.plant_d(model, dt, cd)
@@ -442,7 +442,7 @@ def tune_heading(args) -> dict:
         f"crossover {mq['crossover_hz']:.2f} Hz",
         f"previous: heading_kp {previous}",
     ]
-    ini = cfg.write_tuned(config_src, out / "config", {"heading_kp": hd.raw}, "heading", provenance)
+    ini = cfg.write_tuned(config_src, out / "config", {"heading_kp": hd.raw}, "heading", provenance, args.build)
     mission_path = Path(args.mission) if args.mission else (
         Path(tj["source"]["mission"]) if "mission" in tj.get("source", {}) else None)
     mission = exp.load_mission(mission_path) if mission_path else None

@@ -1,0 +1,114 @@
+"""The host's configuration as the host reads it: the one reader of NavAndControl.ini and
+sensors.ini is navkit-host (inih, host/src/ini.cpp); Python asks it
+(`navkit-host --config PATH --print-config`) instead of parsing the files again.
+
+`effective_config(path)` is the host's answer for a config folder (both files) or one INI
+file: {"files": [path, ...], "sections": {section: {key: {"value": v, "from": "file:line"
+| "--option" | "default"}}}, "headers": {section: "file:line"}}: every key the host knows
+with its value after defaults and command-line overrides (values typed: numbers, strings,
+booleans, the per-servo lists) and where each section's [header] is. `value`,
+`origin_line` and `header_line` read it. Answers are cached per path, the files'
+modification times and contents, the overrides and the host binary.
+
+A config the host refuses raises HostConfigError with the host's one-line message
+(file:line: key: reason, or --option: reason) and its exit status (1: the config, 2: an
+option). The frame-vs-watchdog rule is the host's too: pass `frame_ms` and the host
+judges that frame (as `navkit sim --frame-ms` runs it) against the config's watchdog.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+from pathlib import Path
+
+__all__ = ["HostConfigError", "effective_config", "value", "origin_line", "header_line", "INI_FILES"]
+
+# The files a config folder holds, read by the host in this order.
+INI_FILES = ("NavAndControl.ini", "sensors.ini")
+
+_cache: dict = {}
+
+
+class HostConfigError(ValueError):
+    """A config the host refuses (or a host that cannot be asked); `status` is the host's
+    exit status (1: the config, 2: an option), 0 when the host could not be run."""
+
+    def __init__(self, message: str, status: int = 1):
+        super().__init__(message)
+        self.status = status
+
+
+def _stamp(path: Path) -> tuple:
+    """What changes when the files behind `path` change: (name, mtime ns, digest of the
+    bytes) of each (the digest as well: a rewrite of the same size can keep the mtime,
+    whose clock is coarse)."""
+    files = [path / n for n in INI_FILES] if path.is_dir() else [path]
+    out = []
+    for f in files:
+        try:
+            out.append((f.name, f.stat().st_mtime_ns, hashlib.blake2b(f.read_bytes(), digest_size=16).digest()))
+        except OSError:
+            out.append((f.name, None, None))
+    return tuple(out)
+
+
+def effective_config(path: Path, *, build: Path | None = None, frame_ms: float | None = None,
+                     options: tuple = ()) -> dict:
+    """The host's effective configuration of config folder (or INI file) `path` (the JSON of
+    `navkit-host --print-config`, see above). `frame_ms` (ms) is the frame the caller
+    runs (--frame-ms; None: the INI's frame_rate_hz), judged against the watchdog by the
+    host; `options` more host options ("--port", "x", ...). `build`: the build folder of
+    navkit-host (default: navkit.paths.build_dir()). Raises HostConfigError."""
+    from navkit.paths import build_dir
+
+    path = Path(path)
+    host = Path(build or build_dir()) / "host" / "navkit-host"
+    args = list(options)
+    if frame_ms is not None:
+        args += ["--frame-ms", f"{frame_ms:.12g}"]
+    key = (str(path.resolve()), _stamp(path), tuple(args), str(host))
+    if key in _cache:
+        return _cache[key]
+    if not host.is_file():
+        raise HostConfigError(f"{host}: not built (cmake --build {host.parent.parent}); "
+                              f"navkit-host reads the config", 0)
+    try:
+        r = subprocess.run([str(host), "--config", str(path), "--print-config", *args],
+                           capture_output=True, text=True, errors="replace", timeout=30,
+                           stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.SubprocessError) as e:
+        raise HostConfigError(f"{host}: {e}", 0) from None
+    if r.returncode != 0:
+        said = r.stderr.splitlines()[0] if r.stderr.strip() else f"exit status {r.returncode}"
+        raise HostConfigError(said.removeprefix("navkit-host: "), r.returncode)
+    try:
+        config = json.loads(r.stdout)
+        config["sections"], config["headers"]
+    except (ValueError, KeyError, TypeError) as e:
+        raise HostConfigError(f"{host} --print-config: not its JSON ({e})", 0) from None
+    _cache[key] = config
+    return config
+
+
+def value(config: dict, section: str, key: str):
+    """The effective value of `[section] key` in `config` (effective_config's answer)."""
+    return config["sections"][section][key]["value"]
+
+
+def origin_line(config: dict, section: str, key: str) -> int | None:
+    """The line of `[section] key` in its INI file, None when the key is not in the file
+    (its default, or a command-line option's value)."""
+    return _line(config["sections"][section][key]["from"])
+
+
+def header_line(config: dict, section: str) -> int | None:
+    """The line of `[section]`'s header in its INI file, None when the file has none."""
+    return _line(config["headers"].get(section, ""))
+
+
+def _line(where: str) -> int | None:
+    """The line number of "file:line", None for anything else ("default", "--rate")."""
+    head, _, line = where.rpartition(":")
+    return int(line) if head and line.isdigit() else None
