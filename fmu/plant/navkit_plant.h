@@ -16,6 +16,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* The generator reads these lines and the table below as they stand: one macro call a line. */
+/* clang-format off */
 #define NP_MODEL_NAME "navkit_plant"
 #define NP_MODEL_DESCRIPTION "navkit reference robot: differential drive, DC motors, encoders, gyro, compass, battery, RC servos, DIO loopback, GP2D12 IR and SRF04 sonar in a 2D world"
 /* Change the token whenever the table changes (the importer checks it). */
@@ -140,6 +142,7 @@ F64(sonar_angle_deg_2, PARAMETER, -45.0, "deg", "Sonar 2 pointing angle, counter
 F64(sonar_x_mm_3, PARAMETER, -200.0, "mm", "Sonar 3 mount x (back)") \
 F64(sonar_y_mm_3, PARAMETER, 0.0, "mm", "Sonar 3 mount y") \
 F64(sonar_angle_deg_3, PARAMETER, 180.0, "deg", "Sonar 3 pointing angle, counter-clockwise from x")
+/* clang-format on */
 
 /* ---------------------------------------------------------------- variables */
 
@@ -152,7 +155,9 @@ typedef enum { NP_VARIABLES(NP_VR_ENTRY, NP_VR_ENTRY, NP_VR_ENTRY) NP_NUM_VARS }
 #define NP_FIELD_I32(name, caus, start, unit, desc) int32_t name;
 #define NP_FIELD_STR(name, caus, start, unit, desc) char name[NP_STR_MAX];
 /* Every variable's current value, one field per table entry. */
-typedef struct { NP_VARIABLES(NP_FIELD_F64, NP_FIELD_I32, NP_FIELD_STR) } np_values_t;
+typedef struct {
+    NP_VARIABLES(NP_FIELD_F64, NP_FIELD_I32, NP_FIELD_STR)
+} np_values_t;
 #undef NP_FIELD_F64
 #undef NP_FIELD_I32
 #undef NP_FIELD_STR
@@ -164,42 +169,46 @@ typedef struct { NP_VARIABLES(NP_FIELD_F64, NP_FIELD_I32, NP_FIELD_STR) } np_val
 #define NP_N_SERVO 8
 
 /* A wall: a line segment in the start pose frame, m. */
-typedef struct { double ax, ay, bx, by; } np_wall_t;
+typedef struct {
+    double ax, ay, bx, by;
+} np_wall_t;
 
 /* A sensor mount in the body frame: m, and the unit pointing vector. */
-typedef struct { double x, y, ux, uy; } np_mount_t;
+typedef struct {
+    double x, y, ux, uy;
+} np_mount_t;
 
 /* Constants derived from the parameters when the simulation starts (SI units). */
 typedef struct {
-  double r[2];          /* m, true wheel radius left/right */
-  double g[2];          /* rad/m, motor shaft angle per metre of wheel travel */
-  double track;         /* m */
-  double mass[2][2];    /* kg, mass matrix in wheel-speed coordinates (body + rotors) */
-  double counts_per_m[2]; /* counts per metre of wheel travel */
-  double ir_period, sonar_period;   /* s */
-  double sonar_cos_half, sonar_sin_half; /* half beam */
-  double us_per_m;      /* us of echo per metre of range (there and back) */
-  np_mount_t ir[NP_N_IR], sonar[NP_N_SONAR];
+    double r[2];                           /* m, true wheel radius left/right */
+    double g[2];                           /* rad/m, motor shaft angle per metre of wheel travel */
+    double track;                          /* m */
+    double mass[2][2];                     /* kg, mass matrix in wheel-speed coordinates (body + rotors) */
+    double counts_per_m[2];                /* counts per metre of wheel travel */
+    double ir_period, sonar_period;        /* s */
+    double sonar_cos_half, sonar_sin_half; /* half beam */
+    double us_per_m;                       /* us of echo per metre of range (there and back) */
+    np_mount_t ir[NP_N_IR], sonar[NP_N_SONAR];
 } np_derived_t;
 
 /* The model: values, derived constants, world and every piece of state. No statics. */
 typedef struct {
-  np_values_t v;
-  np_derived_t k;
-  np_wall_t *walls;     /* malloc'd, n_walls entries, NULL when none */
-  size_t n_walls;
-  double t;             /* s, model time */
-  double xm, ym, yaw;   /* m, m, rad: pose in the start frame */
-  double vw[2];         /* m/s, wheel contact speeds left/right */
-  double sw[2];         /* m, wheel travel left/right */
-  double fc[2];         /* N, Coulomb friction of the last sub-step (warm start) */
-  double vbat;          /* V, battery terminal voltage */
-  double charge_ah;     /* A.h drawn from the battery so far */
-  double gyro_bias;     /* deg/s */
-  double next_ir, next_sonar; /* s, time of the next IR reading / sonar ping */
-  uint64_t rng[4];      /* splitmix64 states: gyro, compass, IR, sonar */
-  double spare[4];      /* cached second Box-Muller normal per stream */
-  int have_spare[4];
+    np_values_t v;
+    np_derived_t k;
+    np_wall_t *walls; /* malloc'd, n_walls entries, NULL when none */
+    size_t n_walls;
+    double t;                   /* s, model time */
+    double xm, ym, yaw;         /* m, m, rad: pose in the start frame */
+    double vw[2];               /* m/s, wheel contact speeds left/right */
+    double sw[2];               /* m, wheel travel left/right */
+    double fc[2];               /* N, Coulomb friction of the last sub-step (warm start) */
+    double vbat;                /* V, battery terminal voltage */
+    double charge_ah;           /* A.h drawn from the battery so far */
+    double gyro_bias;           /* deg/s */
+    double next_ir, next_sonar; /* s, time of the next IR reading / sonar ping */
+    uint64_t rng[4];            /* splitmix64 states: gyro, compass, IR, sonar */
+    double spare[4];            /* cached second Box-Muller normal per stream */
+    int have_spare[4];
 } np_model_t;
 
 /* Sets every variable to its start value and frees the world (values only; call

@@ -38,7 +38,10 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
     return FMIL_OK;
 }
 
-void fmil_model_inputs_changed(fmil_instance_t *c) { np_inputs_changed(&c->model); }
+void fmil_model_inputs_changed(fmil_instance_t *c)
+{
+    np_inputs_changed(&c->model);
+}
 
 fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h)
 {
@@ -48,4 +51,7 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h)
     return FMIL_OK;
 }
 
-void fmil_model_free(fmil_instance_t *c) { np_release(&c->model); }
+void fmil_model_free(fmil_instance_t *c)
+{
+    np_release(&c->model);
+}
