@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 debs=(
   build-essential cmake ninja-build pkg-config
   libgtest-dev libinih-dev
-  clang
+  clang clang-format
   gcc-avr avr-libc binutils-avr simavr libsimavr-dev libelf-dev avrdude arduino-core-avr
   python3-venv libatomic1
 )

@@ -240,7 +240,7 @@ def test_random_loss_and_reordering_never_deliver_a_wrong_message(prop_seed, pro
 
 def test_the_golden_vectors_are_what_navkit_can_makes():
     """tests/vectors/can.txt holds navkit.can's reception frame by frame; the C firmware's
-    can_tp is held to the same file (ctest firmware_can_tp)."""
+    can_tp is held to the same file (ctest firmware.can_tp.*)."""
     from navkit.can_vectors import CAN_VECTORS, make_vectors, read_vectors
     assert CAN_VECTORS.read_text() == make_vectors(), "stale: run python -m navkit.can_vectors --write"
     cases = read_vectors()
