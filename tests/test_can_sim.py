@@ -39,6 +39,31 @@ def test_the_demo_over_can_ends_where_it_ends_over_serial(tmp_path_factory):
     assert f"{c['frames']} frames" in r.stderr
 
 
+def test_run_mcap_has_the_bus_frames_of_can_log_on_its_can_topic(tmp_path_factory):
+    """/can holds every frame of can.log (both ways, flow controls), with the same id, data
+    and direction, in a CAN run's run.mcap and only there; its schema names units."""
+    import mcap.reader
+
+    serial = run_mission(tmp_path_factory, "demo-serial", DEMO)
+    can = run_mission(tmp_path_factory, "demo-can", DEMO, link="can")
+    assert "/can" not in serial.topics and "/can" not in serial.summary["messages"]
+    frames = can.messages("/can")
+    lines = (can.out / "can.log").read_text().splitlines()
+    assert len(frames) == len(lines) == can.summary["messages"]["/can"] == can.summary["link"]["can"]["frames"]
+    for (t, m), line in zip(frames, lines):       # "(t) can0 ID#DATA R|T"
+        stamp, _, frame, *rx = line.split()
+        can_id, data = frame.split("#")
+        assert (m["id"], m["data"], m["dlc"]) == (int(can_id, 16), data.lower(), len(data) // 2), line
+        assert m["direction"] == ("to_host" if rx == ["R"] else "to_micro") and not m["error_frame"]
+        assert abs(t - float(stamp[1:-1])) < 1e-6 and m["t"] == t
+    ids = {m["id"] for _, m in frames}
+    assert {0x110, 0x111, 0x120, 0x180, 0x181} <= ids
+    with open(can.out / "run.mcap", "rb") as f:
+        schema = next(s for s in mcap.reader.make_reader(f).get_summary().schemas.values()
+                      if s.name == "navkit.can_frame")
+    assert "simulated time, s" in schema.data.decode() and "to_host" in schema.data.decode()
+
+
 def test_line_noise_over_can_is_error_frames_and_nothing_lost(tmp_path_factory):
     r = run_mission(tmp_path_factory, "noise-can", """
 duration_s = 6.0
@@ -63,6 +88,12 @@ distance = 1000
     d = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(r.out / "can.log")],
                        capture_output=True, text=True, timeout=120)
     assert d.returncode == 0 and f"{c['error_frames']} error frames" in d.stderr, d.stderr[-1000:]
+    # run.mcap's /can has them too, each before the try it destroyed (same identifier)
+    frames = [m for _, m in r.messages("/can")]
+    assert len(frames) == len((r.out / "can.log").read_text().splitlines())
+    errors = [i for i, m in enumerate(frames) if m["error_frame"]]
+    assert len(errors) == c["error_frames"]
+    assert all(frames[i]["dlc"] == 0 and frames[i]["id"] == frames[i + 1]["id"] for i in errors)
 
 
 def test_an_unplugged_adapter_comes_back_and_commands_flow_again(tmp_path_factory):

@@ -26,10 +26,28 @@ from navkit import can as nc
 from navkit import protocol as p
 from navkit.can_slcan import SlcanAdapter
 
-__all__ = ["CanGateway", "FRAME_BITS", "MAX_TRIES"]
+__all__ = ["CanGateway", "BusTap", "FRAME_BITS", "MAX_TRIES"]
 
 FRAME_BITS = 111   # bits of a classic 8-byte data frame with an 11-bit identifier, unstuffed
 MAX_TRIES = 32     # error frames before a frame goes through anyway (a bus this bad is off)
+
+
+class BusTap(can.Listener):
+    """A listener handing every bus frame to `logger` (a python-can Listener, e.g. can.Logger
+    writing can.log) and to `record(t_ns, can_id, data, to_host, error_frame)` (the run log's
+    /can topic): time in ns from the frame's timestamp (s), data bytes-like, `to_host` the
+    frame's is_rx (sent by the micro)."""
+
+    def __init__(self, logger: can.Listener, record):
+        self.logger, self.record = logger, record
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.logger.on_message_received(msg)
+        self.record(round(msg.timestamp * 1e9), msg.arbitration_id, msg.data, msg.is_rx,
+                    msg.is_error_frame)
+
+    def stop(self) -> None:
+        self.logger.stop()
 
 
 @dataclass

@@ -523,7 +523,7 @@ class _Run:
                 "firmware": self.opts.firmware, "control_rate_hz": self.control_rate}
         # fork the log worker before any pty, socket or child process exists
         self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width,
-                          inline=self.opts.log_inline)
+                          inline=self.opts.log_inline, can=self.opts.link == "can")
         self.port = Port(self.tmp / "ttyNAVKIT")
         cmd = [str(host), "--port", str(self.port.link), "--shm", self.shm,
                "--config", str(self.config_dir), "--log-dir", str(self.out.resolve())]
@@ -539,10 +539,11 @@ class _Run:
         if self.opts.link == "can":
             import can
 
-            from navkit.can_gateway import CanGateway
+            from navkit.can_gateway import BusTap, CanGateway
 
             cmd += ["--link", "slcan"]
-            self.can_log = can.Logger(str(self.out / "can.log"))  # candump -L format
+            # every bus frame to can.log (candump -L format) and run.mcap's /can
+            self.can_log = BusTap(can.Logger(str(self.out / "can.log")), self.log.can_frame)
             self.gateway = CanGateway(listener=self.can_log)
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")

@@ -21,8 +21,8 @@ from pathlib import Path
 
 from navkit.sim import foxglove
 
-__all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "TOPICS",
-           "HOST_STATES"]
+__all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "CAN_SCHEMA",
+           "TOPICS", "HOST_STATES"]
 
 TRUTH_SCHEMA = {
     "title": "navkit.truth",
@@ -76,6 +76,28 @@ EVENT_SCHEMA = {
     "type": "object",
     "properties": {"t": {"type": "number"}, "kind": {"type": "string"}, "detail": {"type": "object"}},
 }
+
+CAN_SCHEMA = {
+    "title": "navkit.can_frame",
+    "description": "One frame on the simulated CAN bus of a `navkit sim --link can` run (only "
+                   "there), as can.log has it: both directions, flow controls included, and "
+                   "each error frame that destroyed a try of the frame after it (line noise). "
+                   "Log time: the simulated time the frame went on the bus.",
+    "type": "object",
+    "properties": {
+        "t": {"type": "number", "description": "simulated time, s"},
+        "id": {"type": "integer", "description": "11-bit CAN identifier (spec [can.ids]); an "
+               "error frame carries the identifier of the frame it destroyed"},
+        "dlc": {"type": "integer", "description": "data length code, bytes (0 for an error frame)"},
+        "data": {"type": "string", "description": "the data bytes, lowercase hex, 2 digits a byte"},
+        "direction": {"type": "string", "enum": ["to_micro", "to_host"],
+                      "description": "to_micro: sent by the host's USB-CAN adapter (candump T); "
+                                     "to_host: sent by the micro, received by the adapter (R)"},
+        "error_frame": {"type": "boolean", "description": "an error frame (a bit error "
+                        "destroyed the frame; the controller sends it again)"},
+    },
+}
+
 
 def _datalog_schema() -> dict:
     from navkit import protocol
@@ -151,13 +173,20 @@ def _heading_wrapped(vals: tuple, at: int) -> tuple:
     return vals
 
 
+# One CAN frame as RunLog.can_frame queues it: time (ns), identifier, flags (bit 0 to the
+# host, bit 1 error frame), dlc (bytes), the data padded to 8 bytes; and its /can text.
+_CAN_RECORD = struct.Struct("<qHBB8s")
+_CAN_TEXT = b'{"t":%.6f,"id":%d,"dlc":%d,"data":"%s","direction":"%s","error_frame":%s}'
+
+
 class Recorder:
     """Writes `run.mcap`. Call `reserve(t0_ns, t1_ns)` before writing messages whose log
     times lie in [t0_ns, t1_ns] (at most `flush_every_s` apart), `write(topic, t_ns, obj)`
     with JSON-able objects, `flush_before(t_ns)` at each frame end with the end of the next
     frame, and `close()` at the end."""
 
-    def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0):
+    def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False):
+        """`can`: the run is over CAN, so the log also has the /can topic (CAN_SCHEMA)."""
         from mcap.writer import CompressionType, Writer
 
         self._file = open(path, "wb")
@@ -167,7 +196,11 @@ class Recorder:
                    "/host/frame": FRAME_SCHEMA, "/events": EVENT_SCHEMA,
                    "/micro/datalog": _datalog_schema()}
         self._chan = {}
-        for topic, msg in TOPICS.items():
+        topics = dict(TOPICS)
+        if can:
+            schemas["/can"] = CAN_SCHEMA
+            topics["/can"] = None
+        for topic, msg in topics.items():
             schema = schemas[topic] if msg is None else message_schema(msg)
             sid = self._w.register_schema(schema["title"], "jsonschema",
                                           json.dumps(schema, sort_keys=True).encode())
@@ -387,11 +420,13 @@ def _frame_texts(protocol) -> dict:
 class _Decoder:
     """Turns the harness's raw items into MCAP messages (runs in the log worker)."""
 
-    def __init__(self, path: Path, metadata: dict, columns: list, width: int):
+    def __init__(self, path: Path, metadata: dict, columns: list, width: int, can: bool = False):
         from navkit import protocol
 
         self.p = protocol
-        self.rec = Recorder(path, metadata)
+        self.rec = Recorder(path, metadata, can=can)
+        if can:
+            self.write_can = self.rec.writer("/can")
         self.write_frame, self.write_micro, self.write_truth, self.write_lisp, \
             self.write_cmd = map(self.rec.writer, ("/host/frame", "/micro/data", "/truth",
                                                    "/planner/data", "/micro/cmd"))
@@ -589,6 +624,13 @@ class _Decoder:
             self.fox.event(item[1], item[2], item[3])
         elif kind == "S":        # end of a frame: (S, end of the next frame, ns)
             rec.flush_before(item[1])
+        elif kind == "B":        # CAN frames: (B, records of _CAN_RECORD back to back)
+            write, tpl = self.write_can, _CAN_TEXT
+            for t_ns, can_id, flags, dlc, data in _CAN_RECORD.iter_unpack(item[1]):
+                rec.reserve(t_ns, t_ns)
+                write(t_ns, tpl % (t_ns / 1e9, can_id, dlc, data[:dlc].hex().encode(),
+                                   b"to_host" if flags & 1 else b"to_micro",
+                                   b"true" if flags & 2 else b"false"))
 
     def lisp(self, t_ns: int, raw: bytes) -> None:
         """One lisp_data (its little-endian bytes) to /planner/data."""
@@ -707,7 +749,7 @@ class _Decoder:
                          for d, sender in (("h2m", self.h2m), ("m2h", self.m2h))}}
 
 
-def _worker(conn, path, metadata, columns, width, spin, harness_end=None) -> None:
+def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=False) -> None:
     """Log worker process: decode and write until the harness says stop (None) or goes
     away (EOF), then close the MCAP file and send the results back. With `spin` it polls
     instead of sleeping while waiting for work (see RunLog.spin). `harness_end`, the
@@ -725,7 +767,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None) -> Non
 
     cpu0 = time.process_time()
     spun = 0.0                  # CPU s spent polling for work (spin), not working
-    dec = _Decoder(path, metadata, columns, width)
+    dec = _Decoder(path, metadata, columns, width, can)
     try:
         while True:
             try:
@@ -758,7 +800,7 @@ class RunLog:
     the other core, off the lockstep loop. `inline=True` does it all in this process.
 
     Items: frame(), host(), micro(), received(), receiver_restart(), truth(), command(),
-    event(), end_frame(); each with its log time, in time order within a frame (truth rows
+    event(), can_frame(), end_frame(); each with its log time, in time order within a frame (truth rows
     before the micro's bytes of the same FMU call) but for a few ms in real time;
     close() returns the worker's results (message counts, last
     decoded micro_data / lisp_data / truth, config downloads, watchdog stops, `planner`:
@@ -771,12 +813,13 @@ class RunLog:
     polling for work)."""
 
     def __init__(self, path: Path, metadata: dict, columns: list, width: int,
-                 inline: bool = False, batch_frames: int = 10):
+                 inline: bool = False, batch_frames: int = 10, can: bool = False):
+        """`can`: a run over CAN, whose bus frames (can_frame()) go to the /can topic."""
         self._items: list = []
         self._batch = batch_frames
         self._frames = 0
         if inline:
-            self._dec = _Decoder(path, metadata, columns, width)
+            self._dec = _Decoder(path, metadata, columns, width, can)
             self._conn = self._proc = None
         else:
             import multiprocessing as mp
@@ -785,7 +828,7 @@ class RunLog:
             self._conn, child = ctx.Pipe()
             self._spin = ctx.Value("b", 0, lock=False)
             self._proc = ctx.Process(target=_worker, args=(child, path, metadata, columns, width,
-                                                          self._spin, self._conn),
+                                                          self._spin, self._conn, can),
                                      name="navkit-sim-log", daemon=True)
             self._proc.start()
             child.close()
@@ -845,6 +888,15 @@ class RunLog:
 
     def event(self, t_ns, kind, detail) -> None:
         self._items.append(("E", t_ns, kind, detail))
+
+    def can_frame(self, t_ns, can_id, data, to_host, error) -> None:
+        """A frame on the CAN bus at t_ns (a /can message; the log was made with can=True):
+        its identifier, data bytes (at most 8), direction (True: micro to host) and whether
+        it is an error frame. Frames in a row share one item of packed records."""
+        items = self._items
+        if not items or items[-1][0] != "B":
+            items.append(("B", bytearray()))
+        items[-1][1].extend(_CAN_RECORD.pack(t_ns, can_id, to_host | error << 1, len(data), data))
 
     def end_frame(self, next_end_ns) -> None:
         """A frame ends; the next one ends at `next_end_ns` (ns): the log closes its chunk
