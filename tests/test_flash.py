@@ -397,3 +397,18 @@ def test_avrdude_missing(tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path))
     with pytest.raises(fl.FlashError, match="^avrdude not found: install it"):
         fl.run_avrdude(str(tmp_path / "port"), tmp_path / "x.hex")
+
+
+def test_a_refused_config_is_said_with_its_fix():
+    """A range refusal of micro_cfg_geometry (the spec-default control_rate above the AVR
+    image's ceiling) names the INI key to change; another message's is said plainly."""
+    from navkit.flash import _refusal
+    from navkit.protocol import SPEC
+
+    rng = 1 << SPEC.enums["reject"].values["range"]
+    types = SPEC.enums["msg_type"].values
+    text = _refusal(rng | types["micro_cfg_geometry"])
+    assert "[micro_cfg_geometry] control_rate" in text and "NavAndControl.ini" in text
+    assert _refusal(rng | types["micro_cfg_motion"]) == \
+        " (micro_cfg_motion refused: a field outside the board's range)"
+    assert _refusal(0) == ""

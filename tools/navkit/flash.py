@@ -423,8 +423,14 @@ def _refusal(last_reject: int) -> str:
     types = {v: k for k, v in SPEC.enums["msg_type"].values.items()}
     low = last_reject & ~(1 << bits["range"] | 1 << bits["unconfigured"])
     if last_reject >> bits["range"] & 1:
-        return (f" ({types.get(low, low)} refused: a field outside the board's range, e.g. a "
-                "control_rate above its ceiling)")
+        if types.get(low) == "micro_cfg_geometry":
+            from navkit.protocol import defaults
+            rate = defaults("micro_cfg_geometry")["control_rate"]
+            return (f" (micro_cfg_geometry refused: a field outside the board's range; navkit "
+                    f"sends the spec defaults, whose control_rate {rate} Hz is above the AVR "
+                    "image's ceiling: give the host's NavAndControl.ini [micro_cfg_geometry] "
+                    "control_rate at most that ceiling, docs/avr.md)")
+        return f" ({types.get(low, low)} refused: a field outside the board's range)"
     if last_reject >> bits["unconfigured"] & 1:
         return f" ({types.get(low, low)} refused: not configured)"
     return f" (command {last_reject} refused)" if last_reject else ""
