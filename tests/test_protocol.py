@@ -201,7 +201,7 @@ def test_golden_frames_byte_for_byte():
     frames = vectors.read_frames()
     assert len(frames) >= 6 * len(p.SPEC.messages)
     cases = {case for _, case, _, _, _ in frames}
-    assert cases == {"defaults", "min", "max", "random", "below", "above", "nonmember"}
+    assert cases == {"defaults", "min", "max", "random", "below", "above", "nonmember", "constraint"}
     assert sum(v != "ok" for _, _, v, _, _ in frames) >= 20
     for name, case, verdict, data, fields in frames:
         if p.SPEC.messages[name].framed:
@@ -536,3 +536,30 @@ def test_bench_proto_runs_and_prints_figures():
         assert float(parts[parts.index("frames/s") - 1]) > 0, line
     r = _navkit("bench-proto", "--frames", "0")
     assert r.returncode == 2 and "must be at least 1" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_check_applies_the_specs_constraints_after_the_ranges():
+    """protocol.check refuses what the spec's [[message]] constraints refuse (the C
+    navkit_<msg>_check does the same: tests/vectors `constraint` cases), naming the
+    field and the element, and only once every range holds."""
+    geo = p.defaults("micro_cfg_geometry")
+    p.check("micro_cfg_geometry", geo | {"gyro_sign": 1})
+    with pytest.raises(p.ProtocolError, match=r"^micro_cfg_geometry\.motor_left_sign: 0 breaks the constraint "
+                                              r"motor_left_sign != 0$") as e:
+        p.check("micro_cfg_geometry", geo | {"motor_left_sign": 0})
+    assert e.value.field == "motor_left_sign"
+    with pytest.raises(p.ProtocolError, match=r"enc_right_sign: 0 \(unset\) breaks"):
+        p.check("micro_cfg_geometry", {k: v for k, v in geo.items() if k != "enc_right_sign"})
+    with pytest.raises(p.ProtocolError, match="is outside -1..1"):  # the range first
+        p.check("micro_cfg_geometry", geo | {"motor_left_sign": 0, "gyro_sign": 2})
+    io = p.defaults("micro_cfg_io")
+    io["servo_min"][5] = 1000
+    with pytest.raises(p.ProtocolError, match=r"^micro_cfg_io\.servo_max\[5\]: 900 is below servo_min\[5\] 1000 "
+                                              r"\(constraint servo_min <= servo_max\)$") as e:
+        p.check("micro_cfg_io", io)
+    assert e.value.field == "servo_max"
+    with pytest.raises(p.ProtocolError):
+        p.encode_frame("micro_cfg_io", io)
+    assert p.decode_frame(p.encode_frame("micro_cfg_io", io, strict=False))[1]["servo_min"][5] == 1000
+    io["servo_max"][5] = 1000  # equal limits hold
+    p.check("micro_cfg_io", io)

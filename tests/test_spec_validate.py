@@ -377,3 +377,69 @@ def test_generated_check_refuses_non_codes_of_coded_fields_only():
     assert "m->mc_datalog_cmd > 6u" in body and "m->mc_datalog_cmd !=" not in body
     data = src.split("int navkit_lisp_data_check(")[1].split("\n}\n")[0]
     assert "m->nav_result != 0L && m->nav_result != 1L" in data
+
+
+# ------------------------------------------------------------ constraints of a message
+
+_LE = '{ le = ["servo_min", "servo_max"], doc = "Per servo'
+_NZ = '{ nonzero = ["enc_left_sign", "enc_right_sign", "motor_left_sign", "motor_right_sign", "gyro_sign"], doc'
+
+
+@pytest.mark.parametrize("old,new,needle,reason", [
+    (_LE, _LE.replace('"servo_max"]', '"servo_maxx"]'), "servo_maxx",
+     "micro_cfg_io.constraint 1: unknown field 'servo_maxx' of micro_cfg_io"),
+    (_LE, _LE.replace('"servo_min", "servo_max"', '"servo_min"'), 'le = ["servo_min"]',
+     "micro_cfg_io.constraint 1: le needs two field names [a, b], not ['servo_min']"),
+    (_LE, _LE.replace('"servo_max"]', '"dio_direction"]'), '"dio_direction"]',
+     "le binds servo_min (8 elements) and dio_direction (1): arrays of one count, or two scalars"),
+    (_LE, _LE.replace('"servo_min", "servo_max"', '"servo_min", "servo_min"'), '"servo_min", "servo_min"',
+     "le binds one field twice (servo_min)"),
+    (_LE, _LE.replace('"servo_min", "servo_max"', '"servo_center", "servo_min"'), '"servo_center", "servo_min"',
+     "the defaults break it: servo_center 1500 > servo_min -900"),
+    (_LE, _LE.replace("{ le", "{ ge"), "{ ge", "micro_cfg_io.constraint 1"),
+    (_LE, _LE.replace("{ le", '{ nonzero = ["servo_min"], le'), 'nonzero = ["servo_min"], le',
+     "needs exactly one of nonzero, le"),
+    (_LE, _LE.replace(', doc = "Per servo', ', docs = "Per servo'), "docs =", "micro_cfg_io.constraint 1"),
+    ('"servo_max"], doc = "Per servo: the left travel limit is not right of the right one (element by element)." }',
+     '"servo_max"] }', '"servo_max"] }', "micro_cfg_io.constraint 1: every constraint needs doc text"),
+    (_LE, '"not a table",\n  ' + _LE, '"not a table",', "micro_cfg_io.constraint 1: must be an inline table"),
+    (_NZ, _NZ.replace('"enc_left_sign"', '"wheel_diameter"'), '"wheel_diameter"',
+     "micro_cfg_geometry.constraint 1: wheel_diameter's range 1000..60000 already excludes 0"),
+    (_NZ, _NZ.replace('"enc_left_sign"', '"spec_hash"'), '"spec_hash"',
+     "spec_hash is framing, not a field a constraint binds"),
+    (_NZ, _NZ.replace('"enc_left_sign"', '"gyro_sign"'), '{ nonzero = ["gyro_sign"',
+     "gyro_sign != 0 is stated twice"),
+    (_NZ, _NZ.replace('["enc_left_sign", "enc_right_sign", "motor_left_sign", "motor_right_sign", "gyro_sign"]',
+                      '"gyro_sign"'), '{ nonzero = "gyro_sign"',
+     "nonzero needs a non-empty list of field names, not 'gyro_sign'"),
+    ("default = -1, doc = \"Sign that turns", "default = 0, doc = \"Sign that turns", _NZ,
+     "gyro_sign's default 0 breaks it (give gyro_sign a default)"),
+])
+def test_broken_constraint_is_refused_at_its_line(tmp_path, old, new, needle, reason):
+    path = _spec(tmp_path, old, new)
+    _refused(path, _line_of(path, needle, "constraint = ["), reason)
+
+
+def test_a_constraint_list_that_is_no_array_names_its_line(tmp_path):
+    block = "constraint = [\n  " + _LE + ': the left travel limit is not right of the right one (element by element)." },\n]'
+    path = _spec(tmp_path, block, 'constraint = "servo_min <= servo_max"')
+    _refused(path, _line_of(path, 'constraint = "servo_min'), "micro_cfg_io.constraint: must be an array")
+
+
+def test_constraints_enter_the_hash_and_their_doc_does_not(tmp_path):
+    base = load(spec_path())
+    io = base.messages["micro_cfg_io"]
+    assert [(c.kind, c.fields) for c in io.constraints] == [("le", ("servo_min", "servo_max"))]
+    assert [c.fields[0] for c in base.messages["micro_cfg_geometry"].constraints] == [
+        "enc_left_sign", "enc_right_sign", "motor_left_sign", "motor_right_sign", "gyro_sign"]
+    assert load(_spec(tmp_path, _LE, _LE.replace('"servo_min", "servo_max"', '"servo_min", "servo_center"'))
+                ).hash != base.hash
+    assert load(_spec(tmp_path, _NZ, _NZ.replace(', "gyro_sign"]', "]"))).hash != base.hash
+    assert load(_spec(tmp_path, 'doc = "Per servo: the left', 'doc = "Each servo: the left')).hash == base.hash
+
+
+def test_generated_docs_list_the_constraints():
+    from navkit.gen import emit_docs
+    docs = emit_docs(load(spec_path()))
+    assert "- `servo_min <= servo_max` (element by element): Per servo" in docs
+    assert "- `gyro_sign != 0`: A sign is +1 or -1" in docs

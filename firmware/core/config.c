@@ -5,11 +5,6 @@
 #define CONFIG_RAD_TO_DEG 57.29577951f
 #define CONFIG_STILL_S 0.25f /* s: quiet encoders for this long = standing still */
 
-static uint8_t config_sign_ok(int16_t s)
-{
-    return (uint8_t)(s == 1 || s == -1);
-}
-
 /* Values that depend on both geometry and motion. */
 static void config_derive(config_t *c)
 {
@@ -51,10 +46,8 @@ config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *
     if (m->spec_hash != NAVKIT_SPEC_HASH) {
         return CONFIG_ERR_HASH;
     }
-    if (navkit_micro_cfg_geometry_check(m, 0) != NAVKIT_OK || !config_sign_ok(m->enc_left_sign) ||
-        !config_sign_ok(m->enc_right_sign) || !config_sign_ok(m->motor_left_sign) ||
-        !config_sign_ok(m->motor_right_sign) || !config_sign_ok(m->gyro_sign) ||
-        m->control_rate > CONFIG_RATE_MAX) {
+    /* the spec's ranges and constraints (each sign +1 or -1), then this target's rate ceiling */
+    if (navkit_micro_cfg_geometry_check(m, 0) != NAVKIT_OK || m->control_rate > CONFIG_RATE_MAX) {
         return CONFIG_ERR_RANGE;
     }
     c->mm_per_count = CONFIG_PI * 0.01f * (float)m->wheel_diameter / (float)m->counts_per_rev;
@@ -119,13 +112,8 @@ config_result_t config_io(config_t *c, const navkit_micro_cfg_io_t *m)
     if (m->spec_hash != NAVKIT_SPEC_HASH) {
         return CONFIG_ERR_HASH;
     }
-    if (navkit_micro_cfg_io_check(m, 0) != NAVKIT_OK) {
+    if (navkit_micro_cfg_io_check(m, 0) != NAVKIT_OK) { /* ranges, and servo_min <= servo_max per servo */
         return CONFIG_ERR_RANGE;
-    }
-    for (i = 0u; i < SERVO_COUNT; i++) {
-        if (m->servo_min[i] > m->servo_max[i]) {
-            return CONFIG_ERR_RANGE;
-        }
     }
     c->dio_direction = m->dio_direction;
     c->dio_safe_state = m->dio_safe_state;

@@ -35,7 +35,8 @@
 typedef enum {
     CONFIG_OK = 0,        /* applied */
     CONFIG_ERR_HASH = 1,  /* spec_hash differs from the firmware's: refused */
-    CONFIG_ERR_RANGE = 2  /* a field out of range (or a sign of 0, or control_rate above CONFIG_RATE_MAX): refused */
+    CONFIG_ERR_RANGE = 2  /* a field out of range, a spec constraint broken (a sign of 0, a servo_min above its
+                             servo_max) or control_rate above CONFIG_RATE_MAX: refused */
 } config_result_t;
 
 typedef struct {

@@ -118,19 +118,23 @@ Key mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numer
     return int_key(p, lo, hi, true);
 }
 
-// A sign, +1 or -1, into *p: the spec's range is -1..1, but the micro refuses 0
-// (firmware/core/config.c config_sign_ok).
-Key sign_key(int16_t *p)
+// A sign of micro_cfg_geometry into g->*sign: taken when the spec's check takes it (its
+// range -1..1 and its constraint nonzero: +1 or -1), tried on the defaults with this sign.
+Key sign_key(navkit_micro_cfg_geometry_t *g, int16_t navkit_micro_cfg_geometry_t::*sign)
 {
-    Setter set = [p](const std::string &v) -> std::string {
-        long x;
-        if (!ini_parse_int(v, false, &x).empty() || (x != 1 && x != -1)) {
+    Setter set = [g, sign](const std::string &v) -> std::string {
+        long x = 0;
+        const bool is_int16 = ini_parse_int(v, false, &x).empty() && x >= INT16_MIN && x <= INT16_MAX;
+        navkit_micro_cfg_geometry_t probe;
+        navkit_micro_cfg_geometry_defaults(&probe);
+        probe.*sign = static_cast<int16_t>(is_int16 ? x : 0);
+        if (!is_int16 || navkit_micro_cfg_geometry_check(&probe, nullptr) != NAVKIT_OK) {
             return "'" + v + "' is not 1 or -1 (the micro refuses any other sign)";
         }
-        *p = static_cast<int16_t>(x);
+        g->*sign = probe.*sign;
         return "";
     };
-    return Key{set, int_json(p)};
+    return Key{set, int_json(&(g->*sign))};
 }
 
 // A finite number into *p, lo..hi (the key's unit).
@@ -312,10 +316,13 @@ Table nav_table(Config &c)
     navkit_micro_cfg_geometry_t &g = m.geometry;
     t["micro_cfg_geometry"] = {
         {"wheel_diameter", int_key(&g.wheel_diameter)}, {"counts_per_rev", int_key(&g.counts_per_rev)},
-        {"track_width", int_key(&g.track_width)},       {"enc_left_sign", sign_key(&g.enc_left_sign)},
-        {"enc_right_sign", sign_key(&g.enc_right_sign)}, {"motor_left_sign", sign_key(&g.motor_left_sign)},
-        {"motor_right_sign", sign_key(&g.motor_right_sign)},
-        {"gyro_lsb_per_dps", int_key(&g.gyro_lsb_per_dps)}, {"gyro_sign", sign_key(&g.gyro_sign)},
+        {"track_width", int_key(&g.track_width)},
+        {"enc_left_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::enc_left_sign)},
+        {"enc_right_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::enc_right_sign)},
+        {"motor_left_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::motor_left_sign)},
+        {"motor_right_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::motor_right_sign)},
+        {"gyro_lsb_per_dps", int_key(&g.gyro_lsb_per_dps)},
+        {"gyro_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::gyro_sign)},
         {"compass_weight", int_key(&g.compass_weight)}, {"control_rate", int_key(&g.control_rate)},
     };
     navkit_micro_cfg_motion_t &mo = m.motion;
@@ -408,18 +415,19 @@ std::string face_path(const std::string &dir, const std::string &setting)
     return setting[0] == '/' ? setting : dir + "/" + setting;
 }
 
-// Range check of the three config messages against the spec, naming the INI line.
+// Range check of the three config messages against the spec, naming the INI line (a
+// message's constraints are checked after its ranges: check_constraints reports those).
 void check_micro(const IniFile &ini, const Config &c)
 {
     int bad = -1;
     std::string sec, name;
-    if (navkit_micro_cfg_geometry_check(&c.micro.geometry, &bad) != NAVKIT_OK) {
+    if (navkit_micro_cfg_geometry_check(&c.micro.geometry, &bad) == NAVKIT_ERR_RANGE) {
         sec = "micro_cfg_geometry";
         name = navkit_micro_cfg_geometry_field_name(bad);
-    } else if (navkit_micro_cfg_motion_check(&c.micro.motion, &bad) != NAVKIT_OK) {
+    } else if (navkit_micro_cfg_motion_check(&c.micro.motion, &bad) == NAVKIT_ERR_RANGE) {
         sec = "micro_cfg_motion";
         name = navkit_micro_cfg_motion_field_name(bad);
-    } else if (navkit_micro_cfg_io_check(&c.micro.io, &bad) != NAVKIT_OK) {
+    } else if (navkit_micro_cfg_io_check(&c.micro.io, &bad) == NAVKIT_ERR_RANGE) {
         sec = "micro_cfg_io";
         name = navkit_micro_cfg_io_field_name(bad);
     } else {
@@ -437,18 +445,41 @@ std::string later_key(const IniFile &ini, const std::string &sec_a, const std::s
     return ini.path + ":" + std::to_string(std::max(la, lb)) + ": " + (la > lb ? key_a : key_b);
 }
 
-// What the micro refuses beyond the spec's ranges (firmware/core/config.c config_io):
-// each servo's servo_min above its servo_max, named at the later of the two keys' lines.
-void check_servo_limits(const IniFile &ini, const Config &c)
+// The first broken spec constraint of config message *m of INI section sec (the generated
+// navkit_<msg>_constraint_check, _constraint_field and _field_name), named at the later of
+// its keys' lines: an le of arrays such as servo_min <= servo_max as "servo 3's servo_min
+// 100 is above its servo_max -100", element i named by the fields' common prefix.
+template <class M>
+void check_constraints_of(const IniFile &ini, const std::string &sec, const M *m,
+                          int (*broken)(const M *, int *, int32_t *), int (*field)(int, int),
+                          const char *(*name)(int))
 {
-    const navkit_micro_cfg_io_t &io = c.micro.io;
-    for (int i = 0; i < 8; i++) {
-        if (io.servo_min[i] > io.servo_max[i]) {
-            throw ConfigError(later_key(ini, "micro_cfg_io", "servo_min", "micro_cfg_io", "servo_max") + ": servo " +
-                              std::to_string(i) + "'s servo_min " + std::to_string(io.servo_min[i]) +
-                              " is above its servo_max " + std::to_string(io.servo_max[i]) + " (the micro refuses it)");
-        }
+    int element = 0;
+    int32_t value[2] = {0, 0};
+    const int k = broken(m, &element, value);
+    if (k < 0) {
+        return;
     }
+    const std::string a = name(field(k, 0));
+    if (field(k, 1) < 0) {  // nonzero
+        ini.fail(ini.line(sec, a), a + ": 0 breaks the spec's constraint " + a + " != 0 (the micro refuses it)");
+    }
+    const std::string b = name(field(k, 1));
+    const std::string noun = a.substr(0, a.find('_'));
+    const std::string whose =
+        b.compare(0, noun.size() + 1, noun + "_") == 0 ? noun + " " + std::to_string(element) + "'s " : "";
+    throw ConfigError(later_key(ini, sec, a, sec, b) + ": " + whose + a + " " + std::to_string(value[0]) +
+                      " is above " + (whose.empty() ? "" : "its ") + b + " " + std::to_string(value[1]) +
+                      " (the micro refuses it)");
+}
+
+// The spec's constraints of the three config messages (protocol/navkit.toml).
+void check_constraints(const IniFile &ini, const Config &c)
+{
+    check_constraints_of(ini, "micro_cfg_geometry", &c.micro.geometry, navkit_micro_cfg_geometry_constraint_check,
+                         navkit_micro_cfg_geometry_constraint_field, navkit_micro_cfg_geometry_field_name);
+    check_constraints_of(ini, "micro_cfg_io", &c.micro.io, navkit_micro_cfg_io_constraint_check,
+                         navkit_micro_cfg_io_constraint_field, navkit_micro_cfg_io_field_name);
 }
 
 // Each GP2D12's valid range must be non-empty, named at its max_mm line.
@@ -652,7 +683,7 @@ void Ini::load_file(const std::string &path, Config &cfg)
     }
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
-        check_servo_limits(ini, cfg);
+        check_constraints(ini, cfg);
         cfg.exec.rate_watchdog_at = later_key(ini, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
         cfg.exec.log_dir_at = path + ":" + std::to_string(ini.line("executive", "log_dir")) + ": log_dir";
     } else {

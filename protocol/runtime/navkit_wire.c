@@ -25,6 +25,8 @@ const char *navkit_error_text(int code)
         return "no start word";
     case NAVKIT_ERR_SCHEMA:
         return "schema mismatch";
+    case NAVKIT_ERR_CONSTRAINT:
+        return "constraint broken";
     default:
         return "?";
     }

@@ -124,10 +124,24 @@ def emit_c_header(spec: Spec) -> str:
                    + (", spec_hash = NAVKIT_SPEC_HASH" if any(f.name == "spec_hash" for f in m.fields) else "")
                    + ". */")
         out.append(f"void navkit_{m.name}_defaults(navkit_{m.name}_t *m);")
+        rules = "; ".join(c.text for c in m.constraints)
         out.append(f"/* Check against the spec (each value within its min..max, a coded field's one of its\n"
                    f" * enum's values): NAVKIT_OK, or NAVKIT_ERR_RANGE with *bad_field =\n"
-                   f" * NAVKIT_{up}_FIELD_<NAME> of the first bad field in spec order (bad_field may be NULL). */")
+                   f" * NAVKIT_{up}_FIELD_<NAME> of the first bad field in spec order (bad_field may be NULL)."
+                   + (f"\n * Then its constraints ({rules}): NAVKIT_ERR_CONSTRAINT with *bad_field =\n"
+                      f" * the last field the first broken one binds." if m.constraints else "") + " */")
         out.append(f"int navkit_{m.name}_check(const navkit_{m.name}_t *m, int *bad_field);")
+        if m.constraints:
+            out.append(f"#define NAVKIT_{up}_CONSTRAINT_COUNT {len(m.constraints)}")
+            out.append(f"/* The spec's constraints alone (not the ranges): the index (0..NAVKIT_{up}_CONSTRAINT_COUNT-1)\n"
+                       f" * of the first broken one, or -1; then *element = its array element (0 for a scalar)\n"
+                       f" * and value[0..1] = the raw values it compares (nonzero: the value and 0).\n"
+                       f" * element and value may be NULL. */")
+            out.append(f"int navkit_{m.name}_constraint_check(const navkit_{m.name}_t *m, int *element, "
+                       f"int32_t value[2]);")
+            out.append(f"/* NAVKIT_{up}_FIELD_<NAME> of field `which` (0, or 1 for le's b) of constraint `index`,\n"
+                       f" * or -1. */")
+            out.append(f"int navkit_{m.name}_constraint_field(int index, int which);")
         out.append(f"/* Spec name of field `index`, or \"?\". */")
         out.append(f"const char *navkit_{m.name}_field_name(int index);")
         if m.framed:
@@ -248,6 +262,30 @@ def _elements(f):
     return [(f"[{i}]", f.byte_offset + i * f.size) for i in range(f.count)]
 
 
+def _c_constraints(m: Message) -> list[str]:
+    """navkit_<m>_constraint_check and navkit_<m>_constraint_field (see the header)."""
+    t, index = f"navkit_{m.name}_t", {f.name: i for i, f in enumerate(m.fields)}
+    out = [f"int navkit_{m.name}_constraint_check(const {t} *m, int *element, int32_t value[2])\n{{",
+           "    int i;"]
+    for k, c in enumerate(m.constraints):
+        n = m.field(c.fields[0]).count
+        a = f"m->{c.fields[0]}[i]" if n > 1 else f"m->{c.fields[0]}"
+        b = "0" if c.kind == "nonzero" else (f"m->{c.fields[1]}[i]" if n > 1 else f"m->{c.fields[1]}")
+        cond = f"{a} == 0" if c.kind == "nonzero" else f"{a} > {b}"
+        out.append(f"    for (i = 0; i < {n}; i++) {{ /* {c.text} */\n        if ({cond}) {{\n"
+                   f"            if (element) {{\n                *element = i;\n            }}\n"
+                   f"            if (value) {{\n                value[0] = (int32_t){a};\n"
+                   f"                value[1] = (int32_t){b};\n            }}\n            return {k};\n"
+                   f"        }}\n    }}")
+    out.append("    return -1;\n}\n")
+    out.append(f"int navkit_{m.name}_constraint_field(int index, int which)\n{{\n    switch (index * 2 + which) {{")
+    for k, c in enumerate(m.constraints):
+        for w, name in enumerate(c.fields):
+            out.append(f"    case {k * 2 + w}:\n        return {index[name]};")
+    out.append("    default:\n        return -1;\n    }\n}\n")
+    return out
+
+
 def _c_message(spec: Spec, m: Message) -> list[str]:
     up, out = m.name.upper(), []
     t = f"navkit_{m.name}_t"
@@ -286,9 +324,27 @@ def _c_message(spec: Spec, m: Message) -> list[str]:
             out.append(f"    if ({cond}) {{\n        if (bad_field) {{\n            *bad_field = {i};\n"
                        f"        }}\n        return NAVKIT_ERR_RANGE;\n    }}")
             checks += 1
+    index = {f.name: i for i, f in enumerate(m.fields)}
+    for c in m.constraints:
+        arr = m.field(c.fields[0]).count > 1
+        sfx = "[i]" if arr else ""
+        cond = (f"m->{c.fields[0]}{sfx} == 0" if c.kind == "nonzero"
+                else f"m->{c.fields[0]}{sfx} > m->{c.fields[1]}{sfx}")
+        body = (f"if ({cond}) {{\n        if (bad_field) {{\n            *bad_field = {index[c.fields[-1]]};\n"
+                f"        }}\n        return NAVKIT_ERR_CONSTRAINT;\n    }}")
+        if arr:
+            n = m.field(c.fields[0]).count
+            body = "for (i = 0; i < " + str(n) + "; i++) {\n        " + body.replace("\n", "\n    ") + "\n    }"
+        out.append(f"    {body} /* constraint {c.text} */")
+        checks += 1
+    if any(m.field(c.fields[0]).count > 1 for c in m.constraints):
+        at = out.index(f"int navkit_{m.name}_check(const {t} *m, int *bad_field)\n{{") + 1
+        out.insert(at, "    int i;")
     if not checks:
         out.append("    (void)m;")
     out.append("    if (bad_field) {\n        *bad_field = -1;\n    }\n    return NAVKIT_OK;\n}\n")
+    if m.constraints:
+        out += _c_constraints(m)
     # names
     names = ", ".join(f'"{f.name}"' for f in m.fields)
     out.append(f"const char *navkit_{m.name}_field_name(int index)\n{{")
@@ -370,7 +426,7 @@ def emit_docs(spec: Spec) -> str:
            f"Spec: `{spec_label(spec)}`, hash `0x{spec.hash:08x}` (compiled into both ends; "
            "`micro_data.spec_hash` and every config message carry it, and a host refuses a "
            "micro built from another spec). The hash covers everything that reaches the wire "
-           "(names, words, types, units, scales, ranges, defaults, enums, framing) and "
+           "(names, words, types, units, scales, ranges, constraints, defaults, enums, framing) and "
            "deliberately ignores doc text: a change of wording keeps it.\n",
            "All values are little-endian and written by explicit byte code. Units apply to "
            "raw x scale.\n", "## Links\n", "| link | words | what |", "| --- | --- | --- |"]
@@ -423,6 +479,11 @@ def emit_docs(spec: Spec) -> str:
             doc = f.doc + (f" ({'; '.join(extra)})" if extra else "")
             rows.append((f.word, f"| {word} | `{f.name}` | {typ} | {_cell(f.raw_units)} | {_range(f)} | {_cell(doc)} |"))
         out += [r for _, r in sorted(rows)]
+        if m.constraints:
+            out.append("\nConstraints (checked after the ranges by `navkit_" + m.name + "_check` and "
+                       "`protocol.check`; a receiver refuses the message when one breaks):\n")
+            out += [f"- `{c.text}`" + (" (element by element)" if m.field(c.fields[0]).count > 1 else "")
+                    + f": {c.doc}" for c in m.constraints]
         out.append("")
     out.append("## Enums and flags\n")
     for e in spec.enums.values():

@@ -87,6 +87,7 @@ class _Layout:
     limits: dict = field(default_factory=dict)  # name -> (count, min, max, type min, type max)
     zero_bad: tuple = ()                        # fields whose 0 is outside min..max
     codes: dict = field(default_factory=dict)   # coded field (Field.coded) name -> its enum
+    constraints: tuple = ()                     # the spec's Constraints, checked after the ranges
 
 
 def _layout(m: Message) -> _Layout:
@@ -111,7 +112,7 @@ def _layout(m: Message) -> _Layout:
     limits = {f.name: (f.count, f.min, f.max, TYPES[f.type][2], TYPES[f.type][3]) for f in m.fields}
     zero_bad = tuple(f.name for f in m.fields if not f.min <= 0 <= f.max)
     codes = {f.name: SPEC.enums[f.enum] for f in m.fields if f.coded}
-    return _Layout(m, struct.Struct(fmt), slots, zero, limits, zero_bad, codes)
+    return _Layout(m, struct.Struct(fmt), slots, zero, limits, zero_bad, codes, m.constraints)
 
 
 _LAYOUTS = {m.name: _layout(m) for m in SPEC.messages.values()}
@@ -174,15 +175,37 @@ def _values(lay: _Layout, fields: dict, strict: bool) -> dict:
             if k not in fields:
                 lim = lay.limits[k]
                 raise ProtocolError(f"{m.name}.{k}: 0 (unset) is outside {lim[1]}..{lim[2]}", k)
+        for c in lay.constraints:
+            _constraint(m, c, full, fields)
     return full
+
+
+def _constraint(m: Message, c, full: dict, given: dict) -> None:
+    """ProtocolError naming the last field constraint `c` binds (as the C check's
+    bad_field) and the element, if the values `full` break it."""
+    a = full[c.fields[0]]
+    b = full[c.fields[1]] if c.kind == "le" else None
+    count = m.field(c.fields[0]).count
+    for i in range(count):
+        va = a[i] if count > 1 else a
+        vb = (b[i] if count > 1 else b) if b is not None else 0
+        at = f"[{i}]" if count > 1 else ""
+        if c.kind == "nonzero" and va == 0:
+            unset = "" if c.fields[0] in given else " (unset)"
+            raise ProtocolError(f"{m.name}.{c.fields[0]}{at}: 0{unset} breaks the constraint {c.text}", c.fields[0])
+        if c.kind == "le" and va > vb:
+            raise ProtocolError(f"{m.name}.{c.fields[1]}{at}: {vb} is below {c.fields[0]}{at} {va} "
+                                f"(constraint {c.text})", c.fields[1])
 
 
 def check(name: str, fields: dict) -> None:
     """Raise ProtocolError naming the field (also as its `field`) if any value of
     `fields` is outside its spec range, or is not one of its enum's codes (a coded field:
     `enum` and units other than "bits"; range first, then the code), or is unknown or
-    not an integer. Fields are checked in the order given, so for a whole message in
-    spec order the field named is the one the C navkit_<msg>_check() reports."""
+    not an integer; then the message's spec constraints (`le`, `nonzero`) on the values
+    with unset fields 0, naming the last field the broken one binds. Fields are checked in
+    the order given, so for a whole message in spec order the field named is the one the C
+    navkit_<msg>_check() reports."""
     _values(_message(name), fields, strict=True)
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = [
-    "SpecError", "Field", "Message", "Enum", "Rcomm", "Can", "CanId", "Spec", "load", "TYPES",
+    "SpecError", "Field", "Constraint", "Message", "Enum", "Rcomm", "Can", "CanId", "Spec", "load", "TYPES",
 ]
 
 # type name -> (size in bytes, signed, minimum, maximum)
@@ -30,7 +30,9 @@ TYPES = {
 }
 
 _TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip", "can"}
-_MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field"}
+_MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field", "constraint"}
+# A [[message]] constraint entry: one kind key (the fields it binds) and doc.
+_CONSTRAINT_KINDS = ("nonzero", "le")
 _FIELD_KEYS = {"name", "word", "type", "count", "units", "scale", "min", "max",
                "default", "enum", "flags", "special", "doc"}
 _ENUM_KEYS = {"doc", "values", "words"}
@@ -126,6 +128,23 @@ class Field:
 
 
 @dataclass(frozen=True)
+class Constraint:
+    """A rule of message fields beyond their ranges, checked after them. `kind` "nonzero":
+    each element of fields[0] is not 0; "le": fields[0] <= fields[1] (raw values,
+    element by element when both are arrays of one count)."""
+
+    kind: str
+    fields: tuple[str, ...]
+    doc: str
+    line: int
+
+    @property
+    def text(self) -> str:
+        """The rule as docs and error texts write it: 'gyro_sign != 0', 'servo_min <= servo_max'."""
+        return f"{self.fields[0]} != 0" if self.kind == "nonzero" else f"{self.fields[0]} <= {self.fields[1]}"
+
+
+@dataclass(frozen=True)
 class Message:
     """One message. For serial messages `words` counts the whole frame (start word,
     header, payload and CRC word); for rcomm messages the payload words."""
@@ -139,6 +158,7 @@ class Message:
     word_bits: int
     words: int
     line: int
+    constraints: tuple[Constraint, ...] = ()
 
     @property
     def framed(self) -> bool:
@@ -680,8 +700,63 @@ class _Builder:
             holes = sorted(set(range(words)) - set(used))
             if holes:
                 self.fail(line, name, f"rcomm words {holes} are not defined (rcomm messages are dense)")
+        constraints = self.constraints(name, raw.get("constraint", []), span, {f.name: f for f in fields})
         return Message(name, link, direction, raw.get("id"), raw.get("doc", ""),
-                       tuple(fields), word_bits, words, line)
+                       tuple(fields), word_bits, words, line, constraints)
+
+    def constraints(self, mname: str, raw, span, fields: dict) -> tuple:
+        """The checked `constraint = [...]` entries of message mname, one Constraint per
+        field a `nonzero` list names."""
+        cline = self.lines.find(r"^constraint\s*=", *span) or span[0] + 1
+        out, seen = [], set()
+        for i, c in enumerate(self.tables(raw, cline, f"{mname}.constraint")):
+            line = self.lines.entry_line(cline, i, span[1])
+            what = f"{mname}.constraint {i + 1}"
+            if not isinstance(c, dict):
+                self.fail(line, what, f"must be an inline table {{ le = [a, b], doc = ... }}, not {_toml_kind(c)} {c!r}")
+            self.unknown(c, set(_CONSTRAINT_KINDS) | {"doc"}, what, (line - 1, line))
+            kinds = [k for k in _CONSTRAINT_KINDS if k in c]
+            if len(kinds) != 1:
+                self.fail(line, what, f"needs exactly one of {', '.join(_CONSTRAINT_KINDS)}")
+            if not isinstance(c.get("doc"), str) or not c["doc"]:
+                self.fail(line, what, "every constraint needs doc text")
+            kind, names = kinds[0], c[kinds[0]]
+            if (not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names)
+                    or (kind == "le" and len(names) != 2)):
+                want = "two field names [a, b]" if kind == "le" else "a non-empty list of field names"
+                self.fail(line, what, f"{kind} needs {want}, not {names!r}")
+            for n in names:
+                if n not in fields:
+                    self.fail(line, what, f"unknown field {n!r} of {mname}")
+                if n in ("msg_type", "time_tag", "spec_hash"):
+                    self.fail(line, what, f"{n} is framing, not a field a constraint binds")
+            if kind == "nonzero":
+                for n in names:
+                    f = fields[n]
+                    if not f.min <= 0 <= f.max:
+                        self.fail(line, what, f"{n}'s range {f.min}..{f.max} already excludes 0")
+                    if not f.default:
+                        self.fail(line, what, f"{n}'s default {f.default or 0} breaks it (give {n} a default)")
+                    out.append(Constraint(kind, (n,), c["doc"], line))
+            else:
+                a, b = fields[names[0]], fields[names[1]]
+                if a.name == b.name:
+                    self.fail(line, what, f"le binds one field twice ({a.name})")
+                if a.count != b.count:
+                    self.fail(line, what, f"le binds {a.name} ({a.count} elements) and {b.name} "
+                                          f"({b.count}): arrays of one count, or two scalars")
+                if a.min > b.max:
+                    self.fail(line, what, f"never holds: {a.name}'s min {a.min} is above {b.name}'s max {b.max}")
+                if a.max <= b.min:
+                    self.fail(line, what, f"always holds: {a.name}'s max {a.max} is not above {b.name}'s min {b.min}")
+                if a.default is not None and b.default is not None and a.default > b.default:
+                    self.fail(line, what, f"the defaults break it: {a.name} {a.default} > {b.name} {b.default}")
+                out.append(Constraint(kind, (a.name, b.name), c["doc"], line))
+            for con in out[-len(names) if kind == "nonzero" else -1:]:
+                if (con.kind, con.fields) in seen:
+                    self.fail(line, what, f"{con.text} is stated twice")
+                seen.add((con.kind, con.fields))
+        return tuple(out)
 
     def field(self, mname, i, f, span, fline, word_bits, used, enums, seen) -> Field:
         """Entry i (0-based) of message mname's `field = [...]` (which starts at line fline)."""
@@ -779,7 +854,8 @@ def _seal(spec: Spec) -> None:
         "messages": [
             [m.name, m.link, m.direction, m.id, m.words,
              [[f.name, f.word, f.type, f.count, f.units, f.scale, f.min, f.max, f.default,
-               f.enum, f.flags, f.special] for f in m.fields]]
+               f.enum, f.flags, f.special] for f in m.fields],
+             [[c.kind, *c.fields] for c in m.constraints]]
             for m in spec.messages.values()
         ],
     }

@@ -4,11 +4,13 @@
 field=value ...` (arrays as comma lists); serial messages as whole frames, rcomm
 messages as their little-endian bytes. `case` is `defaults` for the spec defaults
 (both codecs' defaults() must give these values), else min, max, random, below or
-above (one field just outside its range) or nonmember (a coded field, Field.coded, at
-a value within its range that is none of its enum's); `check` is what validation
-against the spec says, worked out here from the spec (the oracle both codecs' checks
-are held to): `ok`, or the name of the first field, in spec order, outside its range
-or not one of its enum's values (C: its index).
+above (one field just outside its range), nonmember (a coded field, Field.coded, at
+a value within its range that is none of its enum's) or constraint (the defaults with
+one spec constraint broken); `check` is what validation against the spec says, worked
+out here from the spec (the oracle both codecs' checks are held to): `ok`, or the name
+of the first field, in spec order, outside its range or not one of its enum's values
+(C: its index, NAVKIT_ERR_RANGE), or else the last field of the first broken
+constraint (C: NAVKIT_ERR_CONSTRAINT).
 `tests/vectors/streams.txt`: `direction | good,bad_crc,unknown_type,bad_length,
 schema_mismatch,dropped_bytes | foreign hash | hex`: a byte stream, the parser counters
 it must produce and the spec hash of the last frame of another spec version in it
@@ -63,16 +65,30 @@ def _encode(name: str, fields: dict) -> bytes:
     return p.to_bytes(name, fields)
 
 
-def _check_result(name: str, fields: dict) -> str:
-    """`ok`, or the name of the first field (spec order) with a value outside its
-    min..max or, for a coded field, not one of its enum's values: the spec's verdict,
-    not the codec's."""
-    for f in p.SPEC.messages[name].fields:
+def _verdict(name: str, fields: dict) -> tuple[str, str]:
+    """("ok", ""), or (the name of the first field (spec order) with a value outside its
+    min..max or, for a coded field, not one of its enum's values, "range"), or else (the
+    last field of the first broken constraint, "constraint"): the spec's verdict, not
+    the codec's."""
+    m = p.SPEC.messages[name]
+    for f in m.fields:
         codes = set(p.SPEC.enums[f.enum].values.values()) if f.coded else None
         for v in fields[f.name] if f.count > 1 else [fields[f.name]]:
             if not f.min <= v <= f.max or (codes is not None and v not in codes):
-                return f.name
-    return "ok"
+                return f.name, "range"
+    for c in m.constraints:
+        def elems(n):
+            return fields[n] if m.field(n).count > 1 else [fields[n]]
+        a = elems(c.fields[0])
+        b = elems(c.fields[1]) if c.kind == "le" else [0] * len(a)
+        if any(x == 0 if c.kind == "nonzero" else x > y for x, y in zip(a, b)):
+            return c.fields[-1], "constraint"
+    return "ok", ""
+
+
+def _check_result(name: str, fields: dict) -> str:
+    """The check column: `ok` or the field _verdict names."""
+    return _verdict(name, fields)[0]
 
 
 def make_frames(seed: int = 1) -> str:
@@ -111,6 +127,20 @@ def make_frames(seed: int = 1) -> str:
             fields = p.defaults(m.name)
             fields[f.name] = [v] * f.count if f.count > 1 else v
             cases.append((case, fields))
+        for c in m.constraints:  # the defaults with the last element of c broken
+            fields = p.defaults(m.name)
+            a = m.field(c.fields[0])
+            if c.kind == "nonzero":
+                bad = {a.name: 0}
+            else:
+                b = m.field(c.fields[1])
+                bad = ({a.name: b.default + 1} if b.default + 1 <= a.max else {b.name: a.default - 1})
+            for k, v in bad.items():
+                if m.field(k).count > 1:
+                    fields[k] = fields[k][:-1] + [v]
+                else:
+                    fields[k] = v
+            cases.append(("constraint", fields))
         for case, fields in cases:
             lines.append(f"{m.name} | {case} | {_check_result(m.name, fields)} | "
                          f"{_encode(m.name, fields).hex()} | {_fmt(fields)}\n")
@@ -281,7 +311,8 @@ def emit_c(frames, streams) -> str:
         if verdict == "ok":
             body.append(f"    CHECK(navkit_{name}_check(&m, &bad) == NAVKIT_OK && bad == -1, {what} \": check ok\");")
         else:
-            body.append(f"    CHECK(navkit_{name}_check(&m, &bad) == NAVKIT_ERR_RANGE && "
+            code = "NAVKIT_ERR_" + _verdict(name, fields)[1].upper()
+            body.append(f"    CHECK(navkit_{name}_check(&m, &bad) == {code} && "
                         f"bad == NAVKIT_{name.upper()}_FIELD_{verdict.upper()}, {what} \": check {verdict}\");")
         if m.framed:
             body += ["    uint8_t got[sizeof want];",

@@ -43,7 +43,8 @@ enum {
     NAVKIT_ERR_LENGTH = 3,  /* length word or buffer length differs from the type's */
     NAVKIT_ERR_RANGE = 4,   /* a field is outside its spec min..max */
     NAVKIT_ERR_START = 6,   /* frame does not begin with the start word */
-    NAVKIT_ERR_SCHEMA = 7   /* a CRC-good frame of another spec version (parser only) */
+    NAVKIT_ERR_SCHEMA = 7,  /* a CRC-good frame of another spec version (parser only) */
+    NAVKIT_ERR_CONSTRAINT = 8 /* fields within their ranges break a spec constraint (le, nonzero) */
 };
 
 /* Short English text of a result code ("bad CRC", "schema mismatch", ...; "?" if unknown),
