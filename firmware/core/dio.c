@@ -30,3 +30,8 @@ uint16_t dio_state(const dio_t *d)
 {
     return (uint16_t)(((d->out & d->dir) | (d->in & (uint16_t)~d->dir)) & DIO_MASK);
 }
+
+void dio_micro_cmd(dio_t *d, const navkit_micro_cmd_t *c)
+{
+    dio_command(d, c->dio_command);
+}

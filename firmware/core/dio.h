@@ -5,6 +5,8 @@
 
 #include <stdint.h>
 
+#include "navkit/navkit_proto.h"
+
 #define DIO_MASK 0x0FFFu /* the 12 bits */
 
 typedef struct {
@@ -20,6 +22,9 @@ void dio_reset(dio_t *d);
 void dio_configure(dio_t *d, uint16_t dir, uint16_t safe);
 /* Drive the output pins to cmd (bitmask; bits of input pins are ignored). */
 void dio_command(dio_t *d, uint16_t cmd);
+/* The DIO's part of a checked micro_cmd c: the outputs go to dio_command (bitmask), as
+ * dio_command(). */
+void dio_micro_cmd(dio_t *d, const navkit_micro_cmd_t *c);
 /* Outputs to the safe state (watchdog). */
 void dio_safe(dio_t *d);
 /* Level of every bit: outputs as driven, inputs as read (bitmask, 12 bits). */

@@ -106,3 +106,15 @@ uint8_t excite_tick(excite_t *e, float pwm_limit, float *duty_l, float *duty_r)
     }
     return 1u;
 }
+
+uint8_t excite_micro_cmd(excite_t *e, const navkit_micro_cmd_t *c, uint16_t control_rate)
+{
+    if (c->fwd_cmd != NAVKIT_FWD_CMD_NONE || c->turn_cmd != NAVKIT_TURN_CMD_NONE) {
+        excite_stop(e);
+    }
+    if (c->excite_mode == NAVKIT_EXCITE_MODE_NONE) {
+        return 0u;
+    }
+    excite_start(e, c, control_rate);
+    return 1u;
+}

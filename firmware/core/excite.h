@@ -48,6 +48,10 @@ uint8_t excite_refused(const navkit_micro_cmd_t *c);
 /* Start the experiment of checked command c (excite_mode 1-3) at control_rate (Hz);
  * replaces a running one. */
 void excite_start(excite_t *e, const navkit_micro_cmd_t *c, uint16_t control_rate);
+/* The experiment's part of a checked micro_cmd c, at control_rate (Hz): any fwd_cmd or
+ * turn_cmd ends a running experiment (excite_stop()); excite_mode 1-3 starts one
+ * (excite_start()). Returns 1 if it started one, else 0. */
+uint8_t excite_micro_cmd(excite_t *e, const navkit_micro_cmd_t *c, uint16_t control_rate);
 /* End at once: idle, so the next tick drives duty 0. */
 void excite_stop(excite_t *e);
 /* 1 while an experiment runs. */

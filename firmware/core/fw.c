@@ -64,12 +64,12 @@ uint8_t fw_link_pending(const fw_t *fw)
 
 float fw_fwd_distance(const fw_t *fw)
 {
-    return odom_distance(&fw->odom, fw->fwd.ref_l, fw->fwd.ref_r, fw->cfg.mm_per_count);
+    return motion_distance(&fw->fwd, &fw->odom, fw->cfg.mm_per_count);
 }
 
 float fw_turn_angle(const fw_t *fw)
 {
-    return odom_turn(&fw->odom, fw->turn.ax.ref_l, fw->turn.ax.ref_r, fw->cfg.odom.turn_deg_per_count);
+    return turn_angle(&fw->turn, &fw->odom, fw->cfg.odom.turn_deg_per_count);
 }
 
 uint16_t fw_status(const fw_t *fw)
@@ -109,6 +109,21 @@ uint16_t fw_status(const fw_t *fw)
         s |= NAVKIT_MICRO_STATUS_EXCITE_ACTIVE;
     }
     return s;
+}
+
+void fw_config_applied(fw_t *fw, uint16_t msg_type)
+{
+    uint8_t i;
+    if (msg_type == NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY) {
+        for (i = 0u; i < SERVO_COUNT; i++) {
+            servo_retime(&fw->servo[i], fw->cfg.control_rate);
+        }
+        /* a chore count left at or above a shorter xy_ticks would put the next fold one
+           tick late */
+        fw->chore = 0u;
+    } else if (msg_type == NAVKIT_MSG_TYPE_MICRO_CFG_IO) {
+        dio_configure(&fw->dio, fw->cfg.dio_direction, fw->cfg.dio_safe_state);
+    }
 }
 
 void fw_watchdog_stop(fw_t *fw)

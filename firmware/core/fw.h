@@ -78,6 +78,12 @@ void fw_link_poll(fw_t *fw);
  * stopped at its frame bound (FW_LINK_FRAMES_PER_POLL, link.h) with bytes read but not yet
  * handled; always 0 without a bound. */
 uint8_t fw_link_pending(const fw_t *fw);
+/* A config of msg_type (NAVKIT_MSG_TYPE_MICRO_CFG_*) was just applied to fw->cfg; the
+ * state built on it follows: micro_cfg_geometry (control_rate and odom.xy_ticks may have
+ * changed): every servo keeps its speed in deg/s at the new rate, the chore period starts
+ * again at its first tick; micro_cfg_io: the DIO takes its directions and safe levels, the
+ * outputs go safe; micro_cfg_motion: nothing (the tick reads fw->cfg). */
+void fw_config_applied(fw_t *fw, uint16_t msg_type);
 /* micro_data.status bits (NAVKIT_MICRO_STATUS_*). */
 uint16_t fw_status(const fw_t *fw);
 /* Watchdog stop now: decelerate to rest, servos hold, DIO outputs safe, latch. */

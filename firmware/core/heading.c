@@ -143,3 +143,10 @@ uint16_t heading_deg10(const heading_t *h)
     uint16_t d = (uint16_t)(h->deg * 10.0f + 0.5f);
     return (d >= 3600u) ? (uint16_t)(d - 3600u) : d;
 }
+
+void heading_micro_cmd(heading_t *h, const navkit_micro_cmd_t *c)
+{
+    if (c->dg_control & NAVKIT_DG_CONTROL_SET_HEADING) {
+        heading_set(h, 0.1f * (float)c->dg_set);
+    }
+}

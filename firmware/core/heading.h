@@ -19,6 +19,8 @@
 
 #include <stdint.h>
 
+#include "navkit/navkit_proto.h"
+
 typedef struct {
     int32_t q;        /* deg * 2^16: heading at the last fold, 0 .. 360*2^16-1 */
     float q_frac;     /* deg * 2^16: turned since the last fold (plus its rounding residual) */
@@ -45,6 +47,9 @@ void heading_fold(heading_t *h);
  * 3599 are taken off) by gain (1/s) * dt (s) of the shortest-way error, dt the time since
  * the last fusion step; then fold. Fixed-point error: no float wrap, no trig, no division. */
 void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt);
+/* The heading's part of a checked micro_cmd c: with dg_control's set_heading bit, the
+ * heading becomes dg_set (deg*10). */
+void heading_micro_cmd(heading_t *h, const navkit_micro_cmd_t *c);
 /* Set the heading to deg (any value; wrapped into 0..360). */
 void heading_set(heading_t *h, float deg);
 /* Heading, deg, 0 <= h < 360. */

@@ -31,24 +31,14 @@ static void link_reject(link_t *l, uint16_t code)
     l->last_reject = code;
 }
 
-/* |v| as a float, no int16 overflow at -32768. */
-static float link_abs(int16_t v)
-{
-    return (v < 0) ? -(float)v : (float)v;
-}
-
-/* Limit from a command word: |word|, or dflt when 0, clamped to max (all in one unit). */
-static float link_limit(float word_abs, float dflt, float max)
-{
-    float v = (word_abs > 0.0f) ? word_abs : dflt;
-    return (v > max) ? max : v;
-}
-
-/* A modify (code 3) that found nothing to modify is refused; one after a stop latch is
-   ignored without counting (the latch shows in micro_data.status). */
-static void link_modify_result(link_t *l, motion_result_t r, uint16_t code)
+/* An axis command's result: 1 for a start; a modify (code 3) that found nothing to
+   modify is refused; one after a stop latch is ignored without counting (the latch shows
+   in micro_data.status). */
+static uint8_t link_axis_result(link_t *l, motion_result_t r, uint16_t code)
 {
     switch (r) {
+    case MOTION_STARTED:
+        return 1u;
     case MOTION_NOT_STARTED:
         link_reject(l, code);
         break;
@@ -57,54 +47,7 @@ static void link_modify_result(link_t *l, motion_result_t r, uint16_t code)
     default:
         break;
     }
-}
-
-static void link_fwd(fw_t *fw, const navkit_micro_cmd_t *c)
-{
-    const config_t *cfg = &fw->cfg;
-    float accel = link_limit(link_abs(c->accel), cfg->default_accel, 1e9f);
-    float speed = link_limit(link_abs(c->speed), cfg->default_speed, cfg->max_speed);
-    switch (c->fwd_cmd) {
-    case NAVKIT_FWD_CMD_START:
-        motion_start(&fw->fwd, fw->odom.enc_l, fw->odom.enc_r, fw_fwd_distance(fw), (float)c->distance, speed, accel);
-        fw->wd_stop = 0u;
-        break;
-    case NAVKIT_FWD_CMD_MODIFY:
-        link_modify_result(&fw->link, motion_modify(&fw->fwd, (float)c->distance, speed, accel), c->fwd_cmd);
-        break;
-    case NAVKIT_FWD_CMD_STOP:
-        motion_stop(&fw->fwd, accel, cfg->dt);
-        break;
-    default: /* NAVKIT_FWD_CMD_NONE */
-        break;
-    }
-}
-
-static void link_turn(fw_t *fw, const navkit_micro_cmd_t *c)
-{
-    const config_t *cfg = &fw->cfg;
-    float accel = link_limit(0.1f * link_abs(c->turn_accel), cfg->default_turn_accel, 1e9f);
-    float rate = link_limit(0.1f * link_abs(c->turn_rate), cfg->default_turn_rate, cfg->max_turn_rate);
-    float target = 0.1f * (float)c->turn_distance;
-    switch (c->turn_cmd) {
-    case NAVKIT_TURN_CMD_TURN:
-        turn_start(&fw->turn, fw->odom.enc_l, fw->odom.enc_r, fw_turn_angle(fw), target, rate, accel);
-        fw->wd_stop = 0u;
-        break;
-    case NAVKIT_TURN_CMD_MODIFY:
-        link_modify_result(&fw->link, turn_modify(&fw->turn, target, rate, accel), c->turn_cmd);
-        break;
-    case NAVKIT_TURN_CMD_STOP:
-        turn_stop(&fw->turn, accel, cfg->dt);
-        break;
-    case NAVKIT_TURN_CMD_HDG_SEL:
-        turn_hdg_select(&fw->turn, fw->odom.enc_l, fw->odom.enc_r, fw_turn_angle(fw), target, heading_deg(&fw->hdg),
-                        rate, accel);
-        fw->wd_stop = 0u;
-        break;
-    default: /* NAVKIT_TURN_CMD_NONE */
-        break;
-    }
+    return 0u;
 }
 
 static uint8_t link_fwd_code_ok(uint16_t code)
@@ -138,47 +81,24 @@ static uint16_t link_cmd_check(const navkit_micro_cmd_t *c)
     return 0u;
 }
 
-/* Execute a checked micro_cmd on a configured micro. */
+/* Execute a checked micro_cmd on a configured micro: each module takes its part (in this
+   order: dg_control's heading and X/Y set before a HdgSel reads the heading); a start of
+   either axis or of an experiment ends a watchdog stop. */
 static void link_cmd_run(fw_t *fw, const navkit_micro_cmd_t *c)
 {
     link_t *l = &fw->link;
-    uint8_t i;
-    /* where each servo's param0 sits in the command: param1 and param2 follow it (three
-       int16 fields in a row, words N, N+1, N+2); a table instead of 24 copies keeps the AVR
-       image small */
-    static const uint8_t rc_at[SERVO_COUNT] = {
-        offsetof(navkit_micro_cmd_t, rc0_param0), offsetof(navkit_micro_cmd_t, rc1_param0),
-        offsetof(navkit_micro_cmd_t, rc2_param0), offsetof(navkit_micro_cmd_t, rc3_param0),
-        offsetof(navkit_micro_cmd_t, rc4_param0), offsetof(navkit_micro_cmd_t, rc5_param0),
-        offsetof(navkit_micro_cmd_t, rc6_param0), offsetof(navkit_micro_cmd_t, rc7_param0),
-    };
-
-
+    uint8_t started;
     l->ack_tag = c->time_tag;
-    if (c->dg_control & NAVKIT_DG_CONTROL_SET_HEADING) {
-        heading_set(&fw->hdg, 0.1f * (float)c->dg_set);
-    }
-    if (c->dg_control & NAVKIT_DG_CONTROL_SET_XY) {
-        odom_set_xy(&fw->odom, c->x_set, c->y_set);
-    }
-    if (c->fwd_cmd != NAVKIT_FWD_CMD_NONE || c->turn_cmd != NAVKIT_TURN_CMD_NONE) {
-        excite_stop(&fw->excite); /* any forward or turn command ends an experiment */
-    }
-    link_fwd(fw, c);
-    link_turn(fw, c);
-    if (c->excite_mode != NAVKIT_EXCITE_MODE_NONE) {
-        /* checked: no fwd_cmd or turn_cmd with it; the axes go idle with their
-           references here (distance and turn angle count from the experiment's start) */
-        motion_reset(&fw->fwd, fw->odom.enc_l, fw->odom.enc_r);
-        turn_reset(&fw->turn, fw->odom.enc_l, fw->odom.enc_r);
-        excite_start(&fw->excite, c, fw->cfg.control_rate);
+    heading_micro_cmd(&fw->hdg, c);
+    odom_micro_cmd(&fw->odom, c);
+    started = link_axis_result(l, motion_micro_cmd(&fw->fwd, c, &fw->odom, &fw->cfg), c->fwd_cmd);
+    started |= link_axis_result(l, turn_micro_cmd(&fw->turn, c, &fw->odom, &fw->hdg, &fw->cfg), c->turn_cmd);
+    started |= excite_micro_cmd(&fw->excite, c, fw->cfg.control_rate);
+    if (started) {
         fw->wd_stop = 0u;
     }
-    dio_command(&fw->dio, c->dio_command);
-    for (i = 0u; i < SERVO_COUNT; i++) {
-        const int16_t *rc = (const int16_t *)(const void *)((const uint8_t *)c + rc_at[i]);
-        servo_command(&fw->servo[i], &fw->cfg.servo[i], rc[0], rc[1], rc[2], fw->cfg.control_rate);
-    }
+    dio_micro_cmd(&fw->dio, c);
+    servo_micro_cmd(fw->servo, fw->cfg.servo, c, fw->cfg.control_rate);
     l->mc_datalog = c->mc_datalog_cmd;
 }
 
@@ -238,13 +158,16 @@ static void link_cmd(fw_t *fw, const navkit_micro_cmd_t *c)
     link_cmd_run(fw, c);
 }
 
-/* Count a refused config. */
-static void link_cfg_result(link_t *l, config_result_t r, uint16_t msg_type)
+/* A config's result r: applied (the modules take what changed: fw_config_applied()), or
+   refused and counted. */
+static void link_cfg(fw_t *fw, config_result_t r, uint16_t msg_type)
 {
-    if (r == CONFIG_ERR_HASH) {
-        l->schema_mismatch++;
+    if (r == CONFIG_OK) {
+        fw_config_applied(fw, msg_type);
+    } else if (r == CONFIG_ERR_HASH) {
+        fw->link.schema_mismatch++;
     } else if (r == CONFIG_ERR_RANGE) {
-        link_reject(l, (uint16_t)(NAVKIT_REJECT_RANGE | msg_type));
+        link_reject(&fw->link, (uint16_t)(NAVKIT_REJECT_RANGE | msg_type));
     }
 }
 
@@ -269,38 +192,19 @@ static uint8_t link_frame(fw_t *fw, const uint8_t *frame, size_t len)
         if (navkit_micro_cfg_geometry_decode(frame, len, &m.geo) != NAVKIT_OK) {
             return 0u;
         }
-        {
-            config_result_t r = config_geometry(&fw->cfg, &m.geo);
-            uint8_t i;
-            if (r == CONFIG_OK) {
-                for (i = 0u; i < SERVO_COUNT; i++) {
-                    servo_retime(&fw->servo[i], fw->cfg.control_rate);
-                }
-                /* odom.xy_ticks may have changed: the chore period starts again at its
-                   first tick (a chore count left at or above a shorter xy_ticks would
-                   put the next fold one tick late) */
-                fw->chore = 0u;
-            }
-            link_cfg_result(&fw->link, r, type);
-        }
+        link_cfg(fw, config_geometry(&fw->cfg, &m.geo), type);
         break;
     case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION:
         if (navkit_micro_cfg_motion_decode(frame, len, &m.mot) != NAVKIT_OK) {
             return 0u;
         }
-        link_cfg_result(&fw->link, config_motion(&fw->cfg, &m.mot), type);
+        link_cfg(fw, config_motion(&fw->cfg, &m.mot), type);
         break;
     case NAVKIT_MSG_TYPE_MICRO_CFG_IO:
         if (navkit_micro_cfg_io_decode(frame, len, &m.io) != NAVKIT_OK) {
             return 0u;
         }
-        {
-            config_result_t r = config_io(&fw->cfg, &m.io);
-            if (r == CONFIG_OK) {
-                dio_configure(&fw->dio, fw->cfg.dio_direction, fw->cfg.dio_safe_state);
-            }
-            link_cfg_result(&fw->link, r, type);
-        }
+        link_cfg(fw, config_io(&fw->cfg, &m.io), type);
         break;
     default:
         return 0u;

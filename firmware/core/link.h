@@ -1,5 +1,11 @@
 /* link: the micro link, between control ticks (prefix link_).
  *
+ * The link frames, checks and dispatches: it owns the parser, the counters, the checks of
+ * a micro_cmd, the configured/unconfigured and time-tag rules below, and micro_data; each
+ * module executes its own part of a micro_cmd (heading_, odom_, motion_, turn_, excite_,
+ * dio_, servo_micro_cmd()), config_ checks and applies a config and fw_config_applied()
+ * brings the modules' state along.
+ *
  * Bytes from hal_uart_read() go through the generated frame parser. Per valid frame:
  *   - micro_cmd: feeds the watchdog; a new time tag is handled once (executed, or
  *     refused and counted), a repeated one is not re-executed; one refused only because

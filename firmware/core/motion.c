@@ -102,3 +102,39 @@ float motion_tick(motion_t *m, float meas, float vel_meas, float window, float v
     }
     return vel;
 }
+
+float motion_limit(float v, float dflt, float max)
+{
+    float u = (v > 0.0f) ? v : dflt;
+    return (u > max) ? max : u;
+}
+
+float motion_distance(const motion_t *m, const odom_t *o, float mm_per_count)
+{
+    return odom_distance(o, m->ref_l, m->ref_r, mm_per_count);
+}
+
+motion_result_t motion_micro_cmd(motion_t *m, const navkit_micro_cmd_t *c, const odom_t *o, const config_t *cfg)
+{
+    float accel = motion_limit(fabsf((float)c->accel), cfg->default_accel, 1e9f);           /* mm/s^2 */
+    float speed = motion_limit(fabsf((float)c->speed), cfg->default_speed, cfg->max_speed); /* mm/s */
+    motion_result_t r = MOTION_OK;
+    switch (c->fwd_cmd) {
+    case NAVKIT_FWD_CMD_START:
+        motion_start(m, o->enc_l, o->enc_r, motion_distance(m, o, cfg->mm_per_count), (float)c->distance, speed, accel);
+        r = MOTION_STARTED;
+        break;
+    case NAVKIT_FWD_CMD_MODIFY:
+        r = motion_modify(m, (float)c->distance, speed, accel);
+        break;
+    case NAVKIT_FWD_CMD_STOP:
+        motion_stop(m, accel, cfg->dt);
+        break;
+    default: /* NAVKIT_FWD_CMD_NONE */
+        break;
+    }
+    if (c->excite_mode != NAVKIT_EXCITE_MODE_NONE) {
+        motion_reset(m, o->enc_l, o->enc_r);
+    }
+    return r;
+}

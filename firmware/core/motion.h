@@ -17,13 +17,17 @@
 
 #include <stdint.h>
 
+#include "config.h"
+#include "navkit/navkit_proto.h"
+#include "odom.h"
 #include "profile.h"
 
 /* Result of motion_modify(). */
 typedef enum {
     MOTION_OK = 0,          /* applied */
     MOTION_LATCHED = 1,     /* ignored: an explicit stop latched the axis */
-    MOTION_NOT_STARTED = 2  /* ignored: no start (cmd 1) since reset */
+    MOTION_NOT_STARTED = 2, /* ignored: no start (cmd 1) since reset */
+    MOTION_STARTED = 3      /* motion_micro_cmd(), turn_micro_cmd(): a start, from a new reference */
 } motion_result_t;
 
 typedef struct {
@@ -38,6 +42,21 @@ typedef struct {
     uint8_t limited;  /* the plant lagged the reference on the last tick */
 } motion_t;
 
+/* The forward axis's part of a checked micro_cmd c, on the forward axis m: fwd_cmd 1
+ * starts (distance, mm, from a new reference at the encoder counts of o), 3 modifies, 5
+ * stops (at accel, with the tick cfg->dt, s), others do nothing; the limits are |accel|
+ * (mm/s^2) and |speed| (mm/s), or cfg's defaults for a word of 0, speed at most
+ * cfg->max_speed. An experiment (excite_mode 1-3; the check keeps fwd_cmd 0 with it)
+ * leaves the axis idle with its reference at the encoder counts of o (the distance counts
+ * from the experiment's start). Returns MOTION_STARTED for a start, motion_modify()'s
+ * result for a modify, else MOTION_OK. */
+motion_result_t motion_micro_cmd(motion_t *m, const navkit_micro_cmd_t *c, const odom_t *o, const config_t *cfg);
+/* A command limit in working units (u/s or u/s^2): v (|command word| in the same units), or
+ * dflt when v is 0; at most max. */
+float motion_limit(float v, float dflt, float max);
+/* The forward axis m's measured distance (mm) from its reference: the mean of the wheels'
+ * travel in o since the reference counts, mm_per_count (mm per count). */
+float motion_distance(const motion_t *m, const odom_t *o, float mm_per_count);
 /* Idle, no reference yet (reference counts = the given encoder counts). */
 void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r);
 /* Start (cmd 1): reference = encoder counts enc_l/enc_r (counts); meas (u) is the

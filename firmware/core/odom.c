@@ -134,3 +134,10 @@ void odom_set_xy(odom_t *o, int32_t x, int32_t y)
     o->xy_h0 = 0.0f;
     o->xy_n = 0u;
 }
+
+void odom_micro_cmd(odom_t *o, const navkit_micro_cmd_t *c)
+{
+    if (c->dg_control & NAVKIT_DG_CONTROL_SET_XY) {
+        odom_set_xy(o, c->x_set, c->y_set);
+    }
+}

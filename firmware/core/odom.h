@@ -10,6 +10,8 @@
 
 #include <stdint.h>
 
+#include "navkit/navkit_proto.h"
+
 /* Geometry in working units, computed once per config (no division per tick). */
 typedef struct {
     float mm_per_count;       /* mm of wheel travel per count */
@@ -61,5 +63,8 @@ float odom_distance(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_
 float odom_turn(const odom_t *o, int32_t ref_l, int32_t ref_r, float deg_per_count);
 /* Set X/Y (mm); a partial X/Y step is dropped. */
 void odom_set_xy(odom_t *o, int32_t x, int32_t y);
+/* The odometry's part of a checked micro_cmd c: with dg_control's set_xy bit, X/Y become
+ * x_set/y_set (mm), as odom_set_xy(). */
+void odom_micro_cmd(odom_t *o, const navkit_micro_cmd_t *c);
 
 #endif /* NAVKIT_ODOM_H */

@@ -1,6 +1,8 @@
 /* servo: RC servo GoTo and Scan. See servo.h. */
 #include "servo.h"
 
+#include <stddef.h>
+
 static int16_t servo_clamp(const servo_cal_t *cal, int16_t a10)
 {
     if (a10 < cal->min10) {
@@ -96,4 +98,23 @@ void servo_update_pulse(servo_t *s, const servo_cal_t *cal)
 uint16_t servo_pulse_us(const servo_t *s)
 {
     return (s->mode == SERVO_OFF) ? 0u : s->pulse;
+}
+
+void servo_micro_cmd(servo_t s[SERVO_COUNT], const servo_cal_t cal[SERVO_COUNT], const navkit_micro_cmd_t *c,
+                     uint16_t rate_hz)
+{
+    /* where each servo's param0 sits in the command: param1 and param2 follow it (three
+       int16 fields in a row, words N, N+1, N+2); a table instead of 24 copies keeps the AVR
+       image small */
+    static const uint8_t rc_at[SERVO_COUNT] = {
+        offsetof(navkit_micro_cmd_t, rc0_param0), offsetof(navkit_micro_cmd_t, rc1_param0),
+        offsetof(navkit_micro_cmd_t, rc2_param0), offsetof(navkit_micro_cmd_t, rc3_param0),
+        offsetof(navkit_micro_cmd_t, rc4_param0), offsetof(navkit_micro_cmd_t, rc5_param0),
+        offsetof(navkit_micro_cmd_t, rc6_param0), offsetof(navkit_micro_cmd_t, rc7_param0),
+    };
+    uint8_t i;
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        const int16_t *rc = (const int16_t *)(const void *)((const uint8_t *)c + rc_at[i]);
+        servo_command(&s[i], &cal[i], rc[0], rc[1], rc[2], rate_hz);
+    }
 }

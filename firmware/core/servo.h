@@ -52,6 +52,11 @@ void servo_reset(servo_t *s);
  * p1 (deg*10): the GoTo goal, or the Scan right limit; p2 (deg*10): the Scan left limit,
  * or SERVO_GOTO_FLAG (9999) for GoTo; rate_hz (Hz) is the control tick rate. */
 void servo_command(servo_t *s, const servo_cal_t *cal, int16_t p0, int16_t p1, int16_t p2, uint16_t rate_hz);
+/* The servos' part of a checked micro_cmd c: servo i (0..SERVO_COUNT-1, s[i] with
+ * calibration cal[i]) takes rc<i>_param0..2 as servo_command() does; rate_hz (Hz) is the
+ * control tick rate. */
+void servo_micro_cmd(servo_t s[SERVO_COUNT], const servo_cal_t cal[SERVO_COUNT], const navkit_micro_cmd_t *c,
+                     uint16_t rate_hz);
 /* The control tick rate changed to rate_hz (Hz): keep the speed in deg/s. */
 void servo_retime(servo_t *s, uint16_t rate_hz);
 /* Stop where it is (watchdog); a servo not yet driven stays off. */

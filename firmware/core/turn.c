@@ -3,8 +3,6 @@
 
 #include <math.h>
 
-#include "heading.h"
-
 #define TURN_HDG_MIN_RATE 0.5f /* deg/s: HdgSel rate floor so the P law arrives */
 
 void turn_reset(turn_t *t, int32_t enc_l, int32_t enc_r)
@@ -77,4 +75,41 @@ float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float 
         t->hdg_reached = (uint8_t)(fabsf(err) <= tol && fabsf(vel_meas) <= vtol);
     }
     return motion_tick(&t->ax, meas, vel_meas, window, vwindow, tol, vtol, dt);
+}
+
+float turn_angle(const turn_t *t, const odom_t *o, float deg_per_count)
+{
+    return odom_turn(o, t->ax.ref_l, t->ax.ref_r, deg_per_count);
+}
+
+motion_result_t turn_micro_cmd(turn_t *t, const navkit_micro_cmd_t *c, const odom_t *o, const heading_t *h,
+                               const config_t *cfg)
+{
+    float accel = motion_limit(0.1f * fabsf((float)c->turn_accel), cfg->default_turn_accel, 1e9f); /* deg/s^2 */
+    float rate = motion_limit(0.1f * fabsf((float)c->turn_rate), cfg->default_turn_rate, cfg->max_turn_rate);
+    float target = 0.1f * (float)c->turn_distance; /* deg */
+    motion_result_t r = MOTION_OK;
+    switch (c->turn_cmd) {
+    case NAVKIT_TURN_CMD_TURN:
+        turn_start(t, o->enc_l, o->enc_r, turn_angle(t, o, cfg->odom.turn_deg_per_count), target, rate, accel);
+        r = MOTION_STARTED;
+        break;
+    case NAVKIT_TURN_CMD_MODIFY:
+        r = turn_modify(t, target, rate, accel);
+        break;
+    case NAVKIT_TURN_CMD_STOP:
+        turn_stop(t, accel, cfg->dt);
+        break;
+    case NAVKIT_TURN_CMD_HDG_SEL:
+        turn_hdg_select(t, o->enc_l, o->enc_r, turn_angle(t, o, cfg->odom.turn_deg_per_count), target, heading_deg(h),
+                        rate, accel);
+        r = MOTION_STARTED;
+        break;
+    default: /* NAVKIT_TURN_CMD_NONE */
+        break;
+    }
+    if (c->excite_mode != NAVKIT_EXCITE_MODE_NONE) {
+        turn_reset(t, o->enc_l, o->enc_r);
+    }
+    return r;
 }

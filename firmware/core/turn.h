@@ -11,7 +11,11 @@
 
 #include <stdint.h>
 
+#include "config.h"
+#include "heading.h"
 #include "motion.h"
+#include "navkit/navkit_proto.h"
+#include "odom.h"
 
 typedef struct {
     motion_t ax;        /* the turn axis, deg from the turn reference */
@@ -21,6 +25,21 @@ typedef struct {
     uint8_t hdg_reached;/* 1 while HdgSel is within tolerance and at rest */
 } turn_t;
 
+/* The turn axis's part of a checked micro_cmd c, on t: turn_cmd 1 turns (turn_distance,
+ * deg*10, from a new reference at the encoder counts of o), 3 modifies, 5 stops (at
+ * turn_accel, with the tick cfg->dt, s), 10 HdgSel steers to heading turn_distance (deg*10)
+ * from the heading of h, others do nothing; the limits are |turn_accel| (deg*10/s^2) and
+ * |turn_rate| (deg*10/s), or cfg's defaults for a word of 0, the rate at most
+ * cfg->max_turn_rate. An experiment (excite_mode 1-3; the check keeps turn_cmd 0 with it)
+ * leaves the axis idle with its reference at the encoder counts of o (the turn angle counts
+ * from the experiment's start). Returns MOTION_STARTED for a turn 1 or a HdgSel,
+ * turn_modify()'s result for a modify, else MOTION_OK. */
+motion_result_t turn_micro_cmd(turn_t *t, const navkit_micro_cmd_t *c, const odom_t *o, const heading_t *h,
+                               const config_t *cfg);
+/* The turn axis t's measured turn angle (deg, clockwise) from its reference: the wheels'
+ * travel difference in o since the reference counts, deg_per_count (deg per count of
+ * left-minus-right difference). */
+float turn_angle(const turn_t *t, const odom_t *o, float deg_per_count);
 /* Idle, no reference (reference counts = enc_l/enc_r, counts). */
 void turn_reset(turn_t *t, int32_t enc_l, int32_t enc_r);
 /* Turn 1: new reference at enc_l/enc_r (counts); meas (deg) is the turn angle from the
