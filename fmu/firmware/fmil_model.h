@@ -14,6 +14,11 @@
 #define FWFMU_RX_CAP 8192u    /* bytes: RX FIFO (host -> micro, not yet delivered), and serial_rx */
 #define FWFMU_TX_CAP 512u     /* bytes: the micro's TX FIFO */
 #define FWFMU_WIRE_CAP 16384u /* bytes: serial_tx of one doStep */
+#if FW_LINK_CAN
+#define FWFMU_CAN_RXQ 256u  /* frames: RX queue (the bus -> the core, not yet read), and can_rx */
+#define FWFMU_CAN_TXQ 3u    /* frames: TX buffers (an MCP2515 has 3); they go on the bus each tick */
+#define FWFMU_CAN_WIRE 1024u /* frames: can_tx of one doStep */
+#endif
 
 /* The board the core runs on (its side of hal.h). */
 struct hal {
@@ -34,6 +39,14 @@ struct hal {
      * power-on, so the first read converts */
     double adc_v[5], sonar_v[4];       /* ADC: IR 0-3, battery */
     uint16_t adc_counts[5], sonar_us[4];
+#if FW_LINK_CAN
+    uint8_t canq[FWFMU_CAN_RXQ * FWFMU_CAN_RECORD_BYTES]; /* ring of records (fw_fmu_model.h) */
+    uint32_t canq_head, canq_len;                          /* frames */
+    uint32_t can_rx_dropped;                               /* frames lost to a full RX queue */
+    uint8_t can_txb[FWFMU_CAN_TXQ * FWFMU_CAN_RECORD_BYTES];
+    uint32_t can_txb_len;                                  /* frames in the TX buffers */
+    uint8_t can_wire[FWFMU_CAN_WIRE * FWFMU_CAN_RECORD_BYTES]; /* can_tx's records */
+#endif
 };
 
 typedef struct {
@@ -45,6 +58,11 @@ typedef struct {
     fmil_binary_t serial_rx;   /* -> rx_stage: bytes for the next doStep */
     fmil_binary_t serial_tx;   /* -> hal.wire: bytes of the last doStep */
     uint8_t rx_stage[FWFMU_RX_CAP];
+#if FW_LINK_CAN
+    fmil_binary_t can_rx; /* -> can_stage: frames for the next doStep */
+    fmil_binary_t can_tx; /* -> hal.can_wire: frames of the last doStep */
+    uint8_t can_stage[FWFMU_CAN_RXQ * FWFMU_CAN_RECORD_BYTES];
+#endif
     /* the control ticks' schedule on the simulated clock, us since t_start: tick k runs at
      * the previous tick's time plus the tick period in force after it (a config may change
      * the period), in the doStep whose interval [t, t + h) holds that time */

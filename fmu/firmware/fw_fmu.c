@@ -106,6 +106,41 @@ void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
     }
 }
 
+#if FW_LINK_CAN
+/* The CAN controller (the CAN build, navkit_firmware_can): the frames of can_rx join an RX
+ * queue at the start of the doStep and the core reads them at its next link poll; the
+ * core's frames take one of FWFMU_CAN_TXQ TX buffers and go on the bus at the end of the
+ * tick (into can_tx), so at most FWFMU_CAN_TXQ frames leave per tick (the bus itself, at
+ * 500 kbit/s ~4.5 frames a ms, is never the limit at 1 kHz). Records: fw_fmu_model.h. */
+uint8_t hal_can_read(hal_t *h, uint16_t *id, uint8_t data[8], uint8_t *dlc)
+{
+    const uint8_t *r;
+    if (h->canq_len == 0u) {
+        return 0u;
+    }
+    r = &h->canq[h->canq_head * FWFMU_CAN_RECORD_BYTES];
+    *id = (uint16_t)(r[0] | (r[1] << 8));
+    *dlc = (r[2] > 8u) ? 8u : r[2];
+    memcpy(data, r + 4, 8u);
+    h->canq_head = (h->canq_head + 1u) % FWFMU_CAN_RXQ;
+    h->canq_len--;
+    return 1u;
+}
+uint8_t hal_can_tx_free(hal_t *h) { return (uint8_t)(FWFMU_CAN_TXQ - h->can_txb_len); }
+void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
+{
+    uint8_t *r;
+    if (h->can_txb_len >= FWFMU_CAN_TXQ) {
+        return; /* the core never writes more than hal_can_tx_free() */
+    }
+    r = &h->can_txb[h->can_txb_len++ * FWFMU_CAN_RECORD_BYTES];
+    r[0] = (uint8_t)(id & 0xFFu);
+    r[1] = (uint8_t)(id >> 8);
+    r[2] = 8u;
+    r[3] = 0u;
+    memcpy(r + 4, data, 8u);
+}
+#else
 /* Bytes the line carries in tick_us at the baud rate, from the credit (bit-us). */
 static uint32_t fwfmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_us, uint32_t waiting)
 {
@@ -129,6 +164,25 @@ static uint32_t fwfmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_
     return (uint32_t)n;
 }
 
+#endif
+
+#if FW_LINK_CAN
+/* One control tick of the CAN build: link poll (the RX queue), control, then the TX
+ * buffers onto the bus (can_tx; a full can_tx of this doStep keeps them for the next tick). */
+static void fwfmu_tick(fmil_model_t *m)
+{
+    struct hal *h = &m->hal;
+    size_t at;
+    fw_link_poll(&m->fw);
+    fw_tick(&m->fw);
+    at = m->can_tx.len / FWFMU_CAN_RECORD_BYTES;
+    if (h->can_txb_len > 0u && at + h->can_txb_len <= FWFMU_CAN_WIRE) {
+        memcpy(&h->can_wire[at * FWFMU_CAN_RECORD_BYTES], h->can_txb, h->can_txb_len * FWFMU_CAN_RECORD_BYTES);
+        m->can_tx.len += h->can_txb_len * FWFMU_CAN_RECORD_BYTES;
+        h->can_txb_len = 0u;
+    }
+}
+#else
 static void fwfmu_tick(fmil_model_t *m)
 {
     struct hal *h = &m->hal;
@@ -149,6 +203,7 @@ static void fwfmu_tick(fmil_model_t *m)
         h->tx_len--;
     }
 }
+#endif
 
 /* ---------------------------------------------------------------- the model's hooks */
 
@@ -160,6 +215,12 @@ fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
     m->serial_rx.cap = FWFMU_RX_CAP;
     m->serial_tx.data = m->hal.wire;
     m->serial_tx.cap = 0u; /* an output */
+#if FW_LINK_CAN
+    m->can_rx.data = m->can_stage;
+    m->can_rx.cap = sizeof m->can_stage;
+    m->can_tx.data = m->hal.can_wire;
+    m->can_tx.cap = 0u; /* an output */
+#endif
     return FMIL_OK;
 }
 
@@ -182,6 +243,10 @@ void fmil_model_start_values(fmil_instance_t *c)
         h->sonar_v[i] = NAN;
     }
     m->serial_rx.len = m->serial_tx.len = 0u;
+#if FW_LINK_CAN
+    h->canq_head = h->canq_len = h->can_rx_dropped = h->can_txb_len = 0u;
+    m->can_rx.len = m->can_tx.len = 0u;
+#endif
     m->t_start = 0.0;
     m->next_tick_us = 0u;
     fw_init(&m->fw, h);
@@ -227,6 +292,28 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
     }
     m->serial_rx.len = 0u;
     m->serial_tx.len = 0u;
+#if FW_LINK_CAN
+    /* can_rx's whole records join the RX queue; a full queue drops the excess (as a
+       controller without a free RX buffer does) */
+    for (i = 0; i + FWFMU_CAN_RECORD_BYTES <= m->can_rx.len; i += FWFMU_CAN_RECORD_BYTES) {
+        if (h->canq_len < FWFMU_CAN_RXQ) {
+            memcpy(&h->canq[((h->canq_head + h->canq_len) % FWFMU_CAN_RXQ) * FWFMU_CAN_RECORD_BYTES],
+                   &m->can_stage[i], FWFMU_CAN_RECORD_BYTES);
+            h->canq_len++;
+        } else {
+            h->can_rx_dropped++;
+        }
+    }
+    if (m->can_rx.len % FWFMU_CAN_RECORD_BYTES != 0u) {
+        fmil_log(c, FMIL_WARNING, "can_rx: %u bytes are no whole %u-byte frame record, ignored",
+                 (unsigned)(m->can_rx.len % FWFMU_CAN_RECORD_BYTES), FWFMU_CAN_RECORD_BYTES);
+    }
+    if (m->can_rx.len > 0u && h->can_rx_dropped > 0u) {
+        fmil_log(c, FMIL_WARNING, "CAN RX queue full: %u frames dropped so far", (unsigned)h->can_rx_dropped);
+    }
+    m->can_rx.len = 0u;
+    m->can_tx.len = 0u;
+#endif
     while (m->next_tick_us < end_us) {
         fwfmu_tick(m); /* a config may change the tick period: the next tick takes the new one */
         m->next_tick_us += fw_tick_period_us(&m->fw);

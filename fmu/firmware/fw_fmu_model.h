@@ -14,11 +14,21 @@
 
 #include <stdint.h>
 
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+/* The CAN build (navkit_firmware_can): the core's CAN link (ISO-TP, firmware/core/link.c)
+ * instead of the UART; CAN frames in can_rx / can_tx instead of serial_rx / serial_tx. */
+#define FWFMU_MODEL_IDENTIFIER "navkit_firmware_can"
+#define FWFMU_MODEL_NAME "navkit firmware (CAN link)"
+#define FWFMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6943}"
+#define FWFMU_DESCRIPTION \
+    "navkit reference firmware (firmware/core) on a simulated micro: control ticks at the configured rate, the micro link over CAN (ISO-TP) in can_rx and can_tx"
+#else
 #define FWFMU_MODEL_IDENTIFIER "navkit_firmware"
 #define FWFMU_MODEL_NAME "navkit firmware"
 #define FWFMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6974}"
 #define FWFMU_DESCRIPTION \
     "navkit reference firmware (firmware/core) on a simulated micro: control ticks at the configured rate, UART at the baud parameter"
+#endif
 #define FWFMU_DEFAULT_BAUD 115200u
 
 /* X(vr, name, causality, variability, unit, start, field, description)
@@ -62,10 +72,27 @@
 #define FWFMU_UINT32_VARS(X)                                                                                 \
     X(50, baud, parameter, fixed, "", FWFMU_DEFAULT_BAUD, baud, "UART baud rate (10 bits per byte on the wire)")
 
-/* Binary: X(vr, name, causality, description) */
+/* A CAN frame in can_rx / can_tx (the CAN build): FWFMU_CAN_RECORD_BYTES bytes, frames back
+ * to back: bytes 0-1 the identifier, little-endian (11 bits, ORed with NAVKIT_ISOTP_EXT
+ * 0x8000 for an extended frame, NAVKIT_ISOTP_RTR 0x4000 for a remote one: such frames
+ * reach the core, which refuses them), byte 2 the DLC (data bytes, 0..8), byte 3 zero,
+ * bytes 4-11 the data (bytes past the DLC zero, ignored). */
+#define FWFMU_CAN_RECORD_BYTES 12u
+
+/* Binary: X(vr, name, causality, description); the serial build's first, then the CAN
+ * build's (tests/test_firmware_fmu.py reads the first block, test_firmware_fmu_can.py the
+ * second) */
+#if !(defined(FW_LINK_CAN) && FW_LINK_CAN)
 #define FWFMU_BINARY_VARS(X)                                                                                 \
     X(40, serial_rx, input, "Bytes arriving from the host during the next doStep (consumed by it)")          \
     X(41, serial_tx, output, "Bytes the micro sent during the last doStep")
+
+#else
+#define FWFMU_BINARY_VARS(X)                                                                                 \
+    X(42, can_rx, input, "CAN frames from the bus for the next doStep (consumed by it), 12 bytes each: id (2, little-endian), DLC, 0, 8 data bytes") \
+    X(43, can_tx, output, "CAN frames the micro sent during the last doStep, 12 bytes each as can_rx")
+
+#endif
 
 #define FWFMU_VR_SERIAL_RX 40u
 #define FWFMU_VR_SERIAL_TX 41u
