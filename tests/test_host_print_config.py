@@ -190,3 +190,28 @@ def test_sweep_refuses_a_config_the_host_refuses_before_any_run(tmp_path, capsys
     err = capsys.readouterr().err
     assert rc == 1 and err == f"navkit sweep: {p}:{line}: wheel_kp: -1 is outside 0..65535\n", err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_micro_cfg_sections_are_the_specs_config_fields(tmp_path):
+    """The host's [micro_cfg_*] keys come from the spec (navkit_proto.h
+    NAVKIT_<MSG>_CONFIG_FIELDS): one key per field but the framing, hex only where the
+    field's units are bits, a sign refused at its own line by the spec's check."""
+    (tmp_path / "NavAndControl.ini").write_text("[micro_cfg_geometry]\n[micro_cfg_motion]\n[micro_cfg_io]\n")
+    (tmp_path / "sensors.ini").write_text("; nothing\n")
+    got = _print(tmp_path)
+    for msg in ("micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"):
+        fields = protocol.SPEC.messages[msg].fields
+        assert list(got["sections"][msg]) == sorted(f.name for f in fields
+                                                    if f.name not in ("time_tag", "msg_type", "spec_hash"))
+    for f in protocol.SPEC.messages["micro_cfg_io"].fields[3:]:
+        ini = tmp_path / "NavAndControl.ini"
+        ini.write_text(f"[micro_cfg_io]\n{f.name} = 0x{max(f.min, 1):X}\n")
+        r = _host("--config", tmp_path, "--print-config")
+        if f.units == "bits":
+            assert r.returncode == 0 and json.loads(r.stdout)["sections"]["micro_cfg_io"][f.name]["value"] == max(f.min, 1)
+        else:
+            assert r.returncode == 1 and r.stderr.startswith(f"navkit-host: {ini}:2: {f.name}: "), r.stderr
+    (tmp_path / "NavAndControl.ini").write_text("[micro_cfg_geometry]\n\nmotor_right_sign = 0\n")
+    r = _host("--config", tmp_path, "--print-config")
+    assert (r.returncode, r.stderr) == (1, f"navkit-host: {tmp_path}/NavAndControl.ini:3: motor_right_sign: '0' is "
+                                           "not 1 or -1 (the micro refuses any other sign)\n")

@@ -16,6 +16,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <type_traits>
 #include <vector>
 
 #include <sys/stat.h>
@@ -116,25 +117,6 @@ template <class T>
 Key mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
 {
     return int_key(p, lo, hi, true);
-}
-
-// A sign of micro_cfg_geometry into g->*sign: taken when the spec's check takes it (its
-// range -1..1 and its constraint nonzero: +1 or -1), tried on the defaults with this sign.
-Key sign_key(navkit_micro_cfg_geometry_t *g, int16_t navkit_micro_cfg_geometry_t::*sign)
-{
-    Setter set = [g, sign](const std::string &v) -> std::string {
-        long x = 0;
-        const bool is_int16 = ini_parse_int(v, false, &x).empty() && x >= INT16_MIN && x <= INT16_MAX;
-        navkit_micro_cfg_geometry_t probe;
-        navkit_micro_cfg_geometry_defaults(&probe);
-        probe.*sign = static_cast<int16_t>(is_int16 ? x : 0);
-        if (!is_int16 || navkit_micro_cfg_geometry_check(&probe, nullptr) != NAVKIT_OK) {
-            return "'" + v + "' is not 1 or -1 (the micro refuses any other sign)";
-        }
-        g->*sign = probe.*sign;
-        return "";
-    };
-    return Key{set, int_json(&(g->*sign))};
 }
 
 // A finite number into *p, lo..hi (the key's unit).
@@ -238,6 +220,57 @@ Key array_key(T (*arr)[8])
     return Key{set, json};
 }
 
+// The spec's defaults and check of a config message (for cfg_key_NONZERO's probe; unused
+// for a message without NONZERO fields).
+[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_geometry_t *m) { navkit_micro_cfg_geometry_defaults(m); }
+[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_motion_t *m) { navkit_micro_cfg_motion_defaults(m); }
+[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_io_t *m) { navkit_micro_cfg_io_defaults(m); }
+[[maybe_unused]] int cfg_check(const navkit_micro_cfg_geometry_t *m) { return navkit_micro_cfg_geometry_check(m, nullptr); }
+[[maybe_unused]] int cfg_check(const navkit_micro_cfg_motion_t *m) { return navkit_micro_cfg_motion_check(m, nullptr); }
+[[maybe_unused]] int cfg_check(const navkit_micro_cfg_io_t *m) { return navkit_micro_cfg_io_check(m, nullptr); }
+
+// The key of config field msg->*f by its kind in NAVKIT_<MSG>_CONFIG_FIELDS (navkit_proto.h):
+// INT any value of the field's type (decimal; an array: 1 or 8 values), MASK also 0x hex;
+// the spec's ranges are checked after reading (check_micro).
+template <class M, class T>
+Key cfg_key_INT(M *msg, T M::*f)
+{
+    return int_key(&(msg->*f));
+}
+
+template <class M, class T, size_t N>
+Key cfg_key_INT(M *msg, T (M::*f)[N])
+{
+    return array_key(&(msg->*f));
+}
+
+template <class M, class T>
+Key cfg_key_MASK(M *msg, T M::*f)
+{
+    return mask_key(&(msg->*f));
+}
+
+// NONZERO (the spec's signs: range -1..1, constraint nonzero): taken when the spec's check
+// takes it, tried on the defaults with this value (+1 or -1), else refused at its own line.
+template <class M, class T>
+Key cfg_key_NONZERO(M *msg, T M::*f)
+{
+    Setter set = [msg, f](const std::string &v) -> std::string {
+        long x = 0;
+        const bool fits = ini_parse_int(v, false, &x).empty() && x >= std::numeric_limits<T>::min() &&
+                          x <= std::numeric_limits<T>::max();
+        M probe;
+        cfg_defaults(&probe);
+        probe.*f = static_cast<T>(fits ? x : 0);
+        if (!fits || cfg_check(&probe) != NAVKIT_OK) {
+            return "'" + v + "' is not 1 or -1 (the micro refuses any other sign)";
+        }
+        msg->*f = probe.*f;
+        return "";
+    };
+    return Key{set, int_json(&(msg->*f))};
+}
+
 // NavAndControl.ini's sections and keys, each writing into c.
 Table nav_table(Config &c)
 {
@@ -313,37 +346,21 @@ Table nav_table(Config &c)
              return "";
          }, int_json(&m.can_bitrate)}},
     };
-    navkit_micro_cfg_geometry_t &g = m.geometry;
-    t["micro_cfg_geometry"] = {
-        {"wheel_diameter", int_key(&g.wheel_diameter)}, {"counts_per_rev", int_key(&g.counts_per_rev)},
-        {"track_width", int_key(&g.track_width)},
-        {"enc_left_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::enc_left_sign)},
-        {"enc_right_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::enc_right_sign)},
-        {"motor_left_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::motor_left_sign)},
-        {"motor_right_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::motor_right_sign)},
-        {"gyro_lsb_per_dps", int_key(&g.gyro_lsb_per_dps)},
-        {"gyro_sign", sign_key(&g, &navkit_micro_cfg_geometry_t::gyro_sign)},
-        {"compass_weight", int_key(&g.compass_weight)}, {"control_rate", int_key(&g.control_rate)},
-    };
-    navkit_micro_cfg_motion_t &mo = m.motion;
-    t["micro_cfg_motion"] = {
-        {"default_accel", int_key(&mo.default_accel)}, {"default_speed", int_key(&mo.default_speed)},
-        {"default_turn_accel", int_key(&mo.default_turn_accel)},
-        {"default_turn_rate", int_key(&mo.default_turn_rate)}, {"max_speed", int_key(&mo.max_speed)},
-        {"max_turn_rate", int_key(&mo.max_turn_rate)}, {"wheel_kff", int_key(&mo.wheel_kff)},
-        {"wheel_kp", int_key(&mo.wheel_kp)}, {"wheel_ki", int_key(&mo.wheel_ki)},
-        {"wheel_kd", int_key(&mo.wheel_kd)}, {"wheel_i_limit", int_key(&mo.wheel_i_limit)},
-        {"pwm_limit", int_key(&mo.pwm_limit)}, {"heading_kp", int_key(&mo.heading_kp)},
-        {"watchdog_timeout", int_key(&mo.watchdog_timeout)}, {"watchdog_decel", int_key(&mo.watchdog_decel)},
-        {"stop_tolerance", int_key(&mo.stop_tolerance)},
-    };
-    navkit_micro_cfg_io_t &io = m.io;
-    t["micro_cfg_io"] = {
-        {"dio_direction", mask_key(&io.dio_direction)}, {"dio_safe_state", mask_key(&io.dio_safe_state)},
-        {"sensor_enable", mask_key(&io.sensor_enable)}, {"servo_center", array_key(&io.servo_center)},
-        {"servo_us_per_deg", array_key(&io.servo_us_per_deg)}, {"servo_min", array_key(&io.servo_min)},
-        {"servo_max", array_key(&io.servo_max)},
-    };
+    // [micro_cfg_*]: one key per config field of the spec, of the kind the spec gives it
+#define NAVKIT_INI_CFG_KEY(name, kind) {#name, cfg_key_##kind(msg, &std::remove_pointer_t<decltype(msg)>::name)},
+    {
+        navkit_micro_cfg_geometry_t *msg = &m.geometry;
+        t["micro_cfg_geometry"] = {NAVKIT_MICRO_CFG_GEOMETRY_CONFIG_FIELDS(NAVKIT_INI_CFG_KEY)};
+    }
+    {
+        navkit_micro_cfg_motion_t *msg = &m.motion;
+        t["micro_cfg_motion"] = {NAVKIT_MICRO_CFG_MOTION_CONFIG_FIELDS(NAVKIT_INI_CFG_KEY)};
+    }
+    {
+        navkit_micro_cfg_io_t *msg = &m.io;
+        t["micro_cfg_io"] = {NAVKIT_MICRO_CFG_IO_CONFIG_FIELDS(NAVKIT_INI_CFG_KEY)};
+    }
+#undef NAVKIT_INI_CFG_KEY
     ConsoleCfg &co = c.console;
     t["console"] = {
         {"teleop_speed", int_key(&co.teleop_speed, 1, 3000)},

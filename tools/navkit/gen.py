@@ -43,6 +43,10 @@ def _banner(spec: Spec, style: str) -> str:
     return "<!-- " + text + " -->\n"
 
 
+# The fields every framed message carries for the link, not for its content.
+_FRAMING_FIELDS = ("time_tag", "msg_type", "spec_hash")
+
+
 def _ctype(ftype: str) -> str:
     return {"uint16": "uint16_t", "int16": "int16_t", "uint32": "uint32_t", "int32": "int32_t"}[ftype]
 
@@ -120,6 +124,14 @@ def emit_c_header(spec: Spec) -> str:
         for i, f in enumerate(m.fields):
             out.append(f"#define NAVKIT_{up}_FIELD_{f.name.upper()} {i}")
         out.append(f"#define NAVKIT_{up}_FIELD_COUNT {len(m.fields)}")
+        if m.framed and m.direction == "host_to_micro" and any(f.default is not None for f in m.fields):
+            nonzero = {c.fields[0] for c in m.constraints if c.kind == "nonzero"}
+            xs = " ".join(f"X({f.name}, {'NONZERO' if f.name in nonzero else 'MASK' if f.units == 'bits' else 'INT'})"
+                          for f in m.fields if f.name not in _FRAMING_FIELDS)
+            out.append(f"/* X(name, kind) for each config field (all but {', '.join(_FRAMING_FIELDS)}), in spec\n"
+                       f" * order, for tables of config keys (the host's [{m.name}] INI section): kind INT,\n"
+                       f" * MASK (units \"bits\": a bit mask) or NONZERO (bound by a constraint nonzero). */")
+            out.append(f"#define NAVKIT_{up}_CONFIG_FIELDS(X) {xs}")
         out.append(f"/* Spec defaults (0 where none), msg_type set"
                    + (", spec_hash = NAVKIT_SPEC_HASH" if any(f.name == "spec_hash" for f in m.fields) else "")
                    + ". */")
