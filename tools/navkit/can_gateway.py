@@ -5,6 +5,15 @@ slcan`) and a firmware speaking the serial link (the firmware FMU, a test's micr
     host --SLCAN bytes--> SlcanAdapter --CAN frames--> ISO-TP (the micro's side) --frames--> firmware
     host <--SLCAN lines-- SlcanAdapter <--CAN frames-- ISO-TP <--serial bytes, cut into frames-- firmware
 
+With `firmware_can=True` the micro's side is the firmware FMU's CAN build
+(navkit_firmware_can.fmu, whose ISO-TP is the firmware's C): the gateway then only
+translates SLCAN <-> CAN frames, the FMU's frames being 12-byte records (RECORD, the
+layout of fw_fmu_model.h), and reassembles both directions as a bus analyser would
+(listening only: its flow controls go nowhere) so the run log keeps the serial frames.
+
+    host --SLCAN bytes--> SlcanAdapter --CAN frame records--> firmware FMU (can_rx)
+    host <--SLCAN lines-- SlcanAdapter <--CAN frame records-- firmware FMU (can_tx)
+
 Every CAN frame on the simulated bus (both directions, flow controls included) goes to an
 optional python-can listener (a `can.Logger` writes a candump-style log or any format it
 knows). Times are the caller's seconds (simulated time).
@@ -18,6 +27,7 @@ error frames are counted and logged (each try of FRAME_BITS bits fails with prob
 from __future__ import annotations
 
 import random
+import struct
 from dataclasses import dataclass, field
 
 import can
@@ -26,10 +36,12 @@ from navkit import can as nc
 from navkit import protocol as p
 from navkit.can_slcan import SlcanAdapter
 
-__all__ = ["CanGateway", "BusTap", "FRAME_BITS", "MAX_TRIES"]
+__all__ = ["CanGateway", "BusTap", "FRAME_BITS", "MAX_TRIES", "RECORD"]
 
 FRAME_BITS = 111   # bits of a classic 8-byte data frame with an 11-bit identifier, unstuffed
 MAX_TRIES = 32     # error frames before a frame goes through anyway (a bus this bad is off)
+# one CAN frame in the firmware FMU's can_rx / can_tx: identifier, DLC, 0, data padded to 8
+RECORD = struct.Struct("<HBx8s")
 
 
 class BusTap(can.Listener):
@@ -61,10 +73,19 @@ class CanGateway:
     micro: nc.Endpoint = field(default_factory=lambda: nc.Endpoint("micro"))
     frames: int = 0
     skipped: int = 0            # the firmware's frames dropped while the last one was going out
+                                # (firmware_can: messages it got whole minus replies it began)
     error_frames: int = 0       # frames destroyed by line noise and sent again
     _serial: p.Parser = field(default_factory=lambda: p.Parser(p.DIR_TO_HOST))
+    firmware_can: bool = False  # the micro is the firmware FMU's CAN build: frames as RECORDs
+    # firmware_can: the serial frames reassembled from the bus in the last from_host() /
+    # from_micro() call (host -> micro, micro -> host), for the run log
+    h2m_serial: bytes = b""
+    m2h_serial: bytes = b""
+    _m2h: nc.Receiver = field(default_factory=lambda: nc.Receiver(p.DIR_TO_HOST))
+    _m2h_starts: int = 0        # firmware_can: micro messages begun (first or single frames)
     _p_error: float = 0.0       # probability that one try of a frame meets a bit error
     _rng: random.Random | None = None
+    _data_id: int = field(default_factory=lambda: nc.CAN.ids["micro_data"].id)
 
     def noise(self, ber: float, rng: random.Random | None = None) -> None:
         """Line noise from now on: bit error rate `ber` (0: none), drawn from `rng`."""
@@ -99,6 +120,17 @@ class CanGateway:
         the serial frames the firmware receives)."""
         reply, frames = self.adapter.feed(data)
         to_micro = bytearray()
+        if self.firmware_can:      # records for can_rx; the micro's frames come from can_tx
+            serial = bytearray()
+            for m in frames:
+                self._bus(m, t, False)
+                to_micro += RECORD.pack(m.arbitration_id, m.dlc, bytes(m.data))
+                r = self.micro.rx.feed(m, t)        # listening: its flow controls go nowhere
+                if r is not None:
+                    serial += r.data
+            self.micro.rx.take_replies()
+            self.h2m_serial = bytes(serial)
+            return reply, bytes(to_micro)
         for m in frames:
             self._bus(m, t, False)
             r = self.micro.feed(m, t)
@@ -106,10 +138,36 @@ class CanGateway:
                 to_micro += r.data
         return reply + self._to_host(t), bytes(to_micro)
 
+    def micro_tx_stats(self) -> dict:
+        """The micro's ISO-TP transmission counters (navkit.can.TX_STATS). With firmware_can
+        as the bus shows them: `sent` the micro_data reassembled whole, the rest 0 (the
+        firmware's own counters are not reported)."""
+        if self.firmware_can:
+            return dict(dict.fromkeys(nc.TX_STATS, 0), sent=self._m2h.stats["good"])
+        return dict(self.micro.tx.stats)
+
     def from_micro(self, data: bytes, t: float) -> bytes:
         """The firmware's serial bytes: each whole frame one ISO-TP message (one at a time:
         a frame while the last is still going out is dropped, as the firmware's CAN build
-        skips a reply then); returns the SLCAN lines for the host now due."""
+        skips a reply then); returns the SLCAN lines for the host now due. With
+        firmware_can, `data` is the FMU's can_tx (RECORDs): each frame goes on the bus."""
+        if self.firmware_can:
+            out, serial = bytearray(), bytearray()
+            for can_id, dlc, payload in RECORD.iter_unpack(data):
+                m = can.Message(arbitration_id=can_id & 0x7FF, data=payload[:dlc], is_extended_id=False)
+                self._bus(m, t, True)
+                out += self.adapter.to_host(m)
+                if can_id == self._data_id and dlc and payload[0] >> 4 in (0, 1):
+                    self._m2h_starts += 1
+                r = self._m2h.feed(m, t)
+                if r is not None:
+                    serial += r.data
+            self._m2h.take_replies()
+            self.m2h_serial = bytes(serial)
+            # the firmware answers each message it gets whole, but skips while its last
+            # reply is still going out: the bus shows how many (one may be under way)
+            self.skipped = max(0, self.micro.rx.stats["good"] - self._m2h_starts)
+            return bytes(out)
         for e in self._serial.feed(data):
             if isinstance(e, p.Frame) and not self.micro.send(e.raw, t):
                 self.skipped += 1

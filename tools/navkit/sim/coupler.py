@@ -135,9 +135,11 @@ class Coupler:
                 self._check(lib.cosim_connect(self._c, FIRMWARE, _TYPES[v.type],
                                               v.valueReference, p.valueReference))
                 self.links.append(("firmware", name))
-        rx, tx = fw_vars.get("serial_rx"), fw_vars.get("serial_tx")
+        # the link's Binary variables: serial bytes, or CAN frame records (the CAN build)
+        rx = fw_vars.get("serial_rx") or fw_vars.get("can_rx")
+        tx = fw_vars.get("serial_tx") or fw_vars.get("can_tx")
         if rx is None or tx is None:
-            raise CouplerError("the firmware FMU has no serial_rx/serial_tx Binary variables")
+            raise CouplerError("the firmware FMU has no serial_rx/serial_tx (or can_rx/can_tx) Binary variables")
         self._check(lib.cosim_serial(self._c, rx.valueReference, tx.valueReference))
         self.columns = []
         for which, names, vars_ in ((PLANT, TRUTH_PLANT, plant_vars),

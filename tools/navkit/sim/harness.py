@@ -493,6 +493,9 @@ class _Run:
 
         self._check_timeline()
         fw_fmu, plant_fmu = fmu_paths(self.build, self.opts.firmware)[0], self.plant_fmu
+        if self.opts.link == "can" and self.opts.firmware == "fmu":   # its CAN build
+            fw_fmu = fw_fmu.with_name("navkit_firmware_can.fmu")
+        self.fw_fmu = fw_fmu
         self._firmware_rate(fw_fmu)
         try:
             plant_md = check(plant_fmu, fw_fmu)     # FMI 3.0 co-simulation, the contract
@@ -544,7 +547,9 @@ class _Run:
             cmd += ["--link", "slcan"]
             # every bus frame to can.log (candump -L format) and run.mcap's /can
             self.can_log = BusTap(can.Logger(str(self.out / "can.log")), self.log.can_frame)
-            self.gateway = CanGateway(listener=self.can_log)
+            self.gateway = CanGateway(listener=self.can_log,
+                                      firmware_can=self.fmus.fw_md.coSimulation.modelIdentifier
+                                      == "navkit_firmware_can")
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")
         if not self.opts.realtime and self.opts.pin_cpu:
@@ -842,7 +847,9 @@ class _Run:
         The log keeps the micro's serial frames (log.micro): the host gets those either way."""
         if self.gateway is None:
             return (tx,)
-        return back + self.gateway.from_micro(tx, t_ns / 1e9), tx
+        lines = back + self.gateway.from_micro(tx, t_ns / 1e9)
+        # the firmware FMU's CAN build sends frame records: the log keeps what they carry
+        return lines, (self.gateway.m2h_serial if self.gateway.firmware_can else tx)
 
     def _lisp_raw(self):
         c = self.planner.client
@@ -901,10 +908,12 @@ class _Run:
                     tx_bytes, flags = done
                     host_bytes = port.read_exact(tx_bytes)
                     times["pty"] += pc() - t2
+                    logged = host_bytes
                     if self.gateway is not None:  # SLCAN lines in; the micro's frames, back
                         back, host_bytes = self.gateway.from_host(host_bytes, t_ns / 1e9)
                         can_back += back
-                    log.frame(k, t_ns, self.rx_count, tx_bytes, flags, host_bytes,
+                        logged = self.gateway.h2m_serial if self.gateway.firmware_can else host_bytes
+                    log.frame(k, t_ns, self.rx_count, tx_bytes, flags, logged,
                               lisp_raw(), "running" if self.unplug_until is None else "unplugged")
                     if flags & 1:
                         self.host_state = "exited"
@@ -924,16 +933,18 @@ class _Run:
             tx, rows = coupler.run_raw(split, host_bytes)
             times["fmus"] += pc() - t1
             log.truth(rows)
-            log.micro(t_ns + split * 1_000_000, tx)
-            self.rx_count = self._to_host(*self._can_out(can_back, tx, t_ns + split * 1_000_000))
+            out = self._can_out(can_back, tx, t_ns + split * 1_000_000)
+            log.micro(t_ns + split * 1_000_000, out[-1])
+            self.rx_count = self._to_host(*out)
             can_back = b""
             if split < spf:
                 t1 = pc()
                 tx2, rows2 = coupler.run_raw(spf - split)
                 times["fmus"] += pc() - t1
                 log.truth(rows2)
-                log.micro(t_ns + frame_ns, tx2)
-                self.rx_count += self._to_host(*self._can_out(b"", tx2, t_ns + frame_ns))
+                out = self._can_out(b"", tx2, t_ns + frame_ns)
+                log.micro(t_ns + frame_ns, out[-1])
+                self.rx_count += self._to_host(*out)
             log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
             if progress is not None and k & 63 == 0:
                 progress.at(t_ns / 1e9)
@@ -966,14 +977,17 @@ class _Run:
             host_bytes = self.port.read_available()
             tx_host += len(host_bytes)
             back = b""
+            logged = host_bytes
             if self.gateway is not None:  # SLCAN lines in; the micro's frames, back
                 back, host_bytes = self.gateway.from_host(host_bytes, t_ns / 1e9)
-            self.log.host(t_ns, host_bytes)
+                logged = self.gateway.h2m_serial if self.gateway.firmware_can else host_bytes
+            self.log.host(t_ns, logged)
             host_bytes = self._to_micro(host_bytes)
             tx, rows = self.coupler.run_raw(chunk_steps, host_bytes)
             self.log.truth(rows)
-            self.log.micro(t_ns + chunk_ns, tx)
-            rx += self._to_host(*self._can_out(back, tx, t_ns + chunk_ns))
+            out = self._can_out(back, tx, t_ns + chunk_ns)
+            self.log.micro(t_ns + chunk_ns, out[-1])
+            rx += self._to_host(*out)
             if t_ns >= next_frame_ns:
                 if self.host_state == "running":
                     if self.silent_until is None:
@@ -1016,7 +1030,7 @@ class _Run:
             "seed": self.opts.seed,
             "plant_fmu": str(self.plant_fmu),
             "firmware": self.opts.firmware,
-            "firmware_fmu": str(fmu_paths(self.build, self.opts.firmware)[0]),
+            "firmware_fmu": str(getattr(self, "fw_fmu", None) or fmu_paths(self.build, self.opts.firmware)[0]),
             "control_rate_hz": self.control_rate,
             "mode": "realtime" if self.opts.realtime else "lockstep",
             "sim_time_s": round(self.sim_time_s, 6),
@@ -1057,7 +1071,7 @@ class _Run:
             g = self.gateway
             out["link"]["can"] = {"frames": g.frames, "error_frames": g.error_frames,
                                   "micro_replies_skipped": g.skipped, "adapter": dict(g.adapter.stats),
-                                  "micro_iso_tp_rx": dict(g.micro.rx.stats), "micro_iso_tp_tx": dict(g.micro.tx.stats)}
+                                  "micro_iso_tp_rx": dict(g.micro.rx.stats), "micro_iso_tp_tx": g.micro_tx_stats()}
         if self.fmu_split:
             out["fmu_split_s"] = [round(x, 3) for x in self.fmu_split]
         if self.rate_note:
