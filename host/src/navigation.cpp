@@ -1,15 +1,17 @@
 #include "navkit/navigation.hpp"
 
 #include <cstdint>
-#include <limits>
 
 namespace navkit {
 
 static const int32_t kForever = 2000000000;  // the seed's "very large distance"
 
-static bool fits16(int32_t v)
+// Whether lisp_cmd value v (raw, the units of both sides) fits micro_cmd field `field`
+// (NAVKIT_MICRO_CMD_FIELD_*): the spec's range of that field (the rule tools/navkit/sim/
+// mission.py holds a mission's commands to, from the same spec).
+static bool fits(int field, int32_t v)
 {
-    return v >= std::numeric_limits<int16_t>::min() && v <= std::numeric_limits<int16_t>::max();
+    return navkit_micro_cmd_in_range(field, v) != 0;
 }
 
 navkit_micro_cmd_t Navigation::neutral(uint16_t dio)
@@ -31,7 +33,7 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> hea
     case NAVKIT_FWD_CMD_START:
     case NAVKIT_FWD_CMD_MODIFY:
     case NAVKIT_FWD_CMD_STOP:
-        if (!fits16(in.accel) || !fits16(in.speed)) {
+        if (!fits(NAVKIT_MICRO_CMD_FIELD_ACCEL, in.accel) || !fits(NAVKIT_MICRO_CMD_FIELD_SPEED, in.speed)) {
             return NAVKIT_NAV_RESULT_REJECTED;
         }
         m.fwd_cmd = static_cast<uint16_t>(in.fwd_cmd);
@@ -48,7 +50,8 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> hea
         return NAVKIT_NAV_RESULT_REJECTED;
     }
 
-    if (in.turn_mode != NAVKIT_TURN_MODE_NONE && (!fits16(in.turn_accel) || !fits16(in.turn_rate))) {
+    if (in.turn_mode != NAVKIT_TURN_MODE_NONE && (!fits(NAVKIT_MICRO_CMD_FIELD_TURN_ACCEL, in.turn_accel) ||
+                                                  !fits(NAVKIT_MICRO_CMD_FIELD_TURN_RATE, in.turn_rate))) {
         return NAVKIT_NAV_RESULT_REJECTED;
     }
     switch (in.turn_mode) {
@@ -101,7 +104,18 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> hea
 
     // RC servo: slot rc_servo_num 0..7 when param0 (rate) is not 0; else no effect
     if (in.rc_servo_num >= 0 && in.rc_servo_num <= 7 && in.rc_param0 != 0) {
-        if (in.rc_param0 < 0 || !fits16(in.rc_param0) || !fits16(in.rc_param1) || !fits16(in.rc_param2)) {
+        static const int fields[8][3] = {
+            {NAVKIT_MICRO_CMD_FIELD_RC0_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC0_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC0_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC1_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC1_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC1_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC2_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC2_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC2_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC3_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC3_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC3_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC4_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC4_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC4_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC5_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC5_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC5_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC6_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC6_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC6_PARAM2},
+            {NAVKIT_MICRO_CMD_FIELD_RC7_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC7_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC7_PARAM2},
+        };
+        const int *f = fields[in.rc_servo_num];  // micro_cmd rcN_param0..2
+        if (!fits(f[0], in.rc_param0) || !fits(f[1], in.rc_param1) || !fits(f[2], in.rc_param2)) {
             return NAVKIT_NAV_RESULT_REJECTED;
         }
         int16_t *slots[8][3] = {

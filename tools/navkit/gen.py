@@ -154,6 +154,10 @@ def emit_c_header(spec: Spec) -> str:
             out.append(f"/* NAVKIT_{up}_FIELD_<NAME> of field `which` (0, or 1 for le's b) of constraint `index`,\n"
                        f" * or -1. */")
             out.append(f"int navkit_{m.name}_constraint_field(int index, int which);")
+        out.append(f"/* 1 if raw value v lies within the spec range min..max of field `index` (of each element\n"
+                   f" * of an array; enum membership is not checked), else 0 (also for an unknown index): for a\n"
+                   f" * value still wider than the field, before it is narrowed into it. */")
+        out.append(f"int navkit_{m.name}_in_range(int index, int64_t v);")
         out.append(f"/* Spec name of field `index`, or \"?\". */")
         out.append(f"const char *navkit_{m.name}_field_name(int index);")
         if m.framed:
@@ -357,6 +361,11 @@ def _c_message(spec: Spec, m: Message) -> list[str]:
     out.append("    if (bad_field) {\n        *bad_field = -1;\n    }\n    return NAVKIT_OK;\n}\n")
     if m.constraints:
         out += _c_constraints(m)
+    # ranges
+    out.append(f"int navkit_{m.name}_in_range(int index, int64_t v)\n{{\n    switch (index) {{")
+    for i, f in enumerate(m.fields):
+        out.append(f"    case {i}:\n        return v >= {f.min}LL && v <= {f.max}LL;")
+    out.append("    default:\n        return 0;\n    }\n}\n")
     # names
     names = ", ".join(f'"{f.name}"' for f in m.fields)
     out.append(f"const char *navkit_{m.name}_field_name(int index)\n{{")

@@ -314,6 +314,11 @@ def emit_c(frames, streams) -> str:
             code = "NAVKIT_ERR_" + _verdict(name, fields)[1].upper()
             body.append(f"    CHECK(navkit_{name}_check(&m, &bad) == {code} && "
                         f"bad == NAVKIT_{name.upper()}_FIELD_{verdict.upper()}, {what} \": check {verdict}\");")
+        if m.constraints:
+            broken = ">= 0" if _verdict(name, fields)[1] == "constraint" else "< 0" if verdict == "ok" else None
+            if broken:
+                body.append(f"    CHECK(navkit_{name}_constraint_check(&m, NULL, NULL) {broken}, {what} "
+                            f"\": constraint_check\");")
         if m.framed:
             body += ["    uint8_t got[sizeof want];",
                      f"    CHECK(navkit_{name}_encode(&m, got, sizeof got) == sizeof want, {what});",
@@ -333,6 +338,16 @@ def emit_c(frames, streams) -> str:
         body.append("}")
         out += body + [""]
         calls.append(f"    frame_{i}();")
+    out.append("static void field_ranges(void)\n{")  # navkit_<msg>_in_range at each field's edges
+    for m in p.SPEC.messages.values():
+        for i, f in enumerate(m.fields):
+            what = f'"{m.name}.{f.name} in_range"'
+            out.append(f"    CHECK(navkit_{m.name}_in_range({i}, {f.min}LL) && navkit_{m.name}_in_range({i}, {f.max}LL) "
+                       f"&& !navkit_{m.name}_in_range({i}, {f.min - 1}LL) && !navkit_{m.name}_in_range({i}, {f.max + 1}LL)"
+                       f", {what});")
+        out.append(f"    CHECK(!navkit_{m.name}_in_range({len(m.fields)}, 0), \"{m.name} in_range unknown field\");")
+    out.append("}\n")
+    calls.append("    field_ranges();")
     out.append("static void run_stream(const char *what, navkit_dir_t dir, const uint8_t *s, size_t n,")
     out.append(f"                       const uint32_t want[{len(_STATS)}], uint32_t foreign_hash)")
     out.append("{\n    size_t chunk;\n    for (chunk = 1; chunk <= n; chunk = chunk < 8 ? chunk + 1 : chunk * 2) {")

@@ -219,7 +219,8 @@ def _check_host_conversion(where: str, fields: dict) -> None:
       int32 to int32 and heading_hold wraps it, so any value fits there;
     - rc_servo_num one of the micro's servos with rc_param0 != 0 (else no servo command):
       rc_param0..2 -> micro_cmd rcN_param0..2 (deg/s x 0.1, deg x 0.1; a rate >= 0).
-    The ranges are the spec's (protocol/navkit.toml), never numbers of this file."""
+    The ranges are the spec's (protocol/navkit.toml), never numbers of this file: the
+    host tests the same ones (generated navkit_micro_cmd_in_range)."""
     from navkit import protocol
 
     spec = protocol.SPEC
