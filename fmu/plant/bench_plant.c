@@ -61,21 +61,22 @@ int main(int argc, char **argv)
     fmi3DoStepTYPE *do_step = sym(lib, "fmi3DoStep");
     fmi3FreeInstanceTYPE *free_inst = sym(lib, "fmi3FreeInstance");
 
-    fmi3Instance c = inst("bench", NP_INSTANTIATION_TOKEN, NULL, fmi3False, fmi3False, fmi3False, fmi3False, NULL, 0,
+    fmi3Instance c = inst("bench", PLANT_INSTANTIATION_TOKEN, NULL, fmi3False, fmi3False, fmi3False, fmi3False, NULL, 0,
                           NULL, log_cb, NULL);
-    fmi3ValueReference vr_world = NP_VR_world_file;
+    fmi3ValueReference vr_world = PLANT_VR_world_file;
     if (!c || set_str(c, &vr_world, 1, &world, 1) || enter(c, fmi3False, 0.0, 0.0, fmi3False, 0.0) || exit_init(c)) {
         return 1;
     }
-    const fmi3ValueReference vr_in_f[] = {
-        NP_VR_motor_left_duty, NP_VR_motor_right_duty, NP_VR_servo_pulse_0, NP_VR_servo_pulse_1, NP_VR_servo_pulse_2,
-        NP_VR_servo_pulse_3,   NP_VR_servo_pulse_4,    NP_VR_servo_pulse_5, NP_VR_servo_pulse_6, NP_VR_servo_pulse_7};
-    const fmi3ValueReference vr_in_i[] = {NP_VR_dio_out, NP_VR_dio_dir};
-    const fmi3ValueReference vr_out_f[] = {NP_VR_ir_voltage_0, NP_VR_ir_voltage_1,    NP_VR_ir_voltage_2,
-                                           NP_VR_ir_voltage_3, NP_VR_battery_voltage, NP_VR_sonar_echo_0,
-                                           NP_VR_sonar_echo_1, NP_VR_sonar_echo_2,    NP_VR_sonar_echo_3};
-    const fmi3ValueReference vr_out_i[] = {NP_VR_enc_left, NP_VR_enc_right, NP_VR_gyro_raw, NP_VR_compass_raw,
-                                           NP_VR_dio_in};
+    const fmi3ValueReference vr_in_f[] = {PLANT_VR_motor_left_duty, PLANT_VR_motor_right_duty, PLANT_VR_servo_pulse_0,
+                                          PLANT_VR_servo_pulse_1,   PLANT_VR_servo_pulse_2,    PLANT_VR_servo_pulse_3,
+                                          PLANT_VR_servo_pulse_4,   PLANT_VR_servo_pulse_5,    PLANT_VR_servo_pulse_6,
+                                          PLANT_VR_servo_pulse_7};
+    const fmi3ValueReference vr_in_i[] = {PLANT_VR_dio_out, PLANT_VR_dio_dir};
+    const fmi3ValueReference vr_out_f[] = {PLANT_VR_ir_voltage_0, PLANT_VR_ir_voltage_1,    PLANT_VR_ir_voltage_2,
+                                           PLANT_VR_ir_voltage_3, PLANT_VR_battery_voltage, PLANT_VR_sonar_echo_0,
+                                           PLANT_VR_sonar_echo_1, PLANT_VR_sonar_echo_2,    PLANT_VR_sonar_echo_3};
+    const fmi3ValueReference vr_out_i[] = {PLANT_VR_enc_left, PLANT_VR_enc_right, PLANT_VR_gyro_raw,
+                                           PLANT_VR_compass_raw, PLANT_VR_dio_in};
     double in_f[10] = {0.30, 0.32, 1500, 1600, 1400, 1500, 1500, 1500, 1500, 0};
     int32_t in_i[2] = {0x0A5, 0x0FF};
     double out_f[9];

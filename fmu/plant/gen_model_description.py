@@ -2,8 +2,8 @@
 
 Usage: gen_model_description.py {3|2} HEADER OUT [MODEL_IDENTIFIER]
 
-The header is the single source: NP_VARIABLES lines (one F64/I32/STR entry per line),
-NP_MODEL_NAME, NP_MODEL_DESCRIPTION and NP_INSTANTIATION_TOKEN. Value reference = the
+The header is the single source: PLANT_VARIABLES lines (one F64/I32/STR entry per line),
+PLANT_MODEL_NAME, PLANT_MODEL_DESCRIPTION and PLANT_INSTANTIATION_TOKEN. Value reference = the
 entry's position in the table. Standard library only.
 """
 
@@ -15,7 +15,7 @@ from xml.sax.saxutils import quoteattr
 ENTRY = re.compile(
     r'^\s*(F64|I32|STR)\((\w+),\s*(INDEPENDENT|PARAMETER|INPUT|OUTPUT),\s*'
     r'("(?:[^"\\]|\\.)*"|[-+0-9.eE]+),\s*"([^"]*)",\s*"([^"]*)"\)\s*\\?\s*$')
-DEFINE = re.compile(r'^#define\s+(NP_MODEL_NAME|NP_MODEL_DESCRIPTION|NP_INSTANTIATION_TOKEN)\s+"([^"]*)"\s*$')
+DEFINE = re.compile(r'^#define\s+(PLANT_MODEL_NAME|PLANT_MODEL_DESCRIPTION|PLANT_INSTANTIATION_TOKEN)\s+"([^"]*)"\s*$')
 
 
 def parse(header: Path):
@@ -25,7 +25,7 @@ def parse(header: Path):
         m = DEFINE.match(line)
         if m:
             defines[m.group(1)] = m.group(2)
-        if line.startswith('#define NP_VARIABLES('):
+        if line.startswith('#define PLANT_VARIABLES('):
             in_table = True
             continue
         if not in_table:
@@ -46,7 +46,7 @@ def parse(header: Path):
     dup = {n for n in names if names.count(n) > 1}
     if dup:
         raise SystemExit(f'{header}: duplicate variable names {sorted(dup)}')
-    for key in ('NP_MODEL_NAME', 'NP_MODEL_DESCRIPTION', 'NP_INSTANTIATION_TOKEN'):
+    for key in ('PLANT_MODEL_NAME', 'PLANT_MODEL_DESCRIPTION', 'PLANT_INSTANTIATION_TOKEN'):
         if key not in defines:
             raise SystemExit(f'{header}: #define {key} "..." not found')
     return defines, variables
@@ -77,9 +77,9 @@ def units(variables):
 def fmi3(defines, variables, model_id):
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            '<fmiModelDescription fmiVersion="3.0"'
-           f' modelName={quoteattr(defines["NP_MODEL_NAME"])}'
-           f' description={quoteattr(defines["NP_MODEL_DESCRIPTION"])}'
-           f' instantiationToken={quoteattr(defines["NP_INSTANTIATION_TOKEN"])}'
+           f' modelName={quoteattr(defines["PLANT_MODEL_NAME"])}'
+           f' description={quoteattr(defines["PLANT_MODEL_DESCRIPTION"])}'
+           f' instantiationToken={quoteattr(defines["PLANT_INSTANTIATION_TOKEN"])}'
            ' generationTool="navkit fmu/plant/gen_model_description.py" variableNamingConvention="flat">',
            f'  <CoSimulation modelIdentifier="{model_id}" canHandleVariableCommunicationStepSize="true"'
            ' canGetAndSetFMUState="false" canSerializeFMUState="false" hasEventMode="false"'
@@ -120,9 +120,9 @@ def fmi3(defines, variables, model_id):
 def fmi2(defines, variables, model_id):
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            '<fmiModelDescription fmiVersion="2.0"'
-           f' modelName={quoteattr(defines["NP_MODEL_NAME"])}'
-           f' description={quoteattr(defines["NP_MODEL_DESCRIPTION"])}'
-           f' guid={quoteattr(defines["NP_INSTANTIATION_TOKEN"])}'
+           f' modelName={quoteattr(defines["PLANT_MODEL_NAME"])}'
+           f' description={quoteattr(defines["PLANT_MODEL_DESCRIPTION"])}'
+           f' guid={quoteattr(defines["PLANT_INSTANTIATION_TOKEN"])}'
            ' generationTool="navkit fmu/plant/gen_model_description.py" variableNamingConvention="flat"'
            f' numberOfEventIndicators="0">',
            f'  <CoSimulation modelIdentifier="{model_id}" canHandleVariableCommunicationStepSize="true"'
@@ -168,7 +168,7 @@ def main(argv):
     if len(argv) not in (4, 5) or argv[1] not in ('2', '3'):
         raise SystemExit(__doc__)
     defines, variables = parse(Path(argv[2]))
-    model_id = argv[4] if len(argv) == 5 else defines['NP_MODEL_NAME']
+    model_id = argv[4] if len(argv) == 5 else defines['PLANT_MODEL_NAME']
     text = (fmi3 if argv[1] == '3' else fmi2)(defines, variables, model_id)
     out = Path(argv[3])
     out.parent.mkdir(parents=True, exist_ok=True)

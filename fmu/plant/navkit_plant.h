@@ -1,6 +1,6 @@
 /* navkit_plant.h: the whole contract of the plant model (the reference Leaf robot).
  *
- * One table, NP_VARIABLES, lists every FMU variable: name, causality, start value, unit
+ * One table, PLANT_VARIABLES, lists every FMU variable: name, causality, start value, unit
  * and description. The C code builds the value struct, the value references and the
  * start values from it; gen_model_description.py reads the same lines to write
  * modelDescription.xml (FMI 3.0 and FMI 2.0), so the two cannot drift apart.
@@ -18,18 +18,18 @@
 
 /* The generator reads these lines and the table below as they stand: one macro call a line. */
 /* clang-format off */
-#define NP_MODEL_NAME "navkit_plant"
-#define NP_MODEL_DESCRIPTION "navkit reference robot: differential drive, DC motors, encoders, gyro, compass, battery, RC servos, DIO loopback, GP2D12 IR and SRF04 sonar in a 2D world"
+#define PLANT_MODEL_NAME "navkit_plant"
+#define PLANT_MODEL_DESCRIPTION "navkit reference robot: differential drive, DC motors, encoders, gyro, compass, battery, RC servos, DIO loopback, GP2D12 IR and SRF04 sonar in a 2D world"
 /* Change the token whenever the table changes (the importer checks it). */
-#define NP_INSTANTIATION_TOKEN "{6f1c2a54-7a43-4d1e-9b1e-navkit-plant-v2}"
+#define PLANT_INSTANTIATION_TOKEN "{6f1c2a54-7a43-4d1e-9b1e-navkit-plant-v2}"
 
-#define NP_STR_MAX 4096          /* bytes, longest String value incl. the terminator */
-#define NP_MAX_SUBSTEP_S 0.001   /* s, internal integration step bound */
-#define NP_MAX_WALLS 100000      /* walls a world file may hold */
+#define PLANT_STR_MAX 4096          /* bytes, longest String value incl. the terminator */
+#define PLANT_MAX_SUBSTEP_S 0.001   /* s, internal integration step bound */
+#define PLANT_MAX_WALLS 100000      /* walls a world file may hold */
 
-/* NP_VARIABLES(F64, I32, STR): each entry X(name, causality, start, "unit", "description").
+/* PLANT_VARIABLES(F64, I32, STR): each entry X(name, causality, start, "unit", "description").
  * Causalities: INDEPENDENT, PARAMETER (fixed), INPUT, OUTPUT. Unit "" = dimensionless. */
-#define NP_VARIABLES(F64, I32, STR) \
+#define PLANT_VARIABLES(F64, I32, STR) \
 F64(time, INDEPENDENT, 0.0, "s", "Simulation time") \
 F64(motor_left_duty, INPUT, 0.0, "", "Left motor PWM duty -1..1, + drives the wheel forward") \
 F64(motor_right_duty, INPUT, 0.0, "", "Right motor PWM duty -1..1, + drives the wheel forward") \
@@ -146,37 +146,37 @@ F64(sonar_angle_deg_3, PARAMETER, 180.0, "deg", "Sonar 3 pointing angle, counter
 
 /* ---------------------------------------------------------------- variables */
 
-#define NP_VR_ENTRY(name, caus, start, unit, desc) NP_VR_##name,
-/* Value references: NP_VR_<name>, in table order. */
-typedef enum { NP_VARIABLES(NP_VR_ENTRY, NP_VR_ENTRY, NP_VR_ENTRY) NP_NUM_VARS } np_vr_t;
-#undef NP_VR_ENTRY
+#define PLANT_VR_ENTRY(name, caus, start, unit, desc) PLANT_VR_##name,
+/* Value references: PLANT_VR_<name>, in table order. */
+typedef enum { PLANT_VARIABLES(PLANT_VR_ENTRY, PLANT_VR_ENTRY, PLANT_VR_ENTRY) PLANT_NUM_VARS } plant_vr_t;
+#undef PLANT_VR_ENTRY
 
-#define NP_FIELD_F64(name, caus, start, unit, desc) double name;
-#define NP_FIELD_I32(name, caus, start, unit, desc) int32_t name;
-#define NP_FIELD_STR(name, caus, start, unit, desc) char name[NP_STR_MAX];
+#define PLANT_FIELD_F64(name, caus, start, unit, desc) double name;
+#define PLANT_FIELD_I32(name, caus, start, unit, desc) int32_t name;
+#define PLANT_FIELD_STR(name, caus, start, unit, desc) char name[PLANT_STR_MAX];
 /* Every variable's current value, one field per table entry. */
 typedef struct {
-    NP_VARIABLES(NP_FIELD_F64, NP_FIELD_I32, NP_FIELD_STR)
-} np_values_t;
-#undef NP_FIELD_F64
-#undef NP_FIELD_I32
-#undef NP_FIELD_STR
+    PLANT_VARIABLES(PLANT_FIELD_F64, PLANT_FIELD_I32, PLANT_FIELD_STR)
+} plant_values_t;
+#undef PLANT_FIELD_F64
+#undef PLANT_FIELD_I32
+#undef PLANT_FIELD_STR
 
 /* ---------------------------------------------------------------- model state */
 
-#define NP_N_IR 4
-#define NP_N_SONAR 4
-#define NP_N_SERVO 8
+#define PLANT_N_IR 4
+#define PLANT_N_SONAR 4
+#define PLANT_N_SERVO 8
 
 /* A wall: a line segment in the start pose frame, m. */
 typedef struct {
     double ax, ay, bx, by;
-} np_wall_t;
+} plant_wall_t;
 
 /* A sensor mount in the body frame: m, and the unit pointing vector. */
 typedef struct {
     double x, y, ux, uy;
-} np_mount_t;
+} plant_mount_t;
 
 /* Constants derived from the parameters when the simulation starts (SI units). */
 typedef struct {
@@ -188,14 +188,14 @@ typedef struct {
     double ir_period, sonar_period;        /* s */
     double sonar_cos_half, sonar_sin_half; /* half beam */
     double us_per_m;                       /* us of echo per metre of range (there and back) */
-    np_mount_t ir[NP_N_IR], sonar[NP_N_SONAR];
-} np_derived_t;
+    plant_mount_t ir[PLANT_N_IR], sonar[PLANT_N_SONAR];
+} plant_derived_t;
 
 /* The model: values, derived constants, world and every piece of state. No statics. */
 typedef struct {
-    np_values_t v;
-    np_derived_t k;
-    np_wall_t *walls; /* malloc'd, n_walls entries, NULL when none */
+    plant_values_t v;
+    plant_derived_t k;
+    plant_wall_t *walls; /* malloc'd, n_walls entries, NULL when none */
     size_t n_walls;
     double t;                   /* s, model time */
     double xm, ym, yaw;         /* m, m, rad: pose in the start frame */
@@ -209,24 +209,24 @@ typedef struct {
     uint64_t rng[4];            /* splitmix64 states: gyro, compass, IR, sonar */
     double spare[4];            /* cached second Box-Muller normal per stream */
     int have_spare[4];
-} np_model_t;
+} plant_model_t;
 
 /* Sets every variable to its start value and frees the world (values only; call
- * np_start before stepping). */
-void np_set_start_values(np_model_t *m);
+ * plant_start before stepping). */
+void plant_set_start_values(plant_model_t *m);
 
 /* Checks the parameters, loads world_file and puts the robot at the start pose with
  * outputs computed, time = t0 (s). Returns 0, or -1 with a message in err[errlen]
  * (world file errors read "file:line: message"). */
-int np_start(np_model_t *m, double t0, char *err, size_t errlen);
+int plant_start(plant_model_t *m, double t0, char *err, size_t errlen);
 
-/* Advances the model by h seconds (h > 0) in sub-steps of at most NP_MAX_SUBSTEP_S. */
-void np_step(np_model_t *m, double h);
+/* Advances the model by h seconds (h > 0) in sub-steps of at most PLANT_MAX_SUBSTEP_S. */
+void plant_step(plant_model_t *m, double h);
 
 /* Recomputes outputs that follow inputs at once (dio_in); call after setting inputs. */
-void np_inputs_changed(np_model_t *m);
+void plant_inputs_changed(plant_model_t *m);
 
 /* Frees the world. The model can be started again. */
-void np_release(np_model_t *m);
+void plant_release(plant_model_t *m);
 
 #endif /* NAVKIT_PLANT_H */

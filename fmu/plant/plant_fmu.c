@@ -1,19 +1,19 @@
 /* plant_fmu.c: the plant model (plant_model.c) behind the FMI layer (fmu/fmi/fmil.h): its
  * variable table and the hooks. Parameters take effect when the model starts (at
  * ExitInitializationMode, or at a Get in InitializationMode after a parameter changed):
- * np_start checks them and loads the world; its message names the parameter or the world
+ * plant_start checks them and loads the world; its message names the parameter or the world
  * file and line. */
 #include <string.h>
 
 #include "fmil.h"
 
-_Static_assert(NP_STR_MAX == FMIL_STR_MAX, "the plant's String fields are the layer's size");
+_Static_assert(PLANT_STR_MAX == FMIL_STR_MAX, "the plant's String fields are the layer's size");
 
 #define PLANT_ROW(n, c, s, u, d, t) {#n, t, FMIL_##c, offsetof(fmil_model_t, v.n)},
 #define PLANT_F64(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_F64)
 #define PLANT_I32(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_I32)
 #define PLANT_STR(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_STR)
-const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {NP_VARIABLES(PLANT_F64, PLANT_I32, PLANT_STR)};
+const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {PLANT_VARIABLES(PLANT_F64, PLANT_I32, PLANT_STR)};
 
 fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
 {
@@ -23,7 +23,7 @@ fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
 
 void fmil_model_start_values(fmil_instance_t *c)
 {
-    np_set_start_values(&c->model);
+    plant_set_start_values(&c->model);
     c->model.t = 0.0;
 }
 
@@ -31,7 +31,7 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
 {
     char err[1024];
     c->model.v.time = c->time;
-    if (np_start(&c->model, c->time, err, sizeof err)) {
+    if (plant_start(&c->model, c->time, err, sizeof err)) {
         fmil_log(c, FMIL_ERROR, "%s", err);
         return FMIL_ERROR;
     }
@@ -40,12 +40,12 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
 
 void fmil_model_inputs_changed(fmil_instance_t *c)
 {
-    np_inputs_changed(&c->model);
+    plant_inputs_changed(&c->model);
 }
 
 fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h)
 {
-    np_step(&c->model, h);
+    plant_step(&c->model, h);
     c->model.t = t + h; /* the importer's clock: no drift */
     c->model.v.time = c->model.t;
     return FMIL_OK;
@@ -53,5 +53,5 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h)
 
 void fmil_model_free(fmil_instance_t *c)
 {
-    np_release(&c->model);
+    plant_release(&c->model);
 }

@@ -1,7 +1,7 @@
 /* plant_model.c: the reference robot's physics and sensors (see navkit_plant.h, docs/plant.md).
  *
  * Internal units are SI (m, m/s, rad, s, N, A, V); parameters and outputs carry the units
- * the variable table gives them. All state lives in np_model_t.
+ * the variable table gives them. All state lives in plant_model_t.
  */
 #include "navkit_plant.h"
 
@@ -15,17 +15,17 @@
 #define PI 3.14159265358979323846
 #define DEG (PI / 180.0) /* rad per deg */
 
-void np_set_start_values(np_model_t *m)
+void plant_set_start_values(plant_model_t *m)
 {
-    np_release(m);
-#define NP_START_NUM(n, c, s, u, d) m->v.n = (s);
-#define NP_START_STR(n, c, s, u, d) snprintf(m->v.n, NP_STR_MAX, "%s", (s));
-    NP_VARIABLES(NP_START_NUM, NP_START_NUM, NP_START_STR)
-#undef NP_START_NUM
-#undef NP_START_STR
+    plant_release(m);
+#define PLANT_START_NUM(n, c, s, u, d) m->v.n = (s);
+#define PLANT_START_STR(n, c, s, u, d) snprintf(m->v.n, PLANT_STR_MAX, "%s", (s));
+    PLANT_VARIABLES(PLANT_START_NUM, PLANT_START_NUM, PLANT_START_STR)
+#undef PLANT_START_NUM
+#undef PLANT_START_STR
 }
 
-void np_release(np_model_t *m)
+void plant_release(plant_model_t *m)
 {
     free(m->walls);
     m->walls = NULL;
@@ -35,7 +35,7 @@ void np_release(np_model_t *m)
 /* ---------------------------------------------------------------- noise */
 
 /* Next 64 random bits of stream s (splitmix64). */
-static uint64_t rng_next(np_model_t *m, int s)
+static uint64_t rng_next(plant_model_t *m, int s)
 {
     uint64_t z = (m->rng[s] += 0x9E3779B97F4A7C15ull);
     z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -44,13 +44,13 @@ static uint64_t rng_next(np_model_t *m, int s)
 }
 
 /* Uniform in (0, 1) from stream s. */
-static double rng_uniform(np_model_t *m, int s)
+static double rng_uniform(plant_model_t *m, int s)
 {
     return ((double)(rng_next(m, s) >> 11) + 0.5) * (1.0 / 9007199254740992.0);
 }
 
 /* Standard normal from stream s (Box-Muller, the second value cached). */
-static double rng_normal(np_model_t *m, int s)
+static double rng_normal(plant_model_t *m, int s)
 {
     if (m->have_spare[s]) {
         m->have_spare[s] = 0;
@@ -85,24 +85,24 @@ static int world_error(char *err, size_t errlen, const char *file, int line, con
 
 /* Appends a wall in file coordinates (mm); returns 0, or -1 when the world is full or
  * out of memory. *cap is the allocated count. */
-static int add_wall(np_model_t *m, size_t *cap, double ax, double ay, double bx, double by)
+static int add_wall(plant_model_t *m, size_t *cap, double ax, double ay, double bx, double by)
 {
     if (m->n_walls == *cap) {
         size_t ncap = *cap ? *cap * 2 : 16;
-        if (ncap > NP_MAX_WALLS) {
-            ncap = NP_MAX_WALLS;
+        if (ncap > PLANT_MAX_WALLS) {
+            ncap = PLANT_MAX_WALLS;
         }
         if (ncap == *cap) {
             return -1;
         }
-        np_wall_t *w = realloc(m->walls, ncap * sizeof *w);
+        plant_wall_t *w = realloc(m->walls, ncap * sizeof *w);
         if (!w) {
             return -1;
         }
         m->walls = w;
         *cap = ncap;
     }
-    m->walls[m->n_walls++] = (np_wall_t){ax, ay, bx, by};
+    m->walls[m->n_walls++] = (plant_wall_t){ax, ay, bx, by};
     return 0;
 }
 
@@ -127,10 +127,10 @@ static int parse_numbers(char *s, double *v, int max)
 
 /* Loads m->v.world_file (empty = no walls) into m->walls, in the start pose frame, m.
  * Format: docs/plant.md and config/worlds/README.md. Returns 0 or -1 with err set. */
-static int load_world(np_model_t *m, char *err, size_t errlen)
+static int load_world(plant_model_t *m, char *err, size_t errlen)
 {
     const char *file = m->v.world_file;
-    np_release(m);
+    plant_release(m);
     if (file[0] == '\0') {
         return 0;
     }
@@ -170,13 +170,13 @@ static int load_world(np_model_t *m, char *err, size_t errlen)
                 if (v[0] == v[2] && v[1] == v[3]) {
                     rc = world_error(err, errlen, file, lineno, "wall has zero length");
                 } else if (add_wall(m, &cap, v[0], v[1], v[2], v[3])) {
-                    rc = world_error(err, errlen, file, lineno, "too many walls (at most %d)", NP_MAX_WALLS);
+                    rc = world_error(err, errlen, file, lineno, "too many walls (at most %d)", PLANT_MAX_WALLS);
                 }
             } else if (v[0] >= v[2] || v[1] >= v[3]) {
                 rc = world_error(err, errlen, file, lineno, "box needs XMIN < XMAX and YMIN < YMAX");
             } else if (add_wall(m, &cap, v[0], v[1], v[2], v[1]) || add_wall(m, &cap, v[2], v[1], v[2], v[3]) ||
                        add_wall(m, &cap, v[2], v[3], v[0], v[3]) || add_wall(m, &cap, v[0], v[3], v[0], v[1])) {
-                rc = world_error(err, errlen, file, lineno, "too many walls (at most %d)", NP_MAX_WALLS);
+                rc = world_error(err, errlen, file, lineno, "too many walls (at most %d)", PLANT_MAX_WALLS);
             }
         } else if (strcmp(kw, "polyline") == 0) {
             if (n < 4 || n % 2 != 0 || n > 64) {
@@ -189,7 +189,7 @@ static int load_world(np_model_t *m, char *err, size_t errlen)
                         rc = world_error(err, errlen, file, lineno, "polyline point %d repeats the one before",
                                          i / 2 + 2);
                     } else if (add_wall(m, &cap, v[i], v[i + 1], v[i + 2], v[i + 3])) {
-                        rc = world_error(err, errlen, file, lineno, "too many walls (at most %d)", NP_MAX_WALLS);
+                        rc = world_error(err, errlen, file, lineno, "too many walls (at most %d)", PLANT_MAX_WALLS);
                     }
                 }
             }
@@ -214,13 +214,13 @@ static int load_world(np_model_t *m, char *err, size_t errlen)
     }
     fclose(f);
     if (rc) {
-        np_release(m);
+        plant_release(m);
         return rc;
     }
     /* file frame (mm) -> start pose frame (m) */
     double c = cos(syaw * DEG), s = sin(syaw * DEG);
     for (size_t i = 0; i < m->n_walls; i++) {
-        np_wall_t *w = &m->walls[i];
+        plant_wall_t *w = &m->walls[i];
         double ax = w->ax - sx, ay = w->ay - sy, bx = w->bx - sx, by = w->by - sy;
         w->ax = 1e-3 * (c * ax + s * ay);
         w->ay = 1e-3 * (-s * ax + c * ay);
@@ -234,11 +234,11 @@ static int load_world(np_model_t *m, char *err, size_t errlen)
 
 /* Distance (m) along the ray from (ox,oy) with unit direction (ux,uy) to the nearest
  * wall, or INFINITY. */
-static double ray_cast(const np_model_t *m, double ox, double oy, double ux, double uy)
+static double ray_cast(const plant_model_t *m, double ox, double oy, double ux, double uy)
 {
     double best = INFINITY;
     for (size_t i = 0; i < m->n_walls; i++) {
-        const np_wall_t *w = &m->walls[i];
+        const plant_wall_t *w = &m->walls[i];
         double ex = w->bx - w->ax, ey = w->by - w->ay;
         double den = ux * ey - uy * ex; /* cross(u, e) */
         if (fabs(den) < 1e-12) {
@@ -257,7 +257,7 @@ static double ray_cast(const np_model_t *m, double ox, double oy, double ux, dou
 /* Distance (m) from (ox,oy) to the nearest wall point inside the cone of half-angle
  * h (cos ch, sin sh < 90 deg) around unit direction (ux,uy), or INFINITY: the first
  * echo of a rough wall (nearer walls hide farther ones by being nearer). */
-static double cone_cast(const np_model_t *m, double ox, double oy, double ux, double uy, double ch, double sh)
+static double cone_cast(const plant_model_t *m, double ox, double oy, double ux, double uy, double ch, double sh)
 {
     /* inward normals of the cone's edges: edge at +h rotated -90 deg, edge at -h rotated +90 deg */
     double lx = ux * ch - uy * sh, ly = uy * ch + ux * sh; /* left edge direction */
@@ -265,7 +265,7 @@ static double cone_cast(const np_model_t *m, double ox, double oy, double ux, do
     double n1x = ly, n1y = -lx, n2x = -ry, n2y = rx;
     double best2 = INFINITY;
     for (size_t i = 0; i < m->n_walls; i++) {
-        const np_wall_t *w = &m->walls[i];
+        const plant_wall_t *w = &m->walls[i];
         double ax = w->ax - ox, ay = w->ay - oy;
         double ex = w->bx - w->ax, ey = w->by - w->ay;
         double t0 = 0.0, t1 = 1.0;
@@ -322,7 +322,7 @@ static double cone_cast(const np_model_t *m, double ox, double oy, double ux, do
 }
 
 /* Sensor pose in the start frame from a body mount: origin (*ox,*oy) m, direction (*ux,*uy). */
-static void mount_pose(const np_model_t *m, const np_mount_t *mt, double *ox, double *oy, double *ux, double *uy)
+static void mount_pose(const plant_model_t *m, const plant_mount_t *mt, double *ox, double *oy, double *ux, double *uy)
 {
     double c = cos(m->yaw), s = sin(m->yaw);
     *ox = m->xm + c * mt->x - s * mt->y;
@@ -332,7 +332,7 @@ static void mount_pose(const np_model_t *m, const np_mount_t *mt, double *ox, do
 }
 
 /* GP2D12 output (V, without noise) for a wall at d m (INFINITY = none). */
-static double ir_curve(const np_values_t *v, double d)
+static double ir_curve(const plant_values_t *v, double d)
 {
     double dmm = d * 1000.0;
     if (dmm > v->ir_far_mm) {
@@ -346,10 +346,10 @@ static double ir_curve(const np_values_t *v, double d)
 }
 
 /* Takes a reading of every IR ranger at the current pose. */
-static void read_ir(np_model_t *m)
+static void read_ir(plant_model_t *m)
 {
-    double *out[NP_N_IR] = {&m->v.ir_voltage_0, &m->v.ir_voltage_1, &m->v.ir_voltage_2, &m->v.ir_voltage_3};
-    for (int i = 0; i < NP_N_IR; i++) {
+    double *out[PLANT_N_IR] = {&m->v.ir_voltage_0, &m->v.ir_voltage_1, &m->v.ir_voltage_2, &m->v.ir_voltage_3};
+    for (int i = 0; i < PLANT_N_IR; i++) {
         double ox, oy, ux, uy;
         mount_pose(m, &m->k.ir[i], &ox, &oy, &ux, &uy);
         double volt = ir_curve(&m->v, ray_cast(m, ox, oy, ux, uy)) + m->v.ir_noise_v * rng_normal(m, RNG_IR);
@@ -358,10 +358,10 @@ static void read_ir(np_model_t *m)
 }
 
 /* Pings every sonar at the current pose. */
-static void read_sonar(np_model_t *m)
+static void read_sonar(plant_model_t *m)
 {
-    double *out[NP_N_SONAR] = {&m->v.sonar_echo_0, &m->v.sonar_echo_1, &m->v.sonar_echo_2, &m->v.sonar_echo_3};
-    for (int i = 0; i < NP_N_SONAR; i++) {
+    double *out[PLANT_N_SONAR] = {&m->v.sonar_echo_0, &m->v.sonar_echo_1, &m->v.sonar_echo_2, &m->v.sonar_echo_3};
+    for (int i = 0; i < PLANT_N_SONAR; i++) {
         double ox, oy, ux, uy;
         mount_pose(m, &m->k.sonar[i], &ox, &oy, &ux, &uy);
         double d = cone_cast(m, ox, oy, ux, uy, m->k.sonar_cos_half, m->k.sonar_sin_half);
@@ -381,21 +381,21 @@ static void read_sonar(np_model_t *m)
 /* ---------------------------------------------------------------- outputs */
 
 /* dio_in from the DIO inputs and the input pattern (12 pins). */
-static void update_dio(np_model_t *m)
+static void update_dio(plant_model_t *m)
 {
     m->v.dio_in = ((m->v.dio_out & m->v.dio_dir) | (m->v.dio_input_pattern & ~m->v.dio_dir)) & 0xFFF;
 }
 
-void np_inputs_changed(np_model_t *m)
+void plant_inputs_changed(plant_model_t *m)
 {
     update_dio(m);
 }
 
 /* Computes the sampled outputs (encoders, gyro, compass, battery, truth, DIO) from the
  * state; draws the gyro and compass noise. */
-static void update_outputs(np_model_t *m)
+static void update_outputs(plant_model_t *m)
 {
-    np_values_t *v = &m->v;
+    plant_values_t *v = &m->v;
     double w = (m->vw[1] - m->vw[0]) / m->k.track; /* rad/s, CCW */
     v->x_mm = m->xm * 1000.0;
     v->y_mm = m->ym * 1000.0;
@@ -437,57 +437,57 @@ static int check_range(const char *name, double v, double lo, double hi, char *e
     return -1;
 }
 
-int np_start(np_model_t *m, double t0, char *err, size_t errlen)
+int plant_start(plant_model_t *m, double t0, char *err, size_t errlen)
 {
-    np_values_t *v = &m->v;
+    plant_values_t *v = &m->v;
     const double BIG = 1e12;
-#define NP_CHECK(name, lo, hi)                                                                                         \
+#define PLANT_CHECK(name, lo, hi)                                                                                      \
     do {                                                                                                               \
         if (check_range(#name, (double)v->name, lo, hi, err, errlen)) {                                                \
             return -1;                                                                                                 \
         }                                                                                                              \
     } while (0)
-    NP_CHECK(wheel_diameter_mm, 1.0, BIG);
-    NP_CHECK(wheel_scale_left, 0.1, 10.0);
-    NP_CHECK(wheel_scale_right, 0.1, 10.0);
-    NP_CHECK(track_width_mm, 1.0, BIG);
-    NP_CHECK(encoder_counts_per_rev, 1, 1e9);
-    NP_CHECK(mass_kg, 1e-3, BIG);
-    NP_CHECK(yaw_inertia_kg_m2, 1e-6, BIG);
-    NP_CHECK(gear_ratio, 1e-3, BIG);
-    NP_CHECK(motor_r_ohm, 1e-6, BIG);
-    NP_CHECK(motor_kt_nm_a, 0.0, BIG);
-    NP_CHECK(motor_ke_v_s_rad, 0.0, BIG);
-    NP_CHECK(motor_i_max_a, 0.0, BIG);
-    NP_CHECK(motor_rotor_inertia_kg_m2, 0.0, BIG);
-    NP_CHECK(friction_coulomb_n, 0.0, BIG);
-    NP_CHECK(friction_viscous_n_s_m, 0.0, BIG);
-    NP_CHECK(battery_ocv_v, 0.0, BIG);
-    NP_CHECK(battery_empty_v, 0.0, v->battery_ocv_v);
-    NP_CHECK(battery_capacity_ah, 1e-9, BIG);
-    NP_CHECK(battery_r_ohm, 0.0, BIG);
-    NP_CHECK(battery_idle_a, 0.0, BIG);
-    NP_CHECK(gyro_lsb_per_dps, 1e-6, BIG);
-    NP_CHECK(gyro_bias_dps, -BIG, BIG);
-    NP_CHECK(gyro_bias_walk_dps_rt_s, 0.0, BIG);
-    NP_CHECK(gyro_noise_dps, 0.0, BIG);
-    NP_CHECK(compass_start_deg, -BIG, BIG);
-    NP_CHECK(compass_noise_deg, 0.0, BIG);
-    NP_CHECK(servo_center_us, 0.0, BIG);
-    NP_CHECK(servo_rate_dps, 1e-6, BIG);
-    NP_CHECK(servo_travel_deg, 0.0, 360.0);
-    NP_CHECK(ir_b_mm, 0.0, BIG);
-    NP_CHECK(ir_peak_mm, 1.0, BIG);
-    NP_CHECK(ir_far_mm, v->ir_peak_mm, BIG);
-    NP_CHECK(ir_noise_v, 0.0, BIG);
-    NP_CHECK(ir_period_ms, 1e-3, BIG);
-    NP_CHECK(sonar_min_mm, 0.0, BIG);
-    NP_CHECK(sonar_max_mm, v->sonar_min_mm, BIG);
-    NP_CHECK(sonar_beam_deg, 0.0, 179.0);
-    NP_CHECK(sound_speed_m_s, 1.0, BIG);
-    NP_CHECK(sonar_noise_us, 0.0, BIG);
-    NP_CHECK(sonar_period_ms, 1e-3, BIG);
-#undef NP_CHECK
+    PLANT_CHECK(wheel_diameter_mm, 1.0, BIG);
+    PLANT_CHECK(wheel_scale_left, 0.1, 10.0);
+    PLANT_CHECK(wheel_scale_right, 0.1, 10.0);
+    PLANT_CHECK(track_width_mm, 1.0, BIG);
+    PLANT_CHECK(encoder_counts_per_rev, 1, 1e9);
+    PLANT_CHECK(mass_kg, 1e-3, BIG);
+    PLANT_CHECK(yaw_inertia_kg_m2, 1e-6, BIG);
+    PLANT_CHECK(gear_ratio, 1e-3, BIG);
+    PLANT_CHECK(motor_r_ohm, 1e-6, BIG);
+    PLANT_CHECK(motor_kt_nm_a, 0.0, BIG);
+    PLANT_CHECK(motor_ke_v_s_rad, 0.0, BIG);
+    PLANT_CHECK(motor_i_max_a, 0.0, BIG);
+    PLANT_CHECK(motor_rotor_inertia_kg_m2, 0.0, BIG);
+    PLANT_CHECK(friction_coulomb_n, 0.0, BIG);
+    PLANT_CHECK(friction_viscous_n_s_m, 0.0, BIG);
+    PLANT_CHECK(battery_ocv_v, 0.0, BIG);
+    PLANT_CHECK(battery_empty_v, 0.0, v->battery_ocv_v);
+    PLANT_CHECK(battery_capacity_ah, 1e-9, BIG);
+    PLANT_CHECK(battery_r_ohm, 0.0, BIG);
+    PLANT_CHECK(battery_idle_a, 0.0, BIG);
+    PLANT_CHECK(gyro_lsb_per_dps, 1e-6, BIG);
+    PLANT_CHECK(gyro_bias_dps, -BIG, BIG);
+    PLANT_CHECK(gyro_bias_walk_dps_rt_s, 0.0, BIG);
+    PLANT_CHECK(gyro_noise_dps, 0.0, BIG);
+    PLANT_CHECK(compass_start_deg, -BIG, BIG);
+    PLANT_CHECK(compass_noise_deg, 0.0, BIG);
+    PLANT_CHECK(servo_center_us, 0.0, BIG);
+    PLANT_CHECK(servo_rate_dps, 1e-6, BIG);
+    PLANT_CHECK(servo_travel_deg, 0.0, 360.0);
+    PLANT_CHECK(ir_b_mm, 0.0, BIG);
+    PLANT_CHECK(ir_peak_mm, 1.0, BIG);
+    PLANT_CHECK(ir_far_mm, v->ir_peak_mm, BIG);
+    PLANT_CHECK(ir_noise_v, 0.0, BIG);
+    PLANT_CHECK(ir_period_ms, 1e-3, BIG);
+    PLANT_CHECK(sonar_min_mm, 0.0, BIG);
+    PLANT_CHECK(sonar_max_mm, v->sonar_min_mm, BIG);
+    PLANT_CHECK(sonar_beam_deg, 0.0, 179.0);
+    PLANT_CHECK(sound_speed_m_s, 1.0, BIG);
+    PLANT_CHECK(sonar_noise_us, 0.0, BIG);
+    PLANT_CHECK(sonar_period_ms, 1e-3, BIG);
+#undef PLANT_CHECK
     if (v->servo_us_per_deg == 0.0 || !isfinite(v->servo_us_per_deg)) {
         snprintf(err, errlen, "parameter servo_us_per_deg must be finite and not 0");
         return -1;
@@ -496,7 +496,7 @@ int np_start(np_model_t *m, double t0, char *err, size_t errlen)
         return -1;
     }
 
-    np_derived_t *k = &m->k;
+    plant_derived_t *k = &m->k;
     double scale[2] = {v->wheel_scale_left, v->wheel_scale_right};
     double a = 1.0 / v->mass_kg, bw;
     k->track = v->track_width_mm * 1e-3;
@@ -516,7 +516,7 @@ int np_start(np_model_t *m, double t0, char *err, size_t errlen)
     k->sonar_cos_half = cos(0.5 * v->sonar_beam_deg * DEG);
     k->sonar_sin_half = sin(0.5 * v->sonar_beam_deg * DEG);
     k->us_per_m = 2.0e6 / v->sound_speed_m_s;
-    double mounts[NP_N_IR + NP_N_SONAR][3] = {
+    double mounts[PLANT_N_IR + PLANT_N_SONAR][3] = {
         {v->ir_x_mm_0, v->ir_y_mm_0, v->ir_angle_deg_0},
         {v->ir_x_mm_1, v->ir_y_mm_1, v->ir_angle_deg_1},
         {v->ir_x_mm_2, v->ir_y_mm_2, v->ir_angle_deg_2},
@@ -526,8 +526,8 @@ int np_start(np_model_t *m, double t0, char *err, size_t errlen)
         {v->sonar_x_mm_2, v->sonar_y_mm_2, v->sonar_angle_deg_2},
         {v->sonar_x_mm_3, v->sonar_y_mm_3, v->sonar_angle_deg_3},
     };
-    for (int i = 0; i < NP_N_IR + NP_N_SONAR; i++) {
-        np_mount_t *mt = i < NP_N_IR ? &k->ir[i] : &k->sonar[i - NP_N_IR];
+    for (int i = 0; i < PLANT_N_IR + PLANT_N_SONAR; i++) {
+        plant_mount_t *mt = i < PLANT_N_IR ? &k->ir[i] : &k->sonar[i - PLANT_N_IR];
         mt->x = mounts[i][0] * 1e-3;
         mt->y = mounts[i][1] * 1e-3;
         mt->ux = cos(mounts[i][2] * DEG);
@@ -546,9 +546,9 @@ int np_start(np_model_t *m, double t0, char *err, size_t errlen)
         m->have_spare[s] = 0;
         m->spare[s] = 0.0;
     }
-    double *servo[NP_N_SERVO] = {&v->servo_deg_0, &v->servo_deg_1, &v->servo_deg_2, &v->servo_deg_3,
-                                 &v->servo_deg_4, &v->servo_deg_5, &v->servo_deg_6, &v->servo_deg_7};
-    for (int i = 0; i < NP_N_SERVO; i++) {
+    double *servo[PLANT_N_SERVO] = {&v->servo_deg_0, &v->servo_deg_1, &v->servo_deg_2, &v->servo_deg_3,
+                                    &v->servo_deg_4, &v->servo_deg_5, &v->servo_deg_6, &v->servo_deg_7};
+    for (int i = 0; i < PLANT_N_SERVO; i++) {
         *servo[i] = 0.0;
     }
     read_ir(m);
@@ -571,10 +571,10 @@ static double clampd(double x, double lim)
 }
 
 /* One sub-step of h seconds: motors, drive train with Coulomb friction, battery, pose. */
-static void substep(np_model_t *m, double h)
+static void substep(plant_model_t *m, double h)
 {
-    const np_values_t *v = &m->v;
-    const np_derived_t *k = &m->k;
+    const plant_values_t *v = &m->v;
+    const plant_derived_t *k = &m->k;
     double duty[2] = {clampd(v->motor_left_duty, 1.0), clampd(v->motor_right_duty, 1.0)};
     double f0[2], damp[2];
     for (int i = 0; i < 2; i++) {
@@ -654,15 +654,15 @@ static void substep(np_model_t *m, double h)
 }
 
 /* Moves every servo toward its commanded angle, at most servo_rate_dps for h seconds. */
-static void step_servos(np_model_t *m, double h)
+static void step_servos(plant_model_t *m, double h)
 {
-    np_values_t *v = &m->v;
-    const double *pulse[NP_N_SERVO] = {&v->servo_pulse_0, &v->servo_pulse_1, &v->servo_pulse_2, &v->servo_pulse_3,
-                                       &v->servo_pulse_4, &v->servo_pulse_5, &v->servo_pulse_6, &v->servo_pulse_7};
-    double *deg[NP_N_SERVO] = {&v->servo_deg_0, &v->servo_deg_1, &v->servo_deg_2, &v->servo_deg_3,
-                               &v->servo_deg_4, &v->servo_deg_5, &v->servo_deg_6, &v->servo_deg_7};
+    plant_values_t *v = &m->v;
+    const double *pulse[PLANT_N_SERVO] = {&v->servo_pulse_0, &v->servo_pulse_1, &v->servo_pulse_2, &v->servo_pulse_3,
+                                          &v->servo_pulse_4, &v->servo_pulse_5, &v->servo_pulse_6, &v->servo_pulse_7};
+    double *deg[PLANT_N_SERVO] = {&v->servo_deg_0, &v->servo_deg_1, &v->servo_deg_2, &v->servo_deg_3,
+                                  &v->servo_deg_4, &v->servo_deg_5, &v->servo_deg_6, &v->servo_deg_7};
     double maxd = v->servo_rate_dps * h;
-    for (int i = 0; i < NP_N_SERVO; i++) {
+    for (int i = 0; i < PLANT_N_SERVO; i++) {
         if (!(*pulse[i] > 0.0)) {
             continue; /* not driven: holds */
         }
@@ -671,9 +671,9 @@ static void step_servos(np_model_t *m, double h)
     }
 }
 
-void np_step(np_model_t *m, double h)
+void plant_step(plant_model_t *m, double h)
 {
-    int n = (int)ceil(h / NP_MAX_SUBSTEP_S - 1e-9);
+    int n = (int)ceil(h / PLANT_MAX_SUBSTEP_S - 1e-9);
     if (n < 1) {
         n = 1;
     }
