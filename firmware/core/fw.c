@@ -26,8 +26,8 @@ void fw_init(fw_t *fw, hal_t *hal)
     dio_reset(&fw->dio);
     watchdog_reset(&fw->wd);
     excite_reset(&fw->excite);
-    fw->sp_l = 0.0f;
-    fw->sp_r = 0.0f;
+    fw->speed_setpoint_l = 0.0f;
+    fw->speed_setpoint_r = 0.0f;
     fw->duty_l = 0;
     fw->duty_r = 0;
     for (i = 0u; i < FW_ADC_CHANNELS; i++) {
@@ -196,7 +196,7 @@ void fw_tick(fw_t *fw)
        whether a mode is active, so a held HdgSel or a finished move keeps the bias fresh
        (the integer tests first: the float sum only once the encoders are quiet) */
     still = (uint8_t)(fw->odom.still_ticks > 0u && (fw->hdg.calibrating || fw->odom.still_ticks >= c->still_ticks) &&
-                      fabsf(fw->sp_l) + fabsf(fw->sp_r) < FW_STILL_SP_MM_S);
+                      fabsf(fw->speed_setpoint_l) + fabsf(fw->speed_setpoint_r) < FW_STILL_SP_MM_S);
     heading_update(&fw->hdg, fw->gyro_raw, c->gyro_dps_per_lsb, still, c->control_rate, dt);
     /* fold the integrated angle into the fixed-point heading, with compass fusion over
        dt_fold if enabled (the pull is slow, gain <= 1/s, and the compass slower still) */
@@ -226,8 +226,8 @@ void fw_tick(fw_t *fw)
     ex_r = 0.0f;
     if (excite_tick(&fw->excite, c->wheel.pwm_limit, &ex_l, &ex_r) ||
         !(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
-        fw->sp_l = 0.0f;
-        fw->sp_r = 0.0f;
+        fw->speed_setpoint_l = 0.0f;
+        fw->speed_setpoint_r = 0.0f;
         wheel_reset(&fw->wheel_l);
         wheel_reset(&fw->wheel_r);
         fw->wheel_l.duty = ex_l;
@@ -236,10 +236,12 @@ void fw_tick(fw_t *fw)
         fw->duty_r = fw_duty_e4(ex_r, c->motor_right_sign);
     } else {
         half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
-        fw->sp_l = v_fwd + half;
-        fw->sp_r = v_fwd - half;
-        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->sp_l, fw->odom.v_l), c->motor_left_sign);
-        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->sp_r, fw->odom.v_r), c->motor_right_sign);
+        fw->speed_setpoint_l = v_fwd + half;
+        fw->speed_setpoint_r = v_fwd - half;
+        fw->duty_l = fw_duty_e4(wheel_update(&fw->wheel_l, &c->wheel, fw->speed_setpoint_l, fw->odom.v_l),
+                                c->motor_left_sign);
+        fw->duty_r = fw_duty_e4(wheel_update(&fw->wheel_r, &c->wheel, fw->speed_setpoint_r, fw->odom.v_r),
+                                c->motor_right_sign);
     }
     if ((!fold || c->odom.xy_ticks == 1u) && odom_xy_due(&fw->odom, &c->odom)) {
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));

@@ -47,8 +47,8 @@ typedef struct fw {
     dio_t dio;
     watchdog_t wd;
     excite_t excite;     /* open-loop wheel excitation experiment (bypasses the wheel loops while active) */
-    float sp_l;          /* mm/s: left wheel speed setpoint of the last tick */
-    float sp_r;          /* mm/s: right wheel speed setpoint */
+    float speed_setpoint_l; /* mm/s: left wheel speed setpoint of the last tick */
+    float speed_setpoint_r; /* mm/s: right wheel speed setpoint */
     int16_t duty_l;      /* duty*1e4, motor sign applied: left output of the last tick */
     int16_t duty_r;      /* duty*1e4, motor sign applied: right output */
     uint16_t adc[FW_ADC_CHANNELS]; /* counts: ADC sample of the last tick (0 if disabled) */

@@ -239,13 +239,13 @@ static void link_datalog(const fw_t *fw, int16_t w[4])
     }
     switch (fw->link.mc_datalog) {
     case NAVKIT_MC_DATALOG_WHEEL_LEFT: /* setpoint mm/s, speed mm/s, duty e4, integral e4 */
-        w[0] = link_clamp16(fw->sp_l);
+        w[0] = link_clamp16(fw->speed_setpoint_l);
         w[1] = link_clamp16(fw->odom.v_l);
         w[2] = link_clamp16(fw->wheel_l.duty * 10000.0f);
         w[3] = link_clamp16(fw->wheel_l.integ * 10000.0f);
         break;
     case NAVKIT_MC_DATALOG_WHEEL_RIGHT:
-        w[0] = link_clamp16(fw->sp_r);
+        w[0] = link_clamp16(fw->speed_setpoint_r);
         w[1] = link_clamp16(fw->odom.v_r);
         w[2] = link_clamp16(fw->wheel_r.duty * 10000.0f);
         w[3] = link_clamp16(fw->wheel_r.integ * 10000.0f);
