@@ -329,15 +329,17 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
 }
 
 #if FW_LINK_CAN
-/* One micro_data back, whole or not at all: skipped while the last one is still going out
-   (as a full UART FIFO skips it). */
+/* One micro_data back, whole: while the last one is still going out it is left due
+   (reply_due) and starts, with the telemetry of then, once the sender is free (link_poll). */
 static void link_reply(fw_t *fw)
 {
     navkit_micro_data_t d;
     navkit_isotp_tx_t *tx = &fw->link.can_tx;
     if (navkit_isotp_tx_busy(tx)) {
+        fw->link.reply_due = 1u;
         return;
     }
+    fw->link.reply_due = 0u;
     fw->link.tx_tag++;
     link_telemetry(fw, &d);
     (void)navkit_isotp_tx_start(tx, (uint16_t)navkit_micro_data_encode(&d, tx->buf, sizeof tx->buf),
@@ -383,6 +385,9 @@ void link_poll(fw_t *fw)
         }
     }
     navkit_isotp_rx_poll(&l->can_rx, fw->ms);
+    if (l->reply_due && !navkit_isotp_tx_busy(&l->can_tx)) {
+        link_reply(fw); /* the reply left due starts once the last one has gone out */
+    }
     while (hal_can_tx_free(fw->hal) > 0u && navkit_isotp_tx_next(&l->can_tx, fw->ms, &f)) {
         hal_can_write(fw->hal, f.id, f.data);
     }

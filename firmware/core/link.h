@@ -76,7 +76,8 @@ typedef struct {
     uint8_t have_tag;        /* a micro_cmd was handled since reset */
     uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
     uint8_t more;            /* the last poll stopped at FW_LINK_FRAMES_PER_POLL: the parser may hold a frame */
-    uint8_t reply_due;       /* with a bound: the last frame's micro_data is still to go out (next poll) */
+    uint8_t reply_due;       /* a micro_data is still to go out: with a bound, the last frame's (next poll);
+                                over CAN, one asked while the last was going out (once the sender is free) */
 #if FW_LINK_CAN
     navkit_isotp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
     navkit_isotp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
