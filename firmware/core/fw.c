@@ -44,7 +44,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->wd_stop = 0u;
     fw->limited = 0u;
     fw->servo_next = 0u;
-    fw->chore = 0u;
+    fw->slow_tick = 0u;
 }
 
 uint32_t fw_tick_period_us(const fw_t *fw)
@@ -118,9 +118,9 @@ void fw_config_applied(fw_t *fw, uint16_t msg_type)
         for (i = 0u; i < SERVO_COUNT; i++) {
             servo_retime(&fw->servo[i], fw->cfg.control_rate);
         }
-        /* a chore count left at or above a shorter xy_ticks would put the next fold one
+        /* a slow_tick left at or above a shorter xy_ticks would put the next fold one
            tick late */
-        fw->chore = 0u;
+        fw->slow_tick = 0u;
     } else if (msg_type == NAVKIT_MSG_TYPE_MICRO_CFG_IO) {
         dio_configure(&fw->dio, fw->cfg.dio_direction, fw->cfg.dio_safe_state);
     }
@@ -184,11 +184,11 @@ void fw_tick(fw_t *fw)
     uint8_t still, i, fold;
 
     fw_sample(fw, &raw_l, &raw_r);
-    /* the chores (estimation only, nothing re-planned): the heading fold on the first tick
-       of the ~10 ms chore period, the X/Y step when due on any other, so at 200 Hz and
+    /* the slow steps (estimation only, nothing re-planned): the heading fold on the first tick
+       of the ~10 ms slow period, the X/Y step when due on any other, so at 200 Hz and
        above a tick pays for at most one of them (below, the period is one tick and both
        run every tick) */
-    fold = (uint8_t)(fw->chore == 0u);
+    fold = (uint8_t)(fw->slow_tick == 0u);
 
     /* estimation */
     odom_count(&fw->odom, &c->odom, raw_l, raw_r, heading_deg(&fw->hdg));
@@ -246,7 +246,7 @@ void fw_tick(fw_t *fw)
     if ((!fold || c->odom.xy_ticks == 1u) && odom_xy_due(&fw->odom, &c->odom)) {
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
-    fw->chore = (uint8_t)((fw->chore + 1u < c->odom.xy_ticks) ? fw->chore + 1u : 0u);
+    fw->slow_tick = (uint8_t)((fw->slow_tick + 1u < c->odom.xy_ticks) ? fw->slow_tick + 1u : 0u);
     fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated ||
                             fw->wheel_r.saturated);
 

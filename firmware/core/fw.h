@@ -62,7 +62,7 @@ typedef struct fw {
     uint8_t reset_cause; /* NAVKIT_RESET_CAUSE_*: why the board last started (hal_reset_cause()) */
     uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;  /* servo whose pulse width is refreshed next */
-    uint8_t chore;       /* tick within the chore period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
+    uint8_t slow_tick;   /* tick within the slow period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
                             the X/Y step on another (fw.c) */
 } fw_t;
 
@@ -80,7 +80,7 @@ void fw_link_poll(fw_t *fw);
 uint8_t fw_link_pending(const fw_t *fw);
 /* A config of msg_type (NAVKIT_MSG_TYPE_MICRO_CFG_*) was just applied to fw->cfg; the
  * state built on it follows: micro_cfg_geometry (control_rate and odom.xy_ticks may have
- * changed): every servo keeps its speed in deg/s at the new rate, the chore period starts
+ * changed): every servo keeps its speed in deg/s at the new rate, the slow period starts
  * again at its first tick; micro_cfg_io: the DIO takes its directions and safe levels, the
  * outputs go safe; micro_cfg_motion: nothing (the tick reads fw->cfg). */
 void fw_config_applied(fw_t *fw, uint16_t msg_type);

@@ -10,7 +10,7 @@
  * AVR budget): heading_update() runs every tick, so it only adds the tick's angle to the
  * residual and to the float heading (1 351 cycles); heading_fold() (1 277) rounds the
  * residual into the fixed-point angle and re-derives the float heading from it, or
- * heading_fuse() (2 216, its fold included) does so with compass fusion, once per chore
+ * heading_fuse() (2 216, its fold included) does so with compass fusion, once per slow
  * period of ~10 ms on its first tick, right after heading_update() (fw.c: every 10th tick
  * at 1 kHz, every 4th at 400 Hz, every tick below 200 Hz).
  */

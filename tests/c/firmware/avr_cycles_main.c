@@ -25,7 +25,7 @@
  * Printed on UART0 (simavr shows it), parsed by avr_size.cmake:
  *   tick <scenario> <rate> Hz: mean M max X period P fold F xy Y plain Z (P = 16 MHz / rate;
  *     F, Y, Z the worst of the ticks with the heading fold, with the X/Y step, and of the
- *     others: the chores of fw.c)
+ *     others: the slow steps of fw.c)
  *   <scenario> <rate> Hz configured: 1 moved: N turned: D (counts, heading deg*10)
  *   ceiling <CONFIG_RATE_MAX> Hz: reset at it T above refused R at accepted A (1 = as it must be)
  *   poll <frame>: max P parse A decode B check C snapshot T encode E rest R snapshot_max S
@@ -341,7 +341,7 @@ static void run(const char *name, uint16_t rate, uint16_t turn_code, int16_t tur
         }
         board.gyro = (int16_t)(board.gyro + (int16_t)(i & 7u)); /* noise */
         heading_timed();
-        kind = (uint8_t)((fw.chore == 0u) ? 0u : 2u);
+        kind = (uint8_t)((fw.slow_tick == 0u) ? 0u : 2u);
         xy_n = fw.odom.xy_n;
         t0 = TCNT1;
         fw_tick(&fw);

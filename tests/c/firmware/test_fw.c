@@ -1183,8 +1183,8 @@ static void test_pending_repeat_checked(void)
 
 static void test_control_rate_change_mid_period(void)
 {
-    /* a micro_cfg_geometry from 1 kHz (a chore period of 10 ticks) to 250 Hz (2) arriving on
-       the last tick of a period: the chore period starts again at its first tick (the fold)
+    /* a micro_cfg_geometry from 1 kHz (a slow period of 10 ticks) to 250 Hz (2) arriving on
+       the last tick of a period: the slow period starts again at its first tick (the fold)
        rather than running past the new period; the move goes on at the new rate */
     navkit_micro_cfg_geometry_t g;
     navkit_micro_cmd_t c;
@@ -1198,22 +1198,22 @@ static void test_control_rate_change_mid_period(void)
     c.speed = 200;
     c.distance = 1000;
     host_run(&c, 0.5);
-    for (k = 0; k < 20 && fw.chore != 9u; k++) {
+    for (k = 0; k < 20 && fw.slow_tick != 9u; k++) {
         sim_run(&fw, &h, 1);
     }
-    CHECK(fw.chore == 9u); /* within 20 ticks: the period is 10 */
+    CHECK(fw.slow_tick == 9u); /* within 20 ticks: the period is 10 */
     navkit_micro_cfg_geometry_defaults(&g);
     g.control_rate = 250;
     g.time_tag = 4;
     sim_send(&h, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
     fw_link_poll(&fw);
-    CHECK(fw.cfg.odom.xy_ticks == 2u && fw.chore == 0u);
+    CHECK(fw.cfg.odom.xy_ticks == 2u && fw.slow_tick == 0u);
     togo = fw.fwd.prof.togo;
     integ = fw.wheel_l.integ;
     sim_run(&fw, &h, 1);
     CHECK(fw.fwd.prof.togo < togo - 0.5f); /* mm: 200 mm/s for 4 ms is 0.8 mm */
     CHECK(fw.wheel_l.integ != integ);
-    CHECK(fw.chore == 1u);
+    CHECK(fw.slow_tick == 1u);
     /* and the move ends on its target at 250 Hz (a frame every 100 ms: 25 ticks) */
     for (k = 0; k < 80; k++) {
         sim_cmd(&fw, &h, &c);

@@ -507,7 +507,7 @@ static void test_config(void)
 
 /* The tick's schedule (fw.c): the forward axis, the turn axis and the wheel loops run every
    tick (each re-plans from the measured state: the reference speed moves by accel * dt
-   every tick); of the chores, the heading fold runs on tick 0 of the ~10 ms chore period
+   every tick); of the slow steps, the heading fold runs on tick 0 of the ~10 ms slow period
    (odom.xy_ticks ticks: 10 at 1 kHz, 5 at 500 Hz, 2 at 250 Hz, 1 at 100 Hz) and the X/Y step
    on the others (both every tick when the period is one tick). */
 static void test_fw_schedule(void)
@@ -515,7 +515,7 @@ static void test_fw_schedule(void)
     static fw_t fw;
     static struct hal h;
     static const uint16_t rate[4] = {1000u, 500u, 250u, 100u}; /* Hz */
-    static const uint8_t chores[4] = {10u, 5u, 2u, 1u};         /* odom.xy_ticks */
+    static const uint8_t period_ticks[4] = {10u, 5u, 2u, 1u};   /* odom.xy_ticks */
     static const int n[4] = {60, 60, 60, 20}; /* ticks, all accelerating (the plant keeps up: no re-plan pull) */
     int k, i;
     for (k = 0; k < 4; k++) {
@@ -530,8 +530,8 @@ static void test_fw_schedule(void)
         sim_cfg_defaults(&g, &m, &io);
         g.control_rate = rate[k];
         sim_configure_with(&fw, &h, &g, &m, &io);
-        CHECK(fw.cfg.odom.xy_ticks == chores[k]);
-        CHECK_NEAR(fw.cfg.dt_fold, chores[k] * dt, 1e-9);
+        CHECK(fw.cfg.odom.xy_ticks == period_ticks[k]);
+        CHECK_NEAR(fw.cfg.dt_fold, period_ticks[k] * dt, 1e-9);
         sim_run(&fw, &h, rate[k]); /* 1 s: gyro calibration */
         sim_cmd_init(&c, 10u);
         c.fwd_cmd = NAVKIT_FWD_CMD_START;
@@ -544,7 +544,7 @@ static void test_fw_schedule(void)
         c.turn_accel = 900;
         sim_cmd(&fw, &h, &c);
         for (i = 0; i < n[k]; i++) {
-            uint8_t chore = fw.chore;
+            uint8_t slow_tick = fw.slow_tick;
             float v = fw.fwd.prof.vel, w = fw.turn.ax.prof.vel; /* mm/s, deg/s */
             int16_t duty = fw.duty_l;
             int32_t q = fw.hdg.q;
@@ -561,22 +561,22 @@ static void test_fw_schedule(void)
             if (fw.duty_l != duty) {
                 n_wheels++;
             }
-            if (chore == 0u) {
+            if (slow_tick == 0u) {
                 n_first++;
             }
             if (fw.hdg.q != q) {
-                CHECK(chore == 0u);
+                CHECK(slow_tick == 0u);
                 n_fold++;
             }
             if (fw.odom.x_frac != x_frac) {
-                CHECK(chore != 0u || chores[k] == 1u);
+                CHECK(slow_tick != 0u || period_ticks[k] == 1u);
                 n_xy++;
             }
         }
         CHECK(n_fwd == n[k] && n_turn == n[k] && n_wheels >= n[k] - 2);
         /* a fold on every period's first tick but the very first (the turn had not yet
            moved the heading by one fixed-point step) */
-        CHECK(n_first == n[k] / chores[k] && n_fold >= n_first - 1 && n_xy >= 2);
+        CHECK(n_first == n[k] / period_ticks[k] && n_fold >= n_first - 1 && n_xy >= 2);
     }
 }
 
