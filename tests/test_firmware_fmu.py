@@ -95,10 +95,10 @@ def _c_table():
     """{name: (vr, type, causality, unit, start)} from fw_fmu_model.h; unit None for the
     integer and Binary rows (no unit attribute), start None for outputs (not described)."""
     text = MODEL_H.read_text()
-    macros = dict(re.findall(r"#define (FWFMU_\w+) (\S+)", text))
+    macros = dict(re.findall(r"#define (FW_FMU_\w+) (\S+)", text))
     table = {}
     for block, typ in (("FLOAT64", "Float64"), ("INT32", "Int32"), ("UINT32", "UInt32"), ("BINARY", "Binary")):
-        body = re.search(rf"#define FWFMU_{block}_VARS\(X\)(.*?)\n\n", text, re.S).group(1)
+        body = re.search(rf"#define FW_FMU_{block}_VARS\(X\)(.*?)\n\n", text, re.S).group(1)
         if typ == "Binary":
             for vr, name, caus in re.findall(r"X\((\d+), (\w+), (\w+)", body):
                 table[name] = (int(vr), typ, caus, None, "" if caus == "input" else None)

@@ -94,7 +94,7 @@ def test_the_description_has_can_frames_instead_of_serial_bytes(md):
     assert (names["can_tx"].type, names["can_tx"].causality) == ("Binary", "output")
     assert "12 bytes each" in names["can_rx"].description
     # the Binary rows of the CAN build's block of fw_fmu_model.h, the rest as the serial FMU's
-    blocks = re.findall(r"#define FWFMU_BINARY_VARS\(X\)(.*?)\n\n", MODEL_H.read_text(), re.S)
+    blocks = re.findall(r"#define FW_FMU_BINARY_VARS\(X\)(.*?)\n\n", MODEL_H.read_text(), re.S)
     rows = re.findall(r"X\((\d+), (\w+), (\w+)", blocks[1])
     assert {n: (int(vr), c) for vr, n, c in rows} == \
         {v.name: (v.valueReference, v.causality) for v in md.modelVariables if v.type == "Binary"}

@@ -22,17 +22,17 @@
 
 #include "fmil.h"
 
-#define FWFMU_BITS_PER_BYTE 10u
-#define FWFMU_ADC_REF_V 5.0
-#define FWFMU_BATTERY_DIVIDER 3.0
+#define FW_FMU_BITS_PER_BYTE 10u
+#define FW_FMU_ADC_REF_V 5.0
+#define FW_FMU_BATTERY_DIVIDER 3.0
 
-const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {FWFMU_FMIL_ROWS};
+const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {FW_FMU_FMIL_ROWS};
 
 /* ---------------------------------------------------------------- the board (hal.h) */
 
-static uint16_t fwfmu_adc_counts(double volts)
+static uint16_t fw_fmu_adc_counts(double volts)
 {
-    double c = floor(volts / FWFMU_ADC_REF_V * 1024.0);
+    double c = floor(volts / FW_FMU_ADC_REF_V * 1024.0);
     if (!(c > 0.0)) {
         return 0u;
     }
@@ -58,7 +58,7 @@ uint16_t hal_adc(hal_t *h, uint8_t ch)
     double v = (k < 4u) ? h->io->ir_voltage[k] : h->io->battery_voltage;
     if (!(v == h->adc_v[k])) {
         h->adc_v[k] = v;
-        h->adc_counts[k] = fwfmu_adc_counts((k < 4u) ? v : v / FWFMU_BATTERY_DIVIDER);
+        h->adc_counts[k] = fw_fmu_adc_counts((k < 4u) ? v : v / FW_FMU_BATTERY_DIVIDER);
     }
     return h->adc_counts[k];
 }
@@ -90,18 +90,18 @@ size_t hal_uart_read(hal_t *h, uint8_t *buf, size_t cap)
     size_t n = 0;
     while (n < cap && h->rx_ready > 0u) {
         buf[n++] = h->rx[h->rx_head];
-        h->rx_head = (h->rx_head + 1u) % FWFMU_RX_CAP;
+        h->rx_head = (h->rx_head + 1u) % FW_FMU_RX_CAP;
         h->rx_len--;
         h->rx_ready--;
     }
     return n;
 }
-size_t hal_uart_tx_free(hal_t *h) { return FWFMU_TX_CAP - h->tx_len; }
+size_t hal_uart_tx_free(hal_t *h) { return FW_FMU_TX_CAP - h->tx_len; }
 void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
 {
     size_t i;
-    for (i = 0; i < len && h->tx_len < FWFMU_TX_CAP; i++) {
-        h->tx[(h->tx_head + h->tx_len) % FWFMU_TX_CAP] = buf[i];
+    for (i = 0; i < len && h->tx_len < FW_FMU_TX_CAP; i++) {
+        h->tx[(h->tx_head + h->tx_len) % FW_FMU_TX_CAP] = buf[i];
         h->tx_len++;
     }
 }
@@ -109,8 +109,8 @@ void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
 #if FW_LINK_CAN
 /* The CAN controller (the CAN build, navkit_firmware_can): the frames of can_rx join an RX
  * queue at the start of the doStep and the core reads them at its next link poll; the
- * core's frames take one of FWFMU_CAN_TXQ TX buffers and go on the bus at the end of the
- * tick (into can_tx), so at most FWFMU_CAN_TXQ frames leave per tick (the bus itself, at
+ * core's frames take one of FW_FMU_CAN_TXQ TX buffers and go on the bus at the end of the
+ * tick (into can_tx), so at most FW_FMU_CAN_TXQ frames leave per tick (the bus itself, at
  * 500 kbit/s ~4.5 frames a ms, is never the limit at 1 kHz). Records: fw_fmu_model.h. */
 uint8_t hal_can_read(hal_t *h, uint16_t *id, uint8_t data[8], uint8_t *dlc)
 {
@@ -118,22 +118,22 @@ uint8_t hal_can_read(hal_t *h, uint16_t *id, uint8_t data[8], uint8_t *dlc)
     if (h->canq_len == 0u) {
         return 0u;
     }
-    r = &h->canq[h->canq_head * FWFMU_CAN_RECORD_BYTES];
+    r = &h->canq[h->canq_head * FW_FMU_CAN_RECORD_BYTES];
     *id = (uint16_t)(r[0] | (r[1] << 8));
     *dlc = (r[2] > 8u) ? 8u : r[2];
     memcpy(data, r + 4, 8u);
-    h->canq_head = (h->canq_head + 1u) % FWFMU_CAN_RXQ;
+    h->canq_head = (h->canq_head + 1u) % FW_FMU_CAN_RXQ;
     h->canq_len--;
     return 1u;
 }
-uint8_t hal_can_tx_free(hal_t *h) { return (uint8_t)(FWFMU_CAN_TXQ - h->can_txb_len); }
+uint8_t hal_can_tx_free(hal_t *h) { return (uint8_t)(FW_FMU_CAN_TXQ - h->can_txb_len); }
 void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
 {
     uint8_t *r;
-    if (h->can_txb_len >= FWFMU_CAN_TXQ) {
+    if (h->can_txb_len >= FW_FMU_CAN_TXQ) {
         return; /* the core never writes more than hal_can_tx_free() */
     }
-    r = &h->can_txb[h->can_txb_len++ * FWFMU_CAN_RECORD_BYTES];
+    r = &h->can_txb[h->can_txb_len++ * FW_FMU_CAN_RECORD_BYTES];
     r[0] = (uint8_t)(id & 0xFFu);
     r[1] = (uint8_t)(id >> 8);
     r[2] = 8u;
@@ -142,9 +142,9 @@ void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
 }
 #else
 /* Bytes the line carries in tick_us at the baud rate, from the credit (bit-us). */
-static uint32_t fwfmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_us, uint32_t waiting)
+static uint32_t fw_fmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_us, uint32_t waiting)
 {
-    const uint64_t per_byte = (uint64_t)FWFMU_BITS_PER_BYTE * 1000000u;
+    const uint64_t per_byte = (uint64_t)FW_FMU_BITS_PER_BYTE * 1000000u;
     uint64_t n;
     *credit += (uint64_t)baud * tick_us;
     if (waiting == 0u) {
@@ -169,37 +169,37 @@ static uint32_t fwfmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_
 #if FW_LINK_CAN
 /* One control tick of the CAN build: link poll (the RX queue), control, then the TX
  * buffers onto the bus (can_tx; a full can_tx of this doStep keeps them for the next tick). */
-static void fwfmu_tick(fmil_model_t *m)
+static void fw_fmu_tick(fmil_model_t *m)
 {
     struct hal *h = &m->hal;
     size_t at;
     fw_link_poll(&m->fw);
     fw_tick(&m->fw);
-    at = m->can_tx.len / FWFMU_CAN_RECORD_BYTES;
-    if (h->can_txb_len > 0u && at + h->can_txb_len <= FWFMU_CAN_WIRE) {
-        memcpy(&h->can_wire[at * FWFMU_CAN_RECORD_BYTES], h->can_txb, h->can_txb_len * FWFMU_CAN_RECORD_BYTES);
-        m->can_tx.len += h->can_txb_len * FWFMU_CAN_RECORD_BYTES;
+    at = m->can_tx.len / FW_FMU_CAN_RECORD_BYTES;
+    if (h->can_txb_len > 0u && at + h->can_txb_len <= FW_FMU_CAN_WIRE) {
+        memcpy(&h->can_wire[at * FW_FMU_CAN_RECORD_BYTES], h->can_txb, h->can_txb_len * FW_FMU_CAN_RECORD_BYTES);
+        m->can_tx.len += h->can_txb_len * FW_FMU_CAN_RECORD_BYTES;
         h->can_txb_len = 0u;
     }
 }
 #else
-static void fwfmu_tick(fmil_model_t *m)
+static void fw_fmu_tick(fmil_model_t *m)
 {
     struct hal *h = &m->hal;
     uint32_t tick_us = fw_tick_period_us(&m->fw);
     uint32_t n;
     /* RX: bytes that reached the micro during this tick */
-    h->rx_ready += fwfmu_line_bytes(&h->rx_credit, h->baud, tick_us, h->rx_len - h->rx_ready);
+    h->rx_ready += fw_fmu_line_bytes(&h->rx_credit, h->baud, tick_us, h->rx_len - h->rx_ready);
     fw_link_poll(&m->fw);
     fw_tick(&m->fw);
     /* TX: bytes that left the micro during this tick */
-    n = fwfmu_line_bytes(&h->tx_credit, h->baud, tick_us, h->tx_len);
-    if (n > FWFMU_WIRE_CAP - m->serial_tx.len) {
-        n = (uint32_t)(FWFMU_WIRE_CAP - m->serial_tx.len); /* the rest waits in the TX FIFO */
+    n = fw_fmu_line_bytes(&h->tx_credit, h->baud, tick_us, h->tx_len);
+    if (n > FW_FMU_WIRE_CAP - m->serial_tx.len) {
+        n = (uint32_t)(FW_FMU_WIRE_CAP - m->serial_tx.len); /* the rest waits in the TX FIFO */
     }
     while (n-- > 0u) {
         h->wire[m->serial_tx.len++] = h->tx[h->tx_head];
-        h->tx_head = (h->tx_head + 1u) % FWFMU_TX_CAP;
+        h->tx_head = (h->tx_head + 1u) % FW_FMU_TX_CAP;
         h->tx_len--;
     }
 }
@@ -212,7 +212,7 @@ fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
     fmil_model_t *m = &c->model;
     m->hal.io = &m->io;
     m->serial_rx.data = m->rx_stage;
-    m->serial_rx.cap = FWFMU_RX_CAP;
+    m->serial_rx.cap = FW_FMU_RX_CAP;
     m->serial_tx.data = m->hal.wire;
     m->serial_tx.cap = 0u; /* an output */
 #if FW_LINK_CAN
@@ -230,7 +230,7 @@ void fmil_model_start_values(fmil_instance_t *c)
     fmil_model_t *m = &c->model;
     struct hal *h = &m->hal;
     unsigned i;
-    FWFMU_START_VALUES(m)
+    FW_FMU_START_VALUES(m)
     h->rx_head = h->rx_len = h->rx_ready = 0u;
     h->rx_credit = h->tx_credit = 0u;
     h->rx_dropped = 0u;
@@ -280,8 +280,8 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
     size_t i;
     /* serial_rx joins the RX FIFO; a full FIFO drops the excess (like a real UART) */
     for (i = 0; i < m->serial_rx.len; i++) {
-        if (h->rx_len < FWFMU_RX_CAP) {
-            h->rx[(h->rx_head + h->rx_len) % FWFMU_RX_CAP] = m->rx_stage[i];
+        if (h->rx_len < FW_FMU_RX_CAP) {
+            h->rx[(h->rx_head + h->rx_len) % FW_FMU_RX_CAP] = m->rx_stage[i];
             h->rx_len++;
         } else {
             h->rx_dropped++;
@@ -295,18 +295,18 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
 #if FW_LINK_CAN
     /* can_rx's whole records join the RX queue; a full queue drops the excess (as a
        controller without a free RX buffer does) */
-    for (i = 0; i + FWFMU_CAN_RECORD_BYTES <= m->can_rx.len; i += FWFMU_CAN_RECORD_BYTES) {
-        if (h->canq_len < FWFMU_CAN_RXQ) {
-            memcpy(&h->canq[((h->canq_head + h->canq_len) % FWFMU_CAN_RXQ) * FWFMU_CAN_RECORD_BYTES],
-                   &m->can_stage[i], FWFMU_CAN_RECORD_BYTES);
+    for (i = 0; i + FW_FMU_CAN_RECORD_BYTES <= m->can_rx.len; i += FW_FMU_CAN_RECORD_BYTES) {
+        if (h->canq_len < FW_FMU_CAN_RXQ) {
+            memcpy(&h->canq[((h->canq_head + h->canq_len) % FW_FMU_CAN_RXQ) * FW_FMU_CAN_RECORD_BYTES],
+                   &m->can_stage[i], FW_FMU_CAN_RECORD_BYTES);
             h->canq_len++;
         } else {
             h->can_rx_dropped++;
         }
     }
-    if (m->can_rx.len % FWFMU_CAN_RECORD_BYTES != 0u) {
+    if (m->can_rx.len % FW_FMU_CAN_RECORD_BYTES != 0u) {
         fmil_log(c, FMIL_WARNING, "can_rx: %u bytes are no whole %u-byte frame record, ignored",
-                 (unsigned)(m->can_rx.len % FWFMU_CAN_RECORD_BYTES), FWFMU_CAN_RECORD_BYTES);
+                 (unsigned)(m->can_rx.len % FW_FMU_CAN_RECORD_BYTES), FW_FMU_CAN_RECORD_BYTES);
     }
     if (m->can_rx.len > 0u && h->can_rx_dropped > 0u) {
         fmil_log(c, FMIL_WARNING, "CAN RX queue full: %u frames dropped so far", (unsigned)h->can_rx_dropped);
@@ -315,7 +315,7 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
     m->can_tx.len = 0u;
 #endif
     while (m->next_tick_us < end_us) {
-        fwfmu_tick(m); /* a config may change the tick period: the next tick takes the new one */
+        fw_fmu_tick(m); /* a config may change the tick period: the next tick takes the new one */
         m->next_tick_us += fw_tick_period_us(&m->fw);
     }
     m->time = t + h_s;

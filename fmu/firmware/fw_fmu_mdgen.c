@@ -1,6 +1,6 @@
 /* fw_fmu_mdgen: writes the firmware FMU's modelDescription.xml from fw_fmu_model.h, so
  * the description and the code share one variable table. Usage: fw_fmu_mdgen OUT.xml
- * Built with FWFMU_MDGEN_AVR it writes the AVR firmware FMU's (navkit_firmware_avr) from
+ * Built with FW_FMU_MDGEN_AVR it writes the AVR firmware FMU's (navkit_firmware_avr) from
  * the same table plus fmu/firmware_avr/fw_avr_fmu_model.h; that FMU takes any step size
  * (no fixedInternalStepSize).
  * fixedInternalStepSize (and the default experiment's step) is the control tick of the
@@ -8,7 +8,7 @@
  * micro_cfg_geometry with another control_rate changes the tick the FMU steps at. The
  * protocol spec the firmware was built from is named in the description attribute and in
  * a vendor annotation (type "org.navkit.spec"): its file, repository-relative, from the
- * build (FWFMU_SPEC_FILE, defined by fmu/firmware/CMakeLists.txt from the spec the
+ * build (FW_FMU_SPEC_FILE, defined by fmu/firmware/CMakeLists.txt from the spec the
  * protocol code is generated from), its spec_hash and sha256 from the generated header
  * (NAVKIT_SPEC_HASH, NAVKIT_SPEC_SHA256). */
 #include <stdio.h>
@@ -17,7 +17,7 @@
 #include "config.h"
 #include "fw_fmu_model.h"
 
-#ifdef FWFMU_MDGEN_AVR
+#ifdef FW_FMU_MDGEN_AVR
 #include "fw_avr_fmu_model.h"
 #define MD_IDENTIFIER FWAVR_MODEL_IDENTIFIER
 #define MD_NAME FWAVR_MODEL_NAME
@@ -25,15 +25,15 @@
 #define MD_TOKEN FWAVR_INSTANTIATION_TOKEN
 #define MD_GENERATED_FROM "fmu/firmware/fw_fmu_model.h and fmu/firmware_avr/fw_avr_fmu_model.h"
 #else
-#define MD_IDENTIFIER FWFMU_MODEL_IDENTIFIER
-#define MD_NAME FWFMU_MODEL_NAME
-#define MD_DESCRIPTION FWFMU_DESCRIPTION
-#define MD_TOKEN FWFMU_INSTANTIATION_TOKEN
+#define MD_IDENTIFIER FW_FMU_MODEL_IDENTIFIER
+#define MD_NAME FW_FMU_MODEL_NAME
+#define MD_DESCRIPTION FW_FMU_DESCRIPTION
+#define MD_TOKEN FW_FMU_INSTANTIATION_TOKEN
 #define MD_GENERATED_FROM "fmu/firmware/fw_fmu_model.h"
 #endif
 
-#ifndef FWFMU_SPEC_FILE
-#error "FWFMU_SPEC_FILE (the protocol spec, repository-relative) comes from fmu/firmware/CMakeLists.txt"
+#ifndef FW_FMU_SPEC_FILE
+#error "FW_FMU_SPEC_FILE (the protocol spec, repository-relative) comes from fmu/firmware/CMakeLists.txt"
 #endif
 
 /* Causality and variability as attribute text; `initial` for outputs. */
@@ -67,16 +67,16 @@ int main(int argc, char **argv)
             "<fmiModelDescription fmiVersion=\"3.0\" modelName=\"%s\"\n"
             "  description=\"%s; protocol spec %s, spec_hash 0x%08lx\"\n"
             "  instantiationToken=\"%s\" generationTool=\"navkit fw_fmu_mdgen\" variableNamingConvention=\"flat\">\n",
-            MD_NAME, MD_DESCRIPTION, FWFMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, MD_TOKEN);
+            MD_NAME, MD_DESCRIPTION, FW_FMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, MD_TOKEN);
     fprintf(f, "  <CoSimulation modelIdentifier=\"%s\" canHandleVariableCommunicationStepSize=\"true\"\n", MD_IDENTIFIER);
-#ifndef FWFMU_MDGEN_AVR
+#ifndef FW_FMU_MDGEN_AVR
     fprintf(f, "    fixedInternalStepSize=\"%g\"\n", step);
 #endif
     fprintf(f, "    canBeInstantiatedOnlyOncePerProcess=\"false\"\n"
                "    canGetAndSetFMUState=\"false\" canSerializeFMUState=\"false\" hasEventMode=\"false\"/>\n");
     fprintf(f, "  <UnitDefinitions>\n");
 #define UNIT(u) fprintf(f, "    <Unit name=\"%s\"/>\n", u);
-    FWFMU_UNITS(UNIT)
+    FW_FMU_UNITS(UNIT)
 #undef UNIT
     fprintf(f, "  </UnitDefinitions>\n");
     fprintf(f, "  <LogCategories>\n"
@@ -93,7 +93,7 @@ int main(int argc, char **argv)
         fprintf(f, " start=\"%.17g\"", (double)(start));                                            \
     }                                                                                               \
     fprintf(f, "/>\n");
-    FWFMU_FLOAT64_VARS(F64)
+    FW_FMU_FLOAT64_VARS(F64)
 #undef F64
 #define INT(vr, name, caus, var, unit, start, field, desc, tag)                                      \
     fprintf(f, "    <%s name=\"%s\" valueReference=\"%u\" description=\"%s\"", tag, #name, vr, desc); \
@@ -105,9 +105,9 @@ int main(int argc, char **argv)
 #define I32(vr, name, caus, var, unit, start, field, desc) INT(vr, name, caus, var, unit, start, field, desc, "Int32")
 #define U32(vr, name, caus, var, unit, start, field, desc) INT(vr, name, caus, var, unit, start, field, desc, "UInt32")
 #define U64(vr, name, caus, var, unit, start, field, desc) INT(vr, name, caus, var, unit, start, field, desc, "UInt64")
-    FWFMU_INT32_VARS(I32)
-    FWFMU_UINT32_VARS(U32)
-#ifdef FWFMU_MDGEN_AVR
+    FW_FMU_INT32_VARS(I32)
+    FW_FMU_UINT32_VARS(U32)
+#ifdef FW_FMU_MDGEN_AVR
     FWAVR_UINT32_VARS(U32)
     FWAVR_UINT64_VARS(U64)
 #endif
@@ -115,7 +115,7 @@ int main(int argc, char **argv)
 #undef U32
 #undef U64
 #undef INT
-#ifdef FWFMU_MDGEN_AVR
+#ifdef FW_FMU_MDGEN_AVR
 #define STR(vr, name, caus, desc)                                                                          \
     fprintf(f, "    <String name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc);      \
     var_attrs(f, #caus, "fixed");                                                                           \
@@ -131,7 +131,7 @@ int main(int argc, char **argv)
     } else {                                                                                         \
         fprintf(f, "/>\n");                                                                          \
     }
-    FWFMU_BINARY_VARS(BIN)
+    FW_FMU_BINARY_VARS(BIN)
 #undef BIN
     fprintf(f, "  </ModelVariables>\n");
     fprintf(f, "  <ModelStructure>\n");
@@ -139,10 +139,10 @@ int main(int argc, char **argv)
     if (strcmp(#caus, "output") == 0) {                                \
         fprintf(f, "    <Output valueReference=\"%u\"/>\n", vr);       \
     }
-    FWFMU_FLOAT64_VARS(OUT)
-    FWFMU_INT32_VARS(OUT)
-    FWFMU_BINARY_VARS(OUT)
-#ifdef FWFMU_MDGEN_AVR
+    FW_FMU_FLOAT64_VARS(OUT)
+    FW_FMU_INT32_VARS(OUT)
+    FW_FMU_BINARY_VARS(OUT)
+#ifdef FW_FMU_MDGEN_AVR
     FWAVR_UINT32_VARS(OUT)
     FWAVR_UINT64_VARS(OUT)
 #endif
@@ -151,10 +151,10 @@ int main(int argc, char **argv)
     if (strcmp(#caus, "output") == 0) {                                 \
         fprintf(f, "    <InitialUnknown valueReference=\"%u\"/>\n", vr); \
     }
-    FWFMU_FLOAT64_VARS(INIT)
-    FWFMU_INT32_VARS(INIT)
-    FWFMU_BINARY_VARS(INIT)
-#ifdef FWFMU_MDGEN_AVR
+    FW_FMU_FLOAT64_VARS(INIT)
+    FW_FMU_INT32_VARS(INIT)
+    FW_FMU_BINARY_VARS(INIT)
+#ifdef FW_FMU_MDGEN_AVR
     FWAVR_UINT32_VARS(INIT)
     FWAVR_UINT64_VARS(INIT)
 #endif
@@ -165,8 +165,8 @@ int main(int argc, char **argv)
             "    <Annotation type=\"org.navkit.spec\">\n"
             "      <Spec file=\"%s\" spec_hash=\"0x%08lx\" sha256=\"%s\"/>\n"
             "    </Annotation>\n",
-            FWFMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, NAVKIT_SPEC_SHA256);
-#ifdef FWFMU_MDGEN_AVR
+            FW_FMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, NAVKIT_SPEC_SHA256);
+#ifdef FW_FMU_MDGEN_AVR
     /* the board the image runs on and its control_rate ceiling (CONFIG_RATE_MAX of the AVR
      * build, NAVKIT_AVR_RATE_MAX): a host config asking more is refused by the image */
     fprintf(f,

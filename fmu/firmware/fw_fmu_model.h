@@ -2,7 +2,7 @@
  *
  * modelIdentifier navkit_firmware, FMI 3.0 co-simulation. The variable table below is
  * the single source of truth: the FMI layer's table (fmu/fmi/fmil.h) is built from it
- * (FWFMU_FMIL_ROWS), and fw_fmu_mdgen.c writes modelDescription.xml from it at build time,
+ * (FW_FMU_FMIL_ROWS), and fw_fmu_mdgen.c writes modelDescription.xml from it at build time,
  * so the two cannot drift apart (tests/test_firmware_fmu.py checks the packaged result
  * with fmpy). The AVR firmware FMU (fmu/firmware_avr, navkit_firmware_avr) has the same
  * variables from the same table, and profiling outputs of its own.
@@ -17,26 +17,26 @@
 #if defined(FW_LINK_CAN) && FW_LINK_CAN
 /* The CAN build (navkit_firmware_can): the core's CAN link (ISO-TP, firmware/core/link.c)
  * instead of the UART; CAN frames in can_rx / can_tx instead of serial_rx / serial_tx. */
-#define FWFMU_MODEL_IDENTIFIER "navkit_firmware_can"
-#define FWFMU_MODEL_NAME "navkit firmware (CAN link)"
-#define FWFMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6943}"
-#define FWFMU_DESCRIPTION \
+#define FW_FMU_MODEL_IDENTIFIER "navkit_firmware_can"
+#define FW_FMU_MODEL_NAME "navkit firmware (CAN link)"
+#define FW_FMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6943}"
+#define FW_FMU_DESCRIPTION \
     "navkit reference firmware (firmware/core) on a simulated micro: control ticks at the configured rate, the micro link over CAN (ISO-TP) in can_rx and can_tx"
 #else
-#define FWFMU_MODEL_IDENTIFIER "navkit_firmware"
-#define FWFMU_MODEL_NAME "navkit firmware"
-#define FWFMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6974}"
-#define FWFMU_DESCRIPTION \
+#define FW_FMU_MODEL_IDENTIFIER "navkit_firmware"
+#define FW_FMU_MODEL_NAME "navkit firmware"
+#define FW_FMU_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6974}"
+#define FW_FMU_DESCRIPTION \
     "navkit reference firmware (firmware/core) on a simulated micro: control ticks at the configured rate, UART at the baud parameter"
 #endif
-#define FWFMU_DEFAULT_BAUD 115200u
+#define FW_FMU_DEFAULT_BAUD 115200u
 
 /* X(vr, name, causality, variability, unit, start, field, description)
  *   causality: independent | input | output | parameter;
  *   variability: continuous | discrete | fixed
  *   start: the start value of inputs and parameters (ignored for outputs)
  *   field: the instance member holding the value */
-#define FWFMU_FLOAT64_VARS(X)                                                                                \
+#define FW_FMU_FLOAT64_VARS(X)                                                                               \
     X(0, time, independent, continuous, "s", 0.0, time, "Simulation time")                                  \
     X(1, motor_left_duty, output, discrete, "1", 0.0, io.motor_left_duty,                                  \
       "Left motor PWM duty -1..1, + drives the wheel forward (motor_left_sign applied)")                     \
@@ -60,7 +60,7 @@
     X(31, sonar_echo_2, input, discrete, "us", 0.0, io.sonar_echo[2], "SRF04 2 echo pulse width, 0 = no echo") \
     X(32, sonar_echo_3, input, discrete, "us", 0.0, io.sonar_echo[3], "SRF04 3 echo pulse width, 0 = no echo")
 
-#define FWFMU_INT32_VARS(X)                                                                                  \
+#define FW_FMU_INT32_VARS(X)                                                                                 \
     X(11, dio_out, output, discrete, "", 0, io.dio_out, "Levels the micro drives on its 12 DIO pins (output pins only), bitmask") \
     X(12, dio_dir, output, discrete, "", 0, io.dio_dir, "DIO directions, bitmask, 1 = output")             \
     X(20, enc_left, input, discrete, "", 0, io.enc_left, "Left encoder, quadrature-decoded counts (x4), + forward") \
@@ -69,37 +69,37 @@
     X(23, compass_raw, input, discrete, "", 0, io.compass_raw, "Compass bearing, deg*10, 0..3599, clockwise from north") \
     X(33, dio_in, input, discrete, "", 0, io.dio_in, "Levels external circuits drive on input pins, bitmask")
 
-#define FWFMU_UINT32_VARS(X)                                                                                 \
-    X(50, baud, parameter, fixed, "", FWFMU_DEFAULT_BAUD, baud, "UART baud rate (10 bits per byte on the wire)")
+#define FW_FMU_UINT32_VARS(X)                                                                                \
+    X(50, baud, parameter, fixed, "", FW_FMU_DEFAULT_BAUD, baud, "UART baud rate (10 bits per byte on the wire)")
 
-/* A CAN frame in can_rx / can_tx (the CAN build): FWFMU_CAN_RECORD_BYTES bytes, frames back
+/* A CAN frame in can_rx / can_tx (the CAN build): FW_FMU_CAN_RECORD_BYTES bytes, frames back
  * to back: bytes 0-1 the identifier, little-endian (11 bits, ORed with NAVKIT_ISOTP_EXT
  * 0x8000 for an extended frame, NAVKIT_ISOTP_RTR 0x4000 for a remote one: such frames
  * reach the core, which refuses them), byte 2 the DLC (data bytes, 0..8), byte 3 zero,
  * bytes 4-11 the data (bytes past the DLC zero, ignored). */
-#define FWFMU_CAN_RECORD_BYTES 12u
+#define FW_FMU_CAN_RECORD_BYTES 12u
 
 /* Binary: X(vr, name, causality, description); the serial build's first, then the CAN
  * build's (tests/test_firmware_fmu.py reads the first block, test_firmware_fmu_can.py the
  * second) */
 #if !(defined(FW_LINK_CAN) && FW_LINK_CAN)
-#define FWFMU_BINARY_VARS(X)                                                                                 \
+#define FW_FMU_BINARY_VARS(X)                                                                                \
     X(40, serial_rx, input, "Bytes arriving from the host during the next doStep (consumed by it)")          \
     X(41, serial_tx, output, "Bytes the micro sent during the last doStep")
 
 #else
-#define FWFMU_BINARY_VARS(X)                                                                                 \
+#define FW_FMU_BINARY_VARS(X)                                                                                \
     X(42, can_rx, input, "CAN frames from the bus for the next doStep (consumed by it), 12 bytes each: id (2, little-endian), DLC, 0, 8 data bytes") \
     X(43, can_tx, output, "CAN frames the micro sent during the last doStep, 12 bytes each as can_rx")
 
 #endif
 
-#define FWFMU_VR_SERIAL_RX 40u
-#define FWFMU_VR_SERIAL_TX 41u
-#define FWFMU_NUM_VRS 51u /* one past the highest value reference of the table */
+#define FW_FMU_VR_SERIAL_RX 40u
+#define FW_FMU_VR_SERIAL_TX 41u
+#define FW_FMU_NUM_VRS 51u /* one past the highest value reference of the table */
 
 /* Units used by the table (for <UnitDefinitions>). */
-#define FWFMU_UNITS(X) X("1") X("s") X("us") X("V")
+#define FW_FMU_UNITS(X) X("1") X("s") X("us") X("V")
 
 /* The board's signals as the variables above see them, one struct for both firmware FMUs
  * (navkit_firmware: the core's hal.h reads and writes it; navkit_firmware_avr: the pins of
@@ -111,31 +111,31 @@ typedef struct {
     /* outputs */
     double motor_left_duty, motor_right_duty, servo_pulse[8];
     int32_t dio_out, dio_dir;
-} fwfmu_io_t;
+} fw_fmu_io_t;
 
 /* The rows of the FMI layer's table (fmu/fmi/fmil.h) for the variables above, in a model
- * whose fmil_model_t has the members io (fwfmu_io_t), time (double, s), baud (uint32_t)
+ * whose fmil_model_t has the members io (fw_fmu_io_t), time (double, s), baud (uint32_t)
  * and serial_rx, serial_tx (fmil_binary_t). */
-#define FWFMU_CAUS_independent FMIL_INDEPENDENT
-#define FWFMU_CAUS_input FMIL_INPUT
-#define FWFMU_CAUS_output FMIL_OUTPUT
-#define FWFMU_CAUS_parameter FMIL_PARAMETER
-#define FWFMU_ROW(vr, name, caus, type, field) [vr] = {#name, type, FWFMU_CAUS_##caus, offsetof(fmil_model_t, field)},
-#define FWFMU_ROW_F64(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_F64, field)
-#define FWFMU_ROW_I32(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_I32, field)
-#define FWFMU_ROW_U32(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_U32, field)
-#define FWFMU_ROW_BIN(vr, name, caus, desc) FWFMU_ROW(vr, name, caus, FMIL_BIN, name)
-#define FWFMU_FMIL_ROWS                  \
-    FWFMU_FLOAT64_VARS(FWFMU_ROW_F64)    \
-    FWFMU_INT32_VARS(FWFMU_ROW_I32)      \
-    FWFMU_UINT32_VARS(FWFMU_ROW_U32)     \
-    FWFMU_BINARY_VARS(FWFMU_ROW_BIN)
+#define FW_FMU_CAUS_independent FMIL_INDEPENDENT
+#define FW_FMU_CAUS_input FMIL_INPUT
+#define FW_FMU_CAUS_output FMIL_OUTPUT
+#define FW_FMU_CAUS_parameter FMIL_PARAMETER
+#define FW_FMU_ROW(vr, name, caus, type, field) [vr] = {#name, type, FW_FMU_CAUS_##caus, offsetof(fmil_model_t, field)},
+#define FW_FMU_ROW_F64(vr, name, caus, var, unit, start, field, desc) FW_FMU_ROW(vr, name, caus, FMIL_F64, field)
+#define FW_FMU_ROW_I32(vr, name, caus, var, unit, start, field, desc) FW_FMU_ROW(vr, name, caus, FMIL_I32, field)
+#define FW_FMU_ROW_U32(vr, name, caus, var, unit, start, field, desc) FW_FMU_ROW(vr, name, caus, FMIL_U32, field)
+#define FW_FMU_ROW_BIN(vr, name, caus, desc) FW_FMU_ROW(vr, name, caus, FMIL_BIN, name)
+#define FW_FMU_FMIL_ROWS                 \
+    FW_FMU_FLOAT64_VARS(FW_FMU_ROW_F64)  \
+    FW_FMU_INT32_VARS(FW_FMU_ROW_I32)    \
+    FW_FMU_UINT32_VARS(FW_FMU_ROW_U32)   \
+    FW_FMU_BINARY_VARS(FW_FMU_ROW_BIN)
 
 /* Every numeric variable of the table to its start value, in a model state pointed to by m. */
-#define FWFMU_START_ONE(vr, name, caus, var, unit, start, field, desc) (m)->field = start;
-#define FWFMU_START_VALUES(m)               \
-    FWFMU_FLOAT64_VARS(FWFMU_START_ONE)     \
-    FWFMU_INT32_VARS(FWFMU_START_ONE)       \
-    FWFMU_UINT32_VARS(FWFMU_START_ONE)
+#define FW_FMU_START_ONE(vr, name, caus, var, unit, start, field, desc) (m)->field = start;
+#define FW_FMU_START_VALUES(m)              \
+    FW_FMU_FLOAT64_VARS(FW_FMU_START_ONE)   \
+    FW_FMU_INT32_VARS(FW_FMU_START_ONE)     \
+    FW_FMU_UINT32_VARS(FW_FMU_START_ONE)
 
 #endif /* NAVKIT_FW_FMU_MODEL_H */

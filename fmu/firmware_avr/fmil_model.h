@@ -23,7 +23,7 @@ typedef struct {
 } fwavr_prof_t;
 
 typedef struct {
-    fwfmu_io_t io;
+    fw_fmu_io_t io;
     double time;               /* s: the `time` variable */
     uint32_t baud;             /* the parameter: must be the image's FWAVR_BAUD */
     char image[FMIL_STR_MAX];  /* the parameter: path of the image, "" = the resource */

@@ -22,10 +22,10 @@
 #define FWAVR_BATTERY_DIVIDER 3.0 /* the board's battery divider (firmware/avr/board.h) */
 #define FWAVR_ADC_MAX_MV 5000.0   /* mV: the ADC reference; above reads as full scale */
 
-#define FWAVR_ROW_STR(vr, name, caus, desc) FWFMU_ROW(vr, name, caus, FMIL_STR, name)
-#define FWAVR_ROW_U64(vr, name, caus, var, unit, start, field, desc) FWFMU_ROW(vr, name, caus, FMIL_U64, field)
+#define FWAVR_ROW_STR(vr, name, caus, desc) FW_FMU_ROW(vr, name, caus, FMIL_STR, name)
+#define FWAVR_ROW_U64(vr, name, caus, var, unit, start, field, desc) FW_FMU_ROW(vr, name, caus, FMIL_U64, field)
 const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {
-    FWFMU_FMIL_ROWS FWAVR_STRING_VARS(FWAVR_ROW_STR) FWAVR_UINT32_VARS(FWFMU_ROW_U32)
+    FW_FMU_FMIL_ROWS FWAVR_STRING_VARS(FWAVR_ROW_STR) FWAVR_UINT32_VARS(FW_FMU_ROW_U32)
         FWAVR_UINT64_VARS(FWAVR_ROW_U64)};
 
 fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
@@ -49,7 +49,7 @@ void fmil_model_start_values(fmil_instance_t *c)
 {
     fmil_model_t *m = &c->model;
     fwavr_power_off(m);
-    FWFMU_START_VALUES(m)
+    FW_FMU_START_VALUES(m)
     m->image[0] = '\0';
     m->serial_rx.len = m->serial_tx.len = 0u;
     memset(&m->prof, 0, sizeof m->prof);
@@ -105,7 +105,7 @@ static uint16_t fwavr_mv(double volts)
 /* The importer's values onto the board's pins, for a step ending at cycle `end`. */
 static void fwavr_inputs(fmil_model_t *m, uint64_t end)
 {
-    const fwfmu_io_t *io = &m->io;
+    const fw_fmu_io_t *io = &m->io;
     board_sim_t *b = m->board;
     int32_t g = io->gyro_raw, cmp = io->compass_raw % 3600;
     unsigned i;
@@ -131,7 +131,7 @@ static void fwavr_inputs(fmil_model_t *m, uint64_t end)
 /* The pins and the profile into the output variables. */
 static void fwavr_outputs(fmil_model_t *m)
 {
-    fwfmu_io_t *io = &m->io;
+    fw_fmu_io_t *io = &m->io;
     board_sim_t *b = m->board;
     board_sim_profile_t p;
     int16_t l, r;

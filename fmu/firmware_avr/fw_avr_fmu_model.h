@@ -10,7 +10,7 @@
  * what the board simulator measured from the running image (outputs, counts since the last
  * power-on, i.e. instantiation or fmi3Reset).
  *
- * fw_fmu_mdgen (built with FWFMU_MDGEN_AVR) writes the modelDescription.xml from both
+ * fw_fmu_mdgen (built with FW_FMU_MDGEN_AVR) writes the modelDescription.xml from both
  * tables; tests/test_pil_fmu.py checks it against them.
  */
 #ifndef NAVKIT_FW_AVR_FMU_MODEL_H
