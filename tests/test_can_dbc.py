@@ -24,14 +24,28 @@ def dbc(tmp_path_factory):
 
 
 def _random_fields(name: str, rng: random.Random) -> dict:
-    """Values within each field's spec range (a coded field: one of its codes)."""
+    """Values within each field's spec range (a coded field: one of its codes) that keep
+    the message's constraints: a nonzero field's 0 drawn again, an `le` pair put in order."""
+    msg = p.SPEC.messages[name]
     fields = {}
-    for f in p.SPEC.messages[name].fields:
+    for f in msg.fields:
         if f.name == "msg_type":
             continue
         codes = sorted(v for v in p.SPEC.enums[f.enum].values.values() if f.min <= v <= f.max) if f.coded else None
-        one = (lambda: rng.choice(codes)) if codes else (lambda: rng.randint(f.min, f.max))
+        nonzero = any(c.kind == "nonzero" and c.fields[0] == f.name for c in msg.constraints)
+
+        def one(f=f, codes=codes, nonzero=nonzero):
+            while True:
+                v = rng.choice(codes) if codes else rng.randint(f.min, f.max)
+                if v or not nonzero:
+                    return v
         fields[f.name] = [one() for _ in range(f.count)] if f.count > 1 else one()
+    for c in msg.constraints:
+        if c.kind == "le":
+            lo, hi = fields[c.fields[0]], fields[c.fields[1]]
+            pairs = [sorted(ab) for ab in zip(lo, hi)] if isinstance(lo, list) else [sorted((lo, hi))]
+            low, high = (list(t) for t in zip(*pairs))
+            fields[c.fields[0]], fields[c.fields[1]] = (low, high) if isinstance(lo, list) else (low[0], high[0])
     return fields
 
 
