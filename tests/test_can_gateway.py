@@ -12,15 +12,9 @@ import pytest
 
 from navkit import protocol
 from navkit.can_gateway import CanGateway
-from test_host_util import FRAME_US, Host, Micro
+from test_host_util import FRAME_US, Host, Micro, RawHost
 
 pytestmark = pytest.mark.timeout(60)
-
-
-class RawHost(Host):
-    @staticmethod
-    def decode(data: bytes) -> bytes:
-        return data
 
 
 def test_host_and_a_serial_micro_through_the_gateway(tmp_path):

@@ -13,19 +13,11 @@ import pytest
 from navkit import can as nc
 from navkit import protocol
 from navkit.can_slcan import SlcanAdapter
-from test_host_util import FRAME_US, Host, Micro, require_host
+from test_host_util import FRAME_US, Micro, RawHost, host_factory, require_host  # noqa: F401  (fixture)
 
 pytestmark = pytest.mark.timeout(60)
 
 CONFIGS = ["micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"]
-
-
-class RawHost(Host):
-    """A Host whose tick() returns the raw bytes the host wrote (SLCAN lines)."""
-
-    @staticmethod
-    def decode(data: bytes) -> bytes:
-        return data
 
 
 class CanMicro:
@@ -67,19 +59,12 @@ class CanMicro:
 
 
 @pytest.fixture
-def can_host(tmp_path):
-    made = []
-
+def can_host(host_factory):
+    """host_factory's RawHost on `[micro] link = slcan` unless told another ini."""
     def make(**kw) -> RawHost:
         kw.setdefault("ini", {"NavAndControl.ini": {"link": "slcan"}})
-        d = tmp_path / f"h{len(made)}"
-        d.mkdir()
-        h = RawHost(d, **kw)
-        made.append(h)
-        return h
-    yield make
-    for h in made:
-        h.close()
+        return host_factory(RawHost, **kw)
+    return make
 
 
 def test_the_host_configures_and_drives_the_micro_over_can(can_host):

@@ -277,15 +277,24 @@ class Host:
             pass
 
 
+class RawHost(Host):
+    """A Host whose tick() returns the raw bytes the host wrote (SLCAN lines on a CAN link)."""
+
+    @staticmethod
+    def decode(data: bytes) -> bytes:
+        return data
+
+
 @pytest.fixture
 def host_factory(tmp_path):
     """Make Host objects (each in its own folder); all are closed after the test."""
     made = []
 
-    def make(**kw) -> Host:
+    def make(cls: type = Host, **kw) -> Host:
+        """A `cls` (Host or a subclass) in a folder of its own; kw go to its constructor."""
         d = tmp_path / f"h{len(made)}"
         d.mkdir()
-        h = Host(d, **kw)
+        h = cls(d, **kw)
         made.append(h)
         return h
 
