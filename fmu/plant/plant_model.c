@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -254,6 +255,26 @@ static double ray_cast(const plant_model_t *m, double ox, double oy, double ux, 
     return best;
 }
 
+/* Clip the segment parameter range [*t0, *t1] (0..1 along the wall) to the points
+ * where fa + fe * t >= 0 (fa, fe in m^2: a cone edge's inward normal dotted with the
+ * wall start and the wall vector); false when no point of the wall qualifies because
+ * it runs parallel to the edge on the outside. */
+static bool clip_half_plane(double fa, double fe, double *t0, double *t1)
+{
+    if (fe == 0.0) {
+        return !(fa < 0.0);
+    }
+    double t = -fa / fe;
+    if (fe > 0.0) {
+        if (t > *t0) {
+            *t0 = t;
+        }
+    } else if (t < *t1) {
+        *t1 = t;
+    }
+    return true;
+}
+
 /* Distance (m) from (ox,oy) to the nearest wall point inside the cone of half-angle
  * h (cos ch, sin sh < 90 deg) around unit direction (ux,uy), or INFINITY: the first
  * echo of a rough wall (nearer walls hide farther ones by being nearer). */
@@ -269,40 +290,8 @@ static double cone_cast(const plant_model_t *m, double ox, double oy, double ux,
         double ax = w->ax - ox, ay = w->ay - oy;
         double ex = w->bx - w->ax, ey = w->by - w->ay;
         double t0 = 0.0, t1 = 1.0;
-        double fa = n1x * ax + n1y * ay, fe = n1x * ex + n1y * ey;
-        if (fe == 0.0) {
-            if (fa < 0.0) {
-                continue;
-            }
-        } else if (fe > 0.0) {
-            double t = -fa / fe;
-            if (t > t0) {
-                t0 = t;
-            }
-        } else {
-            double t = -fa / fe;
-            if (t < t1) {
-                t1 = t;
-            }
-        }
-        fa = n2x * ax + n2y * ay;
-        fe = n2x * ex + n2y * ey;
-        if (fe == 0.0) {
-            if (fa < 0.0) {
-                continue;
-            }
-        } else if (fe > 0.0) {
-            double t = -fa / fe;
-            if (t > t0) {
-                t0 = t;
-            }
-        } else {
-            double t = -fa / fe;
-            if (t < t1) {
-                t1 = t;
-            }
-        }
-        if (t0 > t1) {
+        if (!clip_half_plane(n1x * ax + n1y * ay, n1x * ex + n1y * ey, &t0, &t1) ||
+            !clip_half_plane(n2x * ax + n2y * ay, n2x * ex + n2y * ey, &t0, &t1) || t0 > t1) {
             continue;
         }
         double tp = -(ax * ex + ay * ey) / (ex * ex + ey * ey); /* foot of the perpendicular */
