@@ -52,26 +52,26 @@ ISR(INT2_vect)
 }
 ISR(INT3_vect, ISR_ALIASOF(INT2_vect));
 
-int32_t board_enc_left(void)
+/* Fold one encoder's interrupt accumulator *acc into its 32-bit count *count (counts),
+ * taking and clearing *acc with interrupts held off; returns the new count. */
+static int32_t enc_fold(volatile int16_t *acc, int32_t *count)
 {
     int16_t a;
     uint8_t s = SREG;
     cli();
-    a = enc_l_acc;
-    enc_l_acc = 0;
+    a = *acc;
+    *acc = 0;
     SREG = s;
-    enc_l += a;
-    return enc_l;
+    *count += a;
+    return *count;
+}
+
+int32_t board_enc_left(void)
+{
+    return enc_fold(&enc_l_acc, &enc_l);
 }
 
 int32_t board_enc_right(void)
 {
-    int16_t a;
-    uint8_t s = SREG;
-    cli();
-    a = enc_r_acc;
-    enc_r_acc = 0;
-    SREG = s;
-    enc_r += a;
-    return enc_r;
+    return enc_fold(&enc_r_acc, &enc_r);
 }
