@@ -112,14 +112,16 @@ def _truth_turn(out: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _verify(args, out: Path, mission: Path, firmware: str, read, final: float, level: float,
-            tp: np.ndarray, yp: np.ndarray, t_end: float, never: str):
+            tp: np.ndarray, yp: np.ndarray, t_end: float, never: str, label: str, key: str,
+            curves: list, rows: list) -> dict:
     """Co-simulate the verification mission into out/verify and set its truth (read(run
     folder) -> times s, values) beside the prediction (tp s, yp): both aligned where they
     first reach level * final, the run cut to the prediction's t_end (s). Returns the step
     figures of the run over `final`, with overshoot_pct past `final` and the RMS and largest
-    deviation from the prediction (the values' unit); the aligned times and values; the run
-    time (s) that became 0; the run folder. Raises TuneError "<run>: <never>" when the run
-    never reaches the level."""
+    deviation from the prediction (the values' unit), added to `rows` as "co-simulated"; the
+    aligned times and values go to `curves` as `label`. Returns the report's "simulated"
+    entry: those figures under `key`, the run folder, the mission and the run time (s) that
+    became 0. Raises TuneError "<run>: <never>" when the run never reaches the level."""
     vdir = out / "verify"
     exp.run_cosim(mission, vdir, config_dir=out / "config", build=args.build,
                   frame_s=args.frame_ms / 1000.0, truth_hz=1000.0, seed=args.seed, firmware=firmware)
@@ -136,7 +138,9 @@ def _verify(args, out: Path, mission: Path, firmware: str, read, final: float, l
     diff = ysim - np.interp(tsim, tp, yp)
     info["rms_deviation"] = float(np.sqrt(np.mean(diff ** 2)))
     info["max_deviation"] = float(np.max(np.abs(diff)))
-    return info, tsim, ysim, start, vdir
+    curves.append((label, tsim, ysim))
+    rows.append(("co-simulated", info))
+    return {key: info, "run": str(vdir), "mission": str(mission), "aligned_at_s": start}
 
 
 def _info_text(rows: list) -> str:
@@ -305,13 +309,10 @@ def tune_wheel(args) -> dict:
         verify_mission = out / "verify_wheel.toml"
         verify_mission.write_text(text)
         # how far prediction and co-simulation part: deviations in mm/s
-        sim_info, tsim, ysim, start, vdir = _verify(
+        result["simulated"] = _verify(
             args, out, verify_mission, args.firmware, lambda d: _truth(d, "v_mm_s"), speed, 0.05, tp, yp,
-            t_end, f"the verification move never reached 5 % of {speed:g} mm/s")
-        curves.append(("co-simulated (truth speed)", tsim, ysim))
-        rows.append(("co-simulated", sim_info))
-        result["simulated"] = {"move": sim_info, "run": str(vdir), "mission": str(verify_mission),
-                               "aligned_at_s": start}
+            t_end, f"the verification move never reached 5 % of {speed:g} mm/s",
+            "co-simulated (truth speed)", "move", curves, rows)
     else:
         result["simulated"] = None
     curves.append(("setpoint", tp, speed * np.minimum(tp / (speed / accel), 1.0)))
@@ -472,13 +473,10 @@ def tune_heading(args) -> dict:
         verify_mission.write_text(exp.mission_text(mission, VERIFY_T0 + t_end + 1.0, [cmd],
                                                    note="navkit tune heading: verification heading select"))
         # deviations in deg
-        sim_info, tsim, hsim, start, vdir = _verify(
+        result["simulated"] = _verify(
             args, out, verify_mission, firmware, _truth_turn, target, 0.02, tp, yp, t_end,
-            f"the verification heading select never turned 2 % of {target:g} deg")
-        curves.append(("co-simulated (truth heading)", tsim, hsim))
-        rows.append(("co-simulated", sim_info))
-        result["simulated"] = {"heading_select": sim_info, "run": str(vdir), "mission": str(verify_mission),
-                               "aligned_at_s": start}
+            f"the verification heading select never turned 2 % of {target:g} deg",
+            "co-simulated (truth heading)", "heading_select", curves, rows)
     else:
         result["simulated"] = None
 
