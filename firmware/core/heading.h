@@ -6,13 +6,13 @@
  * (status gyro_calibrating), then tracked by a slow low-pass whenever the robot stands
  * still; while it stands still the heading does not integrate gyro noise.
  *
- * Cost on a 16 MHz AVR (no FPU; worst cycles, ctest firmware_avr_cycles, docs/firmware.md
+ * Cost on a 16 MHz AVR (no FPU; worst cycles of ctest firmware_avr_cycles: docs/firmware.md,
  * AVR budget): heading_update() runs every tick, so it only adds the tick's angle to the
- * residual and to the float heading (1 351 cycles); heading_fold() (1 277) rounds the
- * residual into the fixed-point angle and re-derives the float heading from it, or
- * heading_fuse() (2 216, its fold included) does so with compass fusion, once per slow
- * period of ~10 ms on its first tick, right after heading_update() (fw.c: every 10th tick
- * at 1 kHz, every 4th at 400 Hz, every tick below 200 Hz).
+ * residual and to the float heading; heading_fold() rounds the residual into the
+ * fixed-point angle and re-derives the float heading from it, or heading_fuse() does so
+ * with compass fusion (its fold included), once per slow period of ~10 ms on its first tick,
+ * right after heading_update() (fw.c: every 10th tick at 1 kHz, every 4th at 400 Hz, every
+ * tick below 200 Hz).
  */
 #ifndef NAVKIT_HEADING_H
 #define NAVKIT_HEADING_H

@@ -34,8 +34,8 @@ const char *navkit_error_text(int code)
 
 #if defined(__AVR__)
 /* The CRC of len bytes from crc on: the one call of avr-libc's _crc_ccitt_update (same
- * polynomial, hand-written asm), so the compiler inlines it into the loop: ~20 cycles a
- * byte instead of a call per byte (the link checks and seals every frame with it). */
+ * polynomial, hand-written asm), so the compiler inlines it into the loop, with no call per
+ * byte (the link checks and seals every frame with it). */
 static uint16_t crc16_run(uint16_t crc, const uint8_t *data, size_t len)
 {
     const uint8_t *end = data + len;

@@ -426,9 +426,9 @@ static void sim_tick_requested(avr_irq_t *irq, uint32_t value, void *param)
 /* ---------------------------------------------------------------- resets */
 
 /* simavr polls a low INTn pin every cycle while its interrupt might be level-triggered
- * (the reset state); the board uses edge interrupts only, so that polling (which made
- * the simulation ~10 times slower with the low TWI and encoder pins) is off. Every reset
- * turns it on again. */
+ * (the reset state); the board uses edge interrupts only, so that polling (a cost on every
+ * simulated cycle while the TWI and encoder pins are low) is off. Every reset turns it on
+ * again. */
 static void sim_no_level_polling(avr_t *avr)
 {
     uint8_t n;
