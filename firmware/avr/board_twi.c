@@ -3,9 +3,10 @@
  * A round is a fixed script of bus steps (twi_script). Each TWI interrupt checks that the
  * last step was acknowledged (a NACK, lost arbitration or bus error counts an error and
  * ends that part's transfer: STOP, then the next part's transfer or the round's end),
- * keeps the byte just received if the step was a read, and starts the next step. Short and the same for every step: the encoder interrupts, which
- * must not wait long, come right behind it. The gyro's wake-up writes lead the script and
- * are skipped once acknowledged. */
+ * keeps the byte just received if the step was a read, and starts the next step. Short
+ * and the same for every step: the encoder interrupts, which must not wait long, come
+ * right behind it. The gyro's wake-up writes lead the script and are skipped once
+ * acknowledged. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <util/twi.h>

@@ -629,8 +629,8 @@ static void substep(plant_model_t *m, double h)
     double ds = 0.5 * (dl + dr), dyaw = (dr - dl) / k->track;
     double ymid = m->yaw + 0.5 * dyaw;
     /* A standing robot (ds == 0) skips the trig: x + (+-0 * finite) is x bit for bit, as
-   * xm and ym start at +0 and a sum is -0 only when both terms are. A non-finite ymid
-   * still takes the full path (its NaN reaches the pose as before). */
+     * xm and ym start at +0 and a sum is -0 only when both terms are. A non-finite ymid
+     * still takes the full path, so its NaN reaches the pose. */
     if (ds != 0.0 || !isfinite(ymid)) {
         m->xm += ds * cos(ymid);
         m->ym += ds * sin(ymid);
