@@ -592,7 +592,7 @@ static void substep(plant_model_t *m, double h)
         fc0 = clampd((vf0 - w01 * fc1) / w00, lim);
         fc1 = clampd((vf1 - w01 * fc0) / w11, lim);
         /* an iteration is a function of fc1 alone: when it gives back fc1's bits, the ones
-     * left would repeat it exactly (a wheel stuck or at the force limit: most steps) */
+         * left would repeat it exactly (a wheel stuck or at the force limit: most steps) */
         if (memcmp(&fc1, &fc1_in, sizeof fc1) == 0) {
             break;
         }
@@ -660,6 +660,20 @@ static void step_servos(plant_model_t *m, double h)
     }
 }
 
+/* Whether a sensor sampled every period s, next due at *next s, takes a reading at time
+ * t s (1 ns early counts as due); if so, moves *next one period on (past t if it lags). */
+static bool sample_due(double *next, double t, double period)
+{
+    if (!(t >= *next - 1e-9)) {
+        return false;
+    }
+    *next += period;
+    if (*next <= t) {
+        *next = t + period;
+    }
+    return true;
+}
+
 void plant_step(plant_model_t *m, double h)
 {
     int n = (int)ceil(h / PLANT_MAX_SUBSTEP_S - 1e-9);
@@ -670,19 +684,11 @@ void plant_step(plant_model_t *m, double h)
     for (int i = 0; i < n; i++) {
         substep(m, hs);
         m->t += hs;
-        if (m->t >= m->next_ir - 1e-9) {
+        if (sample_due(&m->next_ir, m->t, m->k.ir_period)) {
             read_ir(m);
-            m->next_ir += m->k.ir_period;
-            if (m->next_ir <= m->t) {
-                m->next_ir = m->t + m->k.ir_period;
-            }
         }
-        if (m->t >= m->next_sonar - 1e-9) {
+        if (sample_due(&m->next_sonar, m->t, m->k.sonar_period)) {
             read_sonar(m);
-            m->next_sonar += m->k.sonar_period;
-            if (m->next_sonar <= m->t) {
-                m->next_sonar = m->t + m->k.sonar_period;
-            }
         }
     }
     step_servos(m, h);
