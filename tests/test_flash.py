@@ -6,6 +6,7 @@ import shutil
 import stat
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -370,11 +371,23 @@ def test_permission_message_when_the_group_cannot_either():
                     or os.stat("/dev/ttyS0").st_mode & 0o006,
                     reason="needs root, setpriv and a /dev/ttyS0 that others may not open")
 def test_permission_denied_for_a_real_user():
-    code = ("import sys; from navkit.flash import check_access, FlashError\n"
-            "try: check_access('/dev/ttyS0')\nexcept FlashError as e: print(e); sys.exit(1)")
-    r = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", sys.executable,
-                        "-c", code], capture_output=True, text=True, timeout=30,
-                       env=dict(os.environ, PYTHONPATH=str(Path(fl.__file__).parents[1])))
+    # nobody runs the base interpreter on a world-readable copy of the package: the
+    # checkout (and pytest's temporary folders) may sit in a folder only root can enter
+    pkg = Path(tempfile.mkdtemp(prefix="navkit-nobody-"))
+    try:
+        pkg.chmod(0o755)
+        shutil.copytree(Path(fl.__file__).parent, pkg / "navkit",
+                        ignore=shutil.ignore_patterns("__pycache__"))
+        for p in [pkg / "navkit", *(pkg / "navkit").rglob("*")]:
+            p.chmod(0o755 if p.is_dir() else 0o644)
+        code = ("import sys; from navkit.flash import check_access, FlashError\n"
+                "try: check_access('/dev/ttyS0')\nexcept FlashError as e: print(e); sys.exit(1)")
+        r = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups",
+                            os.path.realpath(sys.executable), "-c", code],
+                           capture_output=True, text=True, timeout=30, cwd="/",
+                           env=dict(os.environ, PYTHONPATH=str(pkg)))
+    finally:
+        shutil.rmtree(pkg, ignore_errors=True)
     assert r.returncode == 1, r.stderr
     assert r.stdout.startswith("cannot open /dev/ttyS0: permission denied (owner root, group ")
 
