@@ -81,7 +81,7 @@ def test_contract_names_of_internals_md(md):
 def test_xml_follows_the_header_table(md):
     """modelDescription.xml is generated from navkit_plant.h: same names, same order."""
     header = (repo_root() / "fmu" / "plant" / "navkit_plant.h").read_text()
-    names = re.findall(r"^(?:F64|I32|STR)\((\w+),", header, re.M)
+    names = re.findall(r"^(?:F64|I32|STR|BIN)\((\w+),", header, re.M)
     assert [v.name for v in md.modelVariables] == names
     assert [v.valueReference for v in md.modelVariables] == list(range(len(names)))
 
@@ -400,6 +400,36 @@ def test_world_start_pose_moves_the_walls(plant, tmp_path):
     assert p.get("ir_voltage_0") == pytest.approx(ir_volts(500.0), abs=1e-9)
 
 
+def walls_mm(p) -> list:
+    """The plant's walls output: (ax, ay, bx, by) mm per wall (4 little-endian float64)."""
+    import struct
+
+    data = p.get("walls")
+    assert len(data) % 32 == 0
+    return list(struct.iter_unpack("<4d", data))
+
+
+def test_walls_output_is_the_world_in_the_start_frame(plant, tmp_path):
+    """The walls output gives the loaded world exactly as the sensors see it: every wall,
+    box side and polyline segment in file order, moved into the start pose frame, in mm;
+    no world, no bytes."""
+    f = tmp_path / "w.txt"
+    f.write_text("start 1000 500 90\nwall 0 0 0 2000\nbox 2000 0 2200 300\n"
+                 "polyline 0 0 -100 0 -100 -100\n")
+    got = walls_mm(plant(world_file=str(f)))
+    # file (x, y) -> start frame: 90 deg left of the file's x, origin at (1000, 500)
+    def to_start(x, y):
+        return (y - 500.0, -(x - 1000.0))
+    want = [(0, 0, 0, 2000), (2000, 0, 2200, 0), (2200, 0, 2200, 300), (2200, 300, 2000, 300),
+            (2000, 300, 2000, 0), (0, 0, -100, 0), (-100, 0, -100, -100)]
+    assert len(got) == len(want)
+    for g, (ax, ay, bx, by) in zip(got, want):
+        assert g == pytest.approx(to_start(ax, ay) + to_start(bx, by), abs=1e-9)
+    hall = walls_mm(plant(world_file=str(WORLDS / "hallway.txt")))
+    assert hall[-1] == (4000.0, -500.0, 4000.0, -900.0), "no turn: the file's mm to the bit"
+    assert walls_mm(plant()) == [] and walls_mm(plant(world_file=str(WORLDS / "empty.txt"))) == []
+
+
 def init_log(md, unzipped, world_file):
     """Log messages of an instance whose initialization with world_file fails."""
     log = []
@@ -490,7 +520,8 @@ def test_fmi2_same_variables_and_outputs_as_fmi3(md, plant, tmp_path):
 
     md2 = read_model_description(str(FMU2))
     assert [(v.name, v.valueReference, v.causality) for v in md2.modelVariables] == \
-           [(v.name, v.valueReference, v.causality) for v in md.modelVariables]
+           [(v.name, v.valueReference, v.causality) for v in md.modelVariables
+            if v.type != "Binary"], "the same but FMI 3.0's Binary walls"
     vr = {v.name: v.valueReference for v in md2.modelVariables}
     fmu = FMU2Slave(guid=md2.guid, unzipDirectory=extract(str(FMU2), unzipdir=str(tmp_path / "u2")),
                     modelIdentifier=md2.coSimulation.modelIdentifier, instanceName="p2")

@@ -2,9 +2,10 @@
 
 Usage: gen_model_description.py {3|2} HEADER OUT [MODEL_IDENTIFIER]
 
-The header is the single source: PLANT_VARIABLES lines (one F64/I32/STR entry per line),
+The header is the single source: PLANT_VARIABLES lines (one F64/I32/STR/BIN entry per line),
 PLANT_MODEL_NAME, PLANT_MODEL_DESCRIPTION and PLANT_INSTANTIATION_TOKEN. Value reference = the
-entry's position in the table. Standard library only.
+entry's position in the table. FMI 2.0 has no Binary type: its description leaves the BIN
+entries out (their value references stay unused). Standard library only.
 """
 
 import re
@@ -13,7 +14,7 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 ENTRY = re.compile(
-    r'^\s*(F64|I32|STR)\((\w+),\s*(INDEPENDENT|PARAMETER|INPUT|OUTPUT),\s*'
+    r'^\s*(F64|I32|STR|BIN)\((\w+),\s*(INDEPENDENT|PARAMETER|INPUT|OUTPUT),\s*'
     r'("(?:[^"\\]|\\.)*"|[-+0-9.eE]+),\s*"([^"]*)",\s*"([^"]*)"\)\s*\\?\s*$')
 DEFINE = re.compile(r'^#define\s+(PLANT_MODEL_NAME|PLANT_MODEL_DESCRIPTION|PLANT_INSTANTIATION_TOKEN)\s+"([^"]*)"\s*$')
 
@@ -34,7 +35,12 @@ def parse(header: Path):
         if not m:
             raise SystemExit(f'{header}:{lineno}: not a table entry: {line.strip()}')
         kind, name, caus, start, unit, desc = m.groups()
-        if kind == 'STR':
+        if kind in ('STR', 'BIN'):
+            if not start.startswith('"'):
+                raise SystemExit(f'{header}:{lineno}: {name}: string start expected')
+            if kind == 'BIN' and caus != 'OUTPUT':
+                raise SystemExit(f'{header}:{lineno}: {name}: a Binary must be an OUTPUT '
+                                 f'(this generator writes no Binary start values)')
             start = start[1:-1]
         elif start.startswith('"'):
             raise SystemExit(f'{header}:{lineno}: {name}: numeric start expected')
@@ -93,7 +99,7 @@ def fmi3(defines, variables, model_id):
             '  </LogCategories>',
             '  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.001"/>',
             '  <ModelVariables>']
-    tag = {'F64': 'Float64', 'I32': 'Int32', 'STR': 'String'}
+    tag = {'F64': 'Float64', 'I32': 'Int32', 'STR': 'String', 'BIN': 'Binary'}
     for v in variables:
         attrs = (f'name="{v["name"]}" valueReference="{v["vr"]}" description={quoteattr(v["description"])}'
                  f' causality="{v["causality"]}" variability="{variability(v)}"')
@@ -137,6 +143,7 @@ def fmi2(defines, variables, model_id):
             '  <DefaultExperiment startTime="0" stopTime="10" stepSize="0.001"/>',
             '  <ModelVariables>']
     tag = {'F64': 'Real', 'I32': 'Integer', 'STR': 'String'}
+    variables = [v for v in variables if v['kind'] != 'BIN']    # no Binary in FMI 2.0
     index = {}
     for v in variables:
         index[v['vr']] = len(index) + 1

@@ -21,15 +21,18 @@
 #define PLANT_MODEL_NAME "navkit_plant"
 #define PLANT_MODEL_DESCRIPTION "navkit reference robot: differential drive, DC motors, encoders, gyro, compass, battery, RC servos, DIO loopback, GP2D12 IR and SRF04 sonar in a 2D world"
 /* Change the token whenever the table changes (the importer checks it). */
-#define PLANT_INSTANTIATION_TOKEN "{6f1c2a54-7a43-4d1e-9b1e-navkit-plant-v2}"
+#define PLANT_INSTANTIATION_TOKEN "{6f1c2a54-7a43-4d1e-9b1e-navkit-plant-v3}"
 
 #define PLANT_STR_MAX 4096          /* bytes, longest String value incl. the terminator */
 #define PLANT_MAX_SUBSTEP_S 0.001   /* s, internal integration step bound */
 #define PLANT_MAX_WALLS 100000      /* walls a world file may hold */
+#define PLANT_WALL_BYTES 32         /* bytes of one wall in the walls output: 4 float64 */
 
-/* PLANT_VARIABLES(F64, I32, STR): each entry X(name, causality, start, "unit", "description").
- * Causalities: INDEPENDENT, PARAMETER (fixed), INPUT, OUTPUT. Unit "" = dimensionless. */
-#define PLANT_VARIABLES(F64, I32, STR) \
+/* PLANT_VARIABLES(F64, I32, STR, BIN): each entry X(name, causality, start, "unit", "description").
+ * Causalities: INDEPENDENT, PARAMETER (fixed), INPUT, OUTPUT. Unit "" = dimensionless.
+ * BIN (Binary) is FMI 3.0 only: the FMI 2.0 description leaves it out (its value reference
+ * stays unused there). */
+#define PLANT_VARIABLES(F64, I32, STR, BIN) \
 F64(time, INDEPENDENT, 0.0, "s", "Simulation time") \
 F64(motor_left_duty, INPUT, 0.0, "", "Left motor PWM duty -1..1, + drives the wheel forward") \
 F64(motor_right_duty, INPUT, 0.0, "", "Right motor PWM duty -1..1, + drives the wheel forward") \
@@ -72,6 +75,7 @@ F64(servo_deg_4, OUTPUT, 0.0, "deg", "Truth: servo 4 angle, clockwise positive")
 F64(servo_deg_5, OUTPUT, 0.0, "deg", "Truth: servo 5 angle, clockwise positive") \
 F64(servo_deg_6, OUTPUT, 0.0, "deg", "Truth: servo 6 angle, clockwise positive") \
 F64(servo_deg_7, OUTPUT, 0.0, "deg", "Truth: servo 7 angle, clockwise positive") \
+BIN(walls, OUTPUT, "", "", "The world's walls as loaded from world_file, in the start pose frame (x forward, y left): per wall 4 IEEE 754 float64, little-endian: ax, ay, bx, by in mm (32 bytes a wall, file order; box = 4 walls, polyline = a wall per segment); empty = no walls. Set when the model starts") \
 I32(seed, PARAMETER, 1, "", "Seed of every noise source (same seed, same outputs)") \
 STR(world_file, PARAMETER, "", "", "Absolute path of a world file (config/worlds format); empty = no walls") \
 F64(wheel_diameter_mm, PARAMETER, 100.0, "mm", "Nominal wheel diameter") \
@@ -146,21 +150,33 @@ F64(sonar_angle_deg_3, PARAMETER, 180.0, "deg", "Sonar 3 pointing angle, counter
 
 /* ---------------------------------------------------------------- variables */
 
+/* A Binary value: len bytes at data (malloc'd by the model, NULL before it starts), cap
+ * the bytes allocated. The same layout as the FMI layer's fmil_binary_t (plant_fmu.c
+ * checks it), so the layer reads it in place. */
+typedef struct {
+    uint8_t *data;
+    size_t len, cap; /* bytes */
+} plant_binary_t;
+
 #define PLANT_VR_ENTRY(name, caus, start, unit, desc) PLANT_VR_##name,
 /* Value references: PLANT_VR_<name>, in table order. */
-typedef enum { PLANT_VARIABLES(PLANT_VR_ENTRY, PLANT_VR_ENTRY, PLANT_VR_ENTRY) PLANT_NUM_VARS } plant_vr_t;
+typedef enum {
+    PLANT_VARIABLES(PLANT_VR_ENTRY, PLANT_VR_ENTRY, PLANT_VR_ENTRY, PLANT_VR_ENTRY) PLANT_NUM_VARS
+} plant_vr_t;
 #undef PLANT_VR_ENTRY
 
 #define PLANT_FIELD_F64(name, caus, start, unit, desc) double name;
 #define PLANT_FIELD_I32(name, caus, start, unit, desc) int32_t name;
 #define PLANT_FIELD_STR(name, caus, start, unit, desc) char name[PLANT_STR_MAX];
+#define PLANT_FIELD_BIN(name, caus, start, unit, desc) plant_binary_t name;
 /* Every variable's current value, one field per table entry. */
 typedef struct {
-    PLANT_VARIABLES(PLANT_FIELD_F64, PLANT_FIELD_I32, PLANT_FIELD_STR)
+    PLANT_VARIABLES(PLANT_FIELD_F64, PLANT_FIELD_I32, PLANT_FIELD_STR, PLANT_FIELD_BIN)
 } plant_values_t;
 #undef PLANT_FIELD_F64
 #undef PLANT_FIELD_I32
 #undef PLANT_FIELD_STR
+#undef PLANT_FIELD_BIN
 
 /* ---------------------------------------------------------------- model state */
 

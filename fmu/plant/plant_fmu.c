@@ -8,12 +8,19 @@
 #include "fmil.h"
 
 _Static_assert(PLANT_STR_MAX == FMIL_STR_MAX, "the plant's String fields are the layer's size");
+/* the layer reads a Binary variable's field as an fmil_binary_t */
+_Static_assert(sizeof(plant_binary_t) == sizeof(fmil_binary_t) &&
+                   offsetof(plant_binary_t, data) == offsetof(fmil_binary_t, data) &&
+                   offsetof(plant_binary_t, len) == offsetof(fmil_binary_t, len) &&
+                   offsetof(plant_binary_t, cap) == offsetof(fmil_binary_t, cap),
+               "plant_binary_t is laid out as fmil_binary_t");
 
 #define PLANT_ROW(n, c, s, u, d, t) {#n, t, FMIL_##c, offsetof(fmil_model_t, v.n)},
 #define PLANT_F64(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_F64)
 #define PLANT_I32(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_I32)
 #define PLANT_STR(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_STR)
-const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {PLANT_VARIABLES(PLANT_F64, PLANT_I32, PLANT_STR)};
+#define PLANT_BIN(n, c, s, u, d) PLANT_ROW(n, c, s, u, d, FMIL_BIN)
+const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {PLANT_VARIABLES(PLANT_F64, PLANT_I32, PLANT_STR, PLANT_BIN)};
 
 fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
 {

@@ -21,9 +21,11 @@ void plant_set_start_values(plant_model_t *m)
     plant_release(m);
 #define PLANT_START_NUM(n, c, s, u, d) m->v.n = (s);
 #define PLANT_START_STR(n, c, s, u, d) snprintf(m->v.n, PLANT_STR_MAX, "%s", (s));
-    PLANT_VARIABLES(PLANT_START_NUM, PLANT_START_NUM, PLANT_START_STR)
+#define PLANT_START_BIN(n, c, s, u, d) /* outputs: empty until the model starts (released above) */
+    PLANT_VARIABLES(PLANT_START_NUM, PLANT_START_NUM, PLANT_START_STR, PLANT_START_BIN)
 #undef PLANT_START_NUM
 #undef PLANT_START_STR
+#undef PLANT_START_BIN
 }
 
 void plant_release(plant_model_t *m)
@@ -31,6 +33,8 @@ void plant_release(plant_model_t *m)
     free(m->walls);
     m->walls = NULL;
     m->n_walls = 0;
+    free(m->v.walls.data);
+    m->v.walls = (plant_binary_t){NULL, 0, 0};
 }
 
 /* ---------------------------------------------------------------- noise */
@@ -107,6 +111,41 @@ static int add_wall(plant_model_t *m, size_t *cap, double ax, double ay, double 
     return 0;
 }
 
+/* Stores x at p as 8 bytes: IEEE 754 binary64, little-endian (whatever the host's order). */
+static void put_f64_le(uint8_t *p, double x)
+{
+    uint64_t u;
+    memcpy(&u, &x, sizeof u);
+    for (int i = 0; i < 8; i++) {
+        p[i] = (uint8_t)(u >> (8 * i));
+    }
+}
+
+/* Moves the n_walls walls from the file's frame (mm) into the start pose frame, whose
+ * origin is the file's point (sx, sy) mm and whose x axis points at syaw deg: m->walls in
+ * m, the walls output in mm (PLANT_WALL_BYTES a wall, never NULL once started). Returns 0,
+ * or -1 with err set (naming file) when out of memory. */
+static int place_walls(plant_model_t *m, double sx, double sy, double syaw, const char *file, char *err, size_t errlen)
+{
+    size_t nbytes = m->n_walls * PLANT_WALL_BYTES;
+    uint8_t *out = malloc(nbytes ? nbytes : 1);
+    if (!out) {
+        return world_error(err, errlen, file, 0, "out of memory for %zu walls", m->n_walls);
+    }
+    double c = cos(syaw * DEG), s = sin(syaw * DEG);
+    for (size_t i = 0; i < m->n_walls; i++) {
+        plant_wall_t *w = &m->walls[i];
+        double ax = w->ax - sx, ay = w->ay - sy, bx = w->bx - sx, by = w->by - sy;
+        double mm[4] = {c * ax + s * ay, -s * ax + c * ay, c * bx + s * by, -s * bx + c * by};
+        for (int k = 0; k < 4; k++) {
+            put_f64_le(out + i * PLANT_WALL_BYTES + 8 * k, mm[k]);
+        }
+        *w = (plant_wall_t){1e-3 * mm[0], 1e-3 * mm[1], 1e-3 * mm[2], 1e-3 * mm[3]};
+    }
+    m->v.walls = (plant_binary_t){out, nbytes, nbytes};
+    return 0;
+}
+
 /* Parses up to max numbers from s into v; returns how many, or -1 on a bad token. */
 static int parse_numbers(char *s, double *v, int max)
 {
@@ -126,14 +165,15 @@ static int parse_numbers(char *s, double *v, int max)
     return n;
 }
 
-/* Loads m->v.world_file (empty = no walls) into m->walls, in the start pose frame, m.
+/* Loads m->v.world_file (empty = no walls) into m->walls, in the start pose frame, m,
+ * and into the walls output (mm).
  * Format: docs/plant.md and config/worlds/README.md. Returns 0 or -1 with err set. */
 static int load_world(plant_model_t *m, char *err, size_t errlen)
 {
     const char *file = m->v.world_file;
     plant_release(m);
     if (file[0] == '\0') {
-        return 0;
+        return place_walls(m, 0.0, 0.0, 0.0, file, err, errlen);
     }
     FILE *f = fopen(file, "r");
     if (!f) {
@@ -218,15 +258,9 @@ static int load_world(plant_model_t *m, char *err, size_t errlen)
         plant_release(m);
         return rc;
     }
-    /* file frame (mm) -> start pose frame (m) */
-    double c = cos(syaw * DEG), s = sin(syaw * DEG);
-    for (size_t i = 0; i < m->n_walls; i++) {
-        plant_wall_t *w = &m->walls[i];
-        double ax = w->ax - sx, ay = w->ay - sy, bx = w->bx - sx, by = w->by - sy;
-        w->ax = 1e-3 * (c * ax + s * ay);
-        w->ay = 1e-3 * (-s * ax + c * ay);
-        w->bx = 1e-3 * (c * bx + s * by);
-        w->by = 1e-3 * (-s * bx + c * by);
+    if (place_walls(m, sx, sy, syaw, file, err, errlen)) {
+        plant_release(m);
+        return -1;
     }
     return 0;
 }
