@@ -1,19 +1,19 @@
-// MicroUsb: the seed's MicroUSB class. Finds the FTDI serial port (or uses a given
-// path), sets it raw and non-blocking, receives micro_data (only the newest whole frame
-// of those waiting is used), and sends exactly one message per frame: the config (all
-// three messages, one per frame) at start-up, after every port reopen and whenever the
-// micro reports unconfigured, until a micro_data after a whole round says configured;
-// else the command (new, or the last one repeated with its time tag). A micro built from another spec is refused: it never gets a command,
-// only a config probe once a second (which carries our spec hash, so such a micro
-// refuses it, while a micro reflashed with our spec takes it and answers). A vanished
-// port is reported and reopened when its path returns.
+// MicroUsb: the seed's MicroUSB class, the host's state of the micro on top of its link
+// (MicroLink: the port, the frames, the counters). It receives micro_data (only the newest
+// whole frame of those waiting is used) and sends exactly one message per frame: the
+// config (all three messages, one per frame) at start-up, after every port reopen and
+// whenever the micro reports unconfigured, until a micro_data after a whole round says
+// configured; else the command (new, or the last one repeated with its time tag). A micro
+// built from another spec is refused: it never gets a command, only a config probe once a
+// second (which carries our spec hash, so such a micro refuses it, while a micro
+// reflashed with our spec takes it and answers).
 #pragma once
 
 #include <cstdint>
 #include <string>
 
 #include "navkit/ini.hpp"
-#include "navkit/slcan.hpp"
+#include "navkit/micro_link.hpp"
 
 extern "C" {
 #include "navkit/navkit_proto.h"
@@ -22,71 +22,6 @@ extern "C" {
 namespace navkit {
 
 class Console;
-
-// Where SerialPort looks for devices: the roots of /dev and /sys (a test points them at
-// a fake tree in a temporary folder).
-struct DeviceRoots {
-    std::string dev = "/dev";
-    std::string sys = "/sys";
-};
-
-// The port: discovery, termios, non-blocking read/write. Pure OS plumbing. An open port
-// is held exclusively, as serial tools hold theirs: an flock(LOCK_EX) on the device
-// (seen by every process that asks for it, root too) and TIOCEXCL (further open()s of
-// the tty fail with EBUSY, except root's), both dropped by close().
-class SerialPort {
-public:
-    explicit SerialPort(DeviceRoots roots = DeviceRoots()) : roots_(std::move(roots)) {}
-    ~SerialPort();
-    // port = "auto" or a path. "" on success, else why not; busy() says whether the
-    // reason was another process holding the port.
-    std::string open(const MicroCfg &cfg);
-    void close();
-    bool busy() const { return busy_; }
-    // Process id holding an flock on the file of fd (st_dev, st_ino, from /proc/locks),
-    // other than ours; 0 when none is listed.
-    static long lock_holder(int fd);
-    bool is_open() const { return fd_ >= 0; }
-    int fd() const { return fd_; }
-    const std::string &path() const { return path_; }
-    // >0 bytes read, 0 nothing waiting, -1 the port is gone (closed by this call).
-    long read_some(uint8_t *buf, size_t cap);
-    // Bytes written (all or nothing on a tty), -1 the port is gone (closed by this call).
-    long write_all(const uint8_t *buf, size_t len);
-    // First FTDI (USB VID 0403) tty: <dev>/serial/by-id, then <sys>/class/tty; "" if none.
-    static std::string find_ftdi(const DeviceRoots &roots);
-    // <sys>/bus/usb-serial/devices/<tty>/latency_timer of tty path `dev`; "" if the
-    // device has none (not FTDI).
-    static std::string latency_timer_path(const std::string &dev, const DeviceRoots &roots);
-    // "115200 baud 8N1": the line settings of cfg.
-    static std::string line_settings(const MicroCfg &cfg);
-    const DeviceRoots &roots() const { return roots_; }
-
-private:
-    DeviceRoots roots_;
-    int fd_ = -1;
-    bool busy_ = false;  // the last open() failed because another process holds the port
-    std::string path_;
-};
-
-// The micro link's error counters, kept apart (summed over port reopens).
-struct LinkCounters {
-    uint64_t bad_crc = 0;          // candidate frames with a wrong CRC
-    uint64_t unknown_type = 0;     // candidates of an unknown (or host-to-micro) type
-    uint64_t bad_length = 0;       // candidates whose length word is not their type's
-    uint64_t decode_failures = 0;  // whole micro_data frames that did not decode or had a
-                                   // field outside the spec's range (dropped)
-    uint64_t schema_mismatch = 0;  // CRC-good micro_data of another spec's length
-    uint64_t dropped_bytes = 0;    // bytes not part of a returned frame
-    uint64_t can_errors = 0;       // link = slcan: CAN frames ISO-TP refused, ISO-TP messages
-                                   // aborted (lost, reordered, restarted, timed out, overflowed),
-                                   // adapter lines that were no frame
-    // Frames rejected for any reason (lisp_data.link_errors): the six frame counters.
-    uint64_t rejected() const
-    {
-        return bad_crc + unknown_type + bad_length + decode_failures + schema_mismatch + can_errors;
-    }
-};
 
 class MicroUsb {
 public:
@@ -121,41 +56,28 @@ public:
     // A stop command carrying these DIO levels (the seed's Navigation Init command).
     static navkit_micro_cmd_t stop_command(uint16_t dio);
 
-    bool port_open() const { return port_.is_open(); }
-    uint32_t tx_bytes_frame() const { return tx_frame_; }
+    bool port_open() const { return link_.is_open(); }
+    uint32_t tx_bytes_frame() const { return link_.tx_bytes_frame(); }
     void begin_frame(int64_t now_us);
     // The counters so far; link_errors() is their rejected() sum (lisp_data.link_errors).
-    LinkCounters counters() const;
+    LinkCounters counters() const { return link_.counters(); }
     uint32_t link_errors() const;
     uint64_t config_downloads() const { return config_sent_; }  // rounds started
-    uint64_t superseded() const { return superseded_; }
-    uint64_t short_reads() const { return short_reads_; }
-    uint64_t tx_errors() const { return tx_errors_; }
+    uint64_t superseded() const { return link_.superseded(); }
+    uint64_t short_reads() const { return link_.short_reads(); }
+    uint64_t tx_errors() const { return link_.tx_errors(); }
     uint16_t last_tag() const { return last_.time_tag; }
     const navkit_micro_cmd_t &last_command() const { return last_; }
 
 private:
-    // starting: a port another process holds is refused (std::runtime_error), not retried.
-    void open_port(bool starting = false);
-    void port_lost(const char *why);
+    // The port (re)opened: whatever the micro on the other end reports, it may hold another
+    // config (a host restarted without a micro reset, another micro plugged in).
+    void port_opened();
     void note_data(const navkit_micro_data_t &d);
     // A micro that runs spec `hash` (not ours): not driven, said once a second.
     void note_foreign_hash(uint32_t hash);
+    // Writes one frame through the link; a frame that went out is no stop unless send() says so.
     void write_frame(const uint8_t *buf, size_t len);
-    // link = slcan (docs/can.md): each frame one ISO-TP message of SLCAN lines. can_take():
-    // the adapter's bytes to ISO-TP (flow controls go out at once), each message reassembled
-    // to take_frame_bytes; can_send(): start a message (skipped, counted in tx_errors, while
-    // the last is still going out); can_pump(): the frames ISO-TP lets go now.
-    bool slcan() const { return cfg_.link == "slcan"; }
-    template <class Take> void can_take(const uint8_t *buf, size_t len, Take take_frame_bytes);
-    void can_send(const uint8_t *buf, size_t len);
-    void can_pump();
-    // Outside the frame loop: read the port until the message going out is sent whole (its
-    // flow control came) or ISO-TP gives it up (no flow control within N_Bs).
-    void can_flush();
-    void can_write(const std::string &line);
-    uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); }  // ISO-TP clock: frame time
-    void reset_parser();
     // Our config is no longer known to be in force: download it again from geometry on.
     void config_again();
     // micro_data.cmd_rejected moved: a refused config message is said, and the config
@@ -167,13 +89,7 @@ private:
 
     const MicroCfg &cfg_;
     Console &con_;
-    SerialPort port_;
-    navkit_parser_t parser_{};
-    Slcan slcan_;                // link = slcan: the adapter's lines
-    navkit_isotp_rx_t can_rx_{}; // link = slcan: micro_data reassembly
-    navkit_isotp_tx_t can_tx_{}; // link = slcan: the message going out
-    bool adapter_pending_ = false;  // link = slcan: the port opened, the adapter not set up yet
-    std::string last_open_error_;
+    MicroLink link_;
     int64_t now_us_ = 0;
     int64_t last_rx_us_ = -1;
     bool have_data_ = false;
@@ -192,19 +108,10 @@ private:
     uint32_t mismatch_hash_ = 0;
     uint16_t cfg_tag_ = 0;
     navkit_micro_cmd_t last_{};  // the command repeated while nothing new comes
-    uint32_t tx_frame_ = 0;
     uint64_t config_sent_ = 0;   // config rounds started (a geometry message sent)
-    uint64_t superseded_ = 0;    // whole micro_data dropped for a newer one
-    uint64_t short_reads_ = 0;   // lockstep ticks whose rx_bytes did not all arrive in 1 s
-    uint64_t tx_errors_ = 0;     // frames written only in part (output buffer full)
-    LinkCounters base_;          // counters of parsers before the last reopen, and decode failures
-    LinkCounters reported_;      // the counters last shown on the console
-    int64_t last_error_report_us_ = -1;
     int64_t last_probe_us_ = -1;     // mismatch: frame time of the last config probe
     int64_t last_mismatch_report_us_ = -1;
-    uint32_t seen_schema_mismatch_ = 0;  // parser_.stats.schema_mismatch already handled
     bool stop_last_ = false;
-    int last_bad_field_ = -1;    // field of the last micro_data outside the spec's range
 };
 
 }  // namespace navkit

@@ -48,7 +48,7 @@ TEST(SerialPort, MissingPathAndNotATty)
     cfg.port = "/dev/null";
     cfg.baud = 12345;
     EXPECT_EQ(p.open(cfg), "baud 12345 is not supported");
-    EXPECT_EQ(SerialPort::latency_timer_path("/dev/null", DeviceRoots()), "") << "not an FTDI device";
+    EXPECT_EQ(latency_timer_path("/dev/null", DeviceRoots()), "") << "not an FTDI device";
 }
 
 TEST(SerialPort, EverySupportedBaudOpensAndLineSettingsAreSaid)
@@ -124,11 +124,11 @@ protected:
 
 TEST_F(FakeDevices, FindsTheFtdiByIdAndSetsItsLatencyTimer)
 {
-    EXPECT_EQ(SerialPort::find_ftdi(roots_), roots_.dev + "/serial/by-id/usb-FTDI_FT232R_USB_UART_A1B2C3-if00-port0")
+    EXPECT_EQ(find_ftdi(roots_), roots_.dev + "/serial/by-id/usb-FTDI_FT232R_USB_UART_A1B2C3-if00-port0")
         << "VID 0403 through the tty's sysfs parent; the VID 1a86 adapter is passed over";
-    EXPECT_EQ(SerialPort::latency_timer_path(pts_, roots_),
+    EXPECT_EQ(latency_timer_path(pts_, roots_),
               roots_.sys + "/bus/usb-serial/devices/" + tty_ + "/latency_timer");
-    EXPECT_EQ(SerialPort::find_ftdi(DeviceRoots{root_ + "/none", root_ + "/none"}), "") << "nothing there";
+    EXPECT_EQ(find_ftdi(DeviceRoots{root_ + "/none", root_ + "/none"}), "") << "nothing there";
 
     std::FILE *out = std::tmpfile();
     Console con(out, -1, 1.0);
@@ -147,5 +147,5 @@ TEST_F(FakeDevices, FallsBackToSysClassTtyWithoutById)
     sh("rm -r " + roots_.dev + "/serial");
     sh("mkdir " + roots_.sys + "/class/tty/ttyUSB7 && ln -s ../../../devices/usb1/1-1/1-1:1.0 " + roots_.sys +
        "/class/tty/ttyUSB7/device");
-    EXPECT_EQ(SerialPort::find_ftdi(roots_), roots_.dev + "/ttyUSB7");
+    EXPECT_EQ(find_ftdi(roots_), roots_.dev + "/ttyUSB7");
 }
