@@ -1,17 +1,43 @@
 #include "navkit/navigation.hpp"
 
+#include <cstddef>
 #include <cstdint>
+#include <string>
 
 namespace navkit {
 
 static const int32_t kForever = 2000000000;  // the seed's "very large distance"
 
-// Whether lisp_cmd value v (raw, the units of both sides) fits micro_cmd field `field`
-// (NAVKIT_MICRO_CMD_FIELD_*): the spec's range of that field (the rule tools/navkit/sim/
-// mission.py holds a mission's commands to, from the same spec).
-static bool fits(int field, int32_t v)
+std::string Conversion::text() const
 {
-    return navkit_micro_cmd_in_range(field, v) != 0;
+    // "<lisp_cmd field> <code> (<name>)" for the enums the conversion branches on
+    auto code = [](int field, int64_t v) {
+        const char *name = field == NAVKIT_LISP_CMD_FIELD_FWD_CMD     ? navkit_fwd_cmd_name(v)
+                           : field == NAVKIT_LISP_CMD_FIELD_TURN_MODE ? navkit_turn_mode_name(v)
+                                                                      : nullptr;
+        std::string s = std::string(navkit_lisp_cmd_field_name(field)) + " " + std::to_string(v);
+        return name ? s + " (" + name + ")" : s;
+    };
+    const std::string v = std::to_string(value);
+    switch (refusal) {
+    case Refusal::none:
+        return "";
+    case Refusal::code:
+        return v + " is no " + navkit_lisp_cmd_field_name(lisp_field) + " code the host converts";
+    case Refusal::range:
+        return v + " is outside " + std::to_string(navkit_micro_cmd_field_min(micro_field)) + ".." +
+               std::to_string(navkit_micro_cmd_field_max(micro_field)) + " (" + navkit_micro_cmd_field_units(micro_field) +
+               "), the range of micro_cmd." + navkit_micro_cmd_field_name(micro_field) + " it is copied to for " +
+               code(cause_field, cause);
+    case Refusal::heading_range:
+        return v + " is outside 0.." + std::to_string(Navigation::kFullTurn) + " (" +
+               navkit_lisp_cmd_field_units(lisp_field) + "), the headings of " + code(cause_field, cause);
+    case Refusal::heading_missing:
+        return "heading hold (turn mode " + std::to_string(cause) +
+               ") needs the micro's current heading, and no fresh micro_data has come (micro offline): send it "
+               "again later";
+    }
+    return "";
 }
 
 navkit_micro_cmd_t Navigation::neutral(uint16_t dio)
@@ -22,37 +48,105 @@ navkit_micro_cmd_t Navigation::neutral(uint16_t dio)
     return m;
 }
 
-int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> heading, uint16_t dio,
-                        navkit_micro_cmd_t *out)
+namespace {
+
+// A rejection of lisp_cmd field `lisp` (value v) for reason `why`, caused by lisp_cmd
+// field `cause_field` holding `cause`; micro: the micro_cmd field of a range refusal.
+Conversion refuse(Refusal why, int lisp, int64_t v, int cause_field, int64_t cause, int micro = -1)
+{
+    Conversion c;
+    c.nav_result = NAVKIT_NAV_RESULT_REJECTED;
+    c.refusal = why;
+    c.lisp_field = lisp;
+    c.value = v;
+    c.micro_field = micro;
+    c.cause_field = cause_field;
+    c.cause = cause;
+    return c;
+}
+
+// The first of lisp_cmd fields lisp[i] (values v[i]) that does not fit the spec range of
+// micro_cmd field micro[i], as a range refusal caused by cause_field = cause; none: nav ok.
+template <size_t N>
+Conversion fit(const int (&lisp)[N], const int32_t (&v)[N], const int (&micro)[N], int cause_field, int64_t cause)
+{
+    for (size_t i = 0; i < N; i++) {
+        if (!navkit_micro_cmd_in_range(micro[i], v[i])) {
+            return refuse(Refusal::range, lisp[i], v[i], cause_field, cause, micro[i]);
+        }
+    }
+    return Conversion{};
+}
+
+// micro_cmd's servo slots: [n][k] = NAVKIT_MICRO_CMD_FIELD_* of rc<n>_param<k>, n up to
+// the spec's last servo (the first n without an rc<n>_param0 field ends them); the spec
+// names the slots, so a servo number is one of the micro's when its slot exists.
+struct ServoSlots {
+    int field[NAVKIT_MICRO_CMD_FIELD_COUNT / 3 + 1][3];  // at most every field a slot
+    int count = 0;
+    ServoSlots()
+    {
+        for (; count < NAVKIT_MICRO_CMD_FIELD_COUNT / 3 + 1; count++) {
+            for (int k = 0; k < 3; k++) {
+                const std::string name = "rc" + std::to_string(count) + "_param" + std::to_string(k);
+                field[count][k] = navkit_micro_cmd_field_index(name.c_str());
+            }
+            if (field[count][0] < 0) {
+                break;
+            }
+        }
+    }
+};
+
+const ServoSlots &servo_slots()
+{
+    static const ServoSlots slots;
+    return slots;
+}
+
+}  // namespace
+
+Conversion Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> heading, uint16_t dio,
+                               navkit_micro_cmd_t *out)
 {
     navkit_micro_cmd_t m = neutral(dio);
-    int result = NAVKIT_NAV_RESULT_OK;
+    Conversion result;
     switch (in.fwd_cmd) {
     case NAVKIT_FWD_CMD_NONE:
         break;
     case NAVKIT_FWD_CMD_START:
     case NAVKIT_FWD_CMD_MODIFY:
-    case NAVKIT_FWD_CMD_STOP:
-        if (!fits(NAVKIT_MICRO_CMD_FIELD_ACCEL, in.accel) || !fits(NAVKIT_MICRO_CMD_FIELD_SPEED, in.speed)) {
-            return NAVKIT_NAV_RESULT_REJECTED;
+    case NAVKIT_FWD_CMD_STOP: {
+        // raw values copied unscaled (the same units on both sides) into narrower words
+        const Conversion c = fit({NAVKIT_LISP_CMD_FIELD_ACCEL, NAVKIT_LISP_CMD_FIELD_SPEED}, {in.accel, in.speed},
+                                 {NAVKIT_MICRO_CMD_FIELD_ACCEL, NAVKIT_MICRO_CMD_FIELD_SPEED},
+                                 NAVKIT_LISP_CMD_FIELD_FWD_CMD, in.fwd_cmd);
+        if (c.refusal != Refusal::none) {
+            return c;
         }
         m.fwd_cmd = static_cast<uint16_t>(in.fwd_cmd);
         m.accel = static_cast<int16_t>(in.accel);
         m.speed = static_cast<int16_t>(in.speed);
         m.distance = in.distance;
         break;
+    }
     case NAVKIT_FWD_CMD_CONTEST_HALLWAY:
     case NAVKIT_FWD_CMD_CONTEST_START_CIRCLE:
     case NAVKIT_FWD_CMD_EXPLORE:
-        result = NAVKIT_NAV_RESULT_NOT_IMPLEMENTED;  // high level: no forward motion
+        result.nav_result = NAVKIT_NAV_RESULT_NOT_IMPLEMENTED;  // high level: no forward motion
         break;
     default:
-        return NAVKIT_NAV_RESULT_REJECTED;
+        return refuse(Refusal::code, NAVKIT_LISP_CMD_FIELD_FWD_CMD, in.fwd_cmd, -1, 0);
     }
 
-    if (in.turn_mode != NAVKIT_TURN_MODE_NONE && (!fits(NAVKIT_MICRO_CMD_FIELD_TURN_ACCEL, in.turn_accel) ||
-                                                  !fits(NAVKIT_MICRO_CMD_FIELD_TURN_RATE, in.turn_rate))) {
-        return NAVKIT_NAV_RESULT_REJECTED;
+    const int turn = NAVKIT_LISP_CMD_FIELD_TURN_MODE;
+    if (in.turn_mode != NAVKIT_TURN_MODE_NONE) {
+        const Conversion c =
+            fit({NAVKIT_LISP_CMD_FIELD_TURN_ACCEL, NAVKIT_LISP_CMD_FIELD_TURN_RATE}, {in.turn_accel, in.turn_rate},
+                {NAVKIT_MICRO_CMD_FIELD_TURN_ACCEL, NAVKIT_MICRO_CMD_FIELD_TURN_RATE}, turn, in.turn_mode);
+        if (c.refusal != Refusal::none) {
+            return c;
+        }
     }
     switch (in.turn_mode) {
     case NAVKIT_TURN_MODE_NONE:
@@ -61,29 +155,30 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> hea
     case NAVKIT_TURN_MODE_MODIFY:
     case NAVKIT_TURN_MODE_STOP:
         m.turn_cmd = static_cast<uint16_t>(in.turn_mode);
-        m.turn_distance = in.turn_distance;
+        m.turn_distance = in.turn_distance;  // int32 to int32: any angle fits
         break;
     case NAVKIT_TURN_MODE_HEADING_SELECT:
-        // 0..3600 deg x 10 on both sides (docs/protocol.md seed slips): passed through
-        if (in.turn_distance < 0 || in.turn_distance > 3600) {
-            return NAVKIT_NAV_RESULT_REJECTED;
+        // 0..kFullTurn deg x 10 on both sides (docs/protocol.md seed slips): passed through
+        if (in.turn_distance < 0 || in.turn_distance > kFullTurn) {
+            return refuse(Refusal::heading_range, NAVKIT_LISP_CMD_FIELD_TURN_DISTANCE, in.turn_distance, turn,
+                          in.turn_mode);
         }
         m.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
         m.turn_distance = in.turn_distance;
         break;
     case NAVKIT_TURN_MODE_HEADING_HOLD: {
-        // HdgSel to the heading at arrival plus word 9, wrapped to 0..3599; no heading
-        // known (no fresh micro_data): rejected, never a hold of heading 0
+        // HdgSel to the heading at arrival plus word 9, wrapped to 0..kFullTurn-1; no
+        // heading known (no fresh micro_data): rejected, never a hold of heading 0
         if (!heading) {
-            return NAVKIT_NAV_RESULT_REJECTED;
+            return refuse(Refusal::heading_missing, turn, in.turn_mode, turn, in.turn_mode);
         }
-        const int64_t h = (static_cast<int64_t>(*heading) + in.turn_distance) % 3600;
+        const int64_t h = (static_cast<int64_t>(*heading) + in.turn_distance) % kFullTurn;
         m.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
-        m.turn_distance = static_cast<int32_t>(h < 0 ? h + 3600 : h);
+        m.turn_distance = static_cast<int32_t>(h < 0 ? h + kFullTurn : h);
         break;
     }
     default:
-        return NAVKIT_NAV_RESULT_REJECTED;
+        return refuse(Refusal::code, turn, in.turn_mode, -1, 0);
     }
     if (m.turn_cmd != NAVKIT_TURN_CMD_NONE) {
         m.turn_accel = static_cast<int16_t>(in.turn_accel);
@@ -102,31 +197,21 @@ int Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> hea
     m.excite_f1 = static_cast<uint16_t>(in.excite_f1);
     m.excite_seed = static_cast<uint16_t>(in.excite_seed);
 
-    // RC servo: slot rc_servo_num 0..7 when param0 (rate) is not 0; else no effect
-    if (in.rc_servo_num >= 0 && in.rc_servo_num <= 7 && in.rc_param0 != 0) {
-        static const int fields[8][3] = {
-            {NAVKIT_MICRO_CMD_FIELD_RC0_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC0_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC0_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC1_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC1_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC1_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC2_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC2_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC2_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC3_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC3_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC3_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC4_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC4_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC4_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC5_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC5_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC5_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC6_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC6_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC6_PARAM2},
-            {NAVKIT_MICRO_CMD_FIELD_RC7_PARAM0, NAVKIT_MICRO_CMD_FIELD_RC7_PARAM1, NAVKIT_MICRO_CMD_FIELD_RC7_PARAM2},
-        };
-        const int *f = fields[in.rc_servo_num];  // micro_cmd rcN_param0..2
-        if (!fits(f[0], in.rc_param0) || !fits(f[1], in.rc_param1) || !fits(f[2], in.rc_param2)) {
-            return NAVKIT_NAV_RESULT_REJECTED;
+    // RC servo: rc_servo_num one of micro_cmd's slots and param0 (rate) not 0: params
+    // 0..2 to rc<N>_param0..2; else no effect
+    const ServoSlots &slots = servo_slots();
+    if (in.rc_servo_num >= 0 && in.rc_servo_num < slots.count && in.rc_param0 != 0) {
+        const int(&f)[3] = slots.field[in.rc_servo_num];
+        const Conversion c = fit({NAVKIT_LISP_CMD_FIELD_RC_PARAM0, NAVKIT_LISP_CMD_FIELD_RC_PARAM1,
+                                  NAVKIT_LISP_CMD_FIELD_RC_PARAM2},
+                                 {in.rc_param0, in.rc_param1, in.rc_param2}, {f[0], f[1], f[2]},
+                                 NAVKIT_LISP_CMD_FIELD_RC_SERVO_NUM, in.rc_servo_num);
+        if (c.refusal != Refusal::none) {
+            return c;
         }
-        int16_t *slots[8][3] = {
-            {&m.rc0_param0, &m.rc0_param1, &m.rc0_param2}, {&m.rc1_param0, &m.rc1_param1, &m.rc1_param2},
-            {&m.rc2_param0, &m.rc2_param1, &m.rc2_param2}, {&m.rc3_param0, &m.rc3_param1, &m.rc3_param2},
-            {&m.rc4_param0, &m.rc4_param1, &m.rc4_param2}, {&m.rc5_param0, &m.rc5_param1, &m.rc5_param2},
-            {&m.rc6_param0, &m.rc6_param1, &m.rc6_param2}, {&m.rc7_param0, &m.rc7_param1, &m.rc7_param2},
-        };
-        *slots[in.rc_servo_num][0] = static_cast<int16_t>(in.rc_param0);
-        *slots[in.rc_servo_num][1] = static_cast<int16_t>(in.rc_param1);
-        *slots[in.rc_servo_num][2] = static_cast<int16_t>(in.rc_param2);
+        navkit_micro_cmd_set(&m, f[0], 0, in.rc_param0);
+        navkit_micro_cmd_set(&m, f[1], 0, in.rc_param1);
+        navkit_micro_cmd_set(&m, f[2], 0, in.rc_param2);
     }
     *out = m;
     return result;
@@ -163,7 +248,7 @@ Navigation::Navigation(const ConsoleCfg &console) : console_(console) {}
 
 void Navigation::init()
 {
-    result_ = NAVKIT_NAV_RESULT_OK;
+    result_ = Conversion{};
     ack_ = 0;
     dio_ = 0;
     mc_datalog_ = 0;
@@ -173,10 +258,12 @@ NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> headi
 {
     NavOutput o;
     if (a.timeout_started) {
-        result_ = NAVKIT_NAV_RESULT_PLANNER_TIMEOUT;
+        result_ = Conversion{};
+        result_.nav_result = NAVKIT_NAV_RESULT_PLANNER_TIMEOUT;
     }
     if (a.planner_rejected || a.planner_dropped) {  // judged like any new command: acknowledged
-        result_ = NAVKIT_NAV_RESULT_REJECTED;
+        result_ = Conversion{};
+        result_.nav_result = NAVKIT_NAV_RESULT_REJECTED;
         ack_ = a.rejected_time_tag;
     }
     if (a.stop) {
@@ -186,8 +273,7 @@ NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> headi
         ack_ = a.planner.time_tag;
         navkit_micro_cmd_t m;
         result_ = convert(a.planner, heading, a.dio, &m);
-        heading_missing_ = a.planner.turn_mode == NAVKIT_TURN_MODE_HEADING_HOLD && !heading;
-        if (result_ != NAVKIT_NAV_RESULT_REJECTED) {
+        if (result_.nav_result != NAVKIT_NAV_RESULT_REJECTED) {
             o.is_new = true;
             o.cmd = m;
         }

@@ -16,6 +16,7 @@ Every generated file names its spec and carries the spec hash.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from navkit.spec import TYPES, Message, Spec, load
@@ -103,7 +104,9 @@ def emit_c_header(spec: Spec) -> str:
         if e.kind == "enum":
             out.append(f"enum navkit_{e.name} {{")
             out += [f"    NAVKIT_{up}_{k.upper()} = {v}," for k, v in e.values.items()]
-            out.append("};\n")
+            out.append("};")
+            out.append(f"/* Spec name of {e.name} code `code` (the first of that value), or \"?\". */")
+            out.append(f"const char *navkit_{e.name}_name(int64_t code);\n")
         else:
             for k, v in e.values.items():
                 one = "1u" if v < 16 else "1UL"
@@ -160,6 +163,23 @@ def emit_c_header(spec: Spec) -> str:
         out.append(f"int navkit_{m.name}_in_range(int index, int64_t v);")
         out.append(f"/* Spec name of field `index`, or \"?\". */")
         out.append(f"const char *navkit_{m.name}_field_name(int index);")
+        out.append(f"/* NAVKIT_{up}_FIELD_<NAME> of the field named `name`, or -1. */")
+        out.append(f"int navkit_{m.name}_field_index(const char *name);")
+        out.append(f"/* The spec range min..max of field `index` (raw), 0 for an unknown index. */")
+        out.append(f"int64_t navkit_{m.name}_field_min(int index);")
+        out.append(f"int64_t navkit_{m.name}_field_max(int index);")
+        out.append(f"/* Units of field `index`'s raw value as docs/protocol.md writes them (\"mm/s\",\n"
+                   f" * \"deg x 0.1\": units times scale), or \"?\". */")
+        out.append(f"const char *navkit_{m.name}_field_units(int index);")
+        out.append(f"/* Elements of field `index` (1 for a scalar, the count of an array), 0 for an unknown index. */")
+        out.append(f"int navkit_{m.name}_field_elements(int index);")
+        out.append(f"/* Raw value of element `element` of field `index` (element 0 of a scalar), widened;\n"
+                   f" * 0 for an unknown index or element. */")
+        out.append(f"int64_t navkit_{m.name}_get(const navkit_{m.name}_t *m, int index, int element);")
+        out.append(f"/* Store raw value v in element `element` of field `index`, narrowed to the field's C type\n"
+                   f" * as a cast narrows (test navkit_{m.name}_in_range first): 1, or 0 for an unknown index\n"
+                   f" * or element (nothing stored). */")
+        out.append(f"int navkit_{m.name}_set(navkit_{m.name}_t *m, int index, int element, int64_t v);")
         if m.framed:
             out.append(f"/* Write the whole frame (start, length, msg_type forced, CRC) into buf; returns\n"
                        f" * NAVKIT_{up}_BYTES, or 0 if cap is smaller. No range check (any value of the\n"
@@ -302,6 +322,39 @@ def _c_constraints(m: Message) -> list[str]:
     return out
 
 
+def _c_field_access(m: Message) -> list[str]:
+    """navkit_<m>_field_index/_min/_max/_units/_elements, navkit_<m>_get/_set (see the
+    header): fields by index, for tables and tools that name fields at run time."""
+    t, n = f"navkit_{m.name}_t", len(m.fields)
+    out = [f"int navkit_{m.name}_field_index(const char *name)\n{{\n    int i;",
+           f"    for (i = 0; i < {n}; i++) {{\n        if (strcmp(navkit_{m.name}_field_name(i), name) == 0) {{\n"
+           f"            return i;\n        }}\n    }}\n    return -1;\n}}\n"]
+    for what, value in (("min", lambda f: f"{f.min}LL"), ("max", lambda f: f"{f.max}LL")):
+        out.append(f"int64_t navkit_{m.name}_field_{what}(int index)\n{{\n    switch (index) {{")
+        out += [f"    case {i}:\n        return {value(f)};" for i, f in enumerate(m.fields)]
+        out.append("    default:\n        return 0;\n    }\n}\n")
+    units = ", ".join(json.dumps(f.raw_units) for f in m.fields)
+    out.append(f"const char *navkit_{m.name}_field_units(int index)\n{{")
+    out.append(f"    static const char *const units[] = {{{units}}};")
+    out.append(f"    return (index >= 0 && index < {n}) ? units[index] : \"?\";\n}}\n")
+    out.append(f"int navkit_{m.name}_field_elements(int index)\n{{\n    switch (index) {{")
+    out += [f"    case {i}:\n        return {f.count};" for i, f in enumerate(m.fields)]
+    out.append("    default:\n        return 0;\n    }\n}\n")
+    out.append(f"int64_t navkit_{m.name}_get(const {t} *m, int index, int element)\n{{\n    switch (index) {{")
+    for i, f in enumerate(m.fields):
+        at = f"m->{f.name}[element]" if f.count > 1 else f"m->{f.name}"
+        out.append(f"    case {i}:\n        return (element >= 0 && element < {f.count}) ? (int64_t){at} : 0;")
+    out.append("    default:\n        return 0;\n    }\n}\n")
+    out.append(f"int navkit_{m.name}_set({t} *m, int index, int element, int64_t v)\n{{")
+    out.append(f"    if (element < 0 || element >= navkit_{m.name}_field_elements(index)) {{\n        return 0;\n    }}")
+    out.append("    switch (index) {")
+    for i, f in enumerate(m.fields):
+        at = f"m->{f.name}[element]" if f.count > 1 else f"m->{f.name}"
+        out.append(f"    case {i}:\n        {at} = ({_ctype(f.type)})v;\n        break;")
+    out.append("    default:\n        return 0;\n    }\n    return 1;\n}\n")
+    return out
+
+
 def _c_message(spec: Spec, m: Message) -> list[str]:
     up, out = m.name.upper(), []
     t = f"navkit_{m.name}_t"
@@ -371,6 +424,7 @@ def _c_message(spec: Spec, m: Message) -> list[str]:
     out.append(f"const char *navkit_{m.name}_field_name(int index)\n{{")
     out.append(f"    static const char *const names[] = {{{names}}};")
     out.append(f"    return (index >= 0 && index < {len(m.fields)}) ? names[index] : \"?\";\n}}\n")
+    out += _c_field_access(m)
     if m.framed:
         out.append(f"size_t navkit_{m.name}_encode(const {t} *m, uint8_t *buf, size_t cap)\n{{")
         out.append(f"    if (cap < NAVKIT_{up}_BYTES) {{\n        return 0;\n    }}")
@@ -432,6 +486,11 @@ def emit_c_source(spec: Spec) -> str:
             d = "NAVKIT_DIR_TO_MICRO" if m.direction == "host_to_micro" else "NAVKIT_DIR_TO_HOST"
             out.append(f"    case NAVKIT_MSG_TYPE_{m.name.upper()}:\n        return dir == {d};")
     out.append("    default:\n        return 0;\n    }\n}\n")
+    for e in spec.enums.values():
+        if e.kind == "enum":
+            out.append(f"const char *navkit_{e.name}_name(int64_t code)\n{{")
+            out += [f"    if (code == {v}) {{\n        return \"{k}\";\n    }}" for k, v in e.values.items()]
+            out.append("    return \"?\";\n}\n")
     for m in spec.messages.values():
         out += _c_message(spec, m)
     if spec.can is not None:
