@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "navkit/ini_file.hpp"
+#include "navkit/json.hpp"
 #include "navkit/options.hpp"
 #include "navkit/slcan.hpp"
 
@@ -56,26 +57,6 @@ std::string json_number(double x)
         }
     }
     return buf;
-}
-
-// JSON of a string: quoted, with '"', '\\' and control characters escaped (other bytes as they are).
-std::string json_string(const std::string &v)
-{
-    std::string out = "\"";
-    for (const char ch : v) {
-        const unsigned char u = static_cast<unsigned char>(ch);
-        if (ch == '"' || ch == '\\') {
-            out += '\\';
-            out += ch;
-        } else if (u < 0x20) {
-            char esc[8];
-            std::snprintf(esc, sizeof esc, "\\u%04x", u);
-            out += esc;
-        } else {
-            out += ch;
-        }
-    }
-    return out + "\"";
 }
 
 // The getter of an integer field *p.

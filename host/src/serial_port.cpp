@@ -48,9 +48,12 @@ std::string SerialPort::line_settings(const MicroCfg &cfg)
 std::string SerialPort::open(const MicroCfg &cfg)
 {
     close();
-    const std::string path = cfg.port == "auto" ? find_ftdi(roots_) : cfg.port;
-    if (path.empty()) {
-        return "no FTDI (USB VID 0403) serial port found";
+    std::string path = cfg.port;
+    if (cfg.port == "auto") {
+        const std::string why = find_port(cfg.link, roots_, &path);
+        if (!why.empty()) {
+            return why;
+        }
     }
     const speed_t speed = baud_constant(cfg.baud);
     if (!speed) {

@@ -1,5 +1,5 @@
 // SerialPort: the micro link's tty. Opens the port [micro] port names (or, with "auto", the
-// one port discovery finds, port_discovery.hpp), sets it raw and non-blocking with the
+// one port of the [micro] link's kind that port discovery finds, port_discovery.hpp), sets it raw and non-blocking with the
 // line settings of [micro], and reads and writes without waiting. Pure OS plumbing: no
 // framing, no console. An open port is held exclusively, as serial tools hold theirs: an
 // flock(LOCK_EX) on the device (seen by every process that asks for it, root too) and
@@ -20,8 +20,8 @@ class SerialPort {
 public:
     explicit SerialPort(DeviceRoots roots = DeviceRoots()) : roots_(std::move(roots)) {}
     ~SerialPort();
-    // port = "auto" or a path. "" on success, else why not; busy() says whether the
-    // reason was another process holding the port.
+    // cfg.port = "auto" (the one port of cfg.link's kind) or a path. "" on success, else why
+    // not; busy() says whether the reason was another process holding the port.
     std::string open(const MicroCfg &cfg);
     void close();
     bool busy() const { return busy_; }
