@@ -18,14 +18,15 @@ OUTPUTS_OF_FIRMWARE = ["motor_left_duty", "motor_right_duty", "dio_out", "dio_di
 @pytest.fixture
 def coupled(tmp_path: Path):
     from navkit.sim.coupler import Coupler, library_path
-    from navkit.sim.harness import _Fmus, fmu_paths
+    from navkit.sim.fmus import FmuPair
+    from navkit.sim.harness import fmu_paths
     from navkit.sim.mission import loads
 
     b = build_dir()
     fw, plant = fmu_paths(b)
     if not (fw.exists() and plant.exists() and library_path(b).exists()):
         pytest.skip("FMUs or the coupler not built")
-    fmus = _Fmus(fw, plant, tmp_path, {"seed": 3}, loads("duration_s = 1.0", tmp_path / "m.toml"))
+    fmus = FmuPair(fw, plant, tmp_path, {"seed": 3}, loads("duration_s = 1.0", tmp_path / "m.toml"))
     c = Coupler(fmus.fw, fmus.fw_md, fmus.plant, fmus.plant_md, record_every=20, build=b)
     yield fmus, c
     c.close()

@@ -214,10 +214,10 @@ def test_a_long_run_shows_how_far_it_is(tmp_path):
     the end."""
     import re
 
-    from navkit.sim.harness import _Progress
+    from navkit.sim.progress import Progress
 
     with open(tmp_path / "err", "w") as f:
-        p = _Progress(100.0, f, every_s=0.0)
+        p = Progress(100.0, f, every_s=0.0)
         time.sleep(0.01)
         p.at(25.0)
     assert re.fullmatch(r"navkit sim: 25 of 100 s simulated \(25 %\), \d+x real time, ~\d+ s left; "
@@ -225,7 +225,7 @@ def test_a_long_run_shows_how_far_it_is(tmp_path):
     master, slave = os.openpty()
     try:
         with open(slave, "w", closefd=False) as term:
-            p = _Progress(100.0, term)
+            p = Progress(100.0, term)
             p.at(1.0)                     # the first second: nothing yet
             time.sleep(1.05)
             p.at(50.0)

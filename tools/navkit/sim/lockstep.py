@@ -1,0 +1,124 @@
+"""The lockstep loop (the default mode): the co-simulation drives the host frame by frame.
+
+Per host frame k at simulated time t = k * frame_s:
+
+1. faults whose time is up end; mission events due at t act (navkit.sim.faults);
+2. planner heartbeat; tick k to the host carrying the micro's bytes written since the
+   last tick; wait for done; read exactly its tx_bytes from the pty;
+3. the FMUs advance one frame (frame_s / STEP_S steps) in native code in two calls, with
+   the host's bytes arriving at the firmware with the first step; after each call the
+   firmware's bytes go to the pty;
+4. everything decoded goes to the log (run.mcap) with log time = simulated time.
+
+If the host exits or is killed, the FMUs keep stepping frame by frame without it. Wall
+time per part (s) is added to `rig.times`: "fmus", "pty", "host" and "harness" (the rest
+of the loop)."""
+
+from __future__ import annotations
+
+import array
+import gc
+import time
+
+from navkit.sim.faults import n_frames, timeline
+from navkit.sim.options import STEP_S
+from navkit.sim.progress import Progress
+
+__all__ = ["run_lockstep"]
+
+
+def run_lockstep(rig, faults) -> None:
+    """Run the mission of `rig` (a started navkit.sim.rig.SimRig) in lockstep, acting out
+    its events through `faults` (navkit.sim.faults.Faults); sets rig.frames, rig.t_ns,
+    rig.sim_time_s (s) and rig.times."""
+    pc = time.perf_counter
+    events = timeline(rig.m)
+    ei, n_ev = 0, len(events)
+    frames_in_run = n_frames(rig.m, rig.frame_s)
+    frame_ns = rig.steps_per_frame * 1_000_000
+    rig.rx_count = 0
+    log, coupler, port = rig.log, rig.coupler, rig.port
+    spf = rig.steps_per_frame
+    split = min(spf, max(1, round(0.040 / STEP_S)))
+    times = rig.times
+    row = coupler.sample()
+    log.truth(array.array("d", row).tobytes())
+    # between a frame's done and the next tick the host does not run: one copy
+    client = rig.planner.client
+    lisp_raw = (lambda: None) if client is None else client.read_data_raw_still
+    # The objects made so far (modules, FMU descriptions) never become garbage: keep
+    # the collector from walking them again at every full collection of the loop.
+    gc.freeze()
+    gone = False            # the /host/frame saying the host is gone is written
+    progress = rig.progress = Progress(rig.m.duration_s) if rig.opts.progress else None
+    can_back = b""          # --link can: the adapter's answers and frames due for the host
+    loop0 = pc()
+    for k in range(frames_in_run):
+        t_ns = k * frame_ns
+        rig.t_ns = t_ns        # where an interrupted run stopped
+        if faults.unplug_until is not None or faults.noise is not None or \
+                faults.silent_until is not None:
+            faults.expire(t_ns)
+        while ei < n_ev and events[ei][0] * 1e9 <= t_ns + 1:
+            faults.apply(t_ns, events[ei][2], events[ei][3])
+            ei += 1
+        host_bytes = b""
+        if rig.host_state == "running":
+            if faults.silent_until is None:
+                rig.planner.beat()
+            t1 = pc()
+            done = rig.lock.frame(k, t_ns // 1000, rig.rx_count)
+            t2 = pc()
+            times["host"] += t2 - t1
+            if done is None:
+                rig.host_state = "exited"
+                rig.proc.wait()
+                log.event(t_ns, "host_exited", {"status": rig.proc.returncode})
+                log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, "exited")
+                gone = True
+            else:
+                tx_bytes, flags = done
+                host_bytes = port.read_exact(tx_bytes)
+                times["pty"] += pc() - t2
+                logged = host_bytes
+                if rig.gateway is not None:  # SLCAN lines in; the micro's frames, back
+                    back, host_bytes = rig.gateway.from_host(host_bytes, t_ns / 1e9)
+                    can_back += back
+                    logged = rig.gateway.h2m_serial if rig.gateway.firmware_can else host_bytes
+                log.frame(k, t_ns, rig.rx_count, tx_bytes, flags, logged,
+                          lisp_raw(), "running" if faults.unplug_until is None else "unplugged")
+                if flags & 1:
+                    rig.host_state = "exited"
+            rig.frames += 1
+        elif not gone:             # the first frame without the host
+            log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, rig.host_state)
+            gone = True
+        host_bytes = faults.to_micro(host_bytes)
+        # The frame's FMU chunk runs in two calls: the micro answers within the first
+        # tens of ms, so its bytes go to the pty while the rest of the chunk computes
+        # and the kernel moves them meanwhile. All are written before the next tick
+        # either way, so the split changes nothing the host sees; /micro/data is
+        # stamped with the end of the call that completed each frame. Each call's truth
+        # rows are logged before its micro bytes (log-time order), so the log can close
+        # a chunk between the rows of a frame longer than a chunk's 1 s span.
+        t1 = pc()
+        tx, rows = coupler.run_raw(split, host_bytes)
+        times["fmus"] += pc() - t1
+        log.truth(rows)
+        out = faults.can_out(can_back, tx, t_ns + split * 1_000_000)
+        log.micro(t_ns + split * 1_000_000, out[-1])
+        rig.rx_count = faults.to_host(*out)
+        can_back = b""
+        if split < spf:
+            t1 = pc()
+            tx2, rows2 = coupler.run_raw(spf - split)
+            times["fmus"] += pc() - t1
+            log.truth(rows2)
+            out = faults.can_out(b"", tx2, t_ns + frame_ns)
+            log.micro(t_ns + frame_ns, out[-1])
+            rig.rx_count += faults.to_host(*out)
+        log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
+        if progress is not None and k & 63 == 0:
+            progress.at(t_ns / 1e9)
+    rig.sim_time_s = frames_in_run * rig.frame_s
+    times["harness"] = pc() - loop0 - times["fmus"] - times["pty"] - times["host"]

@@ -1,0 +1,65 @@
+"""The mission's planner: a scripted client of the host's rcomm region (navkit.rcomm)
+that writes the mission's [[command]]s as whole lisp_cmds, bumps the heartbeat and reads
+lisp_data."""
+
+from __future__ import annotations
+
+import time
+
+from navkit.sim.mission import COMMAND_FIELDS
+
+__all__ = ["ScriptedPlanner"]
+
+
+class ScriptedPlanner:
+    """The mission's planner on rcomm through the planner client navkit.rcomm: writes
+    whole lisp_cmds, bumps the heartbeat, reads lisp_data."""
+
+    def __init__(self, shm_name: str):
+        self.shm_name = shm_name
+        self.client = None
+        self.time_tag = 0
+
+    def _open(self):
+        """A client of the region (navkit.rcomm.RcommError, a ConnectionError, if absent)."""
+        from navkit import rcomm
+
+        return rcomm.Client(self.shm_name)
+
+    def attach(self, timeout_s: float, alive=lambda: True) -> bool:
+        """Open the host's region, waiting up to `timeout_s` (s) for it to appear while
+        `alive()` says the host still runs."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                self.client = self._open()
+                return True
+            except ConnectionError:          # navkit.rcomm.RcommError: not there (yet)
+                if time.monotonic() >= deadline or not alive():
+                    return False
+                time.sleep(0.005)
+
+    def command(self, fields: dict, t_ms: int) -> dict:
+        """Write a whole lisp_cmd (unset fields 0) with a new time tag; returns it."""
+        self.time_tag = max(self.time_tag + 1, t_ms)
+        msg = dict.fromkeys(COMMAND_FIELDS, 0)
+        msg.update(fields, time_tag=self.time_tag, msg_type=0)
+        if self.client is not None:
+            self.client.write_cmd(msg)
+        return msg
+
+    def beat(self) -> None:
+        """Bump the planner's heartbeat (nothing before the region is attached)."""
+        if self.client is not None:
+            self.client.heartbeat()
+
+    def read(self) -> dict | None:
+        """The host's last lisp_data (fields by name), None before the region is attached."""
+        return self.client.read_data() if self.client is not None else None
+
+    def close(self) -> None:
+        """Detach from the region (the host removes it)."""
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
