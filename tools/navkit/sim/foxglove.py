@@ -18,26 +18,34 @@ Topics (each schema's title is the Foxglove schema name, its descriptions give t
   poses (when full, every other pose is dropped and both steps double, so the path stays
   evenly spaced), published each simulated second in which it grew;
 - /foxglove/log (foxglove.Log): the mission's events (keys, faults, host exit) and the
-  planner's commands, at their simulated times.
-
-The host's console (host.log) is not among them: its text names wall-clock and temporary
-things (the datalog's date, the pty's folder, the rcomm name), and the run log is a
-function of (mission, config, seed) only.
+  planner's commands, at their simulated times (name `navkit-sim`), and the host's console
+  (host.log) line by line at the simulated time of the frame it appeared in (name
+  `navkit-host`, file `host.log` and the line's number; navkit.sim.host_console gives the
+  levels and puts placeholders for the run's temporary names);
+- /foxglove/scene (foxglove.SceneUpdate): the world's walls, once at t = 0, from the plant
+  FMU's `walls` output (the world file as the plant parsed it): entity `walls` in frame
+  `world`, a box per wall standing on the floor, WALL_THICKNESS_M thick and WALL_HEIGHT_M
+  high.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import struct
 
 __all__ = ["SCHEMAS", "TOPICS", "TRUTH_PERIOD_NS", "PATH_STEP_M", "PATH_TURN_RAD",
-           "PATH_MAX", "FoxgloveWriter"]
+           "PATH_MAX", "WALL_BYTES", "WALL_HEIGHT_M", "WALL_THICKNESS_M", "FoxgloveWriter"]
 
 TRUTH_PERIOD_NS = 100_000_000    # truth poses and transforms: 10 Hz of simulated time, ns
 PATH_PERIOD_NS = 1_000_000_000   # /foxglove/path at most once per simulated second, ns
 PATH_STEP_M = 0.05               # a path pose per 50 mm moved, m
 PATH_TURN_RAD = math.radians(10.0)   # ... or per 10 deg turned, rad
 PATH_MAX = 128                   # poses in one /foxglove/path message at most
+WALL_BYTES = 32                  # a wall in the plant's walls output: 4 float64 (mm)
+WALL_HEIGHT_M = 0.3              # the walls' boxes: height, m (the world file is 2D)
+WALL_THICKNESS_M = 0.02          # ... and thickness, m
+_WALL_COLOR = {"r": 0.6, "g": 0.6, "b": 0.65, "a": 1.0}
 
 _TIME = {"type": "object", "title": "time",
          "description": "simulated time since the start of the run (= the log time)",
@@ -64,6 +72,43 @@ _POSE = {"type": "object", "title": "foxglove.Pose", "description": "pose in the
          "properties": {"position": _xyz("foxglove.Vector3", "position, m"),
                         "orientation": _QUAT},
          "required": ["position", "orientation"]}
+
+def _none(what: str) -> dict:
+    """An array property this writer always leaves empty."""
+    return {"type": "array", "maxItems": 0, "description": f"{what}: none (always empty)"}
+
+
+_CUBE = {"type": "object", "title": "foxglove.CubePrimitive", "description": "a wall",
+         "properties": {"pose": dict(_POSE, description="the box's centre (m) and its "
+                                     "orientation: x along the wall"),
+                        "size": _xyz("foxglove.Vector3", "x: the wall's length, y: "
+                                     "WALL_THICKNESS_M, z: WALL_HEIGHT_M; m"),
+                        "color": {"type": "object", "title": "foxglove.Color",
+                                  "description": "RGBA, each 0..1",
+                                  "properties": {c: {"type": "number"} for c in "rgba"},
+                                  "required": list("rgba")}},
+         "required": ["pose", "size", "color"]}
+
+_ENTITY = {"type": "object", "title": "foxglove.SceneEntity",
+           "description": "the walls: a box per wall of the plant's world",
+           "properties": {"timestamp": _TIME, "frame_id": {"type": "string"},
+                          "id": {"type": "string", "description": "walls"},
+                          "lifetime": {"type": "object", "title": "duration",
+                                       "description": "0: shown until replaced",
+                                       "properties": {"sec": {"type": "integer"},
+                                                      "nsec": {"type": "integer", "minimum": 0,
+                                                               "maximum": 999_999_999}},
+                                       "required": ["sec", "nsec"]},
+                          "frame_locked": {"type": "boolean"},
+                          "metadata": _none("metadata"), "arrows": _none("arrows"),
+                          "cubes": {"type": "array", "items": _CUBE,
+                                    "description": "a box per wall, in the walls output's order"},
+                          "spheres": _none("spheres"), "cylinders": _none("cylinders"),
+                          "lines": _none("lines"), "triangles": _none("triangles"),
+                          "texts": _none("texts"), "models": _none("models")},
+           "required": ["timestamp", "frame_id", "id", "lifetime", "frame_locked", "metadata",
+                        "arrows", "cubes", "spheres", "cylinders", "lines", "triangles",
+                        "texts", "models"]}
 
 _FRAMES = ("frame `world`: the start pose, x forward, y left, z up (as /truth); "
            "`base_link`: the robot by the plant's truth; `odom_base_link`: the robot by the "
@@ -97,20 +142,34 @@ SCHEMAS = {
         "required": ["timestamp", "frame_id", "poses"]},
     "foxglove.Log": {
         "title": "foxglove.Log",
-        "description": "A mission event or planner command (navkit sim), at its simulated "
-                       "time. level: 2 info, 3 warning (faults, a host that exited)",
+        "description": "A mission event or planner command (name navkit-sim; level 2 info, "
+                       "3 warning: faults, a host that exited), or a line of the host's "
+                       "console (name navkit-host; level by the line's kind: "
+                       "navkit.sim.host_console), at its simulated time",
         "type": "object",
         "properties": {"timestamp": _TIME,
                        "level": {"type": "integer", "enum": [0, 1, 2, 3, 4, 5],
                                  "description": "0 unknown, 1 debug, 2 info, 3 warning, "
                                                 "4 error, 5 fatal"},
                        "message": {"type": "string"},
-                       "name": {"type": "string", "description": "who: navkit-sim"},
-                       "file": {"type": "string", "description": "empty (the mission "
-                                "file's name is the metadata's mission_file)"},
+                       "name": {"type": "string",
+                                "description": "who: navkit-sim or navkit-host"},
+                       "file": {"type": "string", "description": "navkit-host: host.log; "
+                                "navkit-sim: empty (the mission file's name is the "
+                                "metadata's mission_file)"},
                        "line": {"type": "integer", "minimum": 0,
-                                "description": "0 (the entry is named in message)"}},
+                                "description": "navkit-host: the line's number in host.log "
+                                "(from 1); navkit-sim: 0 (the entry is named in message)"}},
         "required": ["timestamp", "level", "message", "name", "file", "line"]},
+    "foxglove.SceneUpdate": {
+        "title": "foxglove.SceneUpdate",
+        "description": "The world's walls (the plant FMU's walls output, the world file as "
+                       "the plant parsed it) in frame `world` (m): one entity `walls`, a "
+                       "box per wall standing on the floor. " + _FRAMES,
+        "type": "object",
+        "properties": {"deletions": _none("deletions"),
+                       "entities": {"type": "array", "items": _ENTITY}},
+        "required": ["deletions", "entities"]},
 }
 
 # topic -> Foxglove schema name, in channel registration order
@@ -120,6 +179,7 @@ TOPICS = {
     "/tf": "foxglove.FrameTransform",
     "/foxglove/path": "foxglove.PosesInFrame",
     "/foxglove/log": "foxglove.Log",
+    "/foxglove/scene": "foxglove.SceneUpdate",
 }
 
 _STAMP = b'{"timestamp":{"sec":%d,"nsec":%d},'
@@ -146,6 +206,7 @@ class FoxgloveWriter:
         self._tf = writer("/tf")
         self._path_w = writer("/foxglove/path")
         self._log = writer("/foxglove/log")
+        self._scene = writer("/foxglove/scene")
         self._path: list = []           # pose texts of the path, oldest first
         self._kept = None               # (x m, y m, yaw rad) of the last path pose
         self._steps = (PATH_STEP_M, PATH_TURN_RAD)   # now (m, rad): doubled at each thinning
@@ -188,12 +249,45 @@ class FoxgloveWriter:
         self._odom_pose(t_ns, _POSE_IN % (sec, nsec, x, y, qz, qw))
         self._tf(t_ns, _TF % (sec, nsec, b"odom_base_link", x, y, qz, qw))
 
-    def log(self, t_ns: int, level: int, message: str) -> None:
-        """A foxglove.Log at `t_ns` (ns): `level` (2 info, 3 warning), `message`."""
+    def log(self, t_ns: int, level: int, message: str, name: str = "navkit-sim",
+            file: str = "", line: int = 0) -> None:
+        """A foxglove.Log at `t_ns` (ns): `level` (1 debug, 2 info, 3 warning, 4 error),
+        `message`, from `name` (file and line: where it was written, if anywhere)."""
         sec, nsec = divmod(t_ns, 1_000_000_000)
         self._log(t_ns, self._dumps({"timestamp": {"sec": sec, "nsec": nsec}, "level": level,
-                                     "message": message, "name": "navkit-sim",
-                                     "file": "", "line": 0}).encode())
+                                     "message": message, "name": name,
+                                     "file": file, "line": line}).encode())
+
+    def console(self, t_ns: int, level: int, message: str, line: int) -> None:
+        """Line number `line` of the host's console (host.log), with placeholders, at the
+        simulated time `t_ns` (ns) of the frame it appeared in."""
+        self.log(t_ns, level, message, "navkit-host", "host.log", line)
+
+    def walls(self, t_ns: int, data: bytes) -> None:
+        """The world's walls as a foxglove.SceneUpdate at `t_ns` (ns). `data`: the plant
+        FMU's walls output, WALL_BYTES a wall (ax, ay, bx, by: little-endian float64, mm,
+        in the start pose frame = frame `world`); ValueError if it is not whole walls."""
+        if len(data) % WALL_BYTES:
+            raise ValueError(f"the plant's walls output is {len(data)} bytes, not a "
+                             f"multiple of {WALL_BYTES} (docs/plant.md)")
+        sec, nsec = divmod(t_ns, 1_000_000_000)
+        cubes = []
+        for ax, ay, bx, by in struct.iter_unpack("<4d", data):
+            dx, dy = (bx - ax) * 1e-3, (by - ay) * 1e-3
+            half = 0.5 * math.atan2(dy, dx)
+            cubes.append({"pose": {"position": {"x": (ax + bx) * 5e-4, "y": (ay + by) * 5e-4,
+                                                "z": 0.5 * WALL_HEIGHT_M},
+                                   "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(half),
+                                                   "w": math.cos(half)}},
+                          "size": {"x": math.hypot(dx, dy), "y": WALL_THICKNESS_M,
+                                   "z": WALL_HEIGHT_M},
+                          "color": _WALL_COLOR})
+        stamp = {"sec": sec, "nsec": nsec}
+        entity = {"timestamp": stamp, "frame_id": "world", "id": "walls",
+                  "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
+                  "arrows": [], "cubes": cubes, "spheres": [], "cylinders": [], "lines": [],
+                  "triangles": [], "texts": [], "models": []}
+        self._scene(t_ns, self._dumps({"deletions": [], "entities": [entity]}).encode())
 
     def event(self, t_ns: int, kind: str, detail: dict) -> None:
         """A mission event (as /events): its kind and details, a warning for a fault or
