@@ -15,6 +15,7 @@
 #include <grp.h>
 #include <limits>
 #include <map>
+#include <utility>
 #include <sstream>
 #include <type_traits>
 #include <vector>
@@ -687,6 +688,33 @@ void Ini::load_file(const std::string &path, Config &cfg)
     } else {
         check_ir(ini, cfg);
     }
+}
+
+// The file and line where [sec] key was written, from c.origin (see key_at).
+static std::pair<std::string, long> origin_of(const Config &c, const std::string &sec, const std::string &key)
+{
+    for (const std::string &k : {sec + "." + key, sec}) {
+        const auto o = c.origin.find(k);
+        const size_t colon = o == c.origin.end() ? std::string::npos : o->second.rfind(':');
+        long line = 0;
+        if (colon != std::string::npos && ini_parse_int(o->second.substr(colon + 1), false, &line).empty()) {
+            return {o->second.substr(0, colon), line};
+        }
+    }
+    return {c.files.empty() ? std::string() : c.files[0], 0};
+}
+
+std::string key_at(const Config &c, const std::string &sec, const std::string &key)
+{
+    const auto at = origin_of(c, sec, key);
+    return at.first + ":" + std::to_string(at.second) + ": " + key;
+}
+
+std::string later_key_at(const Config &c, const std::string &sec_a, const std::string &key_a,
+                         const std::string &sec_b, const std::string &key_b)
+{
+    return origin_of(c, sec_a, key_a).second > origin_of(c, sec_b, key_b).second ? key_at(c, sec_a, key_a)
+                                                                                  : key_at(c, sec_b, key_b);
 }
 
 Config Ini::load(const std::string &dir)

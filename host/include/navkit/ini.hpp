@@ -176,6 +176,15 @@ struct Config {
     std::map<std::string, std::string> origin;
 };
 
+// "file:line: key" where [sec] key was written in c's files, from c.origin: the key's
+// line, else its section header's, else line 0 of the first file read (the default). The
+// place an error about a key's value is named at.
+std::string key_at(const Config &c, const std::string &sec, const std::string &key);
+// key_at of the later written of [sec_a] key_a and [sec_b] key_b (key_b on a tie): where a
+// pair of values that do not fit together is named (the frame rate and the watchdog).
+std::string later_key_at(const Config &c, const std::string &sec_a, const std::string &key_a,
+                         const std::string &sec_b, const std::string &key_b);
+
 class Ini {
 public:
     // Defaults, then dir/NavAndControl.ini and dir/sensors.ini over them.

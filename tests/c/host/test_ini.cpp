@@ -196,9 +196,17 @@ TEST_F(IniFiles, WatchdogMustOutlastTwoFrames)
     EXPECT_EQ(frame_watchdog_error(10.0, 200).substr(0, 31), "a frame of 100 ms at 10 Hz need");
     EXPECT_EQ(frame_watchdog_error(10.0, 201), "");
     write("NavAndControl.ini", "[executive]\nframe_rate_hz = 5\n[micro_cfg_motion]\n\nwatchdog_timeout = 400\n");
-    EXPECT_EQ(Ini::load(dir_).exec.rate_watchdog_at, dir_ + "/NavAndControl.ini:5: watchdog_timeout");
+    const auto rate_watchdog_at = [](const Config &c) {
+        return later_key_at(c, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
+    };
+    EXPECT_EQ(rate_watchdog_at(Ini::load(dir_)), dir_ + "/NavAndControl.ini:5: watchdog_timeout");
     write("NavAndControl.ini", "[micro_cfg_motion]\nwatchdog_timeout = 400\n[executive]\nframe_rate_hz = 5\n");
-    EXPECT_EQ(Ini::load(dir_).exec.rate_watchdog_at, dir_ + "/NavAndControl.ini:4: frame_rate_hz");
+    EXPECT_EQ(rate_watchdog_at(Ini::load(dir_)), dir_ + "/NavAndControl.ini:4: frame_rate_hz");
+    write("NavAndControl.ini", "[micro_cfg_motion]\nwatchdog_timeout = 400\n");
+    EXPECT_EQ(rate_watchdog_at(Ini::load(dir_)), dir_ + "/NavAndControl.ini:2: watchdog_timeout")
+        << "frame_rate_hz not written: the watchdog's line";
+    write("NavAndControl.ini", "[executive]\nframe_rate_hz = 5\n");
+    EXPECT_EQ(rate_watchdog_at(Ini::load(dir_)), dir_ + "/NavAndControl.ini:2: frame_rate_hz");
 }
 
 TEST_F(IniFiles, SignsMustBePlusOrMinusOne)
@@ -317,7 +325,9 @@ TEST_F(IniFiles, ShmNameGroupAndLogDirAreCheckedAtTheirLines)
     // log_dir's folder is checked by main, only when --log-dir does not replace it: here
     // its place is kept for that message
     write("NavAndControl.ini", "[executive]\n\nlog_dir = " + dir_ + "/nope\n");
-    EXPECT_EQ(Ini::load(dir_).exec.log_dir_at, nav + "3: log_dir");
+    EXPECT_EQ(key_at(Ini::load(dir_), "executive", "log_dir"), nav + "3: log_dir");
+    write("NavAndControl.ini", "[micro]\n[executive]\n");
+    EXPECT_EQ(key_at(Ini::load(dir_), "executive", "log_dir"), nav + "2: log_dir") << "not written: its section's line";
     EXPECT_EQ(log_dir_error(dir_ + "/nope"), dir_ + "/nope: No such file or directory");
     EXPECT_EQ(log_dir_error(dir_ + "/sensors.ini"), dir_ + "/sensors.ini: not a directory");
     write("NavAndControl.ini", "[executive]\nlog_dir =\n");
