@@ -20,14 +20,11 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 from navkit import protocol  # noqa: E402
 from navkit.paths import build_dir, repo_root, spec_path  # noqa: E402
+from firmware_helpers import Wheels, cmd, config_frames  # noqa: E402
 
 FMU = build_dir() / "fmus" / "navkit_firmware.fmu"
 MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"
 pytestmark = pytest.mark.skipif(not FMU.exists(), reason=f"{FMU} not built")
-
-MM_PER_COUNT = math.pi * 100.0 / 2000.0  # spec default geometry
-TRACK_MM = 300.0
-LSB_PER_DPS = 131.0
 
 
 @pytest.fixture
@@ -37,51 +34,12 @@ def micro(fmu3):
     return lambda name="micro", **kw: fmu3(name, **kw)
 
 
-class Wheels:
-    """A differential-drive robot: each wheel's speed follows duty * top_speed (first-order
-    lag), encoders integrate it, the gyro reads the yaw rate (CCW positive)."""
-
-    def __init__(self, top_speed=1.0 / 0.0018, tau=0.03, gyro_bias=0):
-        self.top, self.tau, self.bias = top_speed, tau, gyro_bias
-        self.v = [0.0, 0.0]
-        self.enc = [0.0, 0.0]
-        self.dist = 0.0
-        self.yaw_cw = 0.0
-
-    def drive(self, micro):
-        w_cw = (self.v[0] - self.v[1]) / TRACK_MM * 180.0 / math.pi
-        micro.set(enc_left=math.floor(self.enc[0]), enc_right=math.floor(self.enc[1]),
-                  gyro_raw=round(-w_cw * LSB_PER_DPS) + self.bias)
-
-    def advance(self, micro, h: float):
-        duties = (micro.get("motor_left_duty"), micro.get("motor_right_duty"))
-        for i, d in enumerate(duties):
-            self.v[i] += (d * self.top - self.v[i]) * h / (self.tau + h)
-            self.enc[i] += self.v[i] * h / MM_PER_COUNT
-        self.dist += 0.5 * (self.v[0] + self.v[1]) * h
-        self.yaw_cw += (self.v[0] - self.v[1]) / TRACK_MM * 180.0 / math.pi * h
-
-
-def config_frames(hash_override=None):
-    frames = b""
-    for tag, name in enumerate(("micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"), 1):
-        fields = protocol.defaults(name)
-        if hash_override is not None:
-            fields["spec_hash"] = hash_override
-        frames += protocol.encode_frame(name, fields, time_tag=tag)
-    return frames
-
-
 def run(micro, wheels: Wheels | None, seconds: float, frame: bytes = b"",
         frame_period: float = 0.1) -> list[dict]:
     """Co-simulate in 1 ms steps; the host repeats `frame` every frame_period. Returns the
     micro_data frames received."""
     return micro.frames(seconds, frame, 0.001, frame_period,
                         before=wheels and wheels.drive, after=wheels and wheels.advance)
-
-
-def cmd(tag, **fields):
-    return protocol.encode_frame("micro_cmd", fields, time_tag=tag)
 
 
 # ---------------------------------------------------------------- the description

@@ -1,6 +1,6 @@
 """`navkit simboard`: the simulated Mega 2560 (real simavr, the real stk500v2 bootloader of
-arduino-core-avr, the real avrdude). Test images are built here with avr-gcc; the helpers
-(build_image, the board fixture) serve tests/test_flash.py too."""
+arduino-core-avr, the real avrdude). Test images are built with avr-gcc (avr_images, shared
+with tests/test_flash.py)."""
 
 import os
 import shutil
@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from avr_images import ECHO_C, TEST_SPEED, avrdude, build_image
 from navkit.simboard import SimBoard, SimBoardError, program
 
 NEEDS = [t for t in ("avr-gcc", "avr-objcopy", "avrdude") if shutil.which(t) is None]
@@ -20,53 +21,7 @@ pytestmark = [
     pytest.mark.skipif(not program().exists(), reason=f"{program()} not built: run make"),
 ]
 
-TEST_SPEED = 4.0    # simulated s per wall s: the bootloader waits ~0.25 s of wall time
 BOOT_GREETING = b"navkit-test\n"
-
-# The info block of interface 1 (36 bytes, little-endian) as C; {hash} {sig} {mcu} filled in.
-INFO_C = r"""
-#include <avr/pgmspace.h>
-#include <stdint.h>
-struct image_info { char magic[8]; uint8_t version; uint8_t signature[3]; uint32_t spec_hash;
-                    uint32_t f_cpu_hz; char mcu[16]; };
-const struct image_info image_info __attribute__((used)) PROGMEM =
-    { {'N','A','V','K','I','T','I','M'}, 1, {{{sig}}}, {hash}UL, 16000000UL, "{mcu}" };
-"""
-
-# Greets at boot, then sends back each byte + 1: shows when the image runs and its UART.
-ECHO_C = r"""
-#include <avr/io.h>
-static void tx(uint8_t c) { while (!(UCSR0A & (1 << UDRE0))) {} UDR0 = c; }
-int main(void)
-{
-    const char *s = "navkit-test\n";
-    UCSR0A = 1 << U2X0; UBRR0 = 16; UCSR0B = (1 << RXEN0) | (1 << TXEN0);  /* 115200 8N1 */
-    while (*s) { tx((uint8_t)*s++); }
-    for (;;) { if (UCSR0A & (1 << RXC0)) { tx((uint8_t)(UDR0 + 1)); } }
-}
-"""
-
-
-def build_image(tmp: Path, name: str, source: str, *, info: dict | None = None) -> Path:
-    """Compile `source` for the ATmega2560 with avr-gcc into tmp/name.hex; with `info`
-    (keys spec_hash, signature (3 ints), mcu) an image-info block is linked in."""
-    if info is not None:
-        sig = ", ".join(f"0x{b:02x}" for b in info["signature"])
-        source += (INFO_C.replace("{{{sig}}}", "{" + sig + "}").replace("{hash}", str(info["spec_hash"]))
-                   .replace("{mcu}", info["mcu"]))
-    c = tmp / f"{name}.c"
-    c.write_text(source)
-    elf, hexfile = tmp / f"{name}.elf", tmp / f"{name}.hex"
-    subprocess.run(["avr-gcc", "-mmcu=atmega2560", "-Os", "-o", str(elf), str(c)], check=True)
-    subprocess.run(["avr-objcopy", "-O", "ihex", "-R", ".eeprom", str(elf), str(hexfile)], check=True)
-    return hexfile
-
-
-def avrdude(port, image: Path, *extra: str) -> subprocess.CompletedProcess:
-    """The plain avrdude command of the Mega's bootloader (verification on)."""
-    return subprocess.run(["avrdude", "-c", "wiring", "-p", "atmega2560", "-P", str(port),
-                           "-b", "115200", *extra, "-U", f"flash:w:{image}:i"],
-                          capture_output=True, text=True, timeout=120)
 
 
 def read_until(port, marker: bytes, seconds: float) -> bytes:
