@@ -59,6 +59,16 @@ def prop_count(request) -> int:
     return request.config.getoption("--prop-count")
 
 
+@pytest.fixture
+def host_converts():
+    """Skip unless navkit-host is built: loading a mission with [[command]] entries asks it
+    (`navkit-host --convert-lisp`) what it makes of them (navkit.sim.mission)."""
+    from navkit.hostconfig import host_binary
+
+    if not host_binary().is_file():
+        pytest.skip(f"not built: {host_binary()} (mission commands are judged by the host)")
+
+
 # ---------------------------------------------------------------- FMUs in fmpy
 # A test module of one FMU names its file in a module-level `FMU` (pathlib.Path); the
 # fixtures below open that file.

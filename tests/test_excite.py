@@ -119,7 +119,7 @@ def test_mission_refuses_bad_experiment_words(line, key):
     assert "[[command]] #1" in str(e.value) and repr(key) in str(e.value)
 
 
-def test_mission_takes_experiment_words_by_name():
+def test_mission_takes_experiment_words_by_name(host_converts):
     from navkit.sim.mission import loads
 
     m = loads('duration_s = 2\n[[command]]\nt = 1\nexcite_mode = "prbs"\nexcite_wheels = "spin"\n'

@@ -1,4 +1,5 @@
-"""Mission files: loading, and clear errors naming file, entry and key (no build needed)."""
+"""Mission files: loading, and clear errors naming file, entry and key (a mission's
+[[command]] entries are judged by the built navkit-host: those tests take `host_converts`)."""
 
 from pathlib import Path
 
@@ -34,7 +35,7 @@ kind = "planner_silent"
 """
 
 
-def test_good_mission_loads_sorted():
+def test_good_mission_loads_sorted(host_converts):
     m = loads(GOOD, "good.toml")
     assert m.duration_s == 5.0
     assert [c.t for c in m.commands] == [0.5, 1.0]
@@ -46,7 +47,7 @@ def test_good_mission_loads_sorted():
     assert m.plant == {"motor_kt": 0.02}
 
 
-def test_shipped_missions_load():
+def test_shipped_missions_load(host_converts):
     files = sorted((repo_root() / "config" / "missions").glob("*.toml"))
     assert any(f.name == "demo.toml" for f in files)
     for f in files:
@@ -280,13 +281,16 @@ def _toml(fields: dict, t=1.0) -> str:
 
 
 @pytest.mark.parametrize("fields, key", _host_refused_cases())
-def test_value_the_host_cannot_convert_names_file_entry_key_and_range(fields, key):
+def test_value_the_host_cannot_convert_names_file_entry_key_and_range(host_converts, fields, key):
     text = "duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 100}, 0.5) + _toml(fields)
     with pytest.raises(MissionError) as e:
         loads(text, "bad.toml")
     msg = str(e.value)
     assert msg.startswith(f"bad.toml: [[command]] #2: key {key!r}: {fields[key]} is outside "), msg
     assert "the host would drop the command" in msg, msg
+    cause = ("fwd_cmd", "turn_mode", "rc_servo_num")
+    named = [k for k in cause if k in fields]
+    assert f"{named[0]} {fields[named[0]]}" in msg, msg     # the field that makes the copy
     if key == "turn_distance":
         assert "outside 0..3600 (deg x 0.1)" in msg and "turn_mode 10 (heading_select)" in msg
     else:
@@ -295,8 +299,37 @@ def test_value_the_host_cannot_convert_names_file_entry_key_and_range(fields, ke
         assert f"outside {f.min}..{f.max} (" in msg and f"micro_cmd.{micro} " in msg, msg
 
 
+def test_commands_are_judged_by_the_built_host_or_the_load_says_it_cannot(tmp_path: Path):
+    """A mission without commands asks no host; one with commands names its first command
+    and the host that is not built (one line, never a traceback)."""
+    m = loads("duration_s = 5\n[[key]]\nt = 1\nkey = 'R'\n", "m.toml", build=tmp_path)
+    assert m.keys[0].key == "R"
+    with pytest.raises(MissionError) as e:
+        loads("duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 100}, 2) + _toml({"speed": 5}),
+              "m.toml", build=tmp_path)
+    host = tmp_path / "host" / "navkit-host"
+    assert str(e.value) == (f"m.toml: [[command]] #1: the host judges the commands and cannot: {host}: not "
+                            f"built (cmake --build {tmp_path}); navkit-host converts planner commands")
+
+
+def test_sim_cli_without_a_built_host_is_one_line(tmp_path: Path):
+    import os
+    import subprocess
+    import sys
+
+    p = tmp_path / "m.toml"
+    p.write_text("duration_s = 2\n[[command]]\nt = 1\nfwd_cmd = 1\n")
+    env = {**os.environ, "NAVKIT_BUILD_DIR": str(tmp_path)}
+    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(p), "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 1
+    assert r.stderr == (f"navkit sim: {p}: [[command]] #1: the host judges the commands and cannot: "
+                        f"{tmp_path}/host/navkit-host: not built (cmake --build {tmp_path}); navkit-host "
+                        f"converts planner commands\n"), r.stderr
+
+
 @pytest.mark.parametrize("fields", _host_taken_cases())
-def test_value_the_host_converts_or_ignores_loads(fields):
+def test_value_the_host_converts_or_ignores_loads(host_converts, fields):
     m = loads("duration_s = 5\n" + _toml(fields))
     assert m.commands[0].fields == fields
 

@@ -107,7 +107,7 @@ def test_check_varies_names_the_key():
         check_varies([parse_vary("encoder_counts_per_rev=1000.2:1000.8")], PARAMS, "p.fmu")
 
 
-def test_mission_expect_table():
+def test_mission_expect_table(host_converts):
     from navkit.sim.mission import MissionError, loads
 
     m = loads(MISSION, "m.toml")

@@ -3,10 +3,12 @@
 #include <cerrno>
 #include <cstdio>
 #include <fcntl.h>
+#include <iostream>
 #include <memory>
 #include <stdexcept>
 #include <unistd.h>
 
+#include "navkit/convert_lisp.hpp"
 #include "navkit/ini.hpp"
 #include "navkit/options.hpp"
 #include "navkit/robot.hpp"
@@ -44,6 +46,14 @@ int main(int argc, char **argv)
     if (o.help) {
         std::fputs(usage(), stdout);
         return 0;
+    }
+    if (o.convert_lisp) {
+        std::string why;
+        if (convert_lisp_lines(std::cin, std::cout, &why) != 0) {
+            std::fprintf(stderr, "navkit-host: --convert-lisp: %s\n", why.c_str());
+            return 1;
+        }
+        return std::cout.flush() ? 0 : 1;
     }
     if (o.lockstep && fcntl(o.lockstep_fd, F_GETFD) == -1) {  // a usage error, said before any start-up
         std::fprintf(stderr, "navkit-host: --lockstep-fd %d: not an open file descriptor\n%s", o.lockstep_fd, usage());

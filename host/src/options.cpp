@@ -25,6 +25,9 @@ const char *usage()
            "  --print-config     print the effective configuration (JSON: every key's value and\n"
            "                     the file:line, option or default it came from) and exit; --config\n"
            "                     may then name one INI file\n"
+           "  --convert-lisp     read planner commands (lisp_cmd fields as JSON, one object a\n"
+           "                     line) on stdin, print the micro command made of each or why it is\n"
+           "                     refused (JSON, one a line), and exit; takes no other option\n"
            "  --help             this text\n"
            "keys: R record, S stop recording, Q quit; w/x forward/reverse, a/d turn, space stop,\n"
            "      0-9 - = toggle DIO bits 0-11 (console levels)\n";
@@ -53,6 +56,8 @@ std::string parse_options(int argc, char **argv, Options *o)
             o->record = true;
         } else if (a == "--print-config") {
             o->print_config = true;
+        } else if (a == "--convert-lisp") {
+            o->convert_lisp = true;
         } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--frame-ms" || a == "--clock" ||
                    a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
             if (!value(&v)) {
@@ -111,6 +116,13 @@ std::string parse_options(int argc, char **argv, Options *o)
             }
         } else {
             return a + ": unknown option (see --help)";
+        }
+    }
+    if (o->convert_lisp && seen.size() > 1) {  // no config, no run: any other option would be ignored
+        for (const std::string &other : seen) {
+            if (other != "--convert-lisp" && other != "--help") {
+                return other + " has no effect with --convert-lisp (it reads stdin only)";
+            }
         }
     }
     if (o->lockstep && o->lockstep_fd < 0) {

@@ -14,6 +14,10 @@ A config the host refuses raises HostConfigError with the host's one-line messag
 (file:line: key: reason, or --option: reason) and its exit status (1: the config, 2: an
 option). The frame-vs-watchdog rule is the host's too: pass `frame_ms` and the host
 judges that frame (as `navkit sim --frame-ms` runs it) against the config's watchdog.
+
+`convert_lisp(commands)` asks the host what it makes of planner commands
+(`navkit-host --convert-lisp`: Navigation::convert, the one lisp_cmd -> micro_cmd rule):
+the micro_cmd of each, or why the host would drop it.
 """
 
 from __future__ import annotations
@@ -23,7 +27,8 @@ import json
 import subprocess
 from pathlib import Path
 
-__all__ = ["HostConfigError", "effective_config", "value", "origin_line", "header_line", "INI_FILES"]
+__all__ = ["HostConfigError", "effective_config", "value", "origin_line", "header_line", "INI_FILES",
+           "host_binary", "convert_lisp"]
 
 # The files a config folder holds, read by the host in this order.
 INI_FILES = ("NavAndControl.ini", "sensors.ini")
@@ -54,6 +59,31 @@ def _stamp(path: Path) -> tuple:
     return tuple(out)
 
 
+def host_binary(build: Path | None = None) -> Path:
+    """navkit-host of build folder `build` (default: navkit.paths.build_dir())."""
+    from navkit.paths import build_dir
+
+    return Path(build or build_dir()) / "host" / "navkit-host"
+
+
+def _ask(host: Path, args: list, what: str, stdin: str | None = None) -> str:
+    """The stdout of `host args` (`what` names the question in errors), fed `stdin`.
+    Raises HostConfigError: the host's first stderr line and exit status, or status 0 when
+    it is not built or could not be run."""
+    if not host.is_file():
+        raise HostConfigError(f"{host}: not built (cmake --build {host.parent.parent}); "
+                              f"navkit-host {what}", 0)
+    try:
+        r = subprocess.run([str(host), *args], capture_output=True, text=True, errors="replace",
+                           timeout=30, input=stdin, stdin=None if stdin is not None else subprocess.DEVNULL)
+    except (OSError, subprocess.SubprocessError) as e:
+        raise HostConfigError(f"{host}: {e}", 0) from None
+    if r.returncode != 0:
+        said = r.stderr.splitlines()[0] if r.stderr.strip() else f"exit status {r.returncode}"
+        raise HostConfigError(said.removeprefix("navkit-host: "), r.returncode)
+    return r.stdout
+
+
 def effective_config(path: Path, *, build: Path | None = None, frame_ms: float | None = None,
                      options: tuple = ()) -> dict:
     """The host's effective configuration of config folder (or INI file) `path` (the JSON of
@@ -61,35 +91,50 @@ def effective_config(path: Path, *, build: Path | None = None, frame_ms: float |
     runs (--frame-ms; None: the INI's frame_rate_hz), judged against the watchdog by the
     host; `options` more host options ("--port", "x", ...). `build`: the build folder of
     navkit-host (default: navkit.paths.build_dir()). Raises HostConfigError."""
-    from navkit.paths import build_dir
-
     path = Path(path)
-    host = Path(build or build_dir()) / "host" / "navkit-host"
+    host = host_binary(build)
     args = list(options)
     if frame_ms is not None:
         args += ["--frame-ms", f"{frame_ms:.12g}"]
     key = (str(path.resolve()), _stamp(path), tuple(args), str(host))
     if key in _cache:
         return _cache[key]
-    if not host.is_file():
-        raise HostConfigError(f"{host}: not built (cmake --build {host.parent.parent}); "
-                              f"navkit-host reads the config", 0)
+    out = _ask(host, ["--config", str(path), "--print-config", *args], "reads the config")
     try:
-        r = subprocess.run([str(host), "--config", str(path), "--print-config", *args],
-                           capture_output=True, text=True, errors="replace", timeout=30,
-                           stdin=subprocess.DEVNULL)
-    except (OSError, subprocess.SubprocessError) as e:
-        raise HostConfigError(f"{host}: {e}", 0) from None
-    if r.returncode != 0:
-        said = r.stderr.splitlines()[0] if r.stderr.strip() else f"exit status {r.returncode}"
-        raise HostConfigError(said.removeprefix("navkit-host: "), r.returncode)
-    try:
-        config = json.loads(r.stdout)
+        config = json.loads(out)
         config["sections"], config["headers"]
     except (ValueError, KeyError, TypeError) as e:
         raise HostConfigError(f"{host} --print-config: not its JSON ({e})", 0) from None
     _cache[key] = config
     return config
+
+
+def convert_lisp(commands: list, *, build: Path | None = None) -> list:
+    """The host's verdict on each planner command of `commands` (dicts of lisp_cmd fields by
+    spec name, raw values, unset 0; a "heading" key is the micro's current heading, deg x
+    0.1, absent: none known): one dict each, in order, the JSON of `navkit-host
+    --convert-lisp` (docs/host.md): {"nav_result": "ok" | "not_implemented", "micro_cmd":
+    {...}} or {"nav_result": "rejected", "refusal": ..., "lisp_field": ..., "value": ...,
+    "text": ...}. One host process for the whole list; answers cached per list and host
+    binary. Raises HostConfigError (status 0: the host is not built or not answering)."""
+    host = host_binary(build)
+    lines = "".join(json.dumps(c, separators=(",", ":")) + "\n" for c in commands)
+    try:
+        stamp = host.stat().st_mtime_ns
+    except OSError:
+        stamp = None
+    key = ("convert_lisp", str(host), stamp, lines)
+    if key in _cache:
+        return _cache[key]
+    out = _ask(host, ["--convert-lisp"], "converts planner commands", lines).splitlines()
+    try:
+        verdicts = [json.loads(line) for line in out]
+        if len(verdicts) != len(commands) or not all("nav_result" in v for v in verdicts):
+            raise ValueError(f"{len(verdicts)} verdicts for {len(commands)} commands")
+    except (ValueError, TypeError) as e:
+        raise HostConfigError(f"{host} --convert-lisp: not its JSON ({e})", 0) from None
+    _cache[key] = verdicts
+    return verdicts
 
 
 def value(config: dict, section: str, key: str):

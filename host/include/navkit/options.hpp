@@ -23,6 +23,7 @@ struct Options {
     std::string timing_log;    // "" = none
     bool help = false;
     bool print_config = false; // print the effective configuration as JSON and exit (Ini::json)
+    bool convert_lisp = false; // planner commands (stdin) -> micro commands (stdout), then exit (convert_lisp.hpp)
 };
 
 // "" on success, else the error (unknown or repeated option, missing or bad value).

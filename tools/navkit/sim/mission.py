@@ -27,10 +27,12 @@ Every error (unknown key, bad value, a time or a fault's end past the duration) 
 MissionError naming the file, the entry and the key; a file that is not UTF-8 text (or
 over MAX_MISSION_BYTES, or nested deeper than TOML readers go) is one naming the file and
 the line. Entries of a table listed out of time order are run in time order, and
-`Mission.warnings` says so. A bad value is also one the host
-would refuse while converting the command to a micro_cmd (e.g. speed = 99999999 with
-fwd_cmd 1 fits lisp_cmd's int32 but not micro_cmd's int16). Events take effect at the first host
-frame that starts at or after their t (the harness checks that this frame is in the run).
+`Mission.warnings` says so. A bad value is also one the host would refuse while
+converting the command to a micro_cmd (e.g. speed = 99999999 with fwd_cmd 1 fits
+lisp_cmd's int32 but not micro_cmd's int16): the built host judges the commands
+(`navkit-host --convert-lisp`), so a mission with commands loads only where navkit-host
+is built (else a MissionError says so). Events take effect at the first host frame that
+starts at or after their t (the harness checks that this frame is in the run).
 """
 
 from __future__ import annotations
@@ -201,58 +203,28 @@ def _command(where: str, entry: dict, duration: float) -> Command:
     except protocol.ProtocolError as e:
         key = next((k for k in fields if f".{k}:" in str(e)), "?")
         raise MissionError(f"{where}: key {key!r}: {e}") from None
-    _check_host_conversion(where, fields)
     return Command(t, fields, where)
 
 
-def _check_host_conversion(where: str, fields: dict) -> None:
-    """MissionError naming the key if the host would refuse this lisp_cmd while making
-    its micro_cmd (host/src/navigation.cpp, Navigation::convert; docs/host.md): the host
-    copies raw values, unscaled (both sides use the same units), into micro_cmd fields
-    narrower than lisp_cmd's int32 words, and drops the whole command when one does not
-    fit. Only what the host converts (and checks) for this command counts:
-    - fwd_cmd 1 / 3 / 5 (the micro's own codes; 100 / 101 / 105 are high level and send
-      no forward command): accel, speed -> micro_cmd accel, speed (mm/s^2, mm/s);
-    - any turn_mode: turn_accel, turn_rate -> micro_cmd turn_accel, turn_rate
-      (deg/s^2 x 0.1, deg/s x 0.1); heading_select: turn_distance is a heading in
-      0..one full turn (0..3600 deg x 0.1); turn / modify / stop copy turn_distance
-      int32 to int32 and heading_hold wraps it, so any value fits there;
-    - rc_servo_num one of the micro's servos with rc_param0 != 0 (else no servo command):
-      rc_param0..2 -> micro_cmd rcN_param0..2 (deg/s x 0.1, deg x 0.1; a rate >= 0).
-    The ranges are the spec's (protocol/navkit.toml), never numbers of this file: the
-    host tests the same ones (generated navkit_micro_cmd_in_range)."""
-    from navkit import protocol
+def _check_host_conversion(commands: list, build: Path | None) -> None:
+    """MissionError naming the entry and key of the first command the host would drop
+    while making its micro_cmd: the host itself judges them (`navkit-host --convert-lisp`,
+    Navigation::convert, docs/host.md), all in one process. A heading hold is judged with
+    a heading: at run time the micro's reports give it one (without them the host says
+    so on its console). `build`: the build folder of navkit-host (None: navkit.paths.
+    build_dir()). Without a built host: a MissionError saying so."""
+    from navkit.hostconfig import HostConfigError, convert_lisp
 
-    spec = protocol.SPEC
-    micro, lisp = spec.messages["micro_cmd"], spec.messages["lisp_cmd"]
-    value = lambda k: fields.get(k, 0)  # noqa: E731 (unset lisp_cmd fields are 0)
-    checks = []     # (lisp_cmd key, micro_cmd Field it is copied to, why it is copied)
-    fwd = value("fwd_cmd")
-    if 0 < fwd <= micro.field("fwd_cmd").max:
-        checks += [(k, micro.field(k), f"fwd_cmd {fwd}") for k in ("accel", "speed")]
-    mode = value("turn_mode")
-    mode_name = {c: n for n, c in spec.enums["turn_mode"].values.items()}[mode]
-    why = f"turn_mode {mode} ({mode_name})"
-    if mode:
-        checks += [(k, micro.field(k), why) for k in ("turn_accel", "turn_rate")]
-    servo = value("rc_servo_num")
-    if value("rc_param0") != 0 and any(f.name == f"rc{servo}_param0" for f in micro.fields):
-        checks += [(f"rc_param{i}", micro.field(f"rc{servo}_param{i}"),
-                    f"rc_servo_num {servo}") for i in range(3)]
-    for k, f, why_k in checks:
-        v = value(k)
-        if not f.min <= v <= f.max:
-            raise MissionError(f"{where}: key {k!r}: {v} is outside {f.min}..{f.max} "
-                               f"({f.raw_units}), the range of micro_cmd.{f.name} the host "
-                               f"copies it to for {why_k}: the host would drop the command")
-    if mode_name == "heading_select":
-        f = lisp.field("turn_distance")
-        full = round(360 / f.scale)     # one full turn in raw units (deg x 0.1)
-        v = value("turn_distance")
-        if not 0 <= v <= full:
-            raise MissionError(f"{where}: key 'turn_distance': {v} is outside 0..{full} "
-                               f"({f.raw_units}), the headings the host takes for {why}: "
-                               f"the host would drop the command")
+    if not commands:
+        return
+    try:
+        verdicts = convert_lisp([{**c.fields, "heading": 0} for c in commands], build=build)
+    except HostConfigError as e:
+        raise MissionError(f"{commands[0].where}: the host judges the commands and cannot: {e}") from None
+    for c, v in zip(commands, verdicts):
+        if v["nav_result"] == "rejected":
+            raise MissionError(f"{c.where}: key {v['lisp_field']!r}: {v['text']}: the host would drop "
+                               f"the command")
 
 
 def _key(where: str, entry: dict, duration: float) -> Key:
@@ -313,9 +285,10 @@ def _world(path: Path, name) -> Path:
                        f"or in config/worlds/")
 
 
-def loads(text: str, path: str | Path = "<mission>") -> Mission:
+def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = None) -> Mission:
     """Parse and check mission TOML `text` (`path` names it in errors and resolves the
-    world file). Raises MissionError."""
+    world file); `build` is the build folder whose navkit-host judges the commands (None:
+    navkit.paths.build_dir()). Raises MissionError."""
     path = Path(path)
     try:
         doc = tomllib.loads(text)
@@ -362,6 +335,8 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
             raise MissionError(f"{path}: {table!r} must be an array of tables ([[{table}]])")
         for i, entry in enumerate(entries):
             out.append(parse(f"{path}: [[{table}]] #{i + 1}", entry, duration))
+        if table == "command":
+            _check_host_conversion(out, build)
         for a, b in zip(out, out[1:]):
             if b.t < a.t:
                 m.warnings.append(f"{b.where} (t = {b.t:g} s) comes after {a.where.rsplit(': ', 1)[1]} "
@@ -370,8 +345,8 @@ def loads(text: str, path: str | Path = "<mission>") -> Mission:
     return m
 
 
-def load(path: str | Path) -> Mission:
-    """Load and check the mission file at `path`. Raises MissionError."""
+def load(path: str | Path, *, build: Path | None = None) -> Mission:
+    """Load and check the mission file at `path` (`build` as in loads). Raises MissionError."""
     path = Path(path)
     try:
         with open(path, "rb") as f:
@@ -386,4 +361,4 @@ def load(path: str | Path) -> Mission:
         line = data[:e.start].count(b"\n") + 1
         raise MissionError(f"{path}:{line}: byte offset {e.start}: 0x{data[e.start]:02X} is not UTF-8 "
                            f"text (save the file as UTF-8)") from None
-    return loads(text, path)
+    return loads(text, path, build=build)

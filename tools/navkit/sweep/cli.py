@@ -117,7 +117,7 @@ def run(args) -> int:
     if args.bench:
         return bench(mission_path, build, args.bench_runs, args.firmware)
     try:
-        mission = load(mission_path)
+        mission = load(mission_path, build=build)
     except MissionError as e:
         _err(str(e))
         return 1

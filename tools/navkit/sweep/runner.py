@@ -452,7 +452,7 @@ def sweep(mission: Path, runs: list, out: Path, *, scheduler: str | None = None,
         raise SweepError(f"keep {keep!r}: one of {', '.join(KEEP)}")
     if not runs:
         raise SweepError("no runs to do")
-    m = load(mission)                   # MissionError names the file
+    m = load(mission, build=build)      # MissionError names the file
     m = dataclasses.replace(m, path=m.path.resolve())     # the workers' cwd may differ
     build = Path(build or build_dir()).resolve()
     runs = [dataclasses.replace(r, config=Path(r.config).resolve() if r.config else None)

@@ -292,7 +292,7 @@ def run_cosim(mission_path: Path, out: Path, *, config_dir: Path | None, build: 
     from navkit.sim.mission import MissionError, load
 
     try:
-        m = load(Path(mission_path))
+        m = load(Path(mission_path), build=build)
         return run(SimOptions(mission=m, out=Path(out), seed=seed, config_dir=config_dir, build=build,
                               frame_s=frame_s, truth_hz=truth_hz, plot=False, firmware=firmware))
     except (MissionError, SimError) as e:
