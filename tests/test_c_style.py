@@ -1,5 +1,5 @@
 """The C style (.clang-format, docs/internals.md "C style") holds in the folders formatted
-with it: clang-format leaves their files as they are, and every if/else/for/while body is a
+with it (their C and C++ files): clang-format leaves their files as they are, and every if/else/for/while body is a
 braced block (clang-format 14 cannot add braces, so that rule is checked here)."""
 
 import re
@@ -10,8 +10,10 @@ import pytest
 
 from navkit.paths import repo_root
 
-# Folders whose C files are formatted with .clang-format (docs/internals.md, C style).
-FORMATTED = ["fmu/plant"]
+# Folders whose C and C++ files (in them and below) are formatted with .clang-format
+# (docs/internals.md, C style).
+FORMATTED = ["fmu/plant", "planner"]
+_SOURCES = (".c", ".h", ".cpp", ".hpp")
 
 _HEAD = re.compile(r"^\s*(\} )?(if \(|else if \(|for \(|while \()")
 _ELSE = re.compile(r"^\s*(\} )?else\b(?! if \()")
@@ -19,7 +21,7 @@ _ELSE = re.compile(r"^\s*(\} )?else\b(?! if \()")
 
 def _files():
     root = repo_root()
-    return sorted(p for d in FORMATTED for p in (root / d).iterdir() if p.suffix in (".c", ".h"))
+    return sorted(p for d in FORMATTED for p in (root / d).rglob("*") if p.suffix in _SOURCES)
 
 
 def _code(line: str) -> str:

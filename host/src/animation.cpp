@@ -16,9 +16,9 @@
 namespace navkit {
 namespace {
 
-constexpr int kMaxWidth = 120;     // characters per face line
-constexpr int kMaxLines = 40;      // head lines
-constexpr int kMaxVersions = 64;   // versions per feature
+constexpr int kMaxWidth = 120;   // characters per face line
+constexpr int kMaxLines = 40;    // head lines
+constexpr int kMaxVersions = 64; // versions per feature
 
 // Checks of one parsed file; every failure throws "path:line: key: reason".
 class Checker {
@@ -65,7 +65,7 @@ public:
     // "name.N" keys of a section into a list 0..N-1 (each a strip); refuses gaps.
     std::vector<std::string> numbered(const IniSection &s, const std::string &stem, int max_count) const
     {
-        std::map<int, std::pair<std::string, int>> got;  // N -> strip, line
+        std::map<int, std::pair<std::string, int>> got; // N -> strip, line
         for (const auto &kv : s.keys) {
             if (kv.first.compare(0, stem.size() + 1, stem + ".") != 0) {
                 continue;
@@ -90,8 +90,8 @@ public:
 
     // Keys of a section in file order; refuses those that are not `known` (or stem.N).
     std::vector<std::pair<std::string, IniKey>> keys(const std::string &sec, const IniSection &s,
-                                                    const std::vector<std::string> &known,
-                                                    const std::string &stem) const
+                                                     const std::vector<std::string> &known,
+                                                     const std::string &stem) const
     {
         std::vector<std::pair<std::string, IniKey>> v(s.keys.begin(), s.keys.end());
         std::sort(v.begin(), v.end(), [](const auto &a, const auto &b) { return a.second.line < b.second.line; });
@@ -126,10 +126,14 @@ void input_range(FaceInput in, int *lo, int *hi)
 int input_value(FaceInput in, const navkit_emotion_t &e)
 {
     switch (in) {
-    case FaceInput::happiness: return e.happiness;
-    case FaceInput::arousal: return e.arousal;
-    case FaceInput::surprise: return e.surprise;
-    case FaceInput::beacon: break;
+    case FaceInput::happiness:
+        return e.happiness;
+    case FaceInput::arousal:
+        return e.arousal;
+    case FaceInput::surprise:
+        return e.surprise;
+    case FaceInput::beacon:
+        break;
     }
     return 0;
 }
@@ -140,7 +144,7 @@ int step_toward(int now, int target)
     return now + (target > now) - (target < now);
 }
 
-}  // namespace
+} // namespace
 
 void Animation::start(const std::string &path)
 {
@@ -276,8 +280,8 @@ void Animation::start(const std::string &path)
             }
         }
         if (talk && ft.talk.size() != len) {
-            ck.fail(talk->line, "talk", std::to_string(ft.talk.size()) + " characters, version.0 has " +
-                                            std::to_string(len));
+            ck.fail(talk->line, "talk",
+                    std::to_string(ft.talk.size()) + " characters, version.0 has " + std::to_string(len));
         }
         if (ft.input == FaceInput::beacon) {
             for (const IniKey *e : {from, to, talk}) {
@@ -407,4 +411,4 @@ std::string Animation::state() const
     return s;
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -20,8 +20,8 @@ volatile int g_quit_signal = 0;
 // action runs as the faulting instruction repeats (a core, as without this handler).
 static void on_signal(int sig, siginfo_t *si, void *)
 {
-    if (si && si->si_code > 0 && (sig == SIGSEGV || sig == SIGBUS || sig == SIGILL || sig == SIGFPE ||
-                                  sig == SIGTRAP || sig == SIGSYS)) {
+    if (si && si->si_code > 0 &&
+        (sig == SIGSEGV || sig == SIGBUS || sig == SIGILL || sig == SIGFPE || sig == SIGTRAP || sig == SIGSYS)) {
         signal(sig, SIG_DFL);
         return;
     }
@@ -32,7 +32,7 @@ void install_signal_handlers()
 {
     struct sigaction sa;
     std::memset(&sa, 0, sizeof sa);
-    sa.sa_sigaction = on_signal;  // no SA_RESTART: blocking waits return EINTR
+    sa.sa_sigaction = on_signal; // no SA_RESTART: blocking waits return EINTR
     sa.sa_flags = SA_SIGINFO;
     sigemptyset(&sa.sa_mask);
     // every signal whose default action ends the process takes the path of SIGTERM
@@ -46,8 +46,8 @@ void install_signal_handlers()
     for (int sig = SIGRTMIN; sig <= SIGRTMAX; sig++) {
         sigaction(sig, &sa, nullptr);
     }
-    signal(SIGPIPE, SIG_IGN);  // a closed reader: write() returns EPIPE instead
-    signal(SIGXFSZ, SIG_IGN);  // a file over RLIMIT_FSIZE: write() returns EFBIG (the datalog stops)
+    signal(SIGPIPE, SIG_IGN); // a closed reader: write() returns EPIPE instead
+    signal(SIGXFSZ, SIG_IGN); // a file over RLIMIT_FSIZE: write() returns EFBIG (the datalog stops)
 }
 
 static int64_t mono_ns()
@@ -60,7 +60,7 @@ static int64_t mono_ns()
 RealClock::RealClock(double rate_hz, const std::string &timing_log)
 {
     sched_.period_ns = period_ns_of(rate_hz);
-    prctl(PR_SET_TIMERSLACK, 1000UL);  // wake within ~1 us of the deadline, not the 50 us default
+    prctl(PR_SET_TIMERSLACK, 1000UL); // wake within ~1 us of the deadline, not the 50 us default
     if (!timing_log.empty()) {
         timing_ = std::fopen(timing_log.c_str(), "w");
         if (!timing_) {
@@ -120,13 +120,12 @@ void RealClock::frame_done(uint32_t, uint32_t)
         const int64_t end = mono_ns();
         std::fprintf(timing_, "%llu %lld %lld %lld\n", static_cast<unsigned long long>(frame_),
                      static_cast<long long>(frame_start(sched_, frame_) - sched_.t0_ns),
-                     static_cast<long long>(start_ns_ - sched_.t0_ns),
-                     static_cast<long long>(end - sched_.t0_ns));
+                     static_cast<long long>(start_ns_ - sched_.t0_ns), static_cast<long long>(end - sched_.t0_ns));
     }
 }
 
-static const uint32_t kTickMagic = 0x4B544B4Eu;  // 'NKTK'
-static const uint32_t kDoneMagic = 0x4E444B4Eu;  // 'NKDN'
+static const uint32_t kTickMagic = 0x4B544B4Eu; // 'NKTK'
+static const uint32_t kDoneMagic = 0x4E444B4Eu; // 'NKDN'
 
 LockstepClock::LockstepClock(int fd) : fd_(fd) {}
 
@@ -142,7 +141,7 @@ bool LockstepClock::wait_frame(FrameTick *tick)
     uint8_t b[24];
     size_t have = 0;
     if (g_quit_signal) {
-        return false;  // a signal that came during the last frame
+        return false; // a signal that came during the last frame
     }
     while (have < sizeof b) {
         const ssize_t n = ::read(fd_, b + have, sizeof b - have);
@@ -194,9 +193,9 @@ void LockstepClock::frame_done(uint32_t tx_bytes, uint32_t flags)
         } else if (n < 0 && errno == EINTR) {
             continue;
         } else {
-            return;  // the driver went away: the next wait_frame sees EOF
+            return; // the driver went away: the next wait_frame sees EOF
         }
     }
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -22,9 +22,9 @@ namespace navkit {
 // through Comm::guarded() jumps back to it instead; any other SIGBUS goes to the handler
 // that was there before (the executive's, or the default: the process ends).
 namespace {
-sigjmp_buf *g_guard = nullptr;                   // the running guarded access's return point
-const uint8_t *g_guard_lo = nullptr, *g_guard_hi = nullptr;  // the mapping it guards, [lo, hi)
-struct sigaction g_prev_bus;                     // SIGBUS's handler before on_bus
+sigjmp_buf *g_guard = nullptr;                              // the running guarded access's return point
+const uint8_t *g_guard_lo = nullptr, *g_guard_hi = nullptr; // the mapping it guards, [lo, hi)
+struct sigaction g_prev_bus;                                // SIGBUS's handler before on_bus
 
 void on_bus(int sig, siginfo_t *si, void *ctx)
 {
@@ -37,7 +37,7 @@ void on_bus(int sig, siginfo_t *si, void *ctx)
     } else if (g_prev_bus.sa_handler != SIG_DFL && g_prev_bus.sa_handler != SIG_IGN) {
         g_prev_bus.sa_handler(sig);
     } else {
-        signal(sig, SIG_DFL);  // a fault repeats on return and ends the process; a sent one is raised again
+        signal(sig, SIG_DFL); // a fault repeats on return and ends the process; a sent one is raised again
         if (si->si_code <= 0) {
             raise(sig);
         }
@@ -59,10 +59,9 @@ void install_bus_guard()
     g_prev_bus = now;
     sigaction(SIGBUS, &sa, nullptr);
 }
-}  // namespace
+} // namespace
 
-template <class F>
-bool Comm::guarded(F access) const
+template <class F> bool Comm::guarded(F access) const
 {
     if (!base_) {
         return false;
@@ -77,7 +76,7 @@ bool Comm::guarded(F access) const
     }
     // the size may still shrink between the check and the access: the guard catches that
     sigjmp_buf back;
-    if (sigsetjmp(back, 1) != 0) {  // 1: the signal mask (SIGBUS blocked in the handler) comes back too
+    if (sigsetjmp(back, 1) != 0) { // 1: the signal mask (SIGBUS blocked in the handler) comes back too
         g_guard = nullptr;
         lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
         return false;
@@ -117,8 +116,8 @@ void Comm::init()
         struct stat st;
         if (fstat(fd, &st) != 0 || st.st_uid != geteuid()) {
             ::close(fd);
-            throw std::runtime_error(what + "exists and belongs to another user (uid " +
-                                     std::to_string(st.st_uid) + "): refused");
+            throw std::runtime_error(what + "exists and belongs to another user (uid " + std::to_string(st.st_uid) +
+                                     "): refused");
         }
         if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
             ::close(fd);
@@ -126,7 +125,7 @@ void Comm::init()
                                             "stop that one, or give this one another name with --shm NAME "
                                             "or [executive] shm_name");
         }
-        shm_unlink(name_.c_str());  // stale: its host ended without removing it
+        shm_unlink(name_.c_str()); // stale: its host ended without removing it
         ::close(fd);
     } else if (errno != ENOENT) {
         // there, but not ours to open (EACCES: another user's mode 0600 region)
@@ -182,11 +181,11 @@ void Comm::shutdown()
         base_ = nullptr;
     }
     if (created_) {
-        shm_unlink(name_.c_str());  // before the lock goes, so no one replaces it meanwhile
+        shm_unlink(name_.c_str()); // before the lock goes, so no one replaces it meanwhile
         created_ = false;
     }
     if (fd_ >= 0) {
-        ::close(fd_);  // drops the lock
+        ::close(fd_); // drops the lock
         fd_ = -1;
     }
 }
@@ -198,7 +197,8 @@ bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
     if (!guarded([&] {
             ok = navkit_rcomm_slot_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
                                         NAVKIT_LISP_CMD_WORDS);
-        }) || !ok) {
+        }) ||
+        !ok) {
         return false;
     }
     navkit_lisp_cmd_unpack(w, out);
@@ -212,7 +212,8 @@ bool Comm::read_emotion(navkit_emotion_t *out) const
     if (!guarded([&] {
             ok = navkit_rcomm_slot_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
                                         NAVKIT_EMOTION_WORDS);
-        }) || !ok) {
+        }) ||
+        !ok) {
         return false;
     }
     navkit_emotion_unpack(w, out);
@@ -241,4 +242,4 @@ void Comm::set_host_heartbeat(uint32_t v)
     guarded([&] { navkit_rcomm_store(base_, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, v, __ATOMIC_RELEASE); });
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -62,7 +62,7 @@ void Console::shutdown()
 
 void Console::line(const char *text)
 {
-    erase_block();  // the face and status line move below the new line (next status())
+    erase_block(); // the face and status line move below the new line (next status())
     std::fprintf(out_, "[%9.3f] %s\n", static_cast<double>(t_us_) / 1e6, text);
     std::fflush(out_);
 }
@@ -126,8 +126,7 @@ void Console::status(const std::string &line)
         std::fflush(out_);
         return;
     }
-    if (last_status_us_ >= 0 &&
-        static_cast<double>(t_us_ - last_status_us_) < status_period_s_ * 1e6) {
+    if (last_status_us_ >= 0 && static_cast<double>(t_us_ - last_status_us_) < status_period_s_ * 1e6) {
         return;
     }
     last_status_us_ = t_us_;
@@ -169,7 +168,7 @@ std::string Console::keys()
         return "";
     }
     if (p.revents & POLLNVAL) {
-        in_eof_ = true;  // not an open file: no keys
+        in_eof_ = true; // not an open file: no keys
         return "";
     }
     if (!(p.revents & (POLLIN | POLLHUP))) {
@@ -181,9 +180,9 @@ std::string Console::keys()
         return std::string(buf, static_cast<size_t>(n));
     }
     if ((n == 0 && (!in_raw_ || (p.revents & POLLHUP))) || (n < 0 && errno != EAGAIN && errno != EINTR)) {
-        in_eof_ = true;  // no more keys (EOF, a hung-up terminal): the executive keeps running
+        in_eof_ = true; // no more keys (EOF, a hung-up terminal): the executive keeps running
     }
     return "";
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -78,7 +78,7 @@ std::string Datalog::row(const std::vector<double> &values)
                " columns: not written";
     }
     std::fputs(format_row(values).c_str(), f_);
-    std::fflush(f_);  // a crash loses at most this row
+    std::fflush(f_); // a crash loses at most this row
     return "";
 }
 
@@ -90,4 +90,4 @@ void Datalog::stop()
     }
 }
 
-}  // namespace navkit
+} // namespace navkit

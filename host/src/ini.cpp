@@ -48,7 +48,7 @@ std::string json_number(double x)
 {
     char buf[32];
     if (x == std::floor(x) && std::fabs(x) < 1e15) {
-        std::snprintf(buf, sizeof buf, "%.0f", x);  // a whole number without an exponent
+        std::snprintf(buf, sizeof buf, "%.0f", x); // a whole number without an exponent
         return buf;
     }
     for (int prec = 1; prec <= 17; prec++) {
@@ -61,8 +61,7 @@ std::string json_number(double x)
 }
 
 // The getter of an integer field *p.
-template <class T>
-Getter int_json(const T *p)
+template <class T> Getter int_json(const T *p)
 {
     return [p]() { return std::to_string(static_cast<long>(*p)); };
 }
@@ -76,8 +75,7 @@ Getter str_json(const std::string *p)
 // An integer key into *p, lo..hi (default: T's range); decimal, or also 0x hex for the
 // bit-mask keys (hex_ok).
 template <class T>
-Key int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max(),
-            bool hex_ok = false)
+Key int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max(), bool hex_ok = false)
 {
     Setter set = [p, lo, hi, hex_ok](const std::string &v) -> std::string {
         long x;
@@ -95,8 +93,7 @@ Key int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeri
 }
 
 // A bit-mask key into *p, lo..hi: decimal or 0x hex.
-template <class T>
-Key mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
+template <class T> Key mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
 {
     return int_key(p, lo, hi, true);
 }
@@ -162,8 +159,7 @@ Key str_key(std::string *p, bool allow_empty)
 }
 
 // One value for all eight elements, or eight comma-separated values.
-template <class T>
-Key array_key(T (*arr)[8])
+template <class T> Key array_key(T (*arr)[8])
 {
     Setter set = [arr](const std::string &v) -> std::string {
         std::vector<std::string> parts;
@@ -204,38 +200,52 @@ Key array_key(T (*arr)[8])
 
 // The spec's defaults and check of a config message (for cfg_key_NONZERO's probe; unused
 // for a message without NONZERO fields).
-[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_geometry_t *m) { navkit_micro_cfg_geometry_defaults(m); }
-[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_motion_t *m) { navkit_micro_cfg_motion_defaults(m); }
-[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_io_t *m) { navkit_micro_cfg_io_defaults(m); }
-[[maybe_unused]] int cfg_check(const navkit_micro_cfg_geometry_t *m) { return navkit_micro_cfg_geometry_check(m, nullptr); }
-[[maybe_unused]] int cfg_check(const navkit_micro_cfg_motion_t *m) { return navkit_micro_cfg_motion_check(m, nullptr); }
-[[maybe_unused]] int cfg_check(const navkit_micro_cfg_io_t *m) { return navkit_micro_cfg_io_check(m, nullptr); }
+[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_geometry_t *m)
+{
+    navkit_micro_cfg_geometry_defaults(m);
+}
+[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_motion_t *m)
+{
+    navkit_micro_cfg_motion_defaults(m);
+}
+[[maybe_unused]] void cfg_defaults(navkit_micro_cfg_io_t *m)
+{
+    navkit_micro_cfg_io_defaults(m);
+}
+[[maybe_unused]] int cfg_check(const navkit_micro_cfg_geometry_t *m)
+{
+    return navkit_micro_cfg_geometry_check(m, nullptr);
+}
+[[maybe_unused]] int cfg_check(const navkit_micro_cfg_motion_t *m)
+{
+    return navkit_micro_cfg_motion_check(m, nullptr);
+}
+[[maybe_unused]] int cfg_check(const navkit_micro_cfg_io_t *m)
+{
+    return navkit_micro_cfg_io_check(m, nullptr);
+}
 
 // The key of config field msg->*f by its kind in NAVKIT_<MSG>_CONFIG_FIELDS (navkit_proto.h):
 // INT any value of the field's type (decimal; an array: 1 or 8 values), MASK also 0x hex;
 // the spec's ranges are checked after reading (check_micro).
-template <class M, class T>
-Key cfg_key_INT(M *msg, T M::*f)
+template <class M, class T> Key cfg_key_INT(M *msg, T M::*f)
 {
     return int_key(&(msg->*f));
 }
 
-template <class M, class T, size_t N>
-Key cfg_key_INT(M *msg, T (M::*f)[N])
+template <class M, class T, size_t N> Key cfg_key_INT(M *msg, T (M::*f)[N])
 {
     return array_key(&(msg->*f));
 }
 
-template <class M, class T>
-Key cfg_key_MASK(M *msg, T M::*f)
+template <class M, class T> Key cfg_key_MASK(M *msg, T M::*f)
 {
     return mask_key(&(msg->*f));
 }
 
 // NONZERO (the spec's signs: range -1..1, constraint nonzero): taken when the spec's check
 // takes it, tried on the defaults with this value (+1 or -1), else refused at its own line.
-template <class M, class T>
-Key cfg_key_NONZERO(M *msg, T M::*f)
+template <class M, class T> Key cfg_key_NONZERO(M *msg, T M::*f)
 {
     Setter set = [msg, f](const std::string &v) -> std::string {
         long x = 0;
@@ -264,69 +274,77 @@ Table nav_table(Config &c)
         {"console_idle", dbl_key(&e.console_idle_s, 0, 3600)},
         {"shm_name", checked_key(&e.shm_name, shm_name_error)},
         {"shm_group", checked_key(&e.shm_group, shm_group_error)},
-        {"log_dir", str_key(&e.log_dir, false)},  // log_dir_error: main, on the folder in use
+        {"log_dir", str_key(&e.log_dir, false)}, // log_dir_error: main, on the folder in use
         {"record", bool_key(&e.record)},
         {"dio_default", mask_key(&e.dio_default, 0, 4095)},
-        {"mc_datalog", {[&e](const std::string &v) -> std::string {
-             long x;
-             std::string why = ini_parse_int(v, false, &x);
-             if (why.empty()) {
-                 why = mc_datalog_error(x);
-             }
-             if (why.empty()) {
-                 e.mc_datalog = static_cast<int>(x);
-             }
-             return why;
-         }, int_json(&e.mc_datalog)}},
+        {"mc_datalog",
+         {[&e](const std::string &v) -> std::string {
+              long x;
+              std::string why = ini_parse_int(v, false, &x);
+              if (why.empty()) {
+                  why = mc_datalog_error(x);
+              }
+              if (why.empty()) {
+                  e.mc_datalog = static_cast<int>(x);
+              }
+              return why;
+          },
+          int_json(&e.mc_datalog)}},
     };
     MicroCfg &m = c.micro;
     t["micro"] = {
         {"port", str_key(&m.port, false)},
-        {"baud", {[&m](const std::string &v) -> std::string {
-             long x;
-             const std::string why = ini_parse_int(v, false, &x);
-             if (!why.empty()) {
-                 return why;
-             }
-             for (int b : supported_bauds()) {
-                 if (x == b) {
-                     m.baud = b;
-                     return "";
-                 }
-             }
-             std::string list;
-             for (int b : supported_bauds()) {
-                 list += (list.empty() ? "" : ", ") + std::to_string(b);
-             }
-             return std::to_string(x) + " is not a supported rate (" + list + ")";
-         }, int_json(&m.baud)}},
+        {"baud",
+         {[&m](const std::string &v) -> std::string {
+              long x;
+              const std::string why = ini_parse_int(v, false, &x);
+              if (!why.empty()) {
+                  return why;
+              }
+              for (int b : supported_bauds()) {
+                  if (x == b) {
+                      m.baud = b;
+                      return "";
+                  }
+              }
+              std::string list;
+              for (int b : supported_bauds()) {
+                  list += (list.empty() ? "" : ", ") + std::to_string(b);
+              }
+              return std::to_string(x) + " is not a supported rate (" + list + ")";
+          },
+          int_json(&m.baud)}},
         {"data_bits", int_key(&m.data_bits, 5, 8)},
-        {"parity", {[&m](const std::string &v) -> std::string {
-             if (v != "N" && v != "E" && v != "O") {
-                 return "'" + v + "' is not N, E or O";
-             }
-             m.parity = v[0];
-             return "";
-         }, [&m]() { return json_string(std::string(1, m.parity)); }}},
+        {"parity",
+         {[&m](const std::string &v) -> std::string {
+              if (v != "N" && v != "E" && v != "O") {
+                  return "'" + v + "' is not N, E or O";
+              }
+              m.parity = v[0];
+              return "";
+          },
+          [&m]() { return json_string(std::string(1, m.parity)); }}},
         {"stop_bits", int_key(&m.stop_bits, 1, 2)},
         {"latency_timer_ms", int_key(&m.latency_timer_ms, 0, 255)},
         {"link", checked_key(&m.link, micro_link_error)},
-        {"can_bitrate", {[&m](const std::string &v) -> std::string {
-             long x;
-             const std::string why = ini_parse_int(v, false, &x);
-             if (!why.empty()) {
-                 return why;
-             }
-             if (Slcan::bitrate_command(static_cast<int>(x)).empty() || x > INT32_MAX) {
-                 std::string list;
-                 for (int b : Slcan::bitrates()) {
-                     list += (list.empty() ? "" : ", ") + std::to_string(b);
-                 }
-                 return std::to_string(x) + " is not a bit rate an SLCAN adapter sets (" + list + ")";
-             }
-             m.can_bitrate = static_cast<int>(x);
-             return "";
-         }, int_json(&m.can_bitrate)}},
+        {"can_bitrate",
+         {[&m](const std::string &v) -> std::string {
+              long x;
+              const std::string why = ini_parse_int(v, false, &x);
+              if (!why.empty()) {
+                  return why;
+              }
+              if (Slcan::bitrate_command(static_cast<int>(x)).empty() || x > INT32_MAX) {
+                  std::string list;
+                  for (int b : Slcan::bitrates()) {
+                      list += (list.empty() ? "" : ", ") + std::to_string(b);
+                  }
+                  return std::to_string(x) + " is not a bit rate an SLCAN adapter sets (" + list + ")";
+              }
+              m.can_bitrate = static_cast<int>(x);
+              return "";
+          },
+          int_json(&m.can_bitrate)}},
     };
     // [micro_cfg_*]: one key per config field of the spec, of the kind the spec gives it
 #define NAVKIT_INI_CFG_KEY(name, kind) {#name, cfg_key_##kind(msg, &std::remove_pointer_t<decltype(msg)>::name)},
@@ -378,9 +396,9 @@ Table sensors_table(Config &c)
     for (int i = 0; i < 4; i++) {
         Gp2d12Cal &g = s.ir[i];
         t["ir" + std::to_string(i)] = {
-            {"channel", int_key(&g.channel, 0, 7)},      {"vref", dbl_key(&g.vref, 0.1, 10)},
-            {"a_v_mm", dbl_key(&g.a_v_mm, 1, 100000)},    {"b_mm", dbl_key(&g.b_mm, -1000, 1000)},
-            {"c_v", dbl_key(&g.c_v, -5, 5)},              {"min_mm", int_key(&g.min_mm, 0, 10000)},
+            {"channel", int_key(&g.channel, 0, 7)},    {"vref", dbl_key(&g.vref, 0.1, 10)},
+            {"a_v_mm", dbl_key(&g.a_v_mm, 1, 100000)}, {"b_mm", dbl_key(&g.b_mm, -1000, 1000)},
+            {"c_v", dbl_key(&g.c_v, -5, 5)},           {"min_mm", int_key(&g.min_mm, 0, 10000)},
             {"max_mm", int_key(&g.max_mm, 0, 10000)},
         };
         Srf04Cal &so = s.sonar[i];
@@ -437,8 +455,8 @@ void check_micro(const IniFile &ini, const Config &c)
 
 // "file:line: key" of the later of two keys' lines (a pair of values that do not fit
 // together is named where the second of them was written).
-std::string later_key(const IniFile &ini, const std::string &sec_a, const std::string &key_a,
-                      const std::string &sec_b, const std::string &key_b)
+std::string later_key(const IniFile &ini, const std::string &sec_a, const std::string &key_a, const std::string &sec_b,
+                      const std::string &key_b)
 {
     const int la = ini.line(sec_a, key_a), lb = ini.line(sec_b, key_b);
     return ini.path + ":" + std::to_string(std::max(la, lb)) + ": " + (la > lb ? key_a : key_b);
@@ -450,8 +468,7 @@ std::string later_key(const IniFile &ini, const std::string &sec_a, const std::s
 // 100 is above its servo_max -100", element i named by the fields' common prefix.
 template <class M>
 void check_constraints_of(const IniFile &ini, const std::string &sec, const M *m,
-                          int (*broken)(const M *, int *, int32_t *), int (*field)(int, int),
-                          const char *(*name)(int))
+                          int (*broken)(const M *, int *, int32_t *), int (*field)(int, int), const char *(*name)(int))
 {
     int element = 0;
     int32_t value[2] = {0, 0};
@@ -460,13 +477,14 @@ void check_constraints_of(const IniFile &ini, const std::string &sec, const M *m
         return;
     }
     const std::string a = name(field(k, 0));
-    if (field(k, 1) < 0) {  // nonzero
+    if (field(k, 1) < 0) { // nonzero
         ini.fail(ini.line(sec, a), a + ": 0 breaks the spec's constraint " + a + " != 0 (the micro refuses it)");
     }
     const std::string b = name(field(k, 1));
     const std::string noun = a.substr(0, a.find('_'));
-    const std::string whose =
-        b.compare(0, noun.size() + 1, noun + "_") == 0 ? noun + " " + std::to_string(element) + "'s " : "";
+    const std::string whose = b.compare(0, noun.size() + 1, noun + "_") == 0
+                                  ? noun + " " + std::to_string(element) + "'s "
+                                  : "";
     throw ConfigError(later_key(ini, sec, a, sec, b) + ": " + whose + a + " " + std::to_string(value[0]) +
                       " is above " + (whose.empty() ? "" : "its ") + b + " " + std::to_string(value[1]) +
                       " (the micro refuses it)");
@@ -511,7 +529,7 @@ std::string frame_check(double frame_ms, unsigned watchdog_timeout_ms, double ra
     return why;
 }
 
-}  // namespace
+} // namespace
 
 std::string frame_watchdog_error(double frame_rate_hz, unsigned watchdog_timeout_ms)
 {
@@ -536,7 +554,7 @@ std::string ini_parse_int(const std::string &v, bool hex_ok, long *out)
         return "'" + v + "' is not a " + (hex_ok ? "decimal or 0x hex" : "decimal") + " integer";
     }
     errno = 0;
-    const long x = std::strtol(v.c_str() + (hex ? 2 : 0), nullptr, hex ? 16 : 10);  // base 10: never octal
+    const long x = std::strtol(v.c_str() + (hex ? 2 : 0), nullptr, hex ? 16 : 10); // base 10: never octal
     if (errno) {
         return "'" + v + "' is out of range";
     }
@@ -586,8 +604,8 @@ std::string micro_link_error(const std::string &v)
 
 std::string shm_name_error(const std::string &v)
 {
-    if (v.size() < 2 || v[0] != '/' || v.find('/', 1) != std::string::npos || v.size() - 1 > NAME_MAX ||
-        v == "/." || v == "/..") {
+    if (v.size() < 2 || v[0] != '/' || v.find('/', 1) != std::string::npos || v.size() - 1 > NAME_MAX || v == "/." ||
+        v == "/..") {
         return "'" + v + "' is not a POSIX shared-memory name ('/' then 1.." + std::to_string(NAME_MAX) +
                " characters, no other '/', not . or ..)";
     }
@@ -622,7 +640,7 @@ std::string log_dir_error(const std::string &v)
 
 std::string mc_datalog_error(long v)
 {
-    navkit_micro_cmd_t probe;  // the spec's check of the field, on a command that passes it otherwise
+    navkit_micro_cmd_t probe; // the spec's check of the field, on a command that passes it otherwise
     navkit_micro_cmd_defaults(&probe);
     probe.mc_datalog_cmd = static_cast<uint16_t>(v);
     if (v < 0 || v > 0xFFFF || navkit_micro_cmd_check(&probe, nullptr) != NAVKIT_OK) {
@@ -633,7 +651,7 @@ std::string mc_datalog_error(long v)
 
 const std::vector<int> &supported_bauds()
 {
-    static const std::vector<int> b = {9600,   19200,  38400,   57600,   115200,  230400,
+    static const std::vector<int> b = {9600,   19200,  38400,  57600,   115200,  230400,
                                        460800, 500000, 921600, 1000000, 2000000, 3000000};
     return b;
 }
@@ -683,7 +701,8 @@ void Ini::load_file(const std::string &path, Config &cfg)
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
         check_constraints(ini, cfg);
-        cfg.exec.rate_watchdog_at = later_key(ini, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
+        cfg.exec.rate_watchdog_at = later_key(ini, "executive", "frame_rate_hz", "micro_cfg_motion",
+                                              "watchdog_timeout");
         cfg.exec.log_dir_at = path + ":" + std::to_string(ini.line("executive", "log_dir")) + ": log_dir";
     } else {
         check_ir(ini, cfg);
@@ -710,11 +729,11 @@ std::string key_at(const Config &c, const std::string &sec, const std::string &k
     return at.first + ":" + std::to_string(at.second) + ": " + key;
 }
 
-std::string later_key_at(const Config &c, const std::string &sec_a, const std::string &key_a,
-                         const std::string &sec_b, const std::string &key_b)
+std::string later_key_at(const Config &c, const std::string &sec_a, const std::string &key_a, const std::string &sec_b,
+                         const std::string &key_b)
 {
     return origin_of(c, sec_a, key_a).second > origin_of(c, sec_b, key_b).second ? key_at(c, sec_a, key_a)
-                                                                                  : key_at(c, sec_b, key_b);
+                                                                                 : key_at(c, sec_b, key_b);
 }
 
 Config Ini::load(const std::string &dir)
@@ -730,7 +749,7 @@ Config Ini::load_path(const std::string &path)
 {
     struct stat st;
     if (stat(path.c_str(), &st) != 0 || S_ISDIR(st.st_mode)) {
-        return load(path);  // a missing folder: load names the file it lacks
+        return load(path); // a missing folder: load names the file it lacks
     }
     Config c;
     load_file(path, c);
@@ -741,7 +760,7 @@ Config Ini::load_path(const std::string &path)
 
 std::string Ini::json(const Config &c)
 {
-    Config shown = c;  // the tables' getters read the copy they are built on
+    Config shown = c; // the tables' getters read the copy they are built on
     std::string out = "{\n  \"files\": [";
     std::vector<Table> tables;
     for (size_t i = 0; i < c.files.size(); i++) {
@@ -780,4 +799,4 @@ std::string Ini::json(const Config &c)
     return out + "\n  }\n}\n";
 }
 
-}  // namespace navkit
+} // namespace navkit

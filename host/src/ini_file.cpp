@@ -20,11 +20,11 @@ struct Reader {
     IniFile *file;
     const IniCheck *check;
     std::FILE *f;
-    int line = 0;        // lines handed to inih so far (inih asks for one line per call)
-    long bytes = 0;      // bytes read from the file so far (at most kMaxIniBytes)
-    int read_errno = 0;  // errno of a failed read (0 = none)
-    int error_line = 0;  // line of `error`, 0 = none yet
-    std::string error;   // "key: reason" of the first refused line
+    int line = 0;       // lines handed to inih so far (inih asks for one line per call)
+    long bytes = 0;     // bytes read from the file so far (at most kMaxIniBytes)
+    int read_errno = 0; // errno of a failed read (0 = none)
+    int error_line = 0; // line of `error`, 0 = none yet
+    std::string error;  // "key: reason" of the first refused line
 };
 
 // An INI file larger than this is refused (bytes): a shipped one is a few kB; the bound
@@ -43,14 +43,14 @@ void refuse(Reader *r, const std::string &why)
 // section without keys is still known): a repeated one is refused, a new one checked.
 void note_header(Reader *r, const std::string &line)
 {
-    const size_t bom = r->line == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;  // inih skips one
+    const size_t bom = r->line == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0; // inih skips one
     const size_t a = line.find_first_not_of(" \t\r\n\f\v", bom);
     if (a == std::string::npos || line[a] != '[') {
         return;
     }
     const size_t b = line.find(']', a);
     if (b == std::string::npos) {
-        return;  // inih refuses it as malformed
+        return; // inih refuses it as malformed
     }
     const std::string written = line.substr(a + 1, b - a - 1);
     const std::string name = ini_lower(written);
@@ -82,7 +82,7 @@ char *read_line(char *str, int num, void *stream)
         return nullptr;
     }
     std::string line;
-    std::string bad;  // why this line is refused while it is read, "" = not
+    std::string bad; // why this line is refused while it is read, "" = not
     int ch;
     while ((ch = std::fgetc(r->f)) != EOF) {
         if (++r->bytes > kMaxIniBytes) {
@@ -124,7 +124,7 @@ char *read_line(char *str, int num, void *stream)
     const size_t text = line.find_first_not_of(" \t\r\n\f\v");
     if (!bad.empty()) {
         refuse(r, bad);
-        line = "\n";  // parsed as an empty line
+        line = "\n"; // parsed as an empty line
     } else if (text > 0 && text != std::string::npos && line[text] != ';' && line[text] != '#') {
         // inih would take it as a continuation of the previous key's value
         refuse(r, "line: indented (keys and [sections] start at the beginning of the line; "
@@ -162,7 +162,7 @@ int on_key(void *user, const char *section, const char *name, const char *value)
     return 1;
 }
 
-}  // namespace
+} // namespace
 
 std::string ini_lower(std::string s)
 {
@@ -223,4 +223,4 @@ IniFile ini_read(const std::string &path, const IniCheck &check)
     return file;
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -23,4 +23,4 @@ std::string json_string(const std::string &v)
     return out + "\"";
 }
 
-}  // namespace navkit
+} // namespace navkit

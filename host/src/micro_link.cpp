@@ -27,10 +27,10 @@ MicroLink::MicroLink(const MicroCfg &cfg, Console &console, DeviceRoots roots)
 
 void MicroLink::reset_parser()
 {
-    base_ = counters();  // decode failures are kept in base_ already
+    base_ = counters(); // decode failures are kept in base_ already
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
     seen_schema_mismatch_ = 0;
-    slcan_ = Slcan();  // link = slcan: the old connection's lines and messages are gone
+    slcan_ = Slcan(); // link = slcan: the old connection's lines and messages are gone
     navkit_isotp_rx_init(&can_rx_, NAVKIT_DIR_TO_HOST);
     navkit_isotp_tx_init(&can_tx_);
 }
@@ -50,9 +50,9 @@ bool MicroLink::open(bool starting)
         return false;
     }
     last_open_error_.clear();
-    reset_parser();  // bytes of the old connection are gone
+    reset_parser(); // bytes of the old connection are gone
     if (slcan()) {
-        adapter_pending_ = true;  // its set-up goes out at the start of the next frame (begin_frame)
+        adapter_pending_ = true; // its set-up goes out at the start of the next frame (begin_frame)
         con_.print("micro port %s open (%s, raw; SLCAN adapter, CAN at %d bit/s, ISO-TP)", port_.path().c_str(),
                    SerialPort::line_settings(cfg_).c_str(), cfg_.can_bitrate);
     } else {
@@ -125,7 +125,7 @@ MicroReceived MicroLink::receive(long want_bytes, navkit_micro_data_t *out)
     MicroReceived r;
     uint8_t buf[4096];
     long total = 0;
-    const int64_t deadline_ms = mono_ms() + 1000;  // lockstep: wait at most 1 s for rx_bytes
+    const int64_t deadline_ms = mono_ms() + 1000; // lockstep: wait at most 1 s for rx_bytes
     // real time: read until nothing waits, bounded so a streaming micro cannot hold the frame
     for (int reads = 0; port_.is_open() && reads < 256; reads++) {
         const long n = port_.read_some(buf, sizeof buf);
@@ -214,7 +214,8 @@ void MicroLink::can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *ou
     std::vector<SlcanFrame> frames;
     slcan_.feed(buf, len, &frames);
     for (const SlcanFrame &sf : frames) {
-        const uint16_t id = static_cast<uint16_t>((sf.id & NAVKIT_ISOTP_ID_MASK) | (sf.extended ? NAVKIT_ISOTP_EXT : 0u) |
+        const uint16_t id = static_cast<uint16_t>((sf.id & NAVKIT_ISOTP_ID_MASK) |
+                                                  (sf.extended ? NAVKIT_ISOTP_EXT : 0u) |
                                                   (sf.remote ? NAVKIT_ISOTP_RTR : 0u));
         navkit_isotp_frame_t fc;
         uint8_t fc_out = 0;
@@ -236,7 +237,7 @@ void MicroLink::can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *ou
         }
     }
     navkit_isotp_rx_poll(&can_rx_, can_ms());
-    can_pump();  // the consecutive frames a flow control just let go
+    can_pump(); // the consecutive frames a flow control just let go
 }
 
 void MicroLink::can_write(const std::string &line)
@@ -263,7 +264,7 @@ void MicroLink::can_pump()
 bool MicroLink::can_send(const uint8_t *buf, size_t len)
 {
     if (navkit_isotp_tx_busy(&can_tx_) || len > sizeof can_tx_.buf) {
-        tx_errors_++;  // the last message still waits for its flow control: this one is skipped
+        tx_errors_++; // the last message still waits for its flow control: this one is skipped
         return false;
     }
     std::memcpy(can_tx_.buf, buf, len);
@@ -308,9 +309,9 @@ void MicroLink::can_flush()
             port_lost("read failed or hung up");
             break;
         }
-        now_us_ = start_us + 1000 * (mono_ms() - start_ms);  // ISO-TP's clock moves on meanwhile
-        can_take(in, static_cast<size_t>(n), nullptr, nullptr);  // micro_data: not wanted now
-        can_pump();  // also notices an overdue flow control
+        now_us_ = start_us + 1000 * (mono_ms() - start_ms);     // ISO-TP's clock moves on meanwhile
+        can_take(in, static_cast<size_t>(n), nullptr, nullptr); // micro_data: not wanted now
+        can_pump();                                             // also notices an overdue flow control
     }
 }
 
@@ -343,4 +344,4 @@ LinkCounters MicroLink::counters() const
     return c;
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -28,7 +28,7 @@ navkit_micro_cmd_t MicroUsb::stop_command(uint16_t dio)
 
 void MicroUsb::init()
 {
-    last_ = stop_command(0);  // the seed's Navigation Init: the current command is Stop
+    last_ = stop_command(0); // the seed's Navigation Init: the current command is Stop
     last_.time_tag = 1;
     if (link_.open(true)) {
         port_opened();
@@ -42,8 +42,8 @@ void MicroUsb::shutdown()
 
 void MicroUsb::port_opened()
 {
-    config_again();  // our config, downloaded whole
-    rejected_seen_ = 0;  // its refusals so far are news (ours may be among them)
+    config_again();     // our config, downloaded whole
+    rejected_seen_ = 0; // its refusals so far are news (ours may be among them)
 }
 
 void MicroUsb::config_again()
@@ -73,7 +73,7 @@ bool MicroUsb::receive(long want_bytes, navkit_micro_data_t *out)
         note_data(*out);
     }
     if (r.foreign_last) {
-        note_foreign_hash(r.foreign_hash);  // after any of ours: the newest frame says what the micro is now
+        note_foreign_hash(r.foreign_hash); // after any of ours: the newest frame says what the micro is now
     }
     return r.ours > 0;
 }
@@ -101,12 +101,12 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
     }
     configured_ = conf;
     if (!conf) {
-        taken_ = false;  // (a round in progress goes on)
+        taken_ = false; // (a round in progress goes on)
     } else if (round_done_ && !taken_) {
         // configured, and this micro_data came after our three config messages went out
         con_.print("micro configured (firmware %u.%u)", d.fw_version >> 8, d.fw_version & 0xFFu);
         taken_ = true;
-        round_next_ = 0;  // a second round, begun while waiting for this, is not finished
+        round_next_ = 0; // a second round, begun while waiting for this, is not finished
         rounds_waiting_ = 0;
         refused_type_ = 0;
         last_rounds_warn_us_ = -1;
@@ -116,10 +116,14 @@ void MicroUsb::note_data(const navkit_micro_data_t &d)
 static const char *config_name(uint16_t msg_type)
 {
     switch (msg_type) {
-    case NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY: return "micro_cfg_geometry";
-    case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION: return "micro_cfg_motion";
-    case NAVKIT_MSG_TYPE_MICRO_CFG_IO: return "micro_cfg_io";
-    default: return nullptr;
+    case NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY:
+        return "micro_cfg_geometry";
+    case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION:
+        return "micro_cfg_motion";
+    case NAVKIT_MSG_TYPE_MICRO_CFG_IO:
+        return "micro_cfg_io";
+    default:
+        return nullptr;
     }
 }
 
@@ -133,7 +137,7 @@ void MicroUsb::note_rejects(const navkit_micro_data_t &d)
     const uint16_t type = static_cast<uint16_t>(d.last_reject & ~NAVKIT_REJECT_RANGE);
     const char *name = config_name(type);
     if (!(d.last_reject & NAVKIT_REJECT_RANGE) || !name) {
-        return;  // a refused micro_cmd: Navigation's business, not the config's
+        return; // a refused micro_cmd: Navigation's business, not the config's
     }
     // said at once for a message it did not refuse last, else at most every 5 s
     if (type != refused_type_ || last_refusal_report_us_ < 0 || now_us_ - last_refusal_report_us_ >= 5000000) {
@@ -177,7 +181,7 @@ bool MicroUsb::online(int64_t now_us) const
 void MicroUsb::queue_command(const navkit_micro_cmd_t &cmd, bool is_new)
 {
     if (!is_new) {
-        return;  // the last command is repeated with its time tag
+        return; // the last command is repeated with its time tag
     }
     const uint16_t tag = static_cast<uint16_t>(last_.time_tag + 1u);
     last_ = cmd;
@@ -266,7 +270,7 @@ void MicroUsb::note_foreign_hash(uint32_t hash)
     }
     mismatch_ = true;
     mismatch_hash_ = hash;
-    configured_ = false;  // whatever it said: our config was never taken
+    configured_ = false; // whatever it said: our config was never taken
     config_again();
 }
 
@@ -275,4 +279,4 @@ uint32_t MicroUsb::link_errors() const
     return static_cast<uint32_t>(counters().rejected());
 }
 
-}  // namespace navkit
+} // namespace navkit

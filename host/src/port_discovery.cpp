@@ -115,7 +115,7 @@ std::vector<UsbPort> list_usb_ports(const DeviceRoots &roots)
         p.by_id = e;
         p.tty = base_name(real_path(p.path));
         if (p.tty.empty()) {
-            continue;  // a link to a device that is gone
+            continue; // a link to a device that is gone
         }
         p.dev = roots.dev + "/" + p.tty;
         read_usb_ids(roots, &p);
@@ -196,9 +196,8 @@ std::string find_port(const std::string &link, const DeviceRoots &roots, std::st
 static std::string port_json(const UsbPort &p)
 {
     const std::pair<const char *, const std::string *> fields[] = {
-        {"path", &p.path},       {"dev", &p.dev},         {"tty", &p.tty},   {"by_id", &p.by_id},
-        {"vid", &p.vid},         {"pid", &p.pid},         {"product", &p.product},
-        {"serial", &p.serial},   {"link", &p.link},       {"name", &p.name},
+        {"path", &p.path}, {"dev", &p.dev},         {"tty", &p.tty},       {"by_id", &p.by_id}, {"vid", &p.vid},
+        {"pid", &p.pid},   {"product", &p.product}, {"serial", &p.serial}, {"link", &p.link},   {"name", &p.name},
     };
     std::string s = "{";
     for (const auto &f : fields) {
@@ -255,4 +254,4 @@ std::string set_latency_timer(const std::string &dev, const DeviceRoots &roots, 
     return "FTDI latency timer is " + now + " ms, could not set " + std::to_string(ms) + " ms (" + lt + ")";
 }
 
-}  // namespace navkit
+} // namespace navkit

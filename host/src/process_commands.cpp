@@ -2,7 +2,7 @@
 
 namespace navkit {
 
-static const uint16_t kDioMask = 0x0FFF;  // 12 DIO bits
+static const uint16_t kDioMask = 0x0FFF; // 12 DIO bits
 
 ProcessCommands::ProcessCommands(const ExecutiveCfg &exec)
     : timeout_s_(exec.planner_timeout_s), idle_s_(exec.console_idle_s),
@@ -11,8 +11,7 @@ ProcessCommands::ProcessCommands(const ExecutiveCfg &exec)
 {
 }
 
-Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s,
-                                    int64_t now_us)
+Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s, int64_t now_us)
 {
     Arbitration a;
     console_dio_ = static_cast<uint16_t>((console_dio_ ^ c.dio_toggle) & kDioMask);
@@ -34,8 +33,7 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
         hb_change_us_ = now_us;
         timed_out_ = false;
     }
-    if (timeout_s_ > 0 && hb_seen_ && !timed_out_ &&
-        static_cast<double>(now_us - hb_change_us_) >= timeout_s_ * 1e6) {
+    if (timeout_s_ > 0 && hb_seen_ && !timed_out_ && static_cast<double>(now_us - hb_change_us_) >= timeout_s_ * 1e6) {
         timed_out_ = true;
         a.timeout_started = true;
         a.stop = true;
@@ -54,14 +52,14 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
     if (is_new) {
         int bad = -1;
         if (navkit_lisp_cmd_check(&p.cmd, &bad) != NAVKIT_OK) {
-            a.planner_rejected = true;  // a rejected message changes nothing
+            a.planner_rejected = true; // a rejected message changes nothing
             a.rejected_field = bad;
             a.rejected_time_tag = p.cmd.time_tag;
         } else {
             planner_active_ = static_cast<uint16_t>(p.cmd.dio_active & kDioMask);
             planner_dio_ = static_cast<uint16_t>(p.cmd.dio_command & kDioMask);
             if (p.cmd.mc_datalog_cmd != NAVKIT_MC_DATALOG_NONE) {
-                mc_datalog_ = static_cast<uint16_t>(p.cmd.mc_datalog_cmd);  // checked: a selection
+                mc_datalog_ = static_cast<uint16_t>(p.cmd.mc_datalog_cmd); // checked: a selection
             }
             last_cmd_us_ = now_us;
             if (!safety_) {
@@ -69,7 +67,7 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
                 a.planner = p.cmd;
                 owner_ = Owner::planner;
             } else {
-                a.planner_dropped = true;  // not obeyed while safety holds
+                a.planner_dropped = true; // not obeyed while safety holds
                 a.rejected_time_tag = p.cmd.time_tag;
             }
         }
@@ -111,4 +109,4 @@ Arbitration ProcessCommands::update(const PlannerInput &p, const ConsoleInput &c
     return a;
 }
 
-}  // namespace navkit
+} // namespace navkit

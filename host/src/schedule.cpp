@@ -14,7 +14,7 @@ NextFrame next_frame(const Schedule &s, uint64_t k, int64_t now_ns)
     NextFrame n;
     n.frame = k + 1;
     if (now_ns <= frame_start(s, k + 1)) {
-        return n;  // on time: sleep until frame k+1
+        return n; // on time: sleep until frame k+1
     }
     n.overrun = true;
     // the latest frame whose start has passed runs now; the ones before it are skipped
@@ -29,4 +29,4 @@ int64_t period_ns_of(double hz)
     return static_cast<int64_t>(std::llround(1e9 / hz));
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -4,7 +4,7 @@
 
 namespace navkit {
 
-static const double kAdcFull = 1024.0;  // 10-bit ADC: counts = V * 1024 / vref (AVR ADC transfer)
+static const double kAdcFull = 1024.0; // 10-bit ADC: counts = V * 1024 / vref (AVR ADC transfer)
 
 double Battery::value() const
 {
@@ -20,7 +20,7 @@ int Gp2d12::value() const
 {
     const double v = volts() - c_.c_v;
     if (v <= 0) {
-        return 0;  // below the curve's floor: beyond any valid range
+        return 0; // below the curve's floor: beyond any valid range
     }
     const double d = c_.a_v_mm / v - c_.b_mm;
     if (d < c_.min_mm || d > c_.max_mm) {
@@ -47,8 +47,7 @@ int RcServo::value() const
 }
 
 Sensors::Sensors(const SensorsCfg &c)
-    : battery(c.battery),
-      ir{Gp2d12(c.ir[0]), Gp2d12(c.ir[1]), Gp2d12(c.ir[2]), Gp2d12(c.ir[3])},
+    : battery(c.battery), ir{Gp2d12(c.ir[0]), Gp2d12(c.ir[1]), Gp2d12(c.ir[2]), Gp2d12(c.ir[3])},
       sonar{Srf04(c.sonar[0]), Srf04(c.sonar[1]), Srf04(c.sonar[2]), Srf04(c.sonar[3])},
       servo{RcServo(c.servo[0]), RcServo(c.servo[1]), RcServo(c.servo[2]), RcServo(c.servo[3]),
             RcServo(c.servo[4]), RcServo(c.servo[5]), RcServo(c.servo[6]), RcServo(c.servo[7])},
@@ -68,4 +67,4 @@ void Sensors::update(const navkit_micro_data_t &d)
     }
 }
 
-}  // namespace navkit
+} // namespace navkit

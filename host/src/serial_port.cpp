@@ -23,19 +23,32 @@ SerialPort::~SerialPort()
 static speed_t baud_constant(int baud)
 {
     switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 500000: return B500000;
-    case 921600: return B921600;
-    case 1000000: return B1000000;
-    case 2000000: return B2000000;
-    case 3000000: return B3000000;
-    default: return 0;
+    case 9600:
+        return B9600;
+    case 19200:
+        return B19200;
+    case 38400:
+        return B38400;
+    case 57600:
+        return B57600;
+    case 115200:
+        return B115200;
+    case 230400:
+        return B230400;
+    case 460800:
+        return B460800;
+    case 500000:
+        return B500000;
+    case 921600:
+        return B921600;
+    case 1000000:
+        return B1000000;
+    case 2000000:
+        return B2000000;
+    case 3000000:
+        return B3000000;
+    default:
+        return 0;
     }
 }
 
@@ -62,9 +75,10 @@ std::string SerialPort::open(const MicroCfg &cfg)
     busy_ = false;
     const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) {
-        busy_ = errno == EBUSY;  // TIOCEXCL of another holder
-        return path + ": " + (busy_ ? "in use by another process (it holds the port exclusively, TIOCEXCL)"
-                                    : std::string(std::strerror(errno)));
+        busy_ = errno == EBUSY; // TIOCEXCL of another holder
+        return path + ": " +
+               (busy_ ? "in use by another process (it holds the port exclusively, TIOCEXCL)"
+                      : std::string(std::strerror(errno)));
     }
     termios t;
     if (tcgetattr(fd, &t) != 0) {
@@ -83,7 +97,7 @@ std::string SerialPort::open(const MicroCfg &cfg)
         return path + ": in use by " + (pid > 0 ? "process " + std::to_string(pid) : std::string("another process")) +
                " (it holds the port's lock): two programs must not drive one micro";
     }
-    ioctl(fd, TIOCEXCL);  // the lock is the rule; this also keeps out tools that do not ask for it
+    ioctl(fd, TIOCEXCL); // the lock is the rule; this also keeps out tools that do not ask for it
     cfmakeraw(&t);
     cfsetispeed(&t, speed);
     cfsetospeed(&t, speed);
@@ -96,7 +110,7 @@ std::string SerialPort::open(const MicroCfg &cfg)
     if (cfg.stop_bits == 2) {
         t.c_cflag |= CSTOPB;
     }
-    t.c_cc[VMIN] = 0;  // reads never wait
+    t.c_cc[VMIN] = 0; // reads never wait
     t.c_cc[VTIME] = 0;
     if (tcsetattr(fd, TCSANOW, &t) != 0) {
         const int e = errno;
@@ -134,7 +148,7 @@ long SerialPort::lock_holder(int fd)
 void SerialPort::close()
 {
     if (fd_ >= 0) {
-        ioctl(fd_, TIOCNXCL);  // the tty is free for the next opener (a pty outlives our descriptor)
+        ioctl(fd_, TIOCNXCL); // the tty is free for the next opener (a pty outlives our descriptor)
         ::close(fd_);
         fd_ = -1;
     }
@@ -158,7 +172,7 @@ long SerialPort::read_some(uint8_t *buf, size_t cap)
             return 0;
         }
         if (n < 0 || (p.revents & POLLHUP)) {
-            close();  // EIO/ENODEV: unplugged, or the other end of a pty went away
+            close(); // EIO/ENODEV: unplugged, or the other end of a pty went away
             return -1;
         }
         return 0;
@@ -180,10 +194,10 @@ long SerialPort::write_all(const uint8_t *buf, size_t len)
         return n;
     }
     if (errno == EAGAIN || errno == EINTR) {
-        return 0;  // the output buffer is full (nobody reads): this frame's message is lost
+        return 0; // the output buffer is full (nobody reads): this frame's message is lost
     }
     close();
     return -1;
 }
 
-}  // namespace navkit
+} // namespace navkit

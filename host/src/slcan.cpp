@@ -118,7 +118,7 @@ void Slcan::feed(const uint8_t *buf, size_t len, std::vector<SlcanFrame> *out)
             continue;
         }
         if (line_.empty() || line_ == "z" || line_ == "Z") {
-            line_.clear();  // an answer: done, frame queued
+            line_.clear(); // an answer: done, frame queued
             continue;
         }
         SlcanFrame f;
@@ -131,4 +131,4 @@ void Slcan::feed(const uint8_t *buf, size_t len, std::vector<SlcanFrame> *out)
     }
 }
 
-}  // namespace navkit
+} // namespace navkit

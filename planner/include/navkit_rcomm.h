@@ -54,12 +54,12 @@ typedef struct navkit_rcomm navkit_rcomm_t;
  * the library was built from (the generated navkit_proto.h); a client that reads the spec
  * itself may pass its own to navkit_rcomm_open_layout. */
 typedef struct {
-    uint32_t magic, version, spec_hash;        /* the header's expected values */
-    uint32_t size;                             /* the whole region, bytes */
+    uint32_t magic, version, spec_hash; /* the header's expected values */
+    uint32_t size;                      /* the whole region, bytes */
     uint32_t magic_at, version_at, spec_hash_at, planner_heartbeat_at, host_heartbeat_at; /* bytes */
-    uint32_t slot_words_at;                    /* a slot's words after its seq (at +0), bytes */
-    uint32_t lisp_cmd_at, lisp_data_at, emotion_at;             /* slots, bytes */
-    uint32_t lisp_cmd_words, lisp_data_words, emotion_words;    /* int32 words per message */
+    uint32_t slot_words_at;                                  /* a slot's words after its seq (at +0), bytes */
+    uint32_t lisp_cmd_at, lisp_data_at, emotion_at;          /* slots, bytes */
+    uint32_t lisp_cmd_words, lisp_data_words, emotion_words; /* int32 words per message */
 } navkit_rcomm_layout_t;
 
 /* The layout of the spec this library was built from. */

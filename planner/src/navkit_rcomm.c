@@ -19,19 +19,30 @@
 #define RCOMM_ERROR_BYTES 320
 
 struct navkit_rcomm {
-    uint8_t *base;                  /* the mapping, NULL when not usable */
-    int fd;                         /* the region, kept for the size check of every access; -1 none */
+    uint8_t *base; /* the mapping, NULL when not usable */
+    int fd;        /* the region, kept for the size check of every access; -1 none */
     navkit_rcomm_layout_t layout;
-    char name[RCOMM_NAME_MAX + 2];  /* "/" + name + NUL */
-    char error[RCOMM_ERROR_BYTES];  /* "" while usable */
+    char name[RCOMM_NAME_MAX + 2]; /* "/" + name + NUL */
+    char error[RCOMM_ERROR_BYTES]; /* "" while usable */
 };
 
 static const navkit_rcomm_layout_t rcomm_built = {
-    NAVKIT_RCOMM_MAGIC, NAVKIT_RCOMM_VERSION, NAVKIT_SPEC_HASH, NAVKIT_RCOMM_SIZE,
-    NAVKIT_RCOMM_MAGIC_OFFSET, NAVKIT_RCOMM_VERSION_OFFSET, NAVKIT_RCOMM_SPEC_HASH_OFFSET,
-    NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET, NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET,
-    NAVKIT_RCOMM_LISP_CMD_OFFSET, NAVKIT_RCOMM_LISP_DATA_OFFSET, NAVKIT_RCOMM_EMOTION_OFFSET,
-    NAVKIT_LISP_CMD_WORDS, NAVKIT_LISP_DATA_WORDS, NAVKIT_EMOTION_WORDS,
+    NAVKIT_RCOMM_MAGIC,
+    NAVKIT_RCOMM_VERSION,
+    NAVKIT_SPEC_HASH,
+    NAVKIT_RCOMM_SIZE,
+    NAVKIT_RCOMM_MAGIC_OFFSET,
+    NAVKIT_RCOMM_VERSION_OFFSET,
+    NAVKIT_RCOMM_SPEC_HASH_OFFSET,
+    NAVKIT_RCOMM_PLANNER_HEARTBEAT_OFFSET,
+    NAVKIT_RCOMM_HOST_HEARTBEAT_OFFSET,
+    NAVKIT_RCOMM_SLOT_WORDS_OFFSET,
+    NAVKIT_RCOMM_LISP_CMD_OFFSET,
+    NAVKIT_RCOMM_LISP_DATA_OFFSET,
+    NAVKIT_RCOMM_EMOTION_OFFSET,
+    NAVKIT_LISP_CMD_WORDS,
+    NAVKIT_LISP_DATA_WORDS,
+    NAVKIT_EMOTION_WORDS,
 };
 
 const navkit_rcomm_layout_t *navkit_rcomm_layout(void)
@@ -85,7 +96,8 @@ int navkit_rcomm_name_check(const char *name, char *why, size_t why_size)
     rcomm_say(why, why_size, "%s", "");
     if (!name || name[0] != '/' || !rest[0] || strchr(rest, '/') || !strcmp(rest, ".") || !strcmp(rest, "..") ||
         strlen(rest) > RCOMM_NAME_MAX) {
-        rcomm_say(why, why_size, "'%s' is not a POSIX shared-memory name ('/' then 1..%d characters, no other '/', not . or ..)",
+        rcomm_say(why, why_size,
+                  "'%s' is not a POSIX shared-memory name ('/' then 1..%d characters, no other '/', not . or ..)",
                   name ? name : "(null)", RCOMM_NAME_MAX);
         return -1;
     }
@@ -95,7 +107,8 @@ int navkit_rcomm_name_check(const char *name, char *why, size_t why_size)
 /* Is every word of layout l inside its size and aligned? 0, or -1 with why. */
 static int rcomm_layout_check(const navkit_rcomm_layout_t *l, char *why, size_t why_size)
 {
-    const uint32_t word[] = {l->magic_at, l->version_at, l->spec_hash_at, l->planner_heartbeat_at, l->host_heartbeat_at};
+    const uint32_t word[] = {l->magic_at, l->version_at, l->spec_hash_at, l->planner_heartbeat_at,
+                             l->host_heartbeat_at};
     const uint32_t slot[] = {l->lisp_cmd_at, l->lisp_data_at, l->emotion_at};
     const uint32_t words[] = {l->lisp_cmd_words, l->lisp_data_words, l->emotion_words};
     size_t i;
@@ -105,8 +118,8 @@ static int rcomm_layout_check(const navkit_rcomm_layout_t *l, char *why, size_t 
     }
     for (i = 0; i < sizeof word / sizeof word[0]; i++) {
         if (word[i] % 4u != 0 || (uint64_t)word[i] + 4u > l->size) {
-            rcomm_say(why, why_size, "layout: header word at %u is not an aligned word of the %u bytes", (unsigned)word[i],
-                      (unsigned)l->size);
+            rcomm_say(why, why_size, "layout: header word at %u is not an aligned word of the %u bytes",
+                      (unsigned)word[i], (unsigned)l->size);
             return -1;
         }
     }
@@ -196,8 +209,8 @@ navkit_rcomm_t *navkit_rcomm_open_layout(const char *name, const navkit_rcomm_la
     version = navkit_rcomm_load(r->base, layout->version_at, __ATOMIC_RELAXED);
     spec = navkit_rcomm_load(r->base, layout->spec_hash_at, __ATOMIC_RELAXED);
     if (magic != layout->magic || version != layout->version) {
-        return rcomm_refuse(r, "magic 0x%08X version %u, expected 0x%08X version %u", (unsigned)magic, (unsigned)version,
-                            (unsigned)layout->magic, (unsigned)layout->version);
+        return rcomm_refuse(r, "magic 0x%08X version %u, expected 0x%08X version %u", (unsigned)magic,
+                            (unsigned)version, (unsigned)layout->magic, (unsigned)layout->version);
     }
     if (spec != layout->spec_hash) {
         return rcomm_refuse(r, "spec hash 0x%08X, ours 0x%08X", (unsigned)spec, (unsigned)layout->spec_hash);

@@ -22,38 +22,38 @@ namespace navkit {
 
 // What chooses a feature's target version.
 enum class FaceInput {
-    happiness,  // emotion.happiness (-100..100)
-    arousal,    // emotion.arousal (0..100)
-    surprise,   // emotion.surprise (0..100)
-    beacon,     // none: one version further (wrapping) per update while the micro is active
+    happiness, // emotion.happiness (-100..100)
+    arousal,   // emotion.arousal (0..100)
+    surprise,  // emotion.surprise (0..100)
+    beacon,    // none: one version further (wrapping) per update while the micro is active
 };
 
 // One feature: its place, versions, emotion-matrix row and current state.
 struct FaceFeature {
-    std::string name;                   // its [section] in Animation.ini
-    int row = 0;                        // head line the versions are drawn on (0 = top)
-    int col = 0;                        // column of a version's first character
+    std::string name; // its [section] in Animation.ini
+    int row = 0;      // head line the versions are drawn on (0 = top)
+    int col = 0;      // column of a version's first character
     FaceInput input = FaceInput::happiness;
-    int from = 0;                       // input value (emotion units) that targets version 0
-    int to = 0;                         // input value that targets the last version
-    std::vector<std::string> versions;  // equal-length strips; ' ' is transparent
-    std::string talk;                   // strip shown every other update while talking; "" = none
-    int gaze_cols = 0;                  // columns moved at gaze_x = +-100 (+ = right)
-    int gaze_rows = 0;                  // rows moved at gaze_y = +-100 (+ = up)
+    int from = 0;                      // input value (emotion units) that targets version 0
+    int to = 0;                        // input value that targets the last version
+    std::vector<std::string> versions; // equal-length strips; ' ' is transparent
+    std::string talk;                  // strip shown every other update while talking; "" = none
+    int gaze_cols = 0;                 // columns moved at gaze_x = +-100 (+ = right)
+    int gaze_rows = 0;                 // rows moved at gaze_y = +-100 (+ = up)
     // state
-    int version = 0;                    // current version index (ramps one step per update)
-    int target = 0;                     // version index the emotion asks for
-    int dx = 0;                         // current gaze offset, columns (+ = right)
-    int dy = 0;                         // current gaze offset, rows (+ = down)
-    bool talk_open = false;             // this update shows `talk` instead of the version
+    int version = 0;        // current version index (ramps one step per update)
+    int target = 0;         // version index the emotion asks for
+    int dx = 0;             // current gaze offset, columns (+ = right)
+    int dy = 0;             // current gaze offset, rows (+ = down)
+    bool talk_open = false; // this update shows `talk` instead of the version
 };
 
 // What one update() did.
 struct FaceUpdate {
-    bool changed = false;     // lines() differ from the previous update's (always true on the first)
-    bool rejected = false;    // a new emotion (time_tag not refused before) failed the spec's
-                              // range check; the last valid emotion is kept
-    int rejected_field = -1;  // NAVKIT_EMOTION_FIELD_* of its first bad field, when rejected
+    bool changed = false;    // lines() differ from the previous update's (always true on the first)
+    bool rejected = false;   // a new emotion (time_tag not refused before) failed the spec's
+                             // range check; the last valid emotion is kept
+    int rejected_field = -1; // NAVKIT_EMOTION_FIELD_* of its first bad field, when rejected
 };
 
 class Animation {
@@ -70,11 +70,23 @@ public:
     // Drop the face (the seed's End(): deletes the bitmaps); start() may be called again.
     void end();
 
-    bool started() const { return !head_.empty(); }
+    bool started() const
+    {
+        return !head_.empty();
+    }
     // The face as drawn now: the head's lines with every feature over it (width() chars each).
-    const std::vector<std::string> &lines() const { return lines_; }
-    int width() const { return width_; }
-    const std::vector<FaceFeature> &features() const { return features_; }
+    const std::vector<std::string> &lines() const
+    {
+        return lines_;
+    }
+    int width() const
+    {
+        return width_;
+    }
+    const std::vector<FaceFeature> &features() const
+    {
+        return features_;
+    }
     // One line for logs: "name=version" per feature in drawing order, ":talk" while a
     // talking feature shows its talk strip, "@dx,dy" for features that follow the gaze.
     std::string state() const;
@@ -82,14 +94,14 @@ public:
 private:
     void render();
 
-    int width_ = 0;                       // characters per face line
-    std::vector<std::string> head_;       // background lines, drawn first
-    std::vector<FaceFeature> features_;   // in drawing order
-    std::vector<std::string> lines_;      // the last render
-    navkit_emotion_t good_{};             // the last emotion that passed the range check
-    bool refused_any_ = false;            // some emotion was refused (refused_tag_ valid)
-    int32_t refused_tag_ = 0;             // time_tag of the last refused emotion (said once)
-    bool drawn_ = false;                  // update() has rendered at least once
+    int width_ = 0;                     // characters per face line
+    std::vector<std::string> head_;     // background lines, drawn first
+    std::vector<FaceFeature> features_; // in drawing order
+    std::vector<std::string> lines_;    // the last render
+    navkit_emotion_t good_{};           // the last emotion that passed the range check
+    bool refused_any_ = false;          // some emotion was refused (refused_tag_ valid)
+    int32_t refused_tag_ = 0;           // time_tag of the last refused emotion (said once)
+    bool drawn_ = false;                // update() has rendered at least once
 };
 
-}  // namespace navkit
+} // namespace navkit

@@ -12,8 +12,8 @@ namespace navkit {
 
 struct FrameTick {
     uint64_t frame = 0;
-    int64_t time_us = 0;   // the frame's time: scheduled start since t0, or sim_time_us
-    long rx_bytes = -1;    // lockstep: serial bytes the driver wrote since the last tick; -1: real time
+    int64_t time_us = 0; // the frame's time: scheduled start since t0, or sim_time_us
+    long rx_bytes = -1;  // lockstep: serial bytes the driver wrote since the last tick; -1: real time
 };
 
 class Clock {
@@ -42,9 +42,18 @@ public:
     ~RealClock() override;
     bool wait_frame(FrameTick *tick) override;
     void frame_done(uint32_t tx_bytes, uint32_t flags) override;
-    uint64_t overruns() const override { return overruns_; }
-    uint64_t skipped() const override { return skipped_; }
-    std::string error() const override { return error_; }
+    uint64_t overruns() const override
+    {
+        return overruns_;
+    }
+    uint64_t skipped() const override
+    {
+        return skipped_;
+    }
+    std::string error() const override
+    {
+        return error_;
+    }
 
 private:
     Schedule sched_;
@@ -62,9 +71,18 @@ public:
     ~LockstepClock() override;
     bool wait_frame(FrameTick *tick) override;
     void frame_done(uint32_t tx_bytes, uint32_t flags) override;
-    uint64_t overruns() const override { return 0; }
-    uint64_t skipped() const override { return 0; }
-    std::string error() const override { return error_; }
+    uint64_t overruns() const override
+    {
+        return 0;
+    }
+    uint64_t skipped() const override
+    {
+        return 0;
+    }
+    std::string error() const override
+    {
+        return error_;
+    }
 
 private:
     int fd_;
@@ -72,4 +90,4 @@ private:
     std::string error_;
 };
 
-}  // namespace navkit
+} // namespace navkit

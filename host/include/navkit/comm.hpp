@@ -37,24 +37,29 @@ public:
     void set_host_heartbeat(uint32_t v);
     // "" while the region is usable; else why it was let go (cut short by another
     // process): every access since reads nothing and writes nothing.
-    const std::string &lost() const { return lost_; }
+    const std::string &lost() const
+    {
+        return lost_;
+    }
     // Called between each access's size check and the access (tests: another process
     // cutting the region in that moment); empty by default.
-    void set_between_check_and_access(std::function<void()> f) { between_ = std::move(f); }
+    void set_between_check_and_access(std::function<void()> f)
+    {
+        between_ = std::move(f);
+    }
 
 private:
     // Runs access() on the mapping when it is whole and returns true; false (and the
     // region let go, lost() says why) if it is shorter than the layout or shrinks meanwhile.
-    template <class F>
-    bool guarded(F access) const;
-    void lose(long long size) const;  // size: the region's bytes now, -1 unknown
+    template <class F> bool guarded(F access) const;
+    void lose(long long size) const; // size: the region's bytes now, -1 unknown
 
     std::string name_, group_;
-    mutable uint8_t *base_ = nullptr;  // nullptr: not mapped (before init, after shutdown or lose)
+    mutable uint8_t *base_ = nullptr; // nullptr: not mapped (before init, after shutdown or lose)
     mutable std::string lost_;
     std::function<void()> between_;
-    int fd_ = -1;            // the region, kept open for its lock
+    int fd_ = -1; // the region, kept open for its lock
     bool created_ = false;
 };
 
-}  // namespace navkit
+} // namespace navkit

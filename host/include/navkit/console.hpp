@@ -30,28 +30,34 @@ public:
     // the last held back of each.
     void print_limited(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
     static constexpr int64_t kRepeatPeriodUs = 1000000;
-    void set_time_us(int64_t t_us) { t_us_ = t_us; }
+    void set_time_us(int64_t t_us)
+    {
+        t_us_ = t_us;
+    }
     void status(const std::string &line);
     // The face's lines: on a terminal drawn above the status line from the next status()
     // on (only redrawn when they change); an empty list removes the face. Nothing when
     // stdout is not a terminal.
     void set_face(const std::vector<std::string> &lines);
-    bool out_tty() const { return out_tty_; }  // stdout is a terminal (known after init())
+    bool out_tty() const
+    {
+        return out_tty_;
+    } // stdout is a terminal (known after init())
     // Keys typed since the last call (bytes), at most kMaxKeyBytes of them (the rest
     // comes with the next calls); never blocks.
     std::string keys();
     static constexpr size_t kMaxKeyBytes = 64;
 
 private:
-    void erase_block();  // terminal: cursor to the face block's first line, clear below
-    void line(const char *text);  // one scrolling line, stamped
+    void erase_block();          // terminal: cursor to the face block's first line, clear below
+    void line(const char *text); // one scrolling line, stamped
 
     struct Held {
-        int64_t said_us = -1;  // frame time its last line was printed, us
-        unsigned held = 0;     // lines held back since
-        std::string last;      // the last one held back
+        int64_t said_us = -1; // frame time its last line was printed, us
+        unsigned held = 0;    // lines held back since
+        std::string last;     // the last one held back
     };
-    std::map<const char *, Held> held_;  // print_limited's formats (literals: one address each)
+    std::map<const char *, Held> held_; // print_limited's formats (literals: one address each)
 
     std::FILE *out_;
     int in_fd_;
@@ -62,10 +68,10 @@ private:
     double status_period_s_;
     int64_t t_us_ = 0;
     int64_t last_status_us_ = -1;
-    std::vector<std::string> face_;  // lines of the face block
-    size_t face_shown_ = 0;          // face lines on screen above the status line
-    bool face_dirty_ = false;        // face_ differs from what is on screen
-    termios saved_termios_{};          // stdin before raw mode (valid while in_raw_)
+    std::vector<std::string> face_; // lines of the face block
+    size_t face_shown_ = 0;         // face lines on screen above the status line
+    bool face_dirty_ = false;       // face_ differs from what is on screen
+    termios saved_termios_{};       // stdin before raw mode (valid while in_raw_)
 };
 
-}  // namespace navkit
+} // namespace navkit

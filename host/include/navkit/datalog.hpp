@@ -14,13 +14,16 @@ namespace navkit {
 
 struct LogParam {
     std::string name;
-    double lo, hi;  // default plot range
+    double lo, hi; // default plot range
 };
 
 class Datalog {
 public:
     explicit Datalog(std::string dir) : dir_(std::move(dir)) {}
-    ~Datalog() { stop(); }
+    ~Datalog()
+    {
+        stop();
+    }
     // "" on success, else why not. `when` names the file.
     std::string start(std::time_t when, const std::vector<LogParam> &params);
     // "" when written (or not recording); else why not: a row whose count differs from
@@ -28,8 +31,14 @@ public:
     // quietly.
     std::string row(const std::vector<double> &values);
     void stop();
-    bool recording() const { return f_ != nullptr; }
-    const std::string &path() const { return path_; }
+    bool recording() const
+    {
+        return f_ != nullptr;
+    }
+    const std::string &path() const
+    {
+        return path_;
+    }
 
     static std::string file_name(const std::tm &t);
     static std::string header(const std::vector<LogParam> &params);
@@ -41,4 +50,4 @@ private:
     size_t n_ = 0;
 };
 
-}  // namespace navkit
+} // namespace navkit

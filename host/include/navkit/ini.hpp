@@ -22,15 +22,15 @@ public:
 };
 
 struct ExecutiveCfg {
-    double frame_rate_hz = 10.0;     // Hz, frame k starts at t0 + k / frame_rate_hz
-    double planner_timeout_s = 1.0;  // s without a planner heartbeat -> stop; 0 = never
-    double console_idle_s = 2.0;     // s after the last planner command before console teleop is obeyed
+    double frame_rate_hz = 10.0;    // Hz, frame k starts at t0 + k / frame_rate_hz
+    double planner_timeout_s = 1.0; // s without a planner heartbeat -> stop; 0 = never
+    double console_idle_s = 2.0;    // s after the last planner command before console teleop is obeyed
     std::string shm_name = "/navkit";
-    std::string shm_group;           // empty: mode 0600; a group name: 0660 and that group
+    std::string shm_group; // empty: mode 0600; a group name: 0660 and that group
     std::string log_dir = ".";
-    bool record = false;             // start the datalog at start-up
-    int dio_default = 0;             // levels of the DIO bits no planner owns (12 bits)
-    int mc_datalog = 0;              // micro datalog selection (spec enum mc_datalog) at start-up
+    bool record = false; // start the datalog at start-up
+    int dio_default = 0; // levels of the DIO bits no planner owns (12 bits)
+    int mc_datalog = 0;  // micro datalog selection (spec enum mc_datalog) at start-up
     // "file:line: key" of the later of frame_rate_hz and [micro_cfg_motion] watchdog_timeout
     // (where a pair that does not fit together is named; see frame_watchdog_error)
     std::string rate_watchdog_at;
@@ -82,57 +82,57 @@ struct MicroCfg {
         navkit_micro_cfg_motion_defaults(&motion);
         navkit_micro_cfg_io_defaults(&io);
     }
-    std::string port = "auto";       // "auto" = first FTDI (VID 0403) serial device
+    std::string port = "auto"; // "auto" = first FTDI (VID 0403) serial device
     int baud = 115200;
     int data_bits = 8;
-    char parity = 'N';               // N, E or O
+    char parity = 'N'; // N, E or O
     int stop_bits = 1;
-    int latency_timer_ms = 1;        // FTDI latency timer, where sysfs lets us set it; 0 = leave
-    std::string link = "serial";     // serial: frames on the line; slcan: CAN frames through an
-                                     // SLCAN USB-CAN adapter on the port (docs/can.md)
-    int can_bitrate = static_cast<int>(NAVKIT_CAN_BITRATE);  // bit/s of the CAN bus (slcan)
+    int latency_timer_ms = 1;                               // FTDI latency timer, where sysfs lets us set it; 0 = leave
+    std::string link = "serial";                            // serial: frames on the line; slcan: CAN frames through an
+                                                            // SLCAN USB-CAN adapter on the port (docs/can.md)
+    int can_bitrate = static_cast<int>(NAVKIT_CAN_BITRATE); // bit/s of the CAN bus (slcan)
     navkit_micro_cfg_geometry_t geometry{};
     navkit_micro_cfg_motion_t motion{};
     navkit_micro_cfg_io_t io{};
 };
 
 struct ConsoleCfg {
-    int teleop_speed = 200;          // mm/s of the forward/reverse keys
-    int teleop_accel = 300;          // mm/s^2
-    int teleop_turn_rate = 300;      // deg/s x 10 of the left/right keys
-    double status_period_s = 1.0;    // s between status lines when stdout is not a terminal
+    int teleop_speed = 200;       // mm/s of the forward/reverse keys
+    int teleop_accel = 300;       // mm/s^2
+    int teleop_turn_rate = 300;   // deg/s x 10 of the left/right keys
+    double status_period_s = 1.0; // s between status lines when stdout is not a terminal
 };
 
 struct SafetyCfg {
-    double battery_min_v = 0.0;      // V; below it (micro online) the robot stops; 0 = off
-    int ir_stop_mm = 0;              // mm; an IR range below it stops the robot; 0 = off
+    double battery_min_v = 0.0; // V; below it (micro online) the robot stops; 0 = off
+    int ir_stop_mm = 0;         // mm; an IR range below it stops the robot; 0 = off
 };
 
 struct BatteryCal {
-    int channel = 4;                 // ADC channel
-    double vref = 5.0;               // V: ADC reference (counts = V * 1024 / vref)
-    double divider = 3.0;            // board divider ratio
-    double offset_v = 0.0;           // V added after scaling
+    int channel = 4;       // ADC channel
+    double vref = 5.0;     // V: ADC reference (counts = V * 1024 / vref)
+    double divider = 3.0;  // board divider ratio
+    double offset_v = 0.0; // V added after scaling
 };
 
 struct Gp2d12Cal {
-    int channel = 0;                 // ADC channel
-    double vref = 5.0;               // V at ADC full scale
-    double a_v_mm = 331.4;           // curve V = a / (d + b) + c, d in mm
+    int channel = 0;       // ADC channel
+    double vref = 5.0;     // V at ADC full scale
+    double a_v_mm = 331.4; // curve V = a / (d + b) + c, d in mm
     double b_mm = 40.0;
     double c_v = 0.015;
-    int min_mm = 100;                // valid range; outside it the value is 0
+    int min_mm = 100; // valid range; outside it the value is 0
     int max_mm = 800;
 };
 
 struct Srf04Cal {
-    double mm_per_us = 0.1715;       // half the speed of sound
+    double mm_per_us = 0.1715; // half the speed of sound
     double offset_mm = 0.0;
-    int max_mm = 3000;               // farther = 0 (no echo)
+    int max_mm = 3000; // farther = 0 (no echo)
 };
 
 struct ServoCal {
-    double gain = 1.0;               // position = gain * reported + offset
+    double gain = 1.0; // position = gain * reported + offset
     double offset_deg = 0.0;
 };
 
@@ -140,7 +140,7 @@ struct SensorsCfg {
     SensorsCfg()
     {
         for (int i = 0; i < 4; i++) {
-            ir[i].channel = i;  // GP2D12 rangers on ADC ch0-3
+            ir[i].channel = i; // GP2D12 rangers on ADC ch0-3
         }
     }
     BatteryCal battery;
@@ -151,11 +151,11 @@ struct SensorsCfg {
 
 // [animation]: the seed's face (Animation.cpp), drawn above the console's status line.
 struct AnimationCfg {
-    bool on = false;                 // the seed's [Animation] On
-    std::string file_setting = "Animation.ini";  // [animation] file as written (relative: to the config dir)
-    std::string file = "Animation.ini";  // the face's path Animation::start opens (Ini::load: file_setting
-                                         // made relative to the config dir)
-    bool log = false;                // stdout not a terminal: a "face:" line when the face changes
+    bool on = false;                            // the seed's [Animation] On
+    std::string file_setting = "Animation.ini"; // [animation] file as written (relative: to the config dir)
+    std::string file = "Animation.ini";         // the face's path Animation::start opens (Ini::load: file_setting
+                                                // made relative to the config dir)
+    bool log = false;                           // stdout not a terminal: a "face:" line when the face changes
 };
 
 struct Config {
@@ -182,8 +182,8 @@ struct Config {
 std::string key_at(const Config &c, const std::string &sec, const std::string &key);
 // key_at of the later written of [sec_a] key_a and [sec_b] key_b (key_b on a tie): where a
 // pair of values that do not fit together is named (the frame rate and the watchdog).
-std::string later_key_at(const Config &c, const std::string &sec_a, const std::string &key_a,
-                         const std::string &sec_b, const std::string &key_b);
+std::string later_key_at(const Config &c, const std::string &sec_a, const std::string &key_a, const std::string &sec_b,
+                         const std::string &key_b);
 
 class Ini {
 public:
@@ -201,4 +201,4 @@ public:
     static std::string json(const Config &c);
 };
 
-}  // namespace navkit
+} // namespace navkit

@@ -18,21 +18,21 @@
 namespace navkit {
 
 struct IniKey {
-    std::string name;   // as written in the file
-    std::string value;  // as inih hands it over (trimmed, inline comment removed)
-    int line = 0;       // 1-based line of the key in the file
+    std::string name;  // as written in the file
+    std::string value; // as inih hands it over (trimmed, inline comment removed)
+    int line = 0;      // 1-based line of the key in the file
 };
 
 struct IniSection {
-    std::string name;                    // lower-case
-    std::string written;                 // as written between the brackets
-    int line = 0;                        // 1-based line of its [header]
-    std::map<std::string, IniKey> keys;  // lower-case key name -> key
+    std::string name;                   // lower-case
+    std::string written;                // as written between the brackets
+    int line = 0;                       // 1-based line of its [header]
+    std::map<std::string, IniKey> keys; // lower-case key name -> key
 };
 
 struct IniFile {
-    std::string path;                  // as given to ini_read
-    std::vector<IniSection> sections;  // in file order, each once
+    std::string path;                 // as given to ini_read
+    std::vector<IniSection> sections; // in file order, each once
 
     // The section of lower-case `name`, nullptr if the file has none.
     const IniSection *find(const std::string &name) const;
@@ -56,4 +56,4 @@ IniFile ini_read(const std::string &path, const IniCheck &check = nullptr);
 // `s` in lower case (ASCII).
 std::string ini_lower(std::string s);
 
-}  // namespace navkit
+} // namespace navkit

@@ -9,4 +9,4 @@ namespace navkit {
 // UTF-8 included, as they are).
 std::string json_string(const std::string &v);
 
-}  // namespace navkit
+} // namespace navkit

@@ -24,16 +24,16 @@ class Console;
 
 // The micro link's error counters, kept apart (summed over port reopens).
 struct LinkCounters {
-    uint64_t bad_crc = 0;          // candidate frames with a wrong CRC
-    uint64_t unknown_type = 0;     // candidates of an unknown (or host-to-micro) type
-    uint64_t bad_length = 0;       // candidates whose length word is not their type's
-    uint64_t decode_failures = 0;  // whole micro_data frames that did not decode or had a
-                                   // field outside the spec's range (dropped)
-    uint64_t schema_mismatch = 0;  // CRC-good micro_data of another spec's length
-    uint64_t dropped_bytes = 0;    // bytes not part of a returned frame
-    uint64_t can_errors = 0;       // link = slcan: CAN frames ISO-TP refused, ISO-TP messages
-                                   // aborted (lost, reordered, restarted, timed out, overflowed),
-                                   // adapter lines that were no frame
+    uint64_t bad_crc = 0;         // candidate frames with a wrong CRC
+    uint64_t unknown_type = 0;    // candidates of an unknown (or host-to-micro) type
+    uint64_t bad_length = 0;      // candidates whose length word is not their type's
+    uint64_t decode_failures = 0; // whole micro_data frames that did not decode or had a
+                                  // field outside the spec's range (dropped)
+    uint64_t schema_mismatch = 0; // CRC-good micro_data of another spec's length
+    uint64_t dropped_bytes = 0;   // bytes not part of a returned frame
+    uint64_t can_errors = 0;      // link = slcan: CAN frames ISO-TP refused, ISO-TP messages
+                                  // aborted (lost, reordered, restarted, timed out, overflowed),
+                                  // adapter lines that were no frame
     // Frames rejected for any reason (lisp_data.link_errors): the six frame counters.
     uint64_t rejected() const
     {
@@ -43,11 +43,11 @@ struct LinkCounters {
 
 // What one MicroLink::receive() read, besides the newest micro_data of our spec.
 struct MicroReceived {
-    unsigned ours = 0;             // whole micro_data of our spec that passed the spec's checks
-    bool foreign_last = false;     // the newest whole micro_data carried another spec's hash
-    uint32_t foreign_hash = 0;     // ... that hash
-    bool other_length = false;     // a micro_data of another spec's length arrived (new this call)
-    uint32_t other_length_hash = 0;  // ... the spec hash its frozen words 4-5 name
+    unsigned ours = 0;              // whole micro_data of our spec that passed the spec's checks
+    bool foreign_last = false;      // the newest whole micro_data carried another spec's hash
+    uint32_t foreign_hash = 0;      // ... that hash
+    bool other_length = false;      // a micro_data of another spec's length arrived (new this call)
+    uint32_t other_length_hash = 0; // ... the spec hash its frozen words 4-5 name
 };
 
 class MicroLink {
@@ -58,8 +58,14 @@ public:
     // starting: a port another process holds is refused (std::runtime_error), not retried;
     // else any failure is said once (per distinct reason) and tried again next frame.
     bool open(bool starting = false);
-    void close() { port_.close(); }
-    bool is_open() const { return port_.is_open(); }
+    void close()
+    {
+        port_.close();
+    }
+    bool is_open() const
+    {
+        return port_.is_open();
+    }
 
     // Start of a frame at frame time now_us (us): reopens a lost port (true when it opened
     // now) and writes the SLCAN adapter's set-up after an open.
@@ -82,12 +88,24 @@ public:
     bool write_frame_now(const uint8_t *buf, size_t len);
 
     // Bytes written in this frame (lockstep tells the driver).
-    uint32_t tx_bytes_frame() const { return tx_frame_; }
+    uint32_t tx_bytes_frame() const
+    {
+        return tx_frame_;
+    }
     // The counters so far.
     LinkCounters counters() const;
-    uint64_t superseded() const { return superseded_; }
-    uint64_t short_reads() const { return short_reads_; }
-    uint64_t tx_errors() const { return tx_errors_; }
+    uint64_t superseded() const
+    {
+        return superseded_;
+    }
+    uint64_t short_reads() const
+    {
+        return short_reads_;
+    }
+    uint64_t tx_errors() const
+    {
+        return tx_errors_;
+    }
 
 private:
     void port_lost(const char *why);
@@ -100,7 +118,10 @@ private:
     // to take_frames (out == nullptr: not wanted now); can_send(): start a message (skipped,
     // counted in tx_errors, while the last is still going out); can_pump(): the frames
     // ISO-TP lets go now.
-    bool slcan() const { return cfg_.link == "slcan"; }
+    bool slcan() const
+    {
+        return cfg_.link == "slcan";
+    }
     void can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *out, MicroReceived *r);
     bool can_send(const uint8_t *buf, size_t len);
     void can_pump();
@@ -108,27 +129,30 @@ private:
     // flow control came) or ISO-TP gives it up (no flow control within N_Bs).
     void can_flush();
     void can_write(const std::string &line);
-    uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); }  // ISO-TP clock: frame time
+    uint32_t can_ms() const
+    {
+        return static_cast<uint32_t>(now_us_ / 1000);
+    } // ISO-TP clock: frame time
 
     const MicroCfg &cfg_;
     Console &con_;
     SerialPort port_;
     navkit_parser_t parser_{};
-    Slcan slcan_;                   // link = slcan: the adapter's lines
-    navkit_isotp_rx_t can_rx_{};    // link = slcan: micro_data reassembly
-    navkit_isotp_tx_t can_tx_{};    // link = slcan: the message going out
-    bool adapter_pending_ = false;  // link = slcan: the port opened, the adapter not set up yet
+    Slcan slcan_;                  // link = slcan: the adapter's lines
+    navkit_isotp_rx_t can_rx_{};   // link = slcan: micro_data reassembly
+    navkit_isotp_tx_t can_tx_{};   // link = slcan: the message going out
+    bool adapter_pending_ = false; // link = slcan: the port opened, the adapter not set up yet
     std::string last_open_error_;
-    int64_t now_us_ = 0;            // frame time of this frame, us
+    int64_t now_us_ = 0; // frame time of this frame, us
     uint32_t tx_frame_ = 0;
-    uint64_t superseded_ = 0;       // whole micro_data dropped for a newer one
-    uint64_t short_reads_ = 0;      // lockstep ticks whose rx_bytes did not all arrive in 1 s
-    uint64_t tx_errors_ = 0;        // frames written only in part (output buffer full), or skipped
-    LinkCounters base_;             // counters of parsers before the last reopen, and decode failures
-    LinkCounters reported_;         // the counters last shown on the console
+    uint64_t superseded_ = 0;  // whole micro_data dropped for a newer one
+    uint64_t short_reads_ = 0; // lockstep ticks whose rx_bytes did not all arrive in 1 s
+    uint64_t tx_errors_ = 0;   // frames written only in part (output buffer full), or skipped
+    LinkCounters base_;        // counters of parsers before the last reopen, and decode failures
+    LinkCounters reported_;    // the counters last shown on the console
     int64_t last_error_report_us_ = -1;
-    uint32_t seen_schema_mismatch_ = 0;  // parser_.stats.schema_mismatch already handled
-    int last_bad_field_ = -1;       // field of the last micro_data outside the spec's range
+    uint32_t seen_schema_mismatch_ = 0; // parser_.stats.schema_mismatch already handled
+    int last_bad_field_ = -1;           // field of the last micro_data outside the spec's range
 };
 
-}  // namespace navkit
+} // namespace navkit

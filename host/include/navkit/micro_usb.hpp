@@ -38,9 +38,18 @@ public:
     bool online(int64_t now_us) const;
     // Our config is in force: all three config messages went out since start-up (or the
     // last port reopen, micro reset or refusal) and a micro_data since says configured.
-    bool configured() const { return taken_; }
-    bool spec_mismatch() const { return mismatch_; }
-    bool needs_config() const { return !taken_ || mismatch_; }
+    bool configured() const
+    {
+        return taken_;
+    }
+    bool spec_mismatch() const
+    {
+        return mismatch_;
+    }
+    bool needs_config() const
+    {
+        return !taken_ || mismatch_;
+    }
 
     // The command of this frame: new (a new time tag) or not (repeat the last one).
     void queue_command(const navkit_micro_cmd_t &cmd, bool is_new);
@@ -51,23 +60,53 @@ public:
     // configured micro of our spec (an unconfigured one is not moving); true if sent.
     bool send_stop(uint16_t dio);
     // The last message written whole was a stop command (fwd 5, turn 5).
-    bool stop_was_last() const { return stop_last_; }
+    bool stop_was_last() const
+    {
+        return stop_last_;
+    }
 
     // A stop command carrying these DIO levels (the seed's Navigation Init command).
     static navkit_micro_cmd_t stop_command(uint16_t dio);
 
-    bool port_open() const { return link_.is_open(); }
-    uint32_t tx_bytes_frame() const { return link_.tx_bytes_frame(); }
+    bool port_open() const
+    {
+        return link_.is_open();
+    }
+    uint32_t tx_bytes_frame() const
+    {
+        return link_.tx_bytes_frame();
+    }
     void begin_frame(int64_t now_us);
     // The counters so far; link_errors() is their rejected() sum (lisp_data.link_errors).
-    LinkCounters counters() const { return link_.counters(); }
+    LinkCounters counters() const
+    {
+        return link_.counters();
+    }
     uint32_t link_errors() const;
-    uint64_t config_downloads() const { return config_sent_; }  // rounds started
-    uint64_t superseded() const { return link_.superseded(); }
-    uint64_t short_reads() const { return link_.short_reads(); }
-    uint64_t tx_errors() const { return link_.tx_errors(); }
-    uint16_t last_tag() const { return last_.time_tag; }
-    const navkit_micro_cmd_t &last_command() const { return last_; }
+    uint64_t config_downloads() const
+    {
+        return config_sent_;
+    } // rounds started
+    uint64_t superseded() const
+    {
+        return link_.superseded();
+    }
+    uint64_t short_reads() const
+    {
+        return link_.short_reads();
+    }
+    uint64_t tx_errors() const
+    {
+        return link_.tx_errors();
+    }
+    uint16_t last_tag() const
+    {
+        return last_.time_tag;
+    }
+    const navkit_micro_cmd_t &last_command() const
+    {
+        return last_;
+    }
 
 private:
     // The port (re)opened: whatever the micro on the other end reports, it may hold another
@@ -94,24 +133,24 @@ private:
     int64_t last_rx_us_ = -1;
     bool have_data_ = false;
     uint16_t status_ = 0;
-    bool configured_ = false;    // the micro's word (status bit of its last micro_data)
-    bool taken_ = false;         // our config is in force (configured())
-    bool round_done_ = false;    // all three config messages went out since config_again()
-    int round_next_ = 0;         // next config message of the round: 0 geometry, 1 motion, 2 io
-    uint64_t rounds_waiting_ = 0;    // rounds started since our config was last in force
-    int64_t waiting_since_us_ = 0;   // frame time of the first of them
+    bool configured_ = false;      // the micro's word (status bit of its last micro_data)
+    bool taken_ = false;           // our config is in force (configured())
+    bool round_done_ = false;      // all three config messages went out since config_again()
+    int round_next_ = 0;           // next config message of the round: 0 geometry, 1 motion, 2 io
+    uint64_t rounds_waiting_ = 0;  // rounds started since our config was last in force
+    int64_t waiting_since_us_ = 0; // frame time of the first of them
     int64_t last_rounds_warn_us_ = -1;
-    uint16_t rejected_seen_ = 0;     // micro_data.cmd_rejected already looked at
-    uint16_t refused_type_ = 0;      // msg_type of the last config the micro refused, 0 = none
+    uint16_t rejected_seen_ = 0; // micro_data.cmd_rejected already looked at
+    uint16_t refused_type_ = 0;  // msg_type of the last config the micro refused, 0 = none
     int64_t last_refusal_report_us_ = -1;
     bool mismatch_ = false;
     uint32_t mismatch_hash_ = 0;
     uint16_t cfg_tag_ = 0;
     navkit_micro_cmd_t last_{};  // the command repeated while nothing new comes
     uint64_t config_sent_ = 0;   // config rounds started (a geometry message sent)
-    int64_t last_probe_us_ = -1;     // mismatch: frame time of the last config probe
+    int64_t last_probe_us_ = -1; // mismatch: frame time of the last config probe
     int64_t last_mismatch_report_us_ = -1;
     bool stop_last_ = false;
 };
 
-}  // namespace navkit
+} // namespace navkit

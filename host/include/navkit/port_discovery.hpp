@@ -23,7 +23,7 @@ struct DeviceRoots {
 struct UsbKind {
     unsigned vid;
     int pid;
-    const char *link;  // "serial" or "slcan"
+    const char *link; // "serial" or "slcan"
     const char *name;
 };
 
@@ -32,16 +32,16 @@ const std::vector<UsbKind> &usb_kinds();
 
 // A tty on USB, as discovery saw it.
 struct UsbPort {
-    std::string path;     // what port = auto opens: the /dev/serial/by-id link if any, else <dev>/<tty>
-    std::string dev;      // <dev>/<tty>
-    std::string tty;      // kernel name (ttyACM0)
-    std::string by_id;    // name of its /dev/serial/by-id link, "" if none
-    std::string vid;      // USB vendor id, 4 hex digits as sysfs has them ("" if unknown)
-    std::string pid;      // USB product id, likewise
-    std::string product;  // the device's USB product string ("" if none)
-    std::string serial;   // the device's USB serial number ("" if none)
-    std::string link;     // link kind of its ids (usb_kinds()): "serial", "slcan", "" none known
-    std::string name;     // what its ids are (usb_kinds()), "" if none known
+    std::string path;    // what port = auto opens: the /dev/serial/by-id link if any, else <dev>/<tty>
+    std::string dev;     // <dev>/<tty>
+    std::string tty;     // kernel name (ttyACM0)
+    std::string by_id;   // name of its /dev/serial/by-id link, "" if none
+    std::string vid;     // USB vendor id, 4 hex digits as sysfs has them ("" if unknown)
+    std::string pid;     // USB product id, likewise
+    std::string product; // the device's USB product string ("" if none)
+    std::string serial;  // the device's USB serial number ("" if none)
+    std::string link;    // link kind of its ids (usb_kinds()): "serial", "slcan", "" none known
+    std::string name;    // what its ids are (usb_kinds()), "" if none known
 };
 
 // Every USB tty: the <dev>/serial/by-id links (sorted by name), then the <sys>/class/tty
@@ -74,4 +74,4 @@ std::string latency_timer_path(const std::string &dev, const DeviceRoots &roots)
 // (path)").
 std::string set_latency_timer(const std::string &dev, const DeviceRoots &roots, int ms);
 
-}  // namespace navkit
+} // namespace navkit

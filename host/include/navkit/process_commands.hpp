@@ -33,19 +33,19 @@ namespace navkit {
 enum class Teleop { none, forward, reverse, left, right, stop };
 
 struct PlannerInput {
-    bool have = false;          // a lisp_cmd was read this frame
+    bool have = false; // a lisp_cmd was read this frame
     navkit_lisp_cmd_t cmd{};
     uint32_t heartbeat = 0;
 };
 
 struct ConsoleInput {
     Teleop teleop = Teleop::none;
-    uint16_t dio_toggle = 0;    // DIO bits whose console level flips
-    bool datalog_next = false;  // key l: the next micro datalog selection
+    uint16_t dio_toggle = 0;   // DIO bits whose console level flips
+    bool datalog_next = false; // key l: the next micro datalog selection
 };
 
 struct SafetyInput {
-    bool stop = false;          // a safety condition holds now
+    bool stop = false; // a safety condition holds now
 };
 
 enum class Owner { none, planner, console };
@@ -54,29 +54,31 @@ enum class Owner { none, planner, console };
 enum class TeleopIgnored { no, planner, safety };
 
 struct Arbitration {
-    bool planner_new = false;        // pass arb.planner to Navigation
+    bool planner_new = false; // pass arb.planner to Navigation
     navkit_lisp_cmd_t planner{};
-    bool planner_rejected = false;   // a new planner command failed the range check
+    bool planner_rejected = false; // a new planner command failed the range check
     int rejected_field = -1;
-    bool planner_dropped = false;    // a new planner command a console or safety stop dropped
-    int32_t rejected_time_tag = 0;   // the tag (ms) of either, acknowledged with nav_result rejected
-    bool teleop_new = false;         // pass arb.teleop to Navigation
+    bool planner_dropped = false;  // a new planner command a console or safety stop dropped
+    int32_t rejected_time_tag = 0; // the tag (ms) of either, acknowledged with nav_result rejected
+    bool teleop_new = false;       // pass arb.teleop to Navigation
     Teleop teleop = Teleop::none;
-    TeleopIgnored teleop_ignored = TeleopIgnored::no;  // a teleop key was ignored, and why
-    bool stop = false;               // send a stop (safety started or planner timed out)
-    bool timeout_started = false;    // the planner timed out in this frame
+    TeleopIgnored teleop_ignored = TeleopIgnored::no; // a teleop key was ignored, and why
+    bool stop = false;                                // send a stop (safety started or planner timed out)
+    bool timeout_started = false;                     // the planner timed out in this frame
     bool safety_started = false;
-    uint16_t dio = 0;                // merged DIO levels
-    uint16_t mc_datalog = 0;         // micro datalog selection in force (rule 5)
+    uint16_t dio = 0;        // merged DIO levels
+    uint16_t mc_datalog = 0; // micro datalog selection in force (rule 5)
     Owner owner = Owner::none;
 };
 
 class ProcessCommands {
 public:
     ProcessCommands(const ExecutiveCfg &exec);
-    Arbitration update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s,
-                       int64_t now_us);
-    bool planner_timed_out() const { return timed_out_; }
+    Arbitration update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s, int64_t now_us);
+    bool planner_timed_out() const
+    {
+        return timed_out_;
+    }
 
 private:
     double timeout_s_, idle_s_;
@@ -94,4 +96,4 @@ private:
     Owner owner_ = Owner::none;
 };
 
-}  // namespace navkit
+} // namespace navkit

@@ -32,11 +32,11 @@ struct Robot {
     Navigation nav;
     Sensors sensors;
     Datalog datalog;
-    Animation animation;            // the face, when [animation] on
+    Animation animation; // the face, when [animation] on
     Clock *clock = nullptr;
 
-    FrameTick tick;                 // the frame being run
-    navkit_micro_data_t data{};     // the newest micro_data
+    FrameTick tick;             // the frame being run
+    navkit_micro_data_t data{}; // the newest micro_data
     bool have_data = false;
     navkit_lisp_cmd_t lisp_cmd{};   // the planner's current command
     navkit_lisp_data_t lisp_data{}; // published every frame
@@ -51,4 +51,4 @@ void RobotInit(Robot &r);
 void RobotMain(Robot &r);
 void RobotShutdown(Robot &r);
 
-}  // namespace navkit
+} // namespace navkit

@@ -16,9 +16,9 @@ struct Schedule {
 };
 
 struct NextFrame {
-    uint64_t frame = 0;    // the frame to run next
-    uint64_t skipped = 0;  // frames between the last and the next that are not run
-    bool overrun = false;  // the last frame ended after the next one should have started
+    uint64_t frame = 0;   // the frame to run next
+    uint64_t skipped = 0; // frames between the last and the next that are not run
+    bool overrun = false; // the last frame ended after the next one should have started
 };
 
 // Start of frame k (ns on the same clock as t0_ns).
@@ -30,4 +30,4 @@ NextFrame next_frame(const Schedule &s, uint64_t k, int64_t now_ns);
 // Period (ns) of a rate in Hz, rounded to the nearest ns.
 int64_t period_ns_of(double hz);
 
-}  // namespace navkit
+} // namespace navkit

@@ -16,8 +16,11 @@ namespace navkit {
 class Battery {
 public:
     explicit Battery(const BatteryCal &c) : c_(c) {}
-    void set(uint16_t adc) { adc_ = adc; }
-    double value() const;  // V
+    void set(uint16_t adc)
+    {
+        adc_ = adc;
+    }
+    double value() const; // V
 private:
     BatteryCal c_;
     uint16_t adc_ = 0;
@@ -27,9 +30,12 @@ private:
 class Gp2d12 {
 public:
     explicit Gp2d12(const Gp2d12Cal &c) : c_(c) {}
-    void set(uint16_t adc) { adc_ = adc; }
-    int value() const;     // mm, 0 = out of range
-    double volts() const;  // V at the ADC pin
+    void set(uint16_t adc)
+    {
+        adc_ = adc;
+    }
+    int value() const;    // mm, 0 = out of range
+    double volts() const; // V at the ADC pin
 private:
     Gp2d12Cal c_;
     uint16_t adc_ = 0;
@@ -39,8 +45,11 @@ private:
 class Srf04 {
 public:
     explicit Srf04(const Srf04Cal &c) : c_(c) {}
-    void set(uint16_t echo_us) { us_ = echo_us; }
-    int value() const;     // mm
+    void set(uint16_t echo_us)
+    {
+        us_ = echo_us;
+    }
+    int value() const; // mm
 private:
     Srf04Cal c_;
     uint16_t us_ = 0;
@@ -50,8 +59,11 @@ private:
 class RcServo {
 public:
     explicit RcServo(const ServoCal &c) : c_(c) {}
-    void set(int16_t pos) { pos_ = pos; }
-    int value() const;     // deg x 10
+    void set(int16_t pos)
+    {
+        pos_ = pos;
+    }
+    int value() const; // deg x 10
 private:
     ServoCal c_;
     int16_t pos_ = 0;
@@ -67,7 +79,7 @@ public:
     RcServo servo[8];
 
 private:
-    SensorsCfg cfg_;  // ADC channels
+    SensorsCfg cfg_; // ADC channels
 };
 
-}  // namespace navkit
+} // namespace navkit
