@@ -61,7 +61,7 @@ def test_the_dbc_names_the_spec_and_its_hash(dbc):
     assert len(names) == 2 * len(nc.CAN.ids)
     # the segmented messages are documented as such, with their frame counts
     cmd = db.get_message_by_name("micro_data")
-    assert "segmented, 1 first frame + 18 consecutive frames" in cmd.comment
+    assert "segmented, 1 first frame + 21 consecutive frames" in cmd.comment
 
 
 @pytest.mark.parametrize("name", [m.name for m in p.SPEC.serial_messages()])

@@ -26,7 +26,8 @@ NAVKIT = [sys.executable, "-m", "navkit", "can", "dump"]
 def _traffic(drop_cf_of: int | None = None) -> list[can.Message]:
     """The frames of a host and a micro exchanging three micro_cmd / micro_data pairs
     (flow controls included), 1 ms steps; the consecutive frame 0x23 of the micro_cmd with
-    time tag `drop_cf_of` is lost."""
+    time tag `drop_cf_of` is lost. Each micro_data reports the micro's ISO-TP receiver
+    counters in its can_rx_* fields, as the firmware's CAN build does."""
     host, micro = nc.Endpoint("host"), nc.Endpoint("micro")
     frames, t = [], 100.0
     for k in range(3):
@@ -37,7 +38,8 @@ def _traffic(drop_cf_of: int | None = None) -> list[can.Message]:
                     continue
                 frames.append(m)
                 if micro.feed(m, t):
-                    micro.send(p.encode_frame("micro_data", {"ack_time_tag": k}, time_tag=k), t)
+                    own = {f"can_rx_{n}": v for n, v in micro.rx.stats.items() if n != "good"}
+                    micro.send(p.encode_frame("micro_data", {"ack_time_tag": k, **own}, time_tag=k), t)
             for m in micro.poll(t):
                 frames.append(m)
                 host.feed(m, t)
@@ -68,6 +70,7 @@ def test_a_log_decodes_to_the_kits_messages(tmp_path, suffix):
         ("micro_cmd", 0), ("micro_data", 0), ("micro_cmd", 1), ("micro_data", 1), ("micro_cmd", 2), ("micro_data", 2)]
     assert msgs[2]["speed"] == 201 and msgs[3]["ack_time_tag"] == 1 and msgs[1]["can_id"] == "0x180"
     assert "host to micro: 3 reassembled; micro to host: 3 reassembled" in r.stderr
+    assert "the micro's own (its last micro_data): all 0" in r.stderr
 
 
 def test_loss_and_bad_frames_are_error_lines_naming_the_frame(tmp_path):
@@ -97,6 +100,9 @@ def test_loss_and_bad_frames_are_error_lines_naming_the_frame(tmp_path):
     assert any("frame refused: not a well-formed ISO-TP frame" in e for e in errors)
     assert any("micro_cmd: 3 of its 3 bytes rejected" in e for e in errors)
     assert "wrong_sn 1" in r.stderr and "bad_frame 1" in r.stderr
+    # what the micro itself counted (a micro_cmd is a first frame + 16 consecutive: the
+    # lost 0x23 aborts it at 0x24, the 12 after are ignored), from its last micro_data
+    assert "the micro's own (its last micro_data): rx_wrong_sn 1, rx_unexpected 12" in r.stderr, r.stderr
 
 
 @pytest.mark.parametrize("argv,status,text", [

@@ -1,7 +1,8 @@
 """`navkit sim --link can`: the real host on `[micro] link = slcan`, the harness as its
 USB-CAN adapter (navkit.can_gateway), the firmware FMU behind. The demo mission ends where
 it ends over serial, every planner command accepted, no watchdog stop; the bus's frames in
-can.log decode with `navkit can dump`; line noise becomes error frames, and CAN resends."""
+can.log decode with `navkit can dump`; line noise becomes error frames, and CAN resends;
+what the micro's ISO-TP aborts reaches the host in micro_data's can_* counters."""
 
 import json
 import subprocess
@@ -102,10 +103,7 @@ distance = 1000
     assert all(frames[i]["dlc"] == 0 and frames[i]["id"] == frames[i + 1]["id"] for i in errors)
 
 
-def test_an_unplugged_adapter_comes_back_and_commands_flow_again(tmp_path_factory):
-    """The host reopens the port and sets the adapter up again (C, Sn, O); the next command
-    goes through."""
-    r = run_mission(tmp_path_factory, "unplug-can", """
+UNPLUG = """
 duration_s = 9.0
 [[command]]
 t = 1.5
@@ -121,13 +119,42 @@ t = 6.0
 fwd_cmd = 1
 speed = 200
 distance = 400
-""", link="can")
+"""
+
+
+def test_an_unplugged_adapter_comes_back_and_commands_flow_again(tmp_path_factory):
+    """The host reopens the port and sets the adapter up again (C, Sn, O); the next command
+    goes through."""
+    r = run_mission(tmp_path_factory, "unplug-can", UNPLUG, link="can")
     assert r.truth_at(3.0)["v_mm_s"] > 180
     assert all(abs(m["v_mm_s"]) < 2 for m in r.truth_between(4.5, 6.0)), "watchdog stop"
     d6 = r.truth_at(6.0)["distance_mm"]
     assert abs(r.truth[-1]["distance_mm"] - (d6 + 400)) <= 15, "commands flow again"
     assert r.summary["link"]["can"]["adapter"]["commands"] > 0
     assert (r.out / "host.log").read_text().count("SLCAN adapter, CAN at 500000 bit/s") == 2
+
+
+def test_the_micros_can_counters_reach_the_host_and_run_mcap(tmp_path_factory):
+    """The adapter unplugged for 1 s cuts one message each way: the micro's reception of a
+    micro_cmd misses its consecutive frames (N_Cr), its micro_data misses the host's flow
+    control (N_Bs). The firmware's own counters say so in micro_data: 0 before, 1 each
+    after, the rest 0, in run.mcap's /micro/data, summary.json and the host's closing line;
+    the bus analyser (the gateway listening) saw the same N_Cr abort."""
+    r = run_mission(tmp_path_factory, "unplug-can", UNPLUG, link="can")
+    data = r.messages("/micro/data")
+    zero = {k: 0 for k in data[0][1] if k.startswith("can_")}
+    assert len(zero) == 10
+    before = [m for t, m in data if t < 3.0]
+    after = [m for t, m in data if t > 4.5]
+    assert before and after
+    assert all({k: m[k] for k in zero} == zero for m in before)
+    want = dict(zero, can_rx_timeout=1, can_tx_timeout=1)
+    assert all({k: m[k] for k in zero} == want for m in after), after[-1]
+    assert {k: r.summary["micro"][k] for k in zero} == want
+    assert r.summary["link"]["can"]["micro_iso_tp_rx"]["timeout"] == 1
+    assert ("micro's CAN counters (its last micro_data): 0 frames refused, 0 stray consecutive frames; "
+            "messages to it aborted: 0 out of sequence, 0 restarted, 1 N_Cr timeouts, 0 overflows; micro_data "
+            "abandoned: 1 N_Bs timeouts") in (r.out / "host.log").read_text()
 
 
 def test_real_time_over_can(tmp_path_factory):

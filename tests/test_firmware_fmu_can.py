@@ -2,7 +2,8 @@
 link (FW_LINK_CAN=1, ISO-TP in C) behind the Binary variables can_rx / can_tx, one frame
 a 12-byte record (fw_fmu_model.h). The host's end here is navkit.can's Endpoint (the
 Python ISO-TP): configs and a command go in as CAN frames, micro_data come back as CAN
-frames, and a wheel model closes the loop as in test_firmware_fmu.
+frames, and a wheel model closes the loop as in test_firmware_fmu. What the micro's ISO-TP
+refuses and aborts comes back in micro_data's can_* counters.
 """
 
 from __future__ import annotations
@@ -26,6 +27,22 @@ MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"
 pytestmark = pytest.mark.skipif(not FMU.exists(), reason=f"{FMU} not built")
 
 RECORD = struct.Struct("<HBx8s")      # identifier, DLC, 0, data (fw_fmu_model.h)
+EXT, RTR = 0x8000, 0x4000             # record identifier flags: extended, remote (fw_fmu_model.h)
+
+
+def can_counters(fields: dict) -> dict:
+    """The micro's CAN transport counters of a micro_data (the can_* fields)."""
+    return {k: v for k, v in fields.items() if k.startswith("can_")}
+
+
+def configs_one_a_frame() -> list[bytes]:
+    """The three config frames, one message each (one a host frame)."""
+    cfg, out, at = config_frames(), [], 0
+    while at < len(cfg):
+        n = 2 * struct.unpack_from("<H", cfg, at + 6)[0]
+        out.append(cfg[at:at + n])
+        at += n
+    return out
 
 
 def pack(msgs) -> bytes:
@@ -111,14 +128,7 @@ def test_config_and_a_command_over_can_frames(micro, status_bit):
     w = Wheels()
     bus = Bus(m, w)
     assert bus.run(1.2) == [] and bus.sent == []     # gyro calibration; nothing unasked
-    cfg = config_frames()
-    configs = []
-    at = 0
-    while at < len(cfg):                              # one config message a host frame
-        n = 2 * struct.unpack_from("<H", cfg, at + 6)[0]
-        configs.append(cfg[at:at + n])
-        at += n
-    data = bus.run(5.0, configs + [cmd(10, fwd_cmd=1, speed=250, distance=800)])
+    data = bus.run(5.0, configs_one_a_frame() + [cmd(10, fwd_cmd=1, speed=250, distance=800)])
     assert bus.skipped == 0
     assert len(data) >= 47, len(data)                 # a reply per message, the last ones in flight
     last = data[-1]
@@ -139,13 +149,7 @@ def test_a_lost_frame_costs_one_command(micro, status_bit):
     m = micro()
     bus = Bus(m)
     bus.run(1.2)
-    cfg = config_frames()
-    configs, at = [], 0
-    while at < len(cfg):
-        n = 2 * struct.unpack_from("<H", cfg, at + 6)[0]
-        configs.append(cfg[at:at + n])
-        at += n
-    bus.run(0.4, configs + [cmd(5, fwd_cmd=1, speed=100, distance=10)])
+    before = bus.run(0.4, configs_one_a_frame() + [cmd(5, fwd_cmd=1, speed=100, distance=10)])[-1]
     n0 = len(bus.sent)
     lost = []
 
@@ -157,6 +161,34 @@ def test_a_lost_frame_costs_one_command(micro, status_bit):
     data = bus.run(0.5, [cmd(6, fwd_cmd=1, speed=100, distance=10)], lose=lose)
     assert lost and 3 <= len(data) <= 4, len(data)    # 5 host frames, one command lost
     assert data[-1]["ack_time_tag"] == 6 and len(bus.sent) > n0
+    # the micro says so in micro_data: one message aborted out of sequence, the consecutive
+    # frames after the one that aborted it ignored (a micro_cmd is a first + 16 consecutive)
+    n_cf = -(-(protocol.SPEC.messages["micro_cmd"].size - 6) // 7)
+    assert before["ack_time_tag"] == 5 and not any(can_counters(before).values())
+    assert can_counters(data[-1]) == dict(can_counters(before), can_rx_wrong_sn=1, can_rx_unexpected=n_cf - 4)
+
+
+def test_refused_frames_come_back_counted_in_micro_data(micro):
+    """A short, an extended and a remote frame on micro_cmd's identifier and a stray
+    consecutive frame, between two host frames: the micro's ISO-TP refuses the three and
+    ignores the fourth, and the next micro_data counts them, each in its own field."""
+    m = micro()
+    bus = Bus(m)
+    bus.run(1.2)
+    before = bus.run(0.4, configs_one_a_frame() + [cmd(5, fwd_cmd=1, speed=100, distance=10)])[-1]
+    assert before["ack_time_tag"] == 5 and not any(can_counters(before).values())
+    bad = [RECORD.pack(0x110, 5, bytes([0x02, 1, 2, 0xCC, 0xCC]) + bytes(3)),
+           RECORD.pack(0x110 | EXT, 8, bytes([0x02, 1, 2]) + bytes([0xCC]) * 5),
+           RECORD.pack(0x110 | RTR, 0, bytes(8)),
+           RECORD.pack(0x110, 8, bytes([0x21]) + bytes(7))]
+    m.fmu.setBinary([m.vr["can_rx"]], [b"".join(bad)])
+    m.fmu.doStep(m.t, 0.001)
+    m.t += 0.001
+    assert m.fmu.getBinary([m.vr["can_tx"]])[0] == b"", "no answer to refused frames"
+    after = bus.run(0.2, [cmd(6, fwd_cmd=1, speed=100, distance=10)])[-1]
+    assert after["ack_time_tag"] == 6
+    assert can_counters(after) == dict(can_counters(before), can_rx_bad_frame=3, can_rx_unexpected=1)
+    assert after["rx_bad_crc"] == after["rx_dropped_bytes"] == 0, "the frame parser never saw them"
 
 
 def test_a_partial_record_is_refused_with_a_warning(micro):

@@ -58,8 +58,8 @@ NAVKIT = [sys.executable, "-m", "navkit"]
      '"adc", word = 26', "count must be a positive integer"),
     # the spec hash sits at the frozen words 4-5 as uint32
     ('{ name = "spec_hash", word = 4, type = "uint32", units = "1", doc = "The spec hash the firmware',
-     '{ name = "spec_hash", word = 66, type = "uint32", units = "1", doc = "The spec hash the firmware',
-     '"spec_hash", word = 66', "micro_data.spec_hash: must be one uint32 at word 4"),
+     '{ name = "spec_hash", word = 76, type = "uint32", units = "1", doc = "The spec hash the firmware',
+     '"spec_hash", word = 76', "micro_data.spec_hash: must be one uint32 at word 4"),
     ('{ name = "rc0_param2", word = 25, type = "int16", units = "deg", scale = 0.1,',
      '{ name = "rc0_param2", word = 25, type = "int16", units = "deg", scale = 0.1, max = 1800,',
      '"rc0_param2", word = 25', "special values of servo_goto must lie within -32768..1800"),

@@ -326,6 +326,19 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     d->last_reject = l->last_reject;
     d->watchdog_stops = fw->watchdog_stops;
     d->reset_cause = fw->reset_cause;
+#if FW_LINK_CAN
+    /* the CAN transport's counters, one field each (the serial build leaves them 0) */
+    d->can_rx_bad_frame = l->can_rx.stats.bad_frame;
+    d->can_rx_wrong_sn = l->can_rx.stats.wrong_sn;
+    d->can_rx_unexpected = l->can_rx.stats.unexpected;
+    d->can_rx_restarted = l->can_rx.stats.restarted;
+    d->can_rx_timeout = l->can_rx.stats.timeout;
+    d->can_rx_overflow = l->can_rx.stats.overflow;
+    d->can_tx_timeout = l->can_tx.stats.timeout;
+    d->can_tx_overflow = l->can_tx.stats.overflow;
+    d->can_tx_bad_fc = l->can_tx.stats.bad_fc;
+    d->can_tx_wait = l->can_tx.stats.wait;
+#endif
 }
 
 #if FW_LINK_CAN

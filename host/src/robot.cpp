@@ -388,6 +388,17 @@ void RobotShutdown(Robot &r)
                         static_cast<unsigned>(d.rx_unknown_type), static_cast<unsigned>(d.rx_bad_length),
                         static_cast<unsigned>(d.rx_schema_mismatch), static_cast<unsigned>(d.rx_dropped_bytes),
                         static_cast<unsigned>(d.cmd_rejected));
+        if (r.cfg.micro.link == "slcan") {  // its CAN transport's (0 from a micro on serial)
+            r.console.print("micro's CAN counters (its last micro_data): %u frames refused, %u stray consecutive "
+                            "frames; messages to it aborted: %u out of sequence, %u restarted, %u N_Cr timeouts, "
+                            "%u overflows; micro_data abandoned: %u N_Bs timeouts, %u overflows, %u bad flow "
+                            "controls; %u waits",
+                            static_cast<unsigned>(d.can_rx_bad_frame), static_cast<unsigned>(d.can_rx_unexpected),
+                            static_cast<unsigned>(d.can_rx_wrong_sn), static_cast<unsigned>(d.can_rx_restarted),
+                            static_cast<unsigned>(d.can_rx_timeout), static_cast<unsigned>(d.can_rx_overflow),
+                            static_cast<unsigned>(d.can_tx_timeout), static_cast<unsigned>(d.can_tx_overflow),
+                            static_cast<unsigned>(d.can_tx_bad_fc), static_cast<unsigned>(d.can_tx_wait));
+        }
     }
     if (r.clock) {
         r.console.print("clock: %llu overruns, %llu frames skipped",

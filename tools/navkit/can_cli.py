@@ -14,7 +14,9 @@ Every frame ISO-TP refuses, every message it aborts, and every reassembled messa
 frame checks refuse prints as an error line naming the frame (its number in the stream,
 time, identifier) and the reason. Flow control frames, other identifiers and bus error frames (counted) print nothing.
 At the end (the log's end, --count messages, --seconds of listening, or Ctrl-C) the
-counters go to stderr. The exit status is 0 only if nothing was refused or aborted.
+counters go to stderr, with the micro's own (the can_* counters of the last micro_data
+seen: what its ISO-TP refused and aborted, 0 from a micro on a serial build). The exit
+status is 0 only if nothing was refused or aborted.
 """
 
 from __future__ import annotations
@@ -69,7 +71,8 @@ def add_arguments(parser) -> None:
 
 class Dumper:
     """Reassembles and prints: feed() every frame in bus order; `bad` counts error lines,
-    `messages` the messages printed."""
+    `messages` the messages printed, `micro_can` holds the micro's own CAN counters (the
+    can_* fields of the last micro_data printed, prefix dropped; None before one)."""
 
     def __init__(self, out=None):
         from navkit import can as nc
@@ -80,6 +83,7 @@ class Dumper:
         self.messages = 0
         self.bad = 0
         self.error_frames = 0   # bus error frames (the controller sends the frame again): counted
+        self.micro_can: dict | None = None
 
     def _error(self, k: int, msg, text: str) -> None:
         self.bad += 1
@@ -116,6 +120,8 @@ class Dumper:
                         self._error(k, msg, f"{got.message}: {err} (CRC good; the receiver's spec check drops it)")
                         continue
                     self.messages += 1
+                    if e.name == "micro_data":
+                        self.micro_can = {k[4:]: v for k, v in e.fields.items() if k.startswith("can_")}
                     print(json.dumps({"t": round(msg.timestamp, 6), "can_id": f"0x{got.can_id:03X}",
                                       "message": e.name, **e.fields}), file=self.out, flush=True)
                 else:
@@ -127,6 +133,9 @@ class Dumper:
         for direction, rx in self.rx.items():
             counts = ", ".join(f"{k} {v}" for k, v in rx.stats.items() if v and k != "good")
             parts.append(f"{direction.replace('_', ' ')}: {rx.stats['good']} reassembled" + (f", {counts}" if counts else ""))
+        if self.micro_can is not None:
+            counts = ", ".join(f"{k} {v}" for k, v in self.micro_can.items() if v)
+            parts.append(f"the micro's own (its last micro_data): {counts or 'all 0'}")
         return "navkit can dump: " + "; ".join(parts)
 
 

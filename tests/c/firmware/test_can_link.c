@@ -2,7 +2,9 @@
  * sender (and a plain reassembly of micro_data) talks to fw_link_poll() through CAN frame
  * queues in a fake hal. The configs and a micro_cmd go in as ISO-TP messages, micro_data
  * comes back as one; a lost consecutive frame costs that message only (counted by ISO-TP,
- * never seen by the frame parser); a full TX queue delays frames, never breaks them. */
+ * never seen by the frame parser); a full TX queue delays frames, never breaks them; each kind
+ * of ISO-TP refusal or abort, made once, moves its own micro_data counter (can_rx_*,
+ * can_tx_*) by one and no other. */
 #include <string.h>
 
 #include "check.h"
@@ -68,18 +70,35 @@ static uint16_t data_have, data_want;
 static int data_count;            /* micro_data frames reassembled */
 static navkit_micro_data_t last_data;
 
-static void to_micro(uint16_t id, const uint8_t *data)
+/* The flow control the host answers a micro_data's first frame with. */
+enum { FC_CONTINUE, FC_NONE, FC_WAIT_THEN_CONTINUE, FC_OVERFLOW, FC_INVALID };
+static int host_fc = FC_CONTINUE;
+
+/* A frame of dlc data bytes (0..8; the rest of the record zero) into the micro's RX queue. */
+static void to_micro_dlc(uint16_t id, const uint8_t *data, uint8_t dlc)
 {
     qframe_t *f = &board.to_micro[board.to_micro_len++];
     f->id = id;
-    f->dlc = 8u;
-    memcpy(f->data, data, 8u);
+    f->dlc = dlc;
+    memset(f->data, 0, 8u);
+    memcpy(f->data, data, dlc);
+}
+
+static void to_micro(uint16_t id, const uint8_t *data)
+{
+    to_micro_dlc(id, data, 8u);
+}
+
+/* A flow control of status (0 continue, 1 wait, 2 overflow, 3-15 invalid) for micro_data. */
+static void host_flow(uint8_t status)
+{
+    const uint8_t fc[8] = {(uint8_t)(0x30u | status), 0, 0, 0xCC, 0xCC, 0xCC, 0xCC, 0xCC};
+    to_micro(NAVKIT_CAN_FC_ID_MICRO_DATA, fc);
 }
 
 /* The host's side of micro_data: flow control after the first frame, plain reassembly. */
 static void host_take(const qframe_t *f)
 {
-    static const uint8_t cts[8] = {0x30, 0, 0, 0xCC, 0xCC, 0xCC, 0xCC, 0xCC};
     navkit_isotp_tx_frame(&host_tx, f->id, f->data, f->dlc, fw.ms);
     if (f->id != NAVKIT_CAN_ID_MICRO_DATA) {
         return;
@@ -88,7 +107,13 @@ static void host_take(const qframe_t *f)
         data_want = (uint16_t)(((f->data[0] & 0x0Fu) << 8) | f->data[1]);
         memcpy(data_buf, f->data + 2, 6u);
         data_have = 6u;
-        to_micro(NAVKIT_CAN_FC_ID_MICRO_DATA, cts);
+        switch (host_fc) {
+        case FC_CONTINUE: host_flow(0u); break;
+        case FC_WAIT_THEN_CONTINUE: host_flow(1u); host_flow(0u); break;
+        case FC_OVERFLOW: host_flow(2u); break;
+        case FC_INVALID: host_flow(5u); break;
+        default: break; /* FC_NONE: the micro's sender waits N_Bs, then abandons */
+        }
     } else if ((f->data[0] >> 4) == 2u && data_have > 0u) {
         uint16_t left = (uint16_t)(data_want - data_have);
         uint16_t n = (left > 7u) ? 7u : left;
@@ -161,6 +186,96 @@ static void send_cmd(uint16_t tag, int drop)
     host_send(buf, navkit_micro_cmd_encode(&c, buf, sizeof buf), drop);
 }
 
+/* The CAN counters of micro_data, in the spec's order. */
+enum { C_BAD_FRAME, C_WRONG_SN, C_UNEXPECTED, C_RESTARTED, C_RX_TIMEOUT, C_RX_OVERFLOW,
+       C_TX_TIMEOUT, C_TX_OVERFLOW, C_TX_BAD_FC, C_TX_WAIT, C_COUNT };
+
+static void can_counters(const navkit_micro_data_t *d, uint16_t c[C_COUNT])
+{
+    c[C_BAD_FRAME] = d->can_rx_bad_frame;
+    c[C_WRONG_SN] = d->can_rx_wrong_sn;
+    c[C_UNEXPECTED] = d->can_rx_unexpected;
+    c[C_RESTARTED] = d->can_rx_restarted;
+    c[C_RX_TIMEOUT] = d->can_rx_timeout;
+    c[C_RX_OVERFLOW] = d->can_rx_overflow;
+    c[C_TX_TIMEOUT] = d->can_tx_timeout;
+    c[C_TX_OVERFLOW] = d->can_tx_overflow;
+    c[C_TX_BAD_FC] = d->can_tx_bad_fc;
+    c[C_TX_WAIT] = d->can_tx_wait;
+}
+
+/* The micro_data answering the next whole command (time tag *tag, then + 1) carries counter
+   `which` one above `before` and every other as in `before`; `before` becomes it. */
+static void expect_one_more(uint16_t before[C_COUNT], int which, uint16_t *tag)
+{
+    uint16_t now[C_COUNT];
+    int k, n = data_count;
+    send_cmd(*tag, 0);
+    CHECK(data_count == n + 1 && last_data.ack_time_tag == *tag);
+    ++*tag;
+    can_counters(&last_data, now);
+    for (k = 0; k < C_COUNT; k++) {
+        if ((uint16_t)(before[k] + (k == which)) != now[k]) {
+            fprintf(stderr, "counter %d: %u before, %u now (expected to move: %d)\n", k, before[k], now[k], which);
+            check_failures++;
+        }
+        before[k] = now[k];
+    }
+}
+
+/* Each refusal and abort kind, made once on the bus, counted once in micro_data. */
+static void test_each_kind_counted_once(uint16_t tag)
+{
+    /* a micro_cmd's first frame (116 bytes) and frames of its reception */
+    static const uint8_t ff[8] = {0x10, 0x74, 0xA5, 0xFF, 0x07, 0x00, 0x01, 0x00};
+    static const uint8_t cf2[8] = {0x22, 0, 0, 0, 0, 0, 0, 0};
+    static const uint8_t cf1[8] = {0x21, 0, 0, 0, 0, 0, 0, 0};
+    static const uint8_t sf[8] = {0x03, 0xA5, 0xFF, 0x01, 0xCC, 0xCC, 0xCC, 0xCC};
+    static const uint8_t ff_long[8] = {0x1F, 0xFF, 0xA5, 0xFF, 0x07, 0x00, 0x01, 0x00};
+    uint16_t c[C_COUNT];
+    can_counters(&last_data, c);
+    to_micro_dlc(NAVKIT_CAN_ID_MICRO_CMD, sf, 5u); /* short: fewer than 8 data bytes */
+    run(2, 0);
+    expect_one_more(c, C_BAD_FRAME, &tag);
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, ff); /* consecutive frame 2 where 1 was due */
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, cf2);
+    run(2, 0);
+    expect_one_more(c, C_WRONG_SN, &tag);
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, cf1); /* a consecutive frame with no message in progress */
+    run(2, 0);
+    expect_one_more(c, C_UNEXPECTED, &tag);
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, ff); /* a single frame during a reception: it starts anew */
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, sf);
+    run(2, 0);
+    expect_one_more(c, C_RESTARTED, &tag);
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, ff); /* no consecutive frame within N_Cr */
+    run((int)NAVKIT_CAN_N_CR_MS + 10, 0);
+    expect_one_more(c, C_RX_TIMEOUT, &tag);
+    to_micro(NAVKIT_CAN_ID_MICRO_CMD, ff_long); /* 4095 bytes: more than its buffer */
+    run(2, 0);
+    CHECK(fw.link.can_rx.stats.overflow == 1u);
+    expect_one_more(c, C_RX_OVERFLOW, &tag);
+    /* the micro's sender: the host's flow control for the reply to one command */
+    host_fc = FC_NONE;
+    send_cmd(tag++, 0);
+    host_fc = FC_CONTINUE;
+    run((int)NAVKIT_CAN_N_BS_MS + 10, 0);
+    expect_one_more(c, C_TX_TIMEOUT, &tag);
+    host_fc = FC_OVERFLOW;
+    send_cmd(tag++, 0);
+    host_fc = FC_CONTINUE;
+    expect_one_more(c, C_TX_OVERFLOW, &tag);
+    host_fc = FC_INVALID;
+    send_cmd(tag++, 0);
+    host_fc = FC_CONTINUE;
+    expect_one_more(c, C_TX_BAD_FC, &tag);
+    host_fc = FC_WAIT_THEN_CONTINUE; /* the reply goes whole after the wait */
+    send_cmd(tag++, 0);
+    host_fc = FC_CONTINUE;
+    CHECK(last_data.ack_time_tag == tag - 1u);
+    expect_one_more(c, C_TX_WAIT, &tag);
+}
+
 int main(void)
 {
     board.tx_room = 2u; /* a small TX queue (the MCP2515 has 3 buffers): frames wait, never break */
@@ -189,5 +304,6 @@ int main(void)
         send_cmd(10u, 0);
         CHECK(data_count == 6 && last_data.ack_time_tag == 10u);
     }
+    test_each_kind_counted_once(11u);
     CHECK_DONE();
 }
