@@ -103,6 +103,50 @@ distance = 1000
     assert all(frames[i]["dlc"] == 0 and frames[i]["id"] == frames[i + 1]["id"] for i in errors)
 
 
+def test_line_noise_duplicates_move_the_micros_counters(tmp_path_factory):
+    """18 s of a bad bus (bit error rate 1e-3: one frame in ten meets an error frame): a few
+    frames are taken twice (an error in the transmitter's last end-of-frame bit), a
+    duplicated consecutive frame aborts its message, a duplicated first frame restarts it.
+    The micro's own counters in micro_data (0 before the noise) are what a bus analyser's
+    ISO-TP counts from the same frames (the gateway listening, navkit can dump); the
+    repeats of the command make it good."""
+    r = run_mission(tmp_path_factory, "noise-dup-can", """
+duration_s = 20.0
+[[fault]]
+t = 1.0
+kind = "line_noise"
+ber = 1e-3
+duration_s = 18.0
+[[command]]
+t = 0.5
+fwd_cmd = 1
+speed = 300
+distance = 1000
+""", link="can")
+    s = r.summary
+    frames = [m for _, m in r.messages("/can")]
+
+    def key(m):
+        return m["id"], m["data"], m["direction"]
+    dups = 0          # a frame, error frames, the same frame: the receivers took both
+    for i, m in enumerate(frames[:-1]):
+        if not m["error_frame"] and frames[i + 1]["error_frame"]:
+            nxt = next(f for f in frames[i + 1:] if not f["error_frame"])
+            dups += key(nxt) == key(m)
+    assert dups >= 2, dups
+    own = {k: v for k, v in s["micro"].items() if k.startswith("can_rx_")}
+    analyser = {f"can_rx_{k}": v for k, v in s["link"]["can"]["micro_iso_tp_rx"].items() if k != "good"}
+    assert own == analyser and own["can_rx_wrong_sn"] + own["can_rx_restarted"] >= 1, (own, analyser)
+    data = r.messages("/micro/data")
+    assert all(not any(m[k] for k in own) for t, m in data if t < 1.0)
+    assert {k: data[-1][1][k] for k in own} == own
+    assert abs(s["truth"]["distance_mm"] - 1000) <= 15 and s["watchdog_stops"] == 0
+    d = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(r.out / "can.log")],
+                       capture_output=True, text=True, timeout=120)
+    assert f"rx_wrong_sn {own['can_rx_wrong_sn']}" in d.stderr.split("the micro's own")[1], d.stderr[-1000:]
+    assert f"wrong_sn {own['can_rx_wrong_sn']}" in d.stderr.split("host to micro:")[1].split(";")[0]
+
+
 UNPLUG = """
 duration_s = 9.0
 [[command]]

@@ -19,9 +19,14 @@ optional python-can listener (a `can.Logger` writes a candump-style log or any f
 knows). Times are the caller's seconds (simulated time).
 
 Line noise (`noise(ber)`) is what CAN makes of it: a frame hit by a bit error is destroyed
-by an error frame and sent again by the controller, so nothing is lost or corrupted; the
-error frames are counted and logged (each try of FRAME_BITS bits fails with probability
-1 - (1 - ber)^FRAME_BITS).
+by an error frame and sent again by the controller, so nothing is corrupted; the error
+frames are counted and logged (each try of FRAME_BITS bits fails with probability
+1 - (1 - ber)^FRAME_BITS). One thing CAN lets through: a bit error in the last bit of the
+end of frame, which the receivers ignore (ISO 11898-1: they have taken the frame a bit
+earlier) and the transmitter does not, so it sends the frame again and the receivers get it
+twice (`duplicates`; one failed try in FRAME_BITS). ISO-TP then sees a consecutive frame
+out of sequence (the message aborts) or a first frame twice (it restarts): the counters of
+both ends move, and the next repeat of the message makes it good.
 """
 
 from __future__ import annotations
@@ -75,6 +80,7 @@ class CanGateway:
     skipped: int = 0            # the firmware's frames dropped while the last one was going out
                                 # (firmware_can: messages it got whole minus replies it began)
     error_frames: int = 0       # frames destroyed by line noise and sent again
+    duplicates: int = 0         # frames the receivers took twice (an error in the last EOF bit)
     _serial: p.Parser = field(default_factory=lambda: p.Parser(p.DIR_TO_HOST))
     firmware_can: bool = False  # the micro is the firmware FMU's CAN build: frames as RECORDs
     # firmware_can: the serial frames reassembled from the bus in the last from_host() /
@@ -92,27 +98,36 @@ class CanGateway:
         self._p_error = 1.0 - (1.0 - ber) ** FRAME_BITS if ber > 0 else 0.0
         self._rng = rng or self._rng or random.Random(0)
 
-    def _bus(self, msg: can.Message, t: float, rx: bool) -> None:
+    def _bus(self, msg: can.Message, t: float, rx: bool) -> int:
+        """Put `msg` on the bus at `t` (s), `rx` towards the host; returns how many times the
+        receivers take it: 1, or more when line noise duplicated it."""
+        copies = 1
         self.frames += 1
+        msg.timestamp = t
+        msg.is_rx = rx  # rx: towards the host (as the adapter receives it)
         tries = 0
         while self._p_error and tries < MAX_TRIES and self._rng.random() < self._p_error:
             tries += 1
+            if self._rng.random() < 1.0 / FRAME_BITS:  # the transmitter's last EOF bit: taken, sent again
+                copies += 1
+                self.frames += 1
+                self.duplicates += 1
+                if self.listener is not None:
+                    self.listener.on_message_received(msg)
             self.error_frames += 1
             if self.listener is not None:
                 self.listener.on_message_received(can.Message(timestamp=t, is_error_frame=True,
                                                               arbitration_id=msg.arbitration_id, is_rx=rx,
                                                               is_extended_id=False))
         if self.listener is not None:
-            msg.timestamp = t
-            msg.is_rx = rx  # rx: towards the host (as the adapter receives it)
             self.listener.on_message_received(msg)
+        return copies
 
     def _to_host(self, t: float) -> bytes:
         """The micro's frames due now (flow controls, micro_data) as SLCAN lines."""
         out = bytearray()
         for m in self.micro.poll(t):
-            self._bus(m, t, True)
-            out += self.adapter.to_host(m)
+            out += self.adapter.to_host(m) * self._bus(m, t, True)
         return bytes(out)
 
     def from_host(self, data: bytes, t: float) -> tuple[bytes, bytes]:
@@ -123,19 +138,19 @@ class CanGateway:
         if self.firmware_can:      # records for can_rx; the micro's frames come from can_tx
             serial = bytearray()
             for m in frames:
-                self._bus(m, t, False)
-                to_micro += RECORD.pack(m.arbitration_id, m.dlc, bytes(m.data))
-                r = self.micro.rx.feed(m, t)        # listening: its flow controls go nowhere
-                if r is not None:
-                    serial += r.data
+                for _ in range(self._bus(m, t, False)):
+                    to_micro += RECORD.pack(m.arbitration_id, m.dlc, bytes(m.data))
+                    r = self.micro.rx.feed(m, t)    # listening: its flow controls go nowhere
+                    if r is not None:
+                        serial += r.data
             self.micro.rx.take_replies()
             self.h2m_serial = bytes(serial)
             return reply, bytes(to_micro)
         for m in frames:
-            self._bus(m, t, False)
-            r = self.micro.feed(m, t)
-            if r is not None:
-                to_micro += r.data
+            for _ in range(self._bus(m, t, False)):
+                r = self.micro.feed(m, t)
+                if r is not None:
+                    to_micro += r.data
         return reply + self._to_host(t), bytes(to_micro)
 
     def micro_tx_stats(self) -> dict:
@@ -155,13 +170,14 @@ class CanGateway:
             out, serial = bytearray(), bytearray()
             for can_id, dlc, payload in RECORD.iter_unpack(data):
                 m = can.Message(arbitration_id=can_id & 0x7FF, data=payload[:dlc], is_extended_id=False)
-                self._bus(m, t, True)
-                out += self.adapter.to_host(m)
+                copies = self._bus(m, t, True)
+                out += self.adapter.to_host(m) * copies
                 if can_id == self._data_id and dlc and payload[0] >> 4 in (0, 1):
-                    self._m2h_starts += 1
-                r = self._m2h.feed(m, t)
-                if r is not None:
-                    serial += r.data
+                    self._m2h_starts += 1       # a duplicate restarts the same reply: not another
+                for _ in range(copies):
+                    r = self._m2h.feed(m, t)
+                    if r is not None:
+                        serial += r.data
             self._m2h.take_replies()
             self.m2h_serial = bytes(serial)
             # the firmware answers each message it gets whole, but skips while its last
