@@ -4,9 +4,12 @@ A run plot has the path (truth x/y in mm, and the micro's odometry), the forward
 (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s), with every
 planner command marked. The file is streamed and each line thinned to about
 PLOT_POINTS evenly spaced messages (a few per pixel of the figure), so any size of run.mcap
-plots in bounded memory and time proportional to its size. A datalog ("Data MM-DD-YY HH;MM;SS.txt", the seed's Dataplot
-input: the number of parameters, then one line per parameter with its name and default
-plot range, then one row per host frame) gets one panel per parameter over its range.
+plots in bounded memory and time proportional to its size. `navkit sim` draws the same
+figure from the same thinned messages, which its log worker keeps as it writes them
+(RunSeries), without reading run.mcap back. A datalog ("Data MM-DD-YY HH;MM;SS.txt", the
+seed's Dataplot input: the number of parameters, then one line per parameter with its
+name and default plot range, then one row per host frame) gets one panel per parameter
+over its range.
 """
 
 from __future__ import annotations
@@ -15,8 +18,8 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "plot_datalog", "read_datalog",
-           "read_mcap", "PLOT_POINTS"]
+__all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "run_figure", "RunSeries",
+           "PlotProcess", "decoded", "plot_datalog", "read_datalog", "read_mcap", "PLOT_POINTS"]
 
 # Messages a line of a run plot keeps at most, evenly spaced (the figure is ~1000 pixels
 # wide): between PLOT_POINTS and 2 * PLOT_POINTS of a topic with more messages than that.
@@ -65,46 +68,90 @@ def read_mcap(path: Path, topics=None) -> dict:
 class _Thinned:
     """Every `stride`-th message of a stream, the stride doubling (and every other kept
     message dropped) whenever more than 2 * `cap` are kept: at most 2 * `cap` in memory,
-    evenly spaced, without knowing the count ahead. Only kept messages are decoded."""
+    evenly spaced, without knowing the count ahead. Messages are kept as their JSON bytes
+    (decoded once, when drawn)."""
+
+    __slots__ = ("cap", "stride", "n", "kept")
 
     def __init__(self, cap: int):
         self.cap, self.stride, self.n, self.kept = cap, 1, 0, []
 
     def offer(self, t_ns: int, data: bytes) -> None:
         if self.n % self.stride == 0:
-            self.kept.append((t_ns, json.loads(data)))
+            self.kept.append((t_ns, data))
             if len(self.kept) > 2 * self.cap:
-                self.kept = self.kept[::2]
+                del self.kept[1::2]
                 self.stride *= 2
         self.n += 1
 
 
-def _read_thinned(path: Path, thin: tuple, whole: tuple, cap: int = PLOT_POINTS) -> dict:
-    """{topic: [(log_time_ns, decoded JSON), ...]} of run `path`, streamed
-    (navkit.sim.results.iter_mcap): the topics in `thin` thinned to about `cap` messages
-    each (_Thinned), those in `whole` every message; each list in log-time order."""
-    from navkit.sim.results import iter_mcap
+# The topics a run plot draws: the first two thinned to about PLOT_POINTS messages each,
+# the others whole (a mission's commands and events, few).
+RUN_THINNED = ("/truth", "/micro/data")
+RUN_WHOLE = ("/planner/cmd", "/events")
 
-    thinned = {t: _Thinned(cap) for t in thin}
-    out: dict = {t: [] for t in whole}
-    for t_ns, topic, data in iter_mcap(path, thin + whole):
-        if topic in thinned:
-            thinned[topic].offer(t_ns, data)
-        else:
-            out[topic].append((t_ns, json.loads(data)))
-    out.update({t: th.kept for t, th in thinned.items()})
-    for msgs in out.values():
-        msgs.sort(key=lambda m: m[0])
+
+class RunSeries:
+    """The messages a run plot draws, gathered while a run's messages stream by in file
+    order: from run.mcap (navkit plot) or from the log worker as it writes them
+    (navkit.sim.record.Recorder's tap), so the two give the same figure. `sink(topic)` is
+    the function (t_ns, JSON bytes) -> None to call with each message of `topic` (None for
+    a topic the plot does not draw); `raw()` what was kept, {topic: [(log time ns, JSON
+    bytes), ...]} (picklable: the worker hands it over at close)."""
+
+    def __init__(self, cap: int = PLOT_POINTS, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE):
+        self._thin = {t: _Thinned(cap) for t in thin}
+        self._whole = {t: [] for t in whole}
+        self.topics = tuple(thin) + tuple(whole)
+
+    def sink(self, topic: str):
+        if topic in self._thin:
+            return self._thin[topic].offer
+        if topic in self._whole:
+            append = self._whole[topic].append
+            return lambda t_ns, data: append((t_ns, data))
+        return None
+
+    def raw(self) -> dict:
+        out = {t: list(msgs) for t, msgs in self._whole.items()}
+        out.update({t: list(th.kept) for t, th in self._thin.items()})
+        return out
+
+
+def decoded(raw: dict) -> dict:
+    """RunSeries.raw() decoded: {topic: [(log_time_ns, decoded JSON), ...]}, each list in
+    log-time order (file order among equal times)."""
+    loads = json.loads
+    out = {}
+    for topic, msgs in raw.items():
+        out[topic] = sorted(((t_ns, loads(data)) for t_ns, data in msgs), key=lambda m: m[0])
     return out
 
 
+def _read_thinned(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE,
+                  cap: int = PLOT_POINTS) -> dict:
+    """{topic: [(log_time_ns, decoded JSON), ...]} of run `path`, streamed
+    (navkit.sim.results.iter_mcap) through a RunSeries: the topics in `thin` thinned to
+    about `cap` messages each, those in `whole` every message; each list in log-time order."""
+    from navkit.sim.results import iter_mcap
+
+    series = RunSeries(cap, thin, whole)
+    sinks = {t: series.sink(t) for t in series.topics}
+    for t_ns, topic, data in iter_mcap(path, series.topics):
+        sinks[topic](t_ns, data)
+    return decoded(series.raw())
+
+
 def _figure(rows: int, height: float):
+    """A Figure of `rows` panels, 9 in wide and `height` in high, drawn by Agg (no
+    pyplot: its import and figure manager are not needed to write a PNG)."""
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
-    return plt, plt.subplots(rows, 1, figsize=(9, height))
+    fig = Figure(figsize=(9, height))
+    return fig, fig.subplots(rows, 1)
 
 
 def _command_label(cmd: dict) -> str:
@@ -132,25 +179,133 @@ def _wrapped(t, h):
     return ts, hs
 
 
-def plot_mcap(path: Path, out: Path) -> None:
-    """Plot run `path` (run.mcap) into PNG `out` (mcap_figure)."""
-    fig = mcap_figure(path)
-    try:
-        fig.savefig(out, dpi=110)
-    finally:
-        import matplotlib.pyplot as plt
+def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
+    """Plot run `path` (run.mcap) into PNG `out` (run_figure), from `series`
+    (RunSeries.raw() of the run's messages, as the log worker hands it over) when given,
+    else streamed from the file: the same figure either way."""
+    msgs = decoded(series) if series is not None else _read_thinned(Path(path))
+    run_figure(msgs, _run_title(Path(path))).savefig(out, dpi=110)
 
-        plt.close(fig)
+
+class PlotProcess:
+    """A child process that imports matplotlib at once, while its parent goes on (a run's
+    set-up and loop), then draws the run plots the parent hands it (plot_mcap): the import,
+    about half of plot.png's cost, leaves the parent's path. Forked: make it before the
+    parent starts threads. The child runs at idle priority until it has a plot to draw,
+    so its import takes only CPU time nothing else wants. It ends when close() is called
+    or when the parent goes away (EOF on its pipe), however the parent ends; a terminal's
+    signals to the process group are the parent's to act on."""
+
+    def __init__(self):
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork")
+        self._conn, child = ctx.Pipe()
+        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn),
+                                 name="navkit-plot", daemon=True)
+        self._proc.start()
+        child.close()
+
+    def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:
+        """plot_mcap(path, out, series) in the child; its error (OSError, ValueError,
+        McapError) is raised here."""
+        self._conn.send((Path(path), Path(out), series))
+        try:
+            err = self._conn.recv()
+        except (EOFError, OSError):
+            raise OSError(f"{out}: the plot process ended before it drew the plot") from None
+        if err is not None:
+            raise err
+
+    def close(self) -> None:
+        """End the child (it has drawn what it was given) and wait for it."""
+        if self._conn is None:
+            return
+        try:
+            self._conn.send(None)
+        except OSError:
+            pass
+        self._conn.close()
+        self._conn = None
+        self._proc.join(5)
+        if self._proc.exitcode is None:
+            self._proc.kill()
+            self._proc.join()
+
+
+def _plot_process(conn, parent_end) -> None:
+    """PlotProcess's child: import matplotlib at idle priority, then draw each job
+    (path, out, series) and answer None or the error, until None or EOF. `parent_end`,
+    the parent's end of the pipe that fork() copied here, is closed first, so a parent
+    that dies is seen as EOF."""
+    import os
+    import signal
+
+    parent_end.close()
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
+        signal.signal(sig, signal.SIG_IGN)
+    idle = hasattr(os, "SCHED_IDLE")
+    try:
+        if idle:
+            os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except OSError:
+        idle = False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        if idle:            # the parent now waits for this plot: normal priority
+            try:
+                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+                idle = False
+            except OSError:
+                pass
+        try:
+            plot_mcap(*job)
+            err = None
+        except Exception as e:  # noqa: BLE001 - handed to the parent, which raises it
+            err = e
+        try:
+            conn.send(err)
+        except (OSError, EOFError):         # the parent is gone
+            return
+        except Exception:  # noqa: BLE001 - an error that does not pickle: its text
+            conn.send(ValueError(f"{job[1]}: {err}"))
+
+
+def _run_title(path: Path) -> str:
+    return f"{path.parent.name}/{path.name}: path"
 
 
 def mcap_figure(path: Path):
-    """The plot of run `path` (run.mcap) as a matplotlib Figure (close it with
-    matplotlib.pyplot.close): three panels, the path (truth y_mm across, x_mm up, mm),
-    the speed (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s);
-    on the speed and heading panels one vertical line per /planner/cmd message (gid
-    "command") and per /events message (gid "event") at its log time. /truth and
-    /micro/data are thinned to about PLOT_POINTS messages each."""
-    msgs = _read_thinned(path, ("/truth", "/micro/data"), ("/planner/cmd", "/events"))
+    """The plot of run `path` (run.mcap) as a matplotlib Figure (run_figure)."""
+    return run_figure(_read_thinned(Path(path)), _run_title(Path(path)))
+
+
+def _legend(ax) -> None:
+    """The panel's legend above its top right corner, outside the data (a fixed place: no
+    search for the emptiest corner, which costs a pass over every point)."""
+    ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2, fontsize="small",
+              frameon=False, borderaxespad=0.2)
+
+
+def run_figure(msgs: dict, title: str):
+    """The plot of a run's messages `msgs` ({topic: [(log_time_ns, decoded JSON), ...]},
+    _read_thinned or decoded(RunSeries.raw())) as a matplotlib Figure (close it with
+    matplotlib.pyplot.close if pyplot is in use): three panels, the path (truth y_mm
+    across, x_mm up, mm) titled `title`, the speed (mm/s) and the heading (deg, clockwise
+    0..360) against simulated time (s); on the speed and heading panels one vertical line
+    per /planner/cmd message (gid "command") and per /events message (gid "event") at its
+    log time. Fixed margins for its 9 x 11 in (no tight_layout pass)."""
     truth = [m for _, m in msgs.get("/truth", [])]
     if not truth:
         raise ValueError("no /truth messages")
@@ -158,7 +313,8 @@ def mcap_figure(path: Path):
     events = msgs.get("/events", [])
     micro = msgs.get("/micro/data", [])
     t = [m["t"] for m in truth]
-    _plt, (fig, (ax_xy, ax_v, ax_h)) = _figure(3, 11)
+    fig, (ax_xy, ax_v, ax_h) = _figure(3, 11)
+    fig.subplots_adjust(left=0.1, right=0.97, bottom=0.05, top=0.96, hspace=0.22)
     ax_xy.plot([m["y_mm"] for m in truth], [m["x_mm"] for m in truth], label="truth")
     if micro:
         # the micro's odometry uses the truth's axes (x forward, y left)
@@ -168,14 +324,14 @@ def mcap_figure(path: Path):
     ax_xy.set_ylabel("x (forward), mm")
     ax_xy.invert_xaxis()
     ax_xy.set_aspect("equal", adjustable="datalim")
-    ax_xy.set_title(f"{path.parent.name}/{path.name}: path")
-    ax_xy.legend(loc="best", fontsize="small")
+    ax_xy.set_title(title, loc="left")
+    _legend(ax_xy)
     ax_v.plot(t, [m["v_mm_s"] for m in truth], label="truth v")
     if micro:
         ax_v.plot([ns / 1e9 for ns, _ in micro], [m["fwd_speed"] for _, m in micro], lw=0.8,
                   label="micro fwd_speed")
     ax_v.set_ylabel("speed, mm/s")
-    ax_v.legend(loc="best", fontsize="small")
+    _legend(ax_v)
     ax_h.plot(t, [m["heading_deg"] % 360 for m in truth], ".", ms=2, label="truth heading")
     if micro:
         ax_h.plot(*_wrapped([ns / 1e9 for ns, _ in micro], [m["heading"] / 10 for _, m in micro]),
@@ -183,19 +339,42 @@ def mcap_figure(path: Path):
     ax_h.set_ylabel("heading, deg (cw)")
     ax_h.set_xlabel("simulated time, s")
     ax_h.set_ylim(-5, 365)
-    ax_h.legend(loc="best", fontsize="small")
-    for ns, cmd in cmds:
+    _legend(ax_h)
+    for ns, _ in cmds:
         for ax in (ax_v, ax_h):
             ax.axvline(ns / 1e9, color="tab:green", lw=0.8, alpha=0.7, gid="command")
-        ax_v.annotate(_command_label(cmd), (ns / 1e9, 1.0), xycoords=("data", "axes fraction"),
-                      rotation=90, va="top", ha="right", fontsize=6, color="tab:green")
-    for ns, ev in events:
+    for ns, _ in events:
         for ax in (ax_v, ax_h):
             ax.axvline(ns / 1e9, color="tab:red", lw=0.8, ls=":", gid="event")
+    for ns, cmd in _apart(ax_v, cmds):
+        ax_v.annotate(_command_label(cmd), (ns / 1e9, 1.0), xycoords=("data", "axes fraction"),
+                      rotation=90, va="top", ha="right", fontsize=_LABEL_PT, color="tab:green")
+    for ns, ev in _apart(ax_h, events):
         ax_h.annotate(ev["kind"], (ns / 1e9, 0.0), xycoords=("data", "axes fraction"),
-                      rotation=90, va="bottom", ha="right", fontsize=6, color="tab:red")
-    fig.tight_layout()
+                      rotation=90, va="bottom", ha="right", fontsize=_LABEL_PT, color="tab:red")
     return fig
+
+
+# Font size (pt) of a command's or event's label, written upright beside its line.
+_LABEL_PT = 6
+
+
+def _apart(ax, marks: list) -> list:
+    """The marks [(log_time_ns, msg), ...] (in time order) whose upright labels on `ax`
+    do not overlap: a mark is labelled when it lies at least a label's height (_LABEL_PT
+    plus 1 pt) to the right of the last labelled one, in points of the figure at any dpi.
+    Every mark keeps its line; labels drawn over each other could not be read and their
+    glyphs are most of the drawing's time."""
+    x0, x1 = ax.get_xlim()
+    width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72
+    per_s = width_pt / (x1 - x0) if x1 > x0 else 0.0
+    out, last = [], None
+    for ns, msg in marks:
+        x = ns / 1e9 * per_s
+        if last is None or x - last >= _LABEL_PT + 1:
+            out.append((ns, msg))
+            last = x
+    return out
 
 
 def read_datalog(path: Path) -> tuple[list, list]:
@@ -253,7 +432,7 @@ def plot_datalog(path: Path, out: Path) -> None:
     x = [r[0] for r in rows] if timed else list(range(len(rows)))
     shown = params[1:] if timed else params
     off = 1 if timed else 0
-    plt, (fig, axes) = _figure(max(1, len(shown)), 1.6 * max(1, len(shown)) + 1)
+    fig, axes = _figure(max(1, len(shown)), 1.6 * max(1, len(shown)) + 1)
     if len(shown) == 1:
         axes = [axes]
     for i, (ax, (name, lo, hi)) in enumerate(zip(axes, shown)):
@@ -265,4 +444,3 @@ def plot_datalog(path: Path, out: Path) -> None:
     axes[-1].set_xlabel(params[0][0] if timed else "frame")
     fig.tight_layout()
     fig.savefig(out, dpi=100)
-    plt.close(fig)

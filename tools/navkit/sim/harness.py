@@ -31,10 +31,32 @@ __all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_
            "frame_period", "check_frame", "git_revision", "STEP_S"]
 
 
-def run(opts: SimOptions) -> dict:
+def run(opts: SimOptions, stamps: dict | None = None) -> dict:
     """Do one run; write run.mcap, summary.json (and plot.png) into opts.out; return the
     summary. Raises MissionError for a mission that does not fit the FMUs, SimError if a
-    part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant)."""
+    part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant).
+    `stamps`, when given, gets the time.monotonic() (s) at which each phase ended: "run"
+    (entered), "started" (set-up), "loop", "stopped" (host, log worker, FMUs closed),
+    "summary" (summary.json written) and "plot" (plot.png written)."""
+    def stamp(key: str) -> None:
+        if stamps is not None:
+            stamps[key] = time.monotonic()
+
+    stamp("run")
+    # plot.png's matplotlib import runs in a process of its own beside the set-up and loop
+    from navkit.plot import PlotProcess
+
+    plotter = PlotProcess() if opts.plot else None
+    try:
+        return _run(opts, plotter, stamp)
+    finally:
+        if plotter is not None:
+            plotter.close()
+
+
+def _run(opts: SimOptions, plotter, stamp) -> dict:
+    """run(opts) with plot.png drawn by `plotter` (a navkit.plot.PlotProcess, or None for
+    no plot) and each phase's end passed to `stamp`."""
     # module imports are not part of a run's wall time
     import fmpy.fmi3  # noqa: F401
     import mcap.writer  # noqa: F401
@@ -48,10 +70,12 @@ def run(opts: SimOptions) -> dict:
     interrupted = None
     try:
         rig.start()
+        stamp("started")
         if opts.realtime:
             run_realtime(rig, faults)
         else:
             run_lockstep(rig, faults)
+        stamp("loop")
     except (LinkError, CouplerError) as e:
         rig.stop()
         raise SimError(f"{e} (host log: {rig.out / 'host.log'})") from e
@@ -60,6 +84,7 @@ def run(opts: SimOptions) -> dict:
     except BaseException:
         rig.stop()
         raise
+    mcap_path, png = Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png"
     if interrupted is not None:
         # a clean stop, then what there is: a second Ctrl-C waits until the outputs are closed
         held = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
@@ -70,24 +95,25 @@ def run(opts: SimOptions) -> dict:
                                       "at_s": round(rig.t_ns / 1e9, 6)}
             if Path(opts.out).is_dir():
                 (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-            if opts.plot and (Path(opts.out) / "run.mcap").exists():
-                from navkit.plot import plot_mcap
-
-                plot_mcap(Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png")
+            if plotter is not None and mcap_path.exists():
+                plotter.plot_mcap(mcap_path, png, rig.results.get("plot"))
         finally:
             for s, h in held.items():
                 signal.signal(s, h)
         raise SimInterrupted(summary, interrupted)
     rig.stop()
+    stamp("stopped")
     wall = time.perf_counter() - wall0
     summary = run_summary(rig, faults, wall)
     (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    stamp("summary")
     for ref in summary["planner"]["refused"]:
         verdict = ref["nav_result"].replace("_", " ")
         print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
               f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
-    if opts.plot:
-        from navkit.plot import plot_mcap
-
-        plot_mcap(Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png")
+    if plotter is not None:
+        # from the messages the log worker kept while writing run.mcap; read back from the
+        # file only if the worker gave no results (it died)
+        plotter.plot_mcap(mcap_path, png, rig.results.get("plot"))
+        stamp("plot")
     return summary

@@ -186,8 +186,14 @@ class Recorder:
     frame, and `close()` at the end."""
 
     def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False):
-        """`can`: the run is over CAN, so the log also has the /can topic (CAN_SCHEMA)."""
+        """`can`: the run is over CAN, so the log also has the /can topic (CAN_SCHEMA).
+        `plot_series` (navkit.plot.RunSeries) keeps what the run plot draws of the
+        messages as they are written, in file order, so the plot needs no read-back."""
         from mcap.writer import CompressionType, Writer
+
+        from navkit.plot import RunSeries
+
+        self.plot_series = RunSeries()
 
         self._file = open(path, "wb")
         self._w = Writer(self._file, chunk_size=8 << 20, compression=CompressionType.LZ4)
@@ -233,11 +239,17 @@ class Recorder:
 
     def _make_writer(self, topic: str):
         add, chan, n = self._w.add_message, self._chan[topic], self._n[topic]
+        keep = self.plot_series.sink(topic)
 
         def write(t_ns: int, data: bytes) -> None:
             n[0] = seq = n[0] + 1
             add(chan, t_ns, data, t_ns, seq)
-        return write
+
+        def write_kept(t_ns: int, data: bytes) -> None:
+            n[0] = seq = n[0] + 1
+            add(chan, t_ns, data, t_ns, seq)
+            keep(t_ns, data)
+        return write if keep is None else write_kept
 
     @property
     def counts(self) -> dict:
@@ -745,6 +757,7 @@ class _Decoder:
                 "config_downloads": self.config_downloads,
                 "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                 "watchdog_stops": self.watchdog_stops,
+                "plot": self.rec.plot_series.raw(),
                 "link": {d: dict({"frames_sent": sender.stats["good"]}, **self.rx[d].totals())
                          for d, sender in (("h2m", self.h2m), ("m2h", self.m2h))}}
 
