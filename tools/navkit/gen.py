@@ -8,21 +8,25 @@ model; one emitter per output turns the model into text:
 - `emit_docs`      -> protocol.md (word tables like the seed's)
 - `emit_dbc`       -> navkit.dbc (the CAN mapping for CAN tools: ISO-TP frames, the header
                       their first frames carry), written beside the C code
+- `emit_python`    -> navkit_json.py (each message's fields as JSON text from its bytes: a
+                      struct and a bytes template a message, for the run log's recorder)
 
 The hand-written runtime (protocol/runtime: CRC, byte access, parser) is kept apart from
-these templates. The Python codec (`navkit.protocol`) reads the same model at import.
+these templates. The Python codec (`navkit.protocol`) reads the same model at import;
+navkit_json.py is its generated fast path to JSON text.
 Every generated file names its spec and carries the spec hash.
 """
 
 from __future__ import annotations
 
 import json
+import struct
 from pathlib import Path
 
 from navkit.spec import TYPES, Message, Spec, load
 
 __all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs", "emit_dbc",
-           "write_outputs", "spec_label", "can_frames"]
+           "emit_python", "write_outputs", "spec_label", "can_frames"]
 
 
 def spec_label(spec: Spec) -> str:
@@ -41,6 +45,8 @@ def _banner(spec: Spec, style: str) -> str:
             f"spec hash: 0x{spec.hash:08x} (sha256 {spec.hash_hex})")
     if style == "c":
         return "/* " + text.replace("\n", "\n * ") + " */\n"
+    if style == "py":
+        return text + "\n"
     return "<!-- " + text + " -->\n"
 
 
@@ -673,10 +679,92 @@ def emit_dbc(spec: Spec) -> str:
     return "\n".join(out + comments + [""] + values) + "\n"
 
 
-def write_outputs(spec: Spec, c_out: Path | None, docs_out: Path | None) -> list[Path]:
+_STRUCT_CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
+
+
+def _py_text(m: Message) -> list[str]:
+    """The generated Python lines of message `m`'s MessageText constant."""
+    keys, slots = [], []        # JSON keys in spec order; (byte offset, code, key position)
+    for f in m.fields:
+        keys.append(f'"{f.name}":' + ("[" + ",".join(["%d"] * f.count) + "]" if f.count > 1 else "%d"))
+    at, pos = {}, 0
+    for f in m.fields:
+        at[f.name] = pos
+        slots += [(f.byte_offset + i * f.size, _STRUCT_CODES[f.type], pos + i) for i in range(f.count)]
+        pos += f.count
+    fmt, end = "<", 0
+    for off, code, _ in sorted(slots):
+        fmt += (f"{off - end}x" if off > end else "") + code
+        end = off + struct.calcsize("<" + code)
+    if end < m.size:
+        fmt += f"{m.size - end}x"
+    order = [p for _, _, p in sorted(slots)]
+    unpack = f'_Struct("{fmt}").unpack_from'
+    if order != sorted(order):      # fields out of byte order: values back into spec order
+        back = [order.index(p) for p in range(len(order))]
+        unpack = f"_in_spec_order({unpack}, _itemgetter({', '.join(map(str, back))}))"
+    template = "{" + ",".join(keys) + "}"
+    up = m.name.upper()
+    return [f"{up} = MessageText(",
+            f'    "{m.name}", {m.id}, {m.size},',
+            f"    {unpack},",
+            f"    b'{template}',",
+            "    {" + ", ".join(f'"{k}": {v}' for k, v in at.items()) + "})", ""]
+
+
+def emit_python(spec: Spec) -> str:
+    """navkit_json.py: each message's fields as JSON text straight from its bytes (the
+    run log's fast path, navkit.sim.record)."""
+    out = ['"""' + _banner(spec, "py").strip(),
+           "",
+           "Each message's fields as JSON text straight from its little-endian bytes (a serial",
+           "message's whole frame, an rcomm message's slot): `T.json % T.unpack(data)` is",
+           "byte for byte the compact JSON (separators \",\" and \":\") of the fields",
+           "navkit.protocol decodes from `data`, in spec order, arrays as lists. One struct",
+           "unpack and one bytes %-format a message; no frame check (the caller checks start",
+           "word, type, length and CRC with navkit.protocol).",
+           '"""',
+           "",
+           "from operator import itemgetter as _itemgetter",
+           "from struct import Struct as _Struct",
+           "from typing import NamedTuple",
+           "",
+           f"SPEC_HASH = 0x{spec.hash:08x}",
+           "",
+           "",
+           "class MessageText(NamedTuple):",
+           '    """How message `name` (type `id`, `size` bytes: a serial frame with its start word',
+           "    and CRC, or an rcomm slot) becomes JSON: `unpack(data, offset=0)` its field values",
+           "    (an array's elements in a row, spec order), `json` the bytes template they fill, `at`",
+           '    each field\'s position in those values (an array\'s first element)."""',
+           "",
+           "    name: str",
+           "    id: int",
+           "    size: int",
+           "    unpack: object",
+           "    json: bytes",
+           "    at: dict",
+           "",
+           "",
+           "def _in_spec_order(unpack, pick):",
+           '    """unpack, its values (in byte order) put back in spec order by pick."""',
+           "    return lambda data, offset=0: pick(unpack(data, offset))",
+           "", ""]
+    for m in spec.messages.values():
+        out += _py_text(m)
+    out.append("# serial message type -> its MessageText")
+    out.append("BY_TYPE = {" + ", ".join(f"{m.id}: {m.name.upper()}" for m in spec.serial_messages()) + "}")
+    out.append("BY_NAME = {" + ", ".join(f'"{m.name}": {m.name.upper()}' for m in spec.messages.values()) + "}")
+    return "\n".join(out) + "\n"
+
+
+def write_outputs(spec: Spec, c_out: Path | None, docs_out: Path | None,
+                  py_out: Path | None = None) -> list[Path]:
     """Write the outputs whose folder is given; files whose text is unchanged are not
     touched (so builds stay incremental). Returns the paths written."""
     jobs = []
+    if py_out is not None:
+        jobs.append((py_out / "navkit_json.py", emit_python(spec)))
     if c_out is not None:
         jobs += [(c_out / "navkit" / "navkit_proto.h", emit_c_header(spec)),
                  (c_out / "navkit_proto.c", emit_c_source(spec))]
@@ -700,6 +788,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--c-out", type=Path, help="folder for navkit/navkit_proto.h and navkit_proto.c "
                         "(and navkit.dbc, the CAN mapping)")
     parser.add_argument("--docs-out", type=Path, help="path of the generated protocol.md")
+    parser.add_argument("--py-out", type=Path, help="folder for navkit_json.py (the run log's "
+                        "JSON text of each message from its bytes)")
     parser.add_argument("--check-docs", type=Path, metavar="FILE",
                         help="exit 1 if FILE differs from the docs the spec generates")
     parser.add_argument("--print-hash", action="store_true", help="print the spec hash and exit")
@@ -711,7 +801,8 @@ def run(args) -> int:
     # --print-hash and --check-docs each do one thing and write nothing: refuse them
     # with each other or with an output folder instead of ignoring the rest
     given = [opt for opt, v in (("--print-hash", args.print_hash), ("--check-docs", args.check_docs),
-                                ("--c-out", args.c_out), ("--docs-out", args.docs_out))
+                                ("--c-out", args.c_out), ("--docs-out", args.docs_out),
+                                ("--py-out", args.py_out))
              if v not in (None, False)]
     for only, does in (("--print-hash", "prints the spec hash"), ("--check-docs", "compares FILE with the docs")):
         if only in given and len(given) > 1:
@@ -733,8 +824,8 @@ def run(args) -> int:
                   file=sys.stderr)
             return 1
         return 0
-    if args.c_out is None and args.docs_out is None:
-        print("navkit gen: nothing to do: give --c-out and/or --docs-out", file=sys.stderr)
+    if args.c_out is None and args.docs_out is None and args.py_out is None:
+        print("navkit gen: nothing to do: give --c-out, --docs-out and/or --py-out", file=sys.stderr)
         return 2
-    write_outputs(spec, args.c_out, args.docs_out)
+    write_outputs(spec, args.c_out, args.docs_out, args.py_out)
     return 0

@@ -28,7 +28,7 @@ __all__ = [
     "SPEC", "SPEC_HASH", "ProtocolError", "crc16", "defaults", "check", "encode_frame",
     "decode_frame", "pack_words", "unpack_words", "to_bytes", "from_bytes", "Parser",
     "Frame", "Reject", "DIR_TO_MICRO", "DIR_TO_HOST", "ERR_CRC", "ERR_TYPE", "ERR_LENGTH", "ERR_SCHEMA",
-    "STATS", "foreign_frame",
+    "STATS", "foreign_frame", "frame_crc_ok", "split_frames", "json_texts",
 ]
 
 SPEC = load(spec_path())
@@ -47,6 +47,8 @@ _HASH_WORD = SPEC.framing["hash_word"]
 _MAX_WORDS = SPEC.framing["max_frame_words"]
 _HEADER = 2 * (_LEN_WORD + 1)
 _MIN_FRAME = _HEADER + 2        # header and CRC word: shorter is a bad length (as in C)
+_LEN_AT = 2 * _LEN_WORD        # byte offset of the length word (frame words)
+_TYPE_AT = _LEN_AT - 2          # byte offset of the type word, the word before the length
 _DIR_TEXT = {DIR_TO_MICRO: "to-micro", DIR_TO_HOST: "to-host"}
 _CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
 _BY_ID = {m.id: m for m in SPEC.serial_messages()}
@@ -74,6 +76,70 @@ _REVERSE_BYTES = bytes(_reverse_bits(b, 8) for b in range(256))
 def crc16(data: bytes, crc: int = 0xFFFF) -> int:
     """CRC-16/MCRF4XX (poly 0x1021 reflected, init 0xFFFF, no final xor) of `data`."""
     return _reverse_bits(binascii.crc_hqx(bytes(data).translate(_REVERSE_BYTES), _reverse_bits(crc, 16)), 16)
+
+
+def frame_crc_ok(frame: bytes) -> bool:
+    """The CRC word at the end of `frame` (little-endian, at least 2 bytes) is crc16 of
+    the bytes before it. The CRC is compared reflected (its bytes bit-reversed in the
+    other order), which saves crc16's two bit reversals of a 16-bit value: one translate
+    and one binascii.crc_hqx a frame."""
+    r = frame.translate(_REVERSE_BYTES)
+    return binascii.crc_hqx(r[:-2], 0xFFFF) == (r[-2] << 8 | r[-1])
+
+
+def split_frames(data: bytes) -> tuple[list[tuple[int, bytes]], int, bool]:
+    """The candidate frames at the start of `data`, back to back: each begins with the
+    start word and its length word gives at least a header and CRC word that fit in
+    `data` (type, length against the type and CRC unchecked: decode_frame, or a
+    generated template after frame_crc_ok, checks those). Returns ((type word, frame
+    bytes) of each, bytes they take, whether the rest may be a frame cut short: fewer
+    bytes than a header, or a start word whose length word needs more bytes than are
+    left)."""
+    out = []
+    at, n = 0, len(data)
+    lo, hi = _START & 0xFF, _START >> 8
+    while n - at >= _HEADER:
+        if data[at] != lo or data[at + 1] != hi:
+            return out, at, False
+        size = 2 * (data[at + _LEN_AT] | data[at + _LEN_AT + 1] << 8)
+        if size < _MIN_FRAME:
+            return out, at, False
+        if at + size > n:
+            return out, at, True
+        out.append((data[at + _TYPE_AT] | data[at + _TYPE_AT + 1] << 8, data[at:at + size]))
+        at += size
+    return out, at, at < n
+
+
+_GENERATED: dict = {}     # path -> the loaded navkit_json module
+
+
+def json_texts(build=None):
+    """The generated module navkit_json (`navkit gen --py-out`, built into
+    <build>/gen/python by cmake; default build folder navkit.paths.build_dir()): each
+    message's JSON text from its bytes, the codec's fast path for the run log. OSError
+    naming the file when it is missing or was generated from another spec."""
+    import errno
+    import importlib.util
+    from pathlib import Path
+
+    from navkit.paths import build_dir
+
+    path = (Path(build) if build is not None else build_dir()) / "gen" / "python" / "navkit_json.py"
+    mod = _GENERATED.get(path)
+    if mod is None:
+        if not path.is_file():
+            raise FileNotFoundError(errno.ENOENT, "not found: build it (cmake --build <build>)",
+                                    str(path))
+        spec = importlib.util.spec_from_file_location("navkit_json", path)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        if mod.SPEC_HASH != SPEC_HASH:
+            raise OSError(errno.ESTALE, f"generated from spec hash 0x{mod.SPEC_HASH:08x}, not "
+                          f"0x{SPEC_HASH:08x} ({SPEC.path.name}): rebuild it (cmake --build "
+                          "<build>)", str(path))
+        _GENERATED[path] = mod
+    return mod
 
 
 @dataclass
@@ -281,7 +347,7 @@ def _frame_reason(frame: bytes, direction: str | None) -> tuple[str | None, Mess
     if words != m.words or len(frame) != m.size:
         return (f"{ERR_LENGTH}: {m.name} has {m.words} words ({m.size} bytes); length word {words}, "
                 f"{len(frame)} bytes"), m
-    if struct.unpack_from("<H", frame, m.size - 2)[0] != crc16(frame[:-2]):
+    if not frame_crc_ok(frame):
         return ERR_CRC, m
     return None, m
 
@@ -450,7 +516,7 @@ class Parser:
             if len(buf) < m.size:
                 break
             raw = bytes(buf[:m.size])
-            if struct.unpack_from("<H", raw, m.size - 2)[0] != crc16(raw[:-2]):
+            if not frame_crc_ok(raw):
                 self.stats["bad_crc"] += 1
                 self._drop(1, ERR_CRC, events)
                 continue
