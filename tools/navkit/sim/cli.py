@@ -54,6 +54,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-progress", action="store_true",
                         help="no progress on stderr (by default a line redrawn in place on a terminal "
                         "after the first second, else a line every 10 s of wall time)")
+    parser.add_argument("--stamps", type=Path, default=None, metavar="FILE",
+                        help="write the time.monotonic() (s) at which each phase of this command "
+                        "ended as JSON into FILE (navkit bench-sim times the whole command with it)")
 
 
 def _out_refusal(out: Path) -> str:
@@ -82,7 +85,9 @@ def run(args) -> int:
     with one line on stderr; 128 + the signal's number (130 for Ctrl-C) when a signal
     stopped it: the outputs are closed and summary.json says `interrupted`."""
     import signal
+    import time
 
+    stamps = {"cli": time.monotonic()}
     from navkit.paths import build_dir, repo_root
     from navkit.sim.harness import SimError, SimOptions
     from navkit.sim.harness import run as run_sim
@@ -93,7 +98,7 @@ def run(args) -> int:
         return 2
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     try:
-        mission = load(mission_path)
+        mission = load(mission_path, build=args.build)
     except MissionError as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
@@ -115,7 +120,7 @@ def run(args) -> int:
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, _interrupt)
     try:
-        s = run_sim(opts)
+        s = run_sim(opts, stamps)
     except (MissionError, SimError) as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
@@ -140,10 +145,20 @@ def run(args) -> int:
           f"heading {t.get('heading_deg', 0):.1f} deg  v {t.get('v_mm_s', 0):.0f} mm/s")
     print(f"speed     {s['sim_time_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall "
           f"= {s['realtime_factor']}x real time, {s['frames']} host frames")
+    stamps["end"] = time.monotonic()
     whole = _process_wall_s()
     if whole:
+        run_s = stamps["stopped"] - stamps["run"]
+        out_s = stamps["end"] - stamps["stopped"]
         print(f"          the whole command: {whole:.2f} s wall = {s['sim_time_s'] / whole:.1f}x real time "
               f"(with Python's start-up, the outputs and plot.png)")
+        print(f"          of it: start-up {max(0.0, whole - run_s - out_s):.2f} s, run {run_s:.2f} s "
+              f"(set-up, loop, shutdown), outputs {out_s:.2f} s (summary.json"
+              + (", plot.png)" if opts.plot else ")"))
+    if args.stamps:
+        import json
+
+        args.stamps.write_text(json.dumps(stamps) + "\n")
     return 0
 
 

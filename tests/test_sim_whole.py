@@ -1,0 +1,191 @@
+"""`navkit sim` fast end to end: plot.png is drawn from the messages the log worker kept
+while it wrote run.mcap (no read-back), the same figure `navkit plot` draws from the
+file; matplotlib runs in a process of its own (navkit.plot.PlotProcess) that ends with
+its parent; the command's speed lines and --stamps; bench-sim's whole-command figures."""
+
+import argparse
+import json
+import struct
+import subprocess
+import sys
+import time
+
+import pytest
+
+from sim_helpers import require_build
+
+pytestmark = pytest.mark.timeout(180)
+
+# commands and a fault: the plot marks both
+MISSION = """
+duration_s = 4.0
+[[command]]
+t = 0.5
+fwd_cmd = 1
+speed = 300
+distance = 300
+[[command]]
+t = 2.0
+turn_mode = 1
+turn_rate = 300
+turn_distance = 450
+[[fault]]
+t = 2.5
+kind = "unplug"
+duration_s = 0.5
+"""
+
+# summary.json values that are measurements of this run's machine, not of the run
+_MEASURED = {"wall_time_s", "realtime_factor", "memory_peak_mib", "time_share_s", "log_worker_cpu_s"}
+
+
+def _png_size(path) -> tuple:
+    """(width, height) in pixels of PNG file `path`: its signature and IHDR chunk."""
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR", path
+    return struct.unpack(">II", data[16:24])
+
+
+def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_path, monkeypatch, capsys):
+    """plot.png comes from the series the log worker handed over (reading run.mcap fails
+    here, in the harness and in the plot process forked from it), is a 990 x 1210 PNG
+    (9 x 11 in at 110 dpi) and is byte for byte what `navkit plot run.mcap` draws. The
+    speed lines give the loop and the whole command with its parts; --stamps has the
+    phases in order."""
+    from navkit import plot
+    from navkit.cli import main
+    from navkit.sim import results
+
+    require_build()
+    (tmp_path / "m.toml").write_text(MISSION)
+    out, stamps = tmp_path / "out", tmp_path / "stamps.json"
+
+    def no_read_back(*_a, **_k):
+        raise AssertionError("run.mcap read back")
+
+    monkeypatch.setattr(results, "iter_mcap", no_read_back)
+    assert main(["sim", "--mission", str(tmp_path / "m.toml"), "--out", str(out), "--no-progress",
+                 "--stamps", str(stamps)]) == 0
+    monkeypatch.undo()
+    text = capsys.readouterr().out
+    assert "4.0 s simulated in" in text and "x real time, 40 host frames" in text, text
+    whole = [ln for ln in text.splitlines() if "the whole command:" in ln]
+    parts = [ln for ln in text.splitlines() if ln.strip().startswith("of it: start-up")]
+    assert len(whole) == 1 and len(parts) == 1 and "outputs" in parts[0] and "plot.png" in parts[0], text
+    st = json.loads(stamps.read_text())
+    keys = ["cli", "run", "started", "loop", "stopped", "summary", "plot", "end"]
+    assert list(st) == keys and [st[k] for k in keys] == sorted(st.values()), st
+    assert _png_size(out / "plot.png") == (990, 1210)
+    assert main(["plot", str(out / "run.mcap"), "-o", str(tmp_path / "replot.png")]) == 0
+    assert (out / "plot.png").read_bytes() == (tmp_path / "replot.png").read_bytes()
+    fig = plot.mcap_figure(out / "run.mcap")
+    marks = [ln.get_xdata()[0] for ln in fig.axes[1].get_lines() if ln.get_gid() in ("command", "event")]
+    assert marks == [0.5, 2.0, 2.5, 3.0], "both commands, the unplug and the plug"
+
+
+def test_summary_and_run_mcap_do_not_depend_on_the_plot(tmp_path):
+    """The same run with and without plot.png: summary.json has the same keys and the same
+    values but for the machine's measurements, and run.mcap the same messages and metadata
+    (the plot's series are not in either)."""
+    from navkit.sim.harness import SimOptions, run
+    from navkit.sim.mission import loads
+    from navkit.sim.results import load
+
+    require_build()
+    runs = {}
+    for plot in (True, False):
+        out = tmp_path / f"plot-{plot}"
+        run(SimOptions(mission=loads(MISSION, tmp_path / "m.toml"), out=out, plot=plot, progress=False))
+        assert (out / "plot.png").exists() == plot
+        runs[plot] = load(out)
+    with_plot, without = runs[True], runs[False]
+    assert "plot" not in with_plot.summary
+    strip = lambda s: {k: v for k, v in s.items() if k not in _MEASURED}  # noqa: E731
+    assert strip(with_plot.summary) == strip(without.summary)
+    assert with_plot.topics == without.topics and with_plot.metadata == without.metadata
+
+
+def test_the_log_writer_keeps_what_navkit_plot_reads_from_the_file(tmp_path):
+    """A long run's messages through the run log's Recorder: the series it keeps as it
+    writes (RunSeries, handed over at close) are those navkit plot streams out of the
+    file: /truth and /micro/data thinned to PLOT_POINTS..2 * PLOT_POINTS messages each,
+    every /planner/cmd and /events message, the other topics not at all."""
+    from navkit import plot
+    from navkit.sim.record import Recorder
+
+    path = tmp_path / "run.mcap"
+    rec = Recorder(path, {})
+    for i in range(20_000):             # 400 s at 50 Hz, /micro/data at 10 Hz
+        t_ns = i * 20_000_000
+        rec.reserve(t_ns, t_ns)
+        rec.write("/truth", t_ns, {"t": t_ns / 1e9, "x_mm": i * 0.5, "y_mm": 0.0, "v_mm_s": 25.0,
+                                   "heading_deg": i % 360})
+        if i % 5 == 0:
+            rec.write("/micro/data", t_ns, {"x": i // 2, "y": 0, "fwd_speed": 25, "heading": i % 3600})
+            rec.write("/host/frame", t_ns, {"frame": i // 5})
+        if i % 2000 == 0:
+            rec.write("/planner/cmd", t_ns, {"fwd_cmd": 1, "speed": 25, "distance": 100})
+            rec.write("/events", t_ns, {"t": t_ns / 1e9, "kind": "key", "detail": {}})
+        rec.flush_before(t_ns + 20_000_000)
+    rec.close()
+    kept = rec.plot_series.raw()
+    assert set(kept) == {"/truth", "/micro/data", "/planner/cmd", "/events"}
+    for topic in ("/truth", "/micro/data"):
+        assert plot.PLOT_POINTS <= len(kept[topic]) <= 2 * plot.PLOT_POINTS, (topic, len(kept[topic]))
+    assert len(kept["/planner/cmd"]) == len(kept["/events"]) == 10
+    assert plot.decoded(kept) == plot._read_thinned(path)
+
+
+def test_plot_process_hands_back_errors_and_ends_with_its_parent(tmp_path):
+    """PlotProcess: the child's error (a file that is not MCAP) is raised in the parent
+    with the file's name; close() ends the child; a parent that dies without closing it
+    (os._exit, as after SIGKILL) leaves no plot process behind."""
+    from mcap.exceptions import McapError
+
+    from navkit.plot import PlotProcess
+
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(b"not an mcap file")
+    p = PlotProcess()
+    try:
+        with pytest.raises(McapError, match=str(bad)):
+            p.plot_mcap(bad, tmp_path / "bad.png")
+        assert not (tmp_path / "bad.png").exists()
+    finally:
+        p.close()
+    assert p._proc.exitcode == 0
+    code = ("import os, sys\nfrom navkit.plot import PlotProcess\np = PlotProcess()\n"
+            "print(p._proc.pid, flush=True)\nos._exit(0)\n")
+    pid = int(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             check=True).stdout)
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                if f.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    break
+        except FileNotFoundError:
+            break
+        time.sleep(0.05)
+    else:
+        pytest.fail(f"plot process {pid} outlived its parent")
+
+
+def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
+    """bench-sim runs `python -m navkit sim` as a user does and prints its wall time and
+    the parts of it, which add up to it."""
+    from navkit import sim_bench
+
+    require_build()
+    parser = argparse.ArgumentParser()
+    sim_bench.add_arguments(parser)
+    assert sim_bench.run(parser.parse_args(["--minutes", "0.2", "--whole", "1"])) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    head = [i for i, ln in enumerate(lines) if ln.startswith("whole command")]
+    assert len(head) == 1 and "12 s simulated in" in lines[head[0]], out
+    parts = lines[head[0] + 1:head[0] + 1 + len(sim_bench.PHASES)]
+    assert [ln.split("  ")[1].strip() for ln in parts] == [name for _, name in sim_bench.PHASES], out
+    secs = [float(ln.rsplit(" s ", 1)[0].split()[-1]) for ln in parts]
+    total = float(lines[head[0]].split(" in ")[1].split(" s wall")[0])
+    assert all(s >= 0 for s in secs) and abs(sum(secs) - total) < 0.01 + 0.001 * len(secs), (secs, total)
