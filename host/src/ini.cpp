@@ -453,21 +453,12 @@ void check_micro(const IniFile &ini, const Config &c)
     ini.fail(ini.line(sec, name), name + ": outside the spec's range (docs/protocol.md, " + sec + ")");
 }
 
-// "file:line: key" of the later of two keys' lines (a pair of values that do not fit
-// together is named where the second of them was written).
-std::string later_key(const IniFile &ini, const std::string &sec_a, const std::string &key_a, const std::string &sec_b,
-                      const std::string &key_b)
-{
-    const int la = ini.line(sec_a, key_a), lb = ini.line(sec_b, key_b);
-    return ini.path + ":" + std::to_string(std::max(la, lb)) + ": " + (la > lb ? key_a : key_b);
-}
-
 // The first broken spec constraint of config message *m of INI section sec (the generated
 // navkit_<msg>_constraint_check, _constraint_field and _field_name), named at the later of
 // its keys' lines: an le of arrays such as servo_min <= servo_max as "servo 3's servo_min
 // 100 is above its servo_max -100", element i named by the fields' common prefix.
 template <class M>
-void check_constraints_of(const IniFile &ini, const std::string &sec, const M *m,
+void check_constraints_of(const IniFile &ini, const Config &c, const std::string &sec, const M *m,
                           int (*broken)(const M *, int *, int32_t *), int (*field)(int, int), const char *(*name)(int))
 {
     int element = 0;
@@ -485,7 +476,7 @@ void check_constraints_of(const IniFile &ini, const std::string &sec, const M *m
     const std::string whose = b.compare(0, noun.size() + 1, noun + "_") == 0
                                   ? noun + " " + std::to_string(element) + "'s "
                                   : "";
-    throw ConfigError(later_key(ini, sec, a, sec, b) + ": " + whose + a + " " + std::to_string(value[0]) +
+    throw ConfigError(later_key_at(c, sec, a, sec, b) + ": " + whose + a + " " + std::to_string(value[0]) +
                       " is above " + (whose.empty() ? "" : "its ") + b + " " + std::to_string(value[1]) +
                       " (the micro refuses it)");
 }
@@ -493,9 +484,9 @@ void check_constraints_of(const IniFile &ini, const std::string &sec, const M *m
 // The spec's constraints of the three config messages (protocol/navkit.toml).
 void check_constraints(const IniFile &ini, const Config &c)
 {
-    check_constraints_of(ini, "micro_cfg_geometry", &c.micro.geometry, navkit_micro_cfg_geometry_constraint_check,
+    check_constraints_of(ini, c, "micro_cfg_geometry", &c.micro.geometry, navkit_micro_cfg_geometry_constraint_check,
                          navkit_micro_cfg_geometry_constraint_field, navkit_micro_cfg_geometry_field_name);
-    check_constraints_of(ini, "micro_cfg_io", &c.micro.io, navkit_micro_cfg_io_constraint_check,
+    check_constraints_of(ini, c, "micro_cfg_io", &c.micro.io, navkit_micro_cfg_io_constraint_check,
                          navkit_micro_cfg_io_constraint_field, navkit_micro_cfg_io_field_name);
 }
 
@@ -701,9 +692,6 @@ void Ini::load_file(const std::string &path, Config &cfg)
     if (base == "NavAndControl.ini") {
         check_micro(ini, cfg);
         check_constraints(ini, cfg);
-        cfg.exec.rate_watchdog_at = later_key(ini, "executive", "frame_rate_hz", "micro_cfg_motion",
-                                              "watchdog_timeout");
-        cfg.exec.log_dir_at = path + ":" + std::to_string(ini.line("executive", "log_dir")) + ": log_dir";
     } else {
         check_ir(ini, cfg);
     }

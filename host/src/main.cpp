@@ -11,6 +11,7 @@
 #include "navkit/convert_lisp.hpp"
 #include "navkit/ini.hpp"
 #include "navkit/options.hpp"
+#include "navkit/port_discovery.hpp"
 #include "navkit/robot.hpp"
 
 using namespace navkit;
@@ -55,6 +56,15 @@ int main(int argc, char **argv)
         }
         return std::cout.flush() ? 0 : 1;
     }
+    if (o.list_ports) {
+        DeviceRoots roots;
+        if (!o.dev_root.empty()) {
+            roots.dev = o.dev_root + "/dev";
+            roots.sys = o.dev_root + "/sys";
+        }
+        std::fputs(ports_json(o.link, roots).c_str(), stdout);
+        return std::fflush(stdout) == 0 ? 0 : 1;
+    }
     if (o.lockstep && fcntl(o.lockstep_fd, F_GETFD) == -1) {  // a usage error, said before any start-up
         std::fprintf(stderr, "navkit-host: --lockstep-fd %d: not an open file descriptor\n%s", o.lockstep_fd, usage());
         return 2;
@@ -95,7 +105,8 @@ int main(int argc, char **argv)
                 std::fprintf(stderr, "navkit-host: --frame-ms: %s\n", why.c_str());
                 return 2;
             }
-            std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.rate_watchdog_at.c_str(), why.c_str());
+            const std::string at = later_key_at(cfg, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
+            std::fprintf(stderr, "navkit-host: %s: %s\n", at.c_str(), why.c_str());
             return 1;
         }
     }
@@ -109,7 +120,7 @@ int main(int argc, char **argv)
     } else if (!o.print_config) {  // the folder the datalog would be written to: only for a run
         const std::string why = log_dir_error(cfg.exec.log_dir);
         if (!why.empty()) {
-            std::fprintf(stderr, "navkit-host: %s: %s\n", cfg.exec.log_dir_at.c_str(), why.c_str());
+            std::fprintf(stderr, "navkit-host: %s: %s\n", key_at(cfg, "executive", "log_dir").c_str(), why.c_str());
             return 1;
         }
     }

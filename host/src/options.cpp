@@ -28,6 +28,9 @@ const char *usage()
            "  --convert-lisp     read planner commands (lisp_cmd fields as JSON, one object a\n"
            "                     line) on stdin, print the micro command made of each or why it is\n"
            "                     refused (JSON, one a line), and exit; takes no other option\n"
+           "  --list-ports       print the USB ttys port = auto chooses from (JSON: with --link, the\n"
+           "                     ports of that link's kind, then the others) and exit; takes only\n"
+           "                     --link and --dev-root DIR (dev/ and sys/ under DIR instead of /)\n"
            "  --help             this text\n"
            "keys: R record, S stop recording, Q quit; w/x forward/reverse, a/d turn, space stop,\n"
            "      0-9 - = toggle DIO bits 0-11 (console levels)\n";
@@ -58,8 +61,11 @@ std::string parse_options(int argc, char **argv, Options *o)
             o->print_config = true;
         } else if (a == "--convert-lisp") {
             o->convert_lisp = true;
+        } else if (a == "--list-ports") {
+            o->list_ports = true;
         } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--frame-ms" || a == "--clock" ||
-                   a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log") {
+                   a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log" ||
+                   a == "--dev-root") {
             if (!value(&v)) {
                 return a + ": needs a value" +
                        (i + 1 < argc ? std::string(" (got the option ") + argv[i + 1] + ")" : std::string());
@@ -105,6 +111,8 @@ std::string parse_options(int argc, char **argv, Options *o)
                 if (!why.empty()) {
                     return a + ": " + why;
                 }
+            } else if (a == "--dev-root") {
+                o->dev_root = v;
             } else if (a == "--log-dir") {
                 o->log_dir = v;
                 const std::string why = log_dir_error(v);
@@ -124,6 +132,15 @@ std::string parse_options(int argc, char **argv, Options *o)
                 return other + " has no effect with --convert-lisp (it reads stdin only)";
             }
         }
+    }
+    for (const std::string &other : seen) {  // discovery only: no config, no run
+        if (o->list_ports && other != "--list-ports" && other != "--link" && other != "--dev-root" &&
+            other != "--help") {
+            return other + " has no effect with --list-ports (it only lists the USB ttys)";
+        }
+    }
+    if (!o->dev_root.empty() && !o->list_ports) {
+        return "--dev-root needs --list-ports";
     }
     if (o->lockstep && o->lockstep_fd < 0) {
         return "--clock lockstep needs --lockstep-fd N";

@@ -31,12 +31,6 @@ struct ExecutiveCfg {
     bool record = false; // start the datalog at start-up
     int dio_default = 0; // levels of the DIO bits no planner owns (12 bits)
     int mc_datalog = 0;  // micro datalog selection (spec enum mc_datalog) at start-up
-    // "file:line: key" of the later of frame_rate_hz and [micro_cfg_motion] watchdog_timeout
-    // (where a pair that does not fit together is named; see frame_watchdog_error)
-    std::string rate_watchdog_at;
-    // "file:line: log_dir" where log_dir was set (or its section's line, or 0: the default);
-    // the folder is checked (log_dir_error) by main only when --log-dir does not replace it
-    std::string log_dir_at;
 };
 
 // Numbers of the INI files and the command line. Integers are decimal: [+-]digits (a

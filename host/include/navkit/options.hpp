@@ -24,6 +24,8 @@ struct Options {
     bool help = false;
     bool print_config = false; // print the effective configuration as JSON and exit (Ini::json)
     bool convert_lisp = false; // planner commands (stdin) -> micro commands (stdout), then exit (convert_lisp.hpp)
+    bool list_ports = false;   // print the USB ttys port discovery finds as JSON and exit (port_discovery.hpp)
+    std::string dev_root;      // "" = /; else the folder holding the dev/ and sys/ --list-ports reads (tests)
 };
 
 // "" on success, else the error (unknown or repeated option, missing or bad value).

@@ -1,17 +1,19 @@
 // Port discovery on a fake /dev and /sys (the kernel's layout in a temporary folder): the
 // port of each link kind by its USB ids, none or several found said with what was seen,
-// the --list-ports JSON, and MicroUsb opening the one it finds.
+// the --list-ports JSON and its options, and MicroUsb opening the one it finds.
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <vector>
 #include <fcntl.h>
 #include <pty.h>
 #include <unistd.h>
 
 #include "navkit/console.hpp"
 #include "navkit/micro_usb.hpp"
+#include "navkit/options.hpp"
 #include "navkit/port_discovery.hpp"
 
 using namespace navkit;
@@ -28,7 +30,7 @@ protected:
         root_ = tmpl;
         ASSERT_EQ(openpty(&master_, &slave_, nullptr, nullptr, nullptr), 0);
         pts_ = ttyname(slave_);
-        tty_ = pts_.substr(pts_.rfind('/') + 1);  // the pty's number: its "tty name" in the fake sysfs
+        tty_ = pts_.substr(pts_.rfind('/') + 1); // the pty's number: its "tty name" in the fake sysfs
         roots_.dev = root_ + "/dev";
         roots_.sys = root_ + "/sys";
         sh("mkdir -p " + roots_.dev + "/serial/by-id " + roots_.sys + "/class/tty " + roots_.sys +
@@ -39,8 +41,8 @@ protected:
         sh("echo 16d0 > " + roots_.sys + "/devices/usb1/1-2/idVendor");
         sh("echo 117e > " + roots_.sys + "/devices/usb1/1-2/idProduct");
         // the pty is the FTDI's (0403:6001) tty; ttyOTHER is a CANable (16d0:117e), listed first by name
-        sh("mkdir " + roots_.sys + "/class/tty/" + tty_ + " && ln -s ../../../devices/usb1/1-1/1-1:1.0 " +
-           roots_.sys + "/class/tty/" + tty_ + "/device");
+        sh("mkdir " + roots_.sys + "/class/tty/" + tty_ + " && ln -s ../../../devices/usb1/1-1/1-1:1.0 " + roots_.sys +
+           "/class/tty/" + tty_ + "/device");
         sh("mkdir " + roots_.sys + "/class/tty/ttyOTHER && ln -s ../../../devices/usb1/1-2/1-2:1.0 " + roots_.sys +
            "/class/tty/ttyOTHER/device");
         sh("touch " + roots_.dev + "/ttyOTHER && ln -s ../../ttyOTHER " + roots_.dev +
@@ -54,7 +56,10 @@ protected:
         close(slave_);
         sh("rm -rf " + root_);
     }
-    static void sh(const std::string &cmd) { ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd; }
+    static void sh(const std::string &cmd)
+    {
+        ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    }
     static std::string slurp(const std::string &p)
     {
         std::string s;
@@ -72,8 +77,8 @@ protected:
     {
         const std::string usb = roots_.sys + "/devices/usb2/2-" + std::to_string(n);
         sh("mkdir -p " + usb + "/2-" + std::to_string(n) + ":1.0/tty/" + tty + " " + roots_.sys + "/class/tty/" + tty);
-        sh("echo " + vid + " > " + usb + "/idVendor && echo " + pid + " > " + usb + "/idProduct && echo 85735 > " + usb +
-           "/serial");
+        sh("echo " + vid + " > " + usb + "/idVendor && echo " + pid + " > " + usb + "/idProduct && echo 85735 > " +
+           usb + "/serial");
         sh("ln -s ../../../devices/usb2/2-" + std::to_string(n) + "/2-" + std::to_string(n) + ":1.0 " + roots_.sys +
            "/class/tty/" + tty + "/device && touch " + roots_.dev + "/" + tty);
         if (!by_id.empty()) {
@@ -99,7 +104,7 @@ TEST_F(FakeDevices, FindsTheFtdiByIdAndSetsItsLatencyTimer)
 
     std::FILE *out = std::tmpfile();
     Console con(out, -1, 1.0);
-    MicroCfg cfg;  // port = auto, link = serial, latency_timer_ms = 1
+    MicroCfg cfg; // port = auto, link = serial, latency_timer_ms = 1
     MicroUsb micro(cfg, con, roots_);
     micro.init();
     EXPECT_TRUE(micro.port_open());
@@ -166,10 +171,12 @@ TEST_F(FakeDevices, SeveralFoundAreListedAndNoneFoundSaysWhatWasSeen)
     add_acm(1, "ttyACM0", "2341", "0042");
     std::string path = "unchanged";
     const std::string several = find_port("serial", roots_, &path);
-    EXPECT_EQ(several, "several serial-link ports found: " + roots_.dev +
-                           "/serial/by-id/usb-FTDI_FT232R_USB_UART_A1B2C3-if00-port0 (FTDI USB-serial [0403:6001], link serial), " +
-                           roots_.dev + "/ttyACM0 (Arduino Mega 2560 R3 [2341:0042] serial 85735, link serial): " +
-                           "give [micro] port or --port");
+    EXPECT_EQ(
+        several,
+        "several serial-link ports found: " + roots_.dev +
+            "/serial/by-id/usb-FTDI_FT232R_USB_UART_A1B2C3-if00-port0 (FTDI USB-serial [0403:6001], link serial), " +
+            roots_.dev +
+            "/ttyACM0 (Arduino Mega 2560 R3 [2341:0042] serial 85735, link serial): " + "give [micro] port or --port");
     EXPECT_EQ(path, "unchanged");
 
     std::FILE *out = std::tmpfile();
@@ -196,10 +203,31 @@ TEST_F(FakeDevices, PortsJsonListsTheLinksPortsThenTheOthers)
     ASSERT_NE(ports, std::string::npos) << j;
     ASSERT_NE(others, std::string::npos) << j;
     EXPECT_EQ(j.find("\"link\": \"slcan\""), 4u) << j;
-    const size_t canable = j.find("\"name\": \"CANable (slcan firmware)\""), mega = j.find("\"name\": \"Arduino Mega 2560\"");
+    const size_t canable = j.find("\"name\": \"CANable (slcan firmware)\""),
+                 mega = j.find("\"name\": \"Arduino Mega 2560\"");
     EXPECT_TRUE(ports < canable && canable < others) << j;
     EXPECT_GT(mega, others) << j;
     EXPECT_NE(j.find("\"dev\": \"" + roots_.dev + "/ttyACM0\""), std::string::npos) << j;
     EXPECT_NE(ports_json("", roots_).find("\"link\": null"), std::string::npos);
     EXPECT_NE(ports_json("", roots_).find("\"others\": []"), std::string::npos) << "no link: every port in ports";
+}
+
+TEST(ListPorts, TakesOnlyLinkAndDevRoot)
+{
+    auto parse = [](std::vector<const char *> args, Options *o) {
+        args.insert(args.begin(), "navkit-host");
+        return parse_options(static_cast<int>(args.size()), const_cast<char **>(args.data()), o);
+    };
+    Options o;
+    EXPECT_EQ(parse({"--list-ports", "--link", "slcan", "--dev-root", "/tmp/x"}, &o), "");
+    EXPECT_TRUE(o.list_ports);
+    EXPECT_EQ(o.link, "slcan");
+    EXPECT_EQ(o.dev_root, "/tmp/x");
+    Options p;
+    EXPECT_EQ(parse({"--list-ports", "--port", "auto"}, &p),
+              "--port has no effect with --list-ports (it only lists the USB ttys)");
+    Options q;
+    EXPECT_EQ(parse({"--dev-root", "/tmp/x"}, &q), "--dev-root needs --list-ports");
+    Options r;
+    EXPECT_EQ(parse({"--list-ports", "--link", "can"}, &r).find("--link: "), 0u) << "the link's own rule";
 }
