@@ -356,6 +356,7 @@ def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
     taken = [still(f) for f in _host_taken_cases() if f.get("turn_mode") not in (10, 11)]
     taken.append({"turn_mode": 10, "turn_distance": 0})
     refused = [still(f) for f, _ in _host_refused_cases()]
+    refused_keys = [k for _, k in _host_refused_cases()]
     n = len(taken) + len(refused)
     m = loads(f"duration_s = {0.1 * (n + 3):.1f}\n" +
               "".join(_toml(f, round(0.2 + 0.1 * i, 1)) for i, f in enumerate(taken)),
@@ -376,7 +377,11 @@ def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
     log = (tmp_path / "out" / "host.log").read_text(errors="replace")
     # one a frame: the console says the first, then at most one a second, counting the
     # ones it held back, and the last one held back at shutdown
-    said = "rejected: a value does not fit the micro command"
-    assert f"planner command {tags[len(taken)]} {said}" in log
-    assert f"planner command {tags[-1]} {said} (" in log and "like it" in log
+    # the host's reason, as mission loading words it (Conversion::text)
+    first = refused_keys[0]
+    said = f"planner command {tags[len(taken)]} rejected: {first}: {refused[0][first]} is outside "
+    assert said in log, log
+    last = refused_keys[-1]
+    assert f"planner command {tags[-1]} rejected: {last}: {refused[-1][last]} is outside " in log
+    assert "more like it" in log
     assert all(abs(row["x_mm"]) < 2 and abs(row["yaw_deg"]) < 1 for row in r.truth)

@@ -261,13 +261,14 @@ void RobotMain(Robot &r)
     const NavOutput nav = r.nav.update(arb, heading);
     if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_NOT_IMPLEMENTED) {
         r.console.print_limited("planner fwd_cmd %d (high level) is not implemented", static_cast<int>(arb.planner.fwd_cmd));
-    } else if (arb.planner_new && r.nav.heading_missing()) {
-        r.console.print_limited("planner command %d rejected: heading hold (turn mode 11) needs the micro's current "
-                        "heading, and no fresh micro_data has come (micro offline): send it again later",
-                        static_cast<int>(arb.planner.time_tag));
+    } else if (arb.planner_new && r.nav.heading_missing()) {  // its own line (and repeat limit): a state, not a value
+        r.console.print_limited("planner command %d rejected: %s", static_cast<int>(arb.planner.time_tag),
+                                r.nav.conversion().text().c_str());
     } else if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_REJECTED) {
-        r.console.print_limited("planner command %d rejected: a value does not fit the micro command",
-                        static_cast<int>(arb.planner.time_tag));
+        // the value, the micro_cmd field and range it missed and why it was copied (Conversion)
+        r.console.print_limited("planner command %d rejected: %s: %s", static_cast<int>(arb.planner.time_tag),
+                                navkit_lisp_cmd_field_name(r.nav.conversion().lisp_field),
+                                r.nav.conversion().text().c_str());
     }
     // 7. send one micro message (Q: this frame's message is the stop, when the micro is
     // configured; else it gets its config as usual and RobotShutdown says it is not moving)
