@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from navkit.compare import CompareError, compare_runs
-from test_sim_util import require_build
+from sim_helpers import require_build
 
 # 500 mm forward, then a heading select to 90 deg: two legs. The first command waits for
 # the config download (one message per host frame: 0.3 s with 100 ms frames)

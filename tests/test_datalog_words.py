@@ -13,7 +13,7 @@ import pytest
 from navkit import protocol
 from navkit.paths import build_dir, repo_root
 from navkit.sim.harness import host_path
-from test_sim_util import require_build, run_mission
+from sim_helpers import require_build, run_mission
 
 pytestmark = pytest.mark.timeout(180)
 

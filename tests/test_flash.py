@@ -1,5 +1,5 @@
 """`navkit flash`: image checks, board discovery, permissions, and flashing through a
-simboard with the real avrdude (tests/avr_images.py builds the test images)."""
+simboard with the real avrdude (tests/avr_helpers.py builds the test images)."""
 
 import os
 import shutil
@@ -16,7 +16,7 @@ from navkit import flash as fl
 from navkit.paths import build_dir
 from navkit.protocol import SPEC, SPEC_HASH, encode_frame, defaults
 from navkit.simboard import SimBoard, program
-from avr_images import ECHO_C, TEST_SPEED, avrdude, build_image
+from avr_helpers import ECHO_C, TEST_SPEED, avrdude, build_image
 
 MEGA = {"spec_hash": SPEC_HASH, "signature": (0x1E, 0x98, 0x01), "mcu": "atmega2560"}
 REAL_IMAGE = build_dir() / "firmware" / "avr" / "navkit-mega2560.hex"

@@ -18,7 +18,7 @@ import sys
 import pytest
 
 from navkit.paths import build_dir, repo_root
-from test_sim_util import require_build, run_mission
+from sim_helpers import require_build, run_mission
 
 AVR_FMU = build_dir() / "fmus" / "navkit_firmware_avr.fmu"
 pytestmark = [pytest.mark.timeout(300),

@@ -7,7 +7,7 @@ import shutil
 
 import pytest
 
-from test_sim_util import require_build, run_mission
+from sim_helpers import chunk_spans, require_build, run_mission
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -19,16 +19,6 @@ fwd_cmd = 1
 speed = 300
 distance = 1000
 """
-
-
-def chunk_spans(path):
-    """[(message_start_time, message_end_time) ns] of every chunk, in file order."""
-    from mcap.reader import make_reader
-
-    with open(path, "rb") as f:
-        idx = make_reader(f).get_summary().chunk_indexes
-    return [(c.message_start_time, c.message_end_time)
-            for c in sorted(idx, key=lambda c: c.chunk_start_offset)]
 
 
 def config_with_watchdog(tmp_path_factory, watchdog_ms: int):

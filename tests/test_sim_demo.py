@@ -5,7 +5,7 @@ ground truth (mm, deg, mm/s) and on the host's datalog.
 
 import pytest
 
-from test_sim_util import require_build
+from sim_helpers import require_build
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -4,7 +4,7 @@ motion, the host recovers from an unplugged port, a silent planner stops the rob
 
 import pytest
 
-from test_sim_util import run_mission
+from sim_helpers import run_mission
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from navkit.sim.mission import loads
-from test_sim_util import require_build
+from sim_helpers import require_build
 
 pytestmark = pytest.mark.timeout(120)
 

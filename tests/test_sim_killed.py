@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from test_sim_util import run_mission
+from sim_helpers import run_mission
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -8,7 +8,7 @@ config download and the gyro's standstill calibration.
 
 import pytest
 
-from test_sim_util import run_mission
+from sim_helpers import run_mission
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from test_sim_util import require_build, run_mission
+from sim_helpers import chunk_spans, require_build, run_mission
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -325,7 +325,6 @@ distance = 200
     assert 0.7 < s["realtime_factor"] <= 1.1, s["wall_time_s"]
     assert abs(r.truth[-1]["distance_mm"] - 200) <= 15, "the command reached the micro"
     assert s["host"]["config_downloads"] >= 1
-    from test_sim_chunks import chunk_spans
     spans = chunk_spans(r.out / "run.mcap")
     assert len(spans) >= 3 and all(t1 - t0 <= 1_000_000_000 for t0, t1 in spans), spans
 

@@ -17,7 +17,7 @@ from navkit.sim.harness import SimError, SimOptions, fmu_paths, run
 from navkit.sim.mission import MissionError, loads
 from navkit.sim.plant import FMI2_UNSUPPORTED
 from navkit.sim.results import load
-from test_sim_util import require_build, run_mission
+from sim_helpers import require_build, run_mission
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -13,7 +13,7 @@ import statistics
 
 import pytest
 
-from test_sim_util import require_build, run_mission
+from sim_helpers import require_build, run_mission
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -12,7 +12,7 @@ import statistics
 
 import pytest
 
-from test_sim_util import require_build
+from sim_helpers import require_build
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -1,5 +1,5 @@
 """`navkit simboard`: the simulated Mega 2560 (real simavr, the real stk500v2 bootloader of
-arduino-core-avr, the real avrdude). Test images are built with avr-gcc (avr_images, shared
+arduino-core-avr, the real avrdude). Test images are built with avr-gcc (avr_helpers, shared
 with tests/test_flash.py)."""
 
 import os
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from avr_images import ECHO_C, TEST_SPEED, avrdude, build_image
+from avr_helpers import ECHO_C, TEST_SPEED, avrdude, build_image
 from navkit.simboard import SimBoard, SimBoardError, program
 
 NEEDS = [t for t in ("avr-gcc", "avr-objcopy", "avrdude") if shutil.which(t) is None]

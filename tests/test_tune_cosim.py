@@ -13,7 +13,7 @@ import pytest
 
 from navkit.paths import build_dir, repo_root
 from navkit.sim.results import load
-from test_sim_util import require_build
+from sim_helpers import require_build
 
 # heavier (18 kg instead of 12) with weaker motors (torque constant -20 %, more resistance)
 HEAVY = {"mass_kg": 18.0, "motor_kt_nm_a": 0.022, "motor_ke_v_s_rad": 0.022, "motor_r_ohm": 2.4,

@@ -1,0 +1,48 @@
+"""Helpers of the co-simulation tests (tests/test_sim_*.py and the others that run
+missions; no tests here): run a mission text once per session through the real host and
+FMUs, read its outputs back, and the time span of run.mcap's chunks."""
+
+import pytest
+
+from navkit.paths import build_dir
+from navkit.sim.harness import SimOptions, fmu_paths, host_path, run
+from navkit.sim.mission import loads
+from navkit.sim.results import load
+
+__all__ = ["run_mission", "require_build", "chunk_spans"]
+
+_CACHE = {}
+
+
+def require_build():
+    """Skip unless the host, both FMUs and the coupler are built."""
+    from navkit.sim.coupler import library_path
+
+    b = build_dir()
+    missing = [str(p) for p in (host_path(b), *fmu_paths(b), library_path(b)) if not p.exists()]
+    if missing:
+        pytest.skip("not built: " + ", ".join(missing))
+
+
+def run_mission(tmp_path_factory, name: str, text: str, seed: int = 1, **opts):
+    """Run mission `text` (once per session and name) and return its RunResult."""
+    key = (name, seed)
+    if key not in _CACHE:
+        require_build()
+        out = tmp_path_factory.mktemp(f"sim-{name}")
+        mission = loads(text, out / f"{name}.toml")
+        opts.setdefault("plot", False)
+        run(SimOptions(mission=mission, out=out, seed=seed, **opts))
+        _CACHE[key] = load(out)
+    return _CACHE[key]
+
+
+def chunk_spans(path):
+    """[(message_start_time, message_end_time) ns] of every chunk of MCAP file `path`, in
+    file order."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        idx = make_reader(f).get_summary().chunk_indexes
+    return [(c.message_start_time, c.message_end_time)
+            for c in sorted(idx, key=lambda c: c.chunk_start_offset)]
