@@ -71,7 +71,10 @@ public:
         space();
         return i_ == s_.size() ? "" : "text after the object";
     }
-    size_t offset() const { return i_; }
+    size_t offset() const
+    {
+        return i_;
+    }
 
 private:
     void space()
@@ -157,16 +160,15 @@ const char *refusal_name(Refusal r)
 std::string lisp_range_line(int field, int64_t v)
 {
     const int64_t lo = navkit_lisp_cmd_field_min(field), hi = navkit_lisp_cmd_field_max(field);
-    const std::string text =
-        std::to_string(v) +
-        (navkit_lisp_cmd_in_range(field, v)
-             ? std::string(" is not a value lisp_cmd takes (its spec's codes or constraints)")
-             : " is outside " + std::to_string(lo) + ".." + std::to_string(hi) + " (" +
-                   navkit_lisp_cmd_field_units(field) + "), lisp_cmd's own range");
+    const std::string text = std::to_string(v) +
+                             (navkit_lisp_cmd_in_range(field, v)
+                                  ? std::string(" is not a value lisp_cmd takes (its spec's codes or constraints)")
+                                  : " is outside " + std::to_string(lo) + ".." + std::to_string(hi) + " (" +
+                                        navkit_lisp_cmd_field_units(field) + "), lisp_cmd's own range");
     return "{\"nav_result\": \"rejected\", \"refusal\": \"lisp_range\", \"lisp_field\": " +
            json_string(navkit_lisp_cmd_field_name(field)) + ", \"value\": " + std::to_string(v) +
-           ", \"min\": " + std::to_string(lo) + ", \"max\": " + std::to_string(hi) + ", \"text\": " + json_string(text) +
-           "}";
+           ", \"min\": " + std::to_string(lo) + ", \"max\": " + std::to_string(hi) +
+           ", \"text\": " + json_string(text) + "}";
 }
 
 std::string verdict_line(const Conversion &c, const navkit_micro_cmd_t &m)
@@ -200,7 +202,7 @@ std::string verdict_line(const Conversion &c, const navkit_micro_cmd_t &m)
     return o + ", \"text\": " + json_string(c.text()) + "}";
 }
 
-}  // namespace
+} // namespace
 
 int convert_lisp_lines(std::istream &in, std::ostream &out, std::string *error)
 {
@@ -209,11 +211,11 @@ int convert_lisp_lines(std::istream &in, std::ostream &out, std::string *error)
         std::vector<Member> members;
         LineReader r(line);
         std::string why = r.read(&members);
-        size_t at = r.offset();  // of the reason
+        size_t at = r.offset(); // of the reason
         navkit_lisp_cmd_t cmd;
         navkit_lisp_cmd_defaults(&cmd);
         std::optional<uint16_t> heading;
-        int bad = -1;  // the first field outside lisp_cmd's own range
+        int bad = -1; // the first field outside lisp_cmd's own range
         int64_t bad_value = 0;
         for (const auto &[name, v, member_at] : members) {
             if (!why.empty()) {
@@ -260,4 +262,4 @@ int convert_lisp_lines(std::istream &in, std::ostream &out, std::string *error)
     return 0;
 }
 
-}  // namespace navkit
+} // namespace navkit

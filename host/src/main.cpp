@@ -25,7 +25,7 @@ static bool std_fds_open()
         if (fcntl(fd, F_GETFD) != -1 || errno != EBADF) {
             continue;
         }
-        const int n = open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);  // the lowest free fd: this one
+        const int n = open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY); // the lowest free fd: this one
         if (n != fd) {
             return false;
         }
@@ -36,7 +36,7 @@ static bool std_fds_open()
 int main(int argc, char **argv)
 {
     if (!std_fds_open()) {
-        return 1;  // no /dev/null: nowhere to say so either
+        return 1; // no /dev/null: nowhere to say so either
     }
     Options o;
     const std::string err = parse_options(argc, argv, &o);
@@ -65,7 +65,7 @@ int main(int argc, char **argv)
         std::fputs(ports_json(o.link, roots).c_str(), stdout);
         return std::fflush(stdout) == 0 ? 0 : 1;
     }
-    if (o.lockstep && fcntl(o.lockstep_fd, F_GETFD) == -1) {  // a usage error, said before any start-up
+    if (o.lockstep && fcntl(o.lockstep_fd, F_GETFD) == -1) { // a usage error, said before any start-up
         std::fprintf(stderr, "navkit-host: --lockstep-fd %d: not an open file descriptor\n%s", o.lockstep_fd, usage());
         return 2;
     }
@@ -92,20 +92,21 @@ int main(int argc, char **argv)
         cfg.exec.frame_rate_hz = 1000.0 / o.frame_ms;
         cfg.origin["executive.frame_rate_hz"] = "--frame-ms";
     }
-    if (!o.lockstep) {  // the frame in use against the micro's watchdog
+    if (!o.lockstep) { // the frame in use against the micro's watchdog
         const unsigned watchdog_ms = cfg.micro.motion.watchdog_timeout;
         const std::string why = o.frame_ms > 0 ? frame_ms_watchdog_error(o.frame_ms, watchdog_ms)
                                                : frame_watchdog_error(cfg.exec.frame_rate_hz, watchdog_ms);
-        if (!why.empty()) {  // named where the frame came from: the command line (usage) or the INI
+        if (!why.empty()) { // named where the frame came from: the command line (usage) or the INI
             if (o.rate_hz > 0) {
                 std::fprintf(stderr, "navkit-host: --rate %g: %s\n", o.rate_hz, why.c_str());
                 return 2;
             }
-            if (o.frame_ms > 0) {  // the text names the frame given
+            if (o.frame_ms > 0) { // the text names the frame given
                 std::fprintf(stderr, "navkit-host: --frame-ms: %s\n", why.c_str());
                 return 2;
             }
-            const std::string at = later_key_at(cfg, "executive", "frame_rate_hz", "micro_cfg_motion", "watchdog_timeout");
+            const std::string at = later_key_at(cfg, "executive", "frame_rate_hz", "micro_cfg_motion",
+                                                "watchdog_timeout");
             std::fprintf(stderr, "navkit-host: %s: %s\n", at.c_str(), why.c_str());
             return 1;
         }
@@ -115,9 +116,9 @@ int main(int argc, char **argv)
         cfg.origin["executive.shm_name"] = "--shm";
     }
     if (!o.log_dir.empty()) {
-        cfg.exec.log_dir = o.log_dir;  // checked by parse_options
+        cfg.exec.log_dir = o.log_dir; // checked by parse_options
         cfg.origin["executive.log_dir"] = "--log-dir";
-    } else if (!o.print_config) {  // the folder the datalog would be written to: only for a run
+    } else if (!o.print_config) { // the folder the datalog would be written to: only for a run
         const std::string why = log_dir_error(cfg.exec.log_dir);
         if (!why.empty()) {
             std::fprintf(stderr, "navkit-host: %s: %s\n", key_at(cfg, "executive", "log_dir").c_str(), why.c_str());

@@ -38,7 +38,7 @@ const char *usage()
 
 std::string parse_options(int argc, char **argv, Options *o)
 {
-    std::set<std::string> seen;  // each option at most once: a second one is refused, not "the last wins"
+    std::set<std::string> seen; // each option at most once: a second one is refused, not "the last wins"
     for (int i = 1; i < argc; i++) {
         const std::string a = argv[i] == std::string("-h") ? "--help" : argv[i];
         if (a.compare(0, 2, "--") == 0 && !seen.insert(a).second) {
@@ -63,8 +63,8 @@ std::string parse_options(int argc, char **argv, Options *o)
             o->convert_lisp = true;
         } else if (a == "--list-ports") {
             o->list_ports = true;
-        } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--frame-ms" || a == "--clock" ||
-                   a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log" ||
+        } else if (a == "--config" || a == "--port" || a == "--link" || a == "--rate" || a == "--frame-ms" ||
+                   a == "--clock" || a == "--lockstep-fd" || a == "--shm" || a == "--log-dir" || a == "--timing-log" ||
                    a == "--dev-root") {
             if (!value(&v)) {
                 return a + ": needs a value" +
@@ -78,14 +78,15 @@ std::string parse_options(int argc, char **argv, Options *o)
             } else if (a == "--port") {
                 o->port = v;
             } else if (a == "--link") {
-                const std::string why = micro_link_error(v);  // as [micro] link: one rule
+                const std::string why = micro_link_error(v); // as [micro] link: one rule
                 if (!why.empty()) {
                     return a + ": " + why;
                 }
                 o->link = v;
             } else if (a == "--rate") {
                 // decimal as the INI's numbers (no hex, inf or nan)
-                if (!ini_parse_real(v, &o->rate_hz).empty() || !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {
+                if (!ini_parse_real(v, &o->rate_hz).empty() ||
+                    !(o->rate_hz >= kMinRateHz && o->rate_hz <= kMaxRateHz)) {
                     return a + ": " + v + ": not a rate in 0.1..1000 Hz (the range of [executive] frame_rate_hz)";
                 }
             } else if (a == "--frame-ms") {
@@ -106,7 +107,7 @@ std::string parse_options(int argc, char **argv, Options *o)
                 }
                 o->lockstep_fd = static_cast<int>(fd);
             } else if (a == "--shm") {
-                o->shm = v;  // as [executive] shm_name: one rule, so "navkit" is refused here too
+                o->shm = v; // as [executive] shm_name: one rule, so "navkit" is refused here too
                 const std::string why = shm_name_error(o->shm);
                 if (!why.empty()) {
                     return a + ": " + why;
@@ -126,14 +127,14 @@ std::string parse_options(int argc, char **argv, Options *o)
             return a + ": unknown option (see --help)";
         }
     }
-    if (o->convert_lisp && seen.size() > 1) {  // no config, no run: any other option would be ignored
+    if (o->convert_lisp && seen.size() > 1) { // no config, no run: any other option would be ignored
         for (const std::string &other : seen) {
             if (other != "--convert-lisp" && other != "--help") {
                 return other + " has no effect with --convert-lisp (it reads stdin only)";
             }
         }
     }
-    for (const std::string &other : seen) {  // discovery only: no config, no run
+    for (const std::string &other : seen) { // discovery only: no config, no run
         if (o->list_ports && other != "--list-ports" && other != "--link" && other != "--dev-root" &&
             other != "--help") {
             return other + " has no effect with --list-ports (it only lists the USB ttys)";
@@ -168,4 +169,4 @@ std::string parse_options(int argc, char **argv, Options *o)
     return "";
 }
 
-}  // namespace navkit
+} // namespace navkit

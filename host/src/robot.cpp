@@ -50,7 +50,7 @@ static const std::vector<LogColumn> &log_columns()
                          [i](R r) { return static_cast<double>(r.lisp_data.sonar_range[i]); }});
         }
         c.push_back({{"battery_v", 0, 15}, [](R r) { return r.sensors.battery.value(); }});
-        for (int i = 0; i < 8; i++) {  // calibrated RC servo positions (sensors.ini [servoN])
+        for (int i = 0; i < 8; i++) { // calibrated RC servo positions (sensors.ini [servoN])
             c.push_back({{"servo" + std::to_string(i) + "_deg", -180, 180},
                          [i](R r) { return r.lisp_data.servo_pos[i] / 10.0; }});
         }
@@ -90,9 +90,12 @@ static std::vector<LogParam> log_params()
 static const char *owner_name(Owner o)
 {
     switch (o) {
-    case Owner::planner: return "planner";
-    case Owner::console: return "console";
-    case Owner::none: break;
+    case Owner::planner:
+        return "planner";
+    case Owner::console:
+        return "console";
+    case Owner::none:
+        break;
     }
     return "none";
 }
@@ -125,7 +128,7 @@ static void stop_recording(Robot &r)
 static ConsoleInput handle_keys(Robot &r)
 {
     ConsoleInput in;
-    static const char dio_keys[] = "1234567890-=";  // DIO bits 0..11
+    static const char dio_keys[] = "1234567890-="; // DIO bits 0..11
     auto teleop = [&in](Teleop t) {
         if (in.teleop != Teleop::stop) {
             in.teleop = t;
@@ -133,15 +136,37 @@ static ConsoleInput handle_keys(Robot &r)
     };
     for (char k : r.console.keys()) {
         switch (k) {
-        case 'R': case 'r': start_recording(r); break;
-        case 'S': case 's': stop_recording(r); break;
-        case 'Q': case 'q': r.quit = true; break;
-        case 'L': case 'l': in.datalog_next = true; break;
-        case 'w': teleop(Teleop::forward); break;
-        case 'x': teleop(Teleop::reverse); break;
-        case 'a': teleop(Teleop::left); break;
-        case 'd': teleop(Teleop::right); break;
-        case ' ': in.teleop = Teleop::stop; break;
+        case 'R':
+        case 'r':
+            start_recording(r);
+            break;
+        case 'S':
+        case 's':
+            stop_recording(r);
+            break;
+        case 'Q':
+        case 'q':
+            r.quit = true;
+            break;
+        case 'L':
+        case 'l':
+            in.datalog_next = true;
+            break;
+        case 'w':
+            teleop(Teleop::forward);
+            break;
+        case 'x':
+            teleop(Teleop::reverse);
+            break;
+        case 'a':
+            teleop(Teleop::left);
+            break;
+        case 'd':
+            teleop(Teleop::right);
+            break;
+        case ' ':
+            in.teleop = Teleop::stop;
+            break;
         default:
             for (int b = 0; dio_keys[b]; b++) {
                 if (k == dio_keys[b]) {
@@ -160,7 +185,7 @@ static void update_face(Robot &r, bool micro_active)
     const FaceUpdate u = r.animation.update(r.emotion, micro_active);
     if (u.rejected) {
         r.console.print_limited("planner emotion %d rejected: %s out of the spec's range (face keeps the last one)",
-                        static_cast<int>(r.emotion.time_tag), navkit_emotion_field_name(u.rejected_field));
+                                static_cast<int>(r.emotion.time_tag), navkit_emotion_field_name(u.rejected_field));
     }
     r.console.set_face(r.animation.lines());
     if (u.changed && r.cfg.animation.log && !r.console.out_tty()) {
@@ -171,11 +196,11 @@ static void update_face(Robot &r, bool micro_active)
 void RobotInit(Robot &r)
 {
     if (r.cfg.animation.on) {
-        r.animation.start(r.cfg.animation.file);  // a bad Animation.ini stops start-up (ConfigError)
+        r.animation.start(r.cfg.animation.file); // a bad Animation.ini stops start-up (ConfigError)
     }
     r.console.init();
-    r.console.print("navkit-host: spec hash 0x%08X, %.3g Hz frames, rcomm %s",
-                    static_cast<unsigned>(NAVKIT_SPEC_HASH), r.cfg.exec.frame_rate_hz, r.cfg.exec.shm_name.c_str());
+    r.console.print("navkit-host: spec hash 0x%08X, %.3g Hz frames, rcomm %s", static_cast<unsigned>(NAVKIT_SPEC_HASH),
+                    r.cfg.exec.frame_rate_hz, r.cfg.exec.shm_name.c_str());
     r.comm.init();
     r.micro.init();
     r.nav.init();
@@ -233,21 +258,20 @@ void RobotMain(Robot &r)
         r.console.print("safety stop (battery below %.2f V or IR range below %d mm)", r.cfg.safety.battery_min_v,
                         r.cfg.safety.ir_stop_mm);
     }
-    if (arb.teleop_ignored != TeleopIgnored::no &&
-        (r.key_ignored_us < 0 || now - r.key_ignored_us >= 1000000)) {
+    if (arb.teleop_ignored != TeleopIgnored::no && (r.key_ignored_us < 0 || now - r.key_ignored_us >= 1000000)) {
         // once per frame with an ignored key, at most once a second (a held key repeats)
         r.console.print("key ignored: %s (space stops the robot at any time)",
                         arb.teleop_ignored == TeleopIgnored::planner ? "planner has priority" : "safety stop holds");
         r.key_ignored_us = now;
     }
     if (arb.planner_rejected) {
-        r.console.print_limited("planner command %d rejected: %s out of the spec's range", static_cast<int>(r.lisp_cmd.time_tag),
-                        navkit_lisp_cmd_field_name(arb.rejected_field));
+        r.console.print_limited("planner command %d rejected: %s out of the spec's range",
+                                static_cast<int>(r.lisp_cmd.time_tag), navkit_lisp_cmd_field_name(arb.rejected_field));
     }
     if (arb.planner_dropped) {
         r.console.print_limited("planner command %d not obeyed: %s", static_cast<int>(arb.rejected_time_tag),
-                        arb.teleop == Teleop::stop ? "the console's stop key came in the same frame"
-                                                   : "a safety stop holds");
+                                arb.teleop == Teleop::stop ? "the console's stop key came in the same frame"
+                                                           : "a safety stop holds");
     }
     r.owner = arb.owner;
     if (keys.datalog_next) {
@@ -256,12 +280,14 @@ void RobotMain(Robot &r)
     }
     // 6. navigation: a heading hold needs the micro's heading of this moment, so only
     // fresh data of a micro of our spec counts (none yet, offline: the hold is rejected)
-    const std::optional<uint16_t> heading =
-        online && r.have_data && !r.micro.spec_mismatch() ? std::optional<uint16_t>(r.data.heading) : std::nullopt;
+    const std::optional<uint16_t> heading = online && r.have_data && !r.micro.spec_mismatch()
+                                                ? std::optional<uint16_t>(r.data.heading)
+                                                : std::nullopt;
     const NavOutput nav = r.nav.update(arb, heading);
     if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_NOT_IMPLEMENTED) {
-        r.console.print_limited("planner fwd_cmd %d (high level) is not implemented", static_cast<int>(arb.planner.fwd_cmd));
-    } else if (arb.planner_new && r.nav.heading_missing()) {  // its own line (and repeat limit): a state, not a value
+        r.console.print_limited("planner fwd_cmd %d (high level) is not implemented",
+                                static_cast<int>(arb.planner.fwd_cmd));
+    } else if (arb.planner_new && r.nav.heading_missing()) { // its own line (and repeat limit): a state, not a value
         r.console.print_limited("planner command %d rejected: %s", static_cast<int>(arb.planner.time_tag),
                                 r.nav.conversion().text().c_str());
     } else if (arb.planner_new && r.nav.nav_result() == NAVKIT_NAV_RESULT_REJECTED) {
@@ -337,17 +363,17 @@ void RobotMain(Robot &r)
     // 10. status line
     const LinkCounters lc = r.micro.counters();
     char line[320];
-    std::snprintf(line, sizeof line,
-                  "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
-                  "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
-                  r.frames, online ? "online" : "offline",
-                  r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : " unconfigured"),
-                  owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance),
-                  d.heading / 10.0, static_cast<unsigned long long>(lc.bad_crc),
-                  static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),
-                  static_cast<unsigned long long>(lc.schema_mismatch),
-                  static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
-                  static_cast<int>(ld.overruns), r.datalog.recording() ? "  REC" : "");
+    std::snprintf(
+        line, sizeof line,
+        "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
+        "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
+        r.frames, online ? "online" : "offline",
+        r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : " unconfigured"),
+        owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance), d.heading / 10.0,
+        static_cast<unsigned long long>(lc.bad_crc), static_cast<unsigned long long>(lc.unknown_type),
+        static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.schema_mismatch),
+        static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
+        static_cast<int>(ld.overruns), r.datalog.recording() ? "  REC" : "");
     r.console.status(line);
     r.frames++;
 }
@@ -356,7 +382,7 @@ void RobotShutdown(Robot &r)
 {
     if (r.animation.started()) {
         r.animation.end();
-        r.console.set_face({});  // the closing lines scroll without the face
+        r.console.set_face({}); // the closing lines scroll without the face
     }
     // The last message to the micro is a stop: Q's frame sent it (when the micro was
     // configured); otherwise it goes now. A micro that is not configured (or of another
@@ -370,16 +396,15 @@ void RobotShutdown(Robot &r)
     r.comm.shutdown();
     r.micro.shutdown();
     const LinkCounters lc = r.micro.counters();
-    r.console.print("link: %llu config downloads; rejected frames: %llu bad CRC, %llu unknown type, %llu bad length, "
-                    "%llu of another spec, %llu decode failures; %llu bytes dropped; %llu micro_data superseded by newer ones, "
-                    "%llu messages written in part, %llu lockstep reads short",
-                    static_cast<unsigned long long>(r.micro.config_downloads()),
-                    static_cast<unsigned long long>(lc.bad_crc), static_cast<unsigned long long>(lc.unknown_type),
-                    static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.schema_mismatch),
-                    static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
-                    static_cast<unsigned long long>(r.micro.superseded()),
-                    static_cast<unsigned long long>(r.micro.tx_errors()),
-                    static_cast<unsigned long long>(r.micro.short_reads()));
+    r.console.print(
+        "link: %llu config downloads; rejected frames: %llu bad CRC, %llu unknown type, %llu bad length, "
+        "%llu of another spec, %llu decode failures; %llu bytes dropped; %llu micro_data superseded by newer ones, "
+        "%llu messages written in part, %llu lockstep reads short",
+        static_cast<unsigned long long>(r.micro.config_downloads()), static_cast<unsigned long long>(lc.bad_crc),
+        static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),
+        static_cast<unsigned long long>(lc.schema_mismatch), static_cast<unsigned long long>(lc.decode_failures),
+        static_cast<unsigned long long>(lc.dropped_bytes), static_cast<unsigned long long>(r.micro.superseded()),
+        static_cast<unsigned long long>(r.micro.tx_errors()), static_cast<unsigned long long>(r.micro.short_reads()));
     if (r.have_data) {
         // the micro's own receive counters (host-to-micro direction), each apart
         const navkit_micro_data_t &d = r.data;
@@ -389,7 +414,7 @@ void RobotShutdown(Robot &r)
                         static_cast<unsigned>(d.rx_unknown_type), static_cast<unsigned>(d.rx_bad_length),
                         static_cast<unsigned>(d.rx_schema_mismatch), static_cast<unsigned>(d.rx_dropped_bytes),
                         static_cast<unsigned>(d.cmd_rejected));
-        if (r.cfg.micro.link == "slcan") {  // its CAN transport's (0 from a micro on serial)
+        if (r.cfg.micro.link == "slcan") { // its CAN transport's (0 from a micro on serial)
             r.console.print("micro's CAN counters (its last micro_data): %u frames refused, %u stray consecutive "
                             "frames; messages to it aborted: %u out of sequence, %u restarted, %u N_Cr timeouts, "
                             "%u overflows; micro_data abandoned: %u N_Bs timeouts, %u overflows, %u bad flow "
@@ -406,9 +431,8 @@ void RobotShutdown(Robot &r)
                         static_cast<unsigned long long>(r.clock->overruns()),
                         static_cast<unsigned long long>(r.clock->skipped()));
     }
-    r.console.print("shut down after %u frames (%s, rcomm %s removed)", r.frames, stopped,
-                    r.cfg.exec.shm_name.c_str());
+    r.console.print("shut down after %u frames (%s, rcomm %s removed)", r.frames, stopped, r.cfg.exec.shm_name.c_str());
     r.console.shutdown();
 }
 
-}  // namespace navkit
+} // namespace navkit

@@ -26,4 +26,4 @@ namespace navkit {
 // "stdin:LINE: byte N: reason" (the lines before it answered).
 int convert_lisp_lines(std::istream &in, std::ostream &out, std::string *error);
 
-}  // namespace navkit
+} // namespace navkit

@@ -11,16 +11,16 @@ constexpr double kMaxRateHz = 1000.0;
 
 struct Options {
     std::string config_dir = "config";
-    std::string port;          // "" = INI
-    std::string link;          // "" = INI ([micro] link: serial or slcan)
-    double rate_hz = 0;        // 0 = INI
-    double frame_ms = 0;       // ms, the frame as a period (instead of --rate); 0 = INI
+    std::string port;    // "" = INI
+    std::string link;    // "" = INI ([micro] link: serial or slcan)
+    double rate_hz = 0;  // 0 = INI
+    double frame_ms = 0; // ms, the frame as a period (instead of --rate); 0 = INI
     bool lockstep = false;
     int lockstep_fd = -1;
-    std::string shm;           // "" = INI
+    std::string shm; // "" = INI
     bool record = false;
-    std::string log_dir;       // "" = INI
-    std::string timing_log;    // "" = none
+    std::string log_dir;    // "" = INI
+    std::string timing_log; // "" = none
     bool help = false;
     bool print_config = false; // print the effective configuration as JSON and exit (Ini::json)
     bool convert_lisp = false; // planner commands (stdin) -> micro commands (stdout), then exit (convert_lisp.hpp)
@@ -32,4 +32,4 @@ struct Options {
 std::string parse_options(int argc, char **argv, Options *o);
 const char *usage();
 
-}  // namespace navkit
+} // namespace navkit
