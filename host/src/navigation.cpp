@@ -6,7 +6,7 @@
 
 namespace navkit {
 
-static const int32_t kForever = 2000000000;  // the seed's "very large distance"
+static const int32_t kForever = 2000000000; // the seed's "very large distance"
 
 std::string Conversion::text() const
 {
@@ -26,9 +26,9 @@ std::string Conversion::text() const
         return v + " is no " + navkit_lisp_cmd_field_name(lisp_field) + " code the host converts";
     case Refusal::range:
         return v + " is outside " + std::to_string(navkit_micro_cmd_field_min(micro_field)) + ".." +
-               std::to_string(navkit_micro_cmd_field_max(micro_field)) + " (" + navkit_micro_cmd_field_units(micro_field) +
-               "), the range of micro_cmd." + navkit_micro_cmd_field_name(micro_field) + " it is copied to for " +
-               code(cause_field, cause);
+               std::to_string(navkit_micro_cmd_field_max(micro_field)) + " (" +
+               navkit_micro_cmd_field_units(micro_field) + "), the range of micro_cmd." +
+               navkit_micro_cmd_field_name(micro_field) + " it is copied to for " + code(cause_field, cause);
     case Refusal::heading_range:
         return v + " is outside 0.." + std::to_string(Navigation::kFullTurn) + " (" +
                navkit_lisp_cmd_field_units(lisp_field) + "), the headings of " + code(cause_field, cause);
@@ -43,7 +43,7 @@ std::string Conversion::text() const
 navkit_micro_cmd_t Navigation::neutral(uint16_t dio)
 {
     navkit_micro_cmd_t m;
-    navkit_micro_cmd_defaults(&m);  // fwd none, turn none, no servo command
+    navkit_micro_cmd_defaults(&m); // fwd none, turn none, no servo command
     m.dio_command = dio;
     return m;
 }
@@ -82,7 +82,7 @@ Conversion fit(const int (&lisp)[N], const int32_t (&v)[N], const int (&micro)[N
 // the spec's last servo (the first n without an rc<n>_param0 field ends them); the spec
 // names the slots, so a servo number is one of the micro's when its slot exists.
 struct ServoSlots {
-    int field[NAVKIT_MICRO_CMD_FIELD_COUNT / 3 + 1][3];  // at most every field a slot
+    int field[NAVKIT_MICRO_CMD_FIELD_COUNT / 3 + 1][3]; // at most every field a slot
     int count = 0;
     ServoSlots()
     {
@@ -104,7 +104,7 @@ const ServoSlots &servo_slots()
     return slots;
 }
 
-}  // namespace
+} // namespace
 
 Conversion Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16_t> heading, uint16_t dio,
                                navkit_micro_cmd_t *out)
@@ -133,7 +133,7 @@ Conversion Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16
     case NAVKIT_FWD_CMD_CONTEST_HALLWAY:
     case NAVKIT_FWD_CMD_CONTEST_START_CIRCLE:
     case NAVKIT_FWD_CMD_EXPLORE:
-        result.nav_result = NAVKIT_NAV_RESULT_NOT_IMPLEMENTED;  // high level: no forward motion
+        result.nav_result = NAVKIT_NAV_RESULT_NOT_IMPLEMENTED; // high level: no forward motion
         break;
     default:
         return refuse(Refusal::code, NAVKIT_LISP_CMD_FIELD_FWD_CMD, in.fwd_cmd, -1, 0);
@@ -141,9 +141,9 @@ Conversion Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16
 
     const int turn = NAVKIT_LISP_CMD_FIELD_TURN_MODE;
     if (in.turn_mode != NAVKIT_TURN_MODE_NONE) {
-        const Conversion c =
-            fit({NAVKIT_LISP_CMD_FIELD_TURN_ACCEL, NAVKIT_LISP_CMD_FIELD_TURN_RATE}, {in.turn_accel, in.turn_rate},
-                {NAVKIT_MICRO_CMD_FIELD_TURN_ACCEL, NAVKIT_MICRO_CMD_FIELD_TURN_RATE}, turn, in.turn_mode);
+        const Conversion c = fit(
+            {NAVKIT_LISP_CMD_FIELD_TURN_ACCEL, NAVKIT_LISP_CMD_FIELD_TURN_RATE}, {in.turn_accel, in.turn_rate},
+            {NAVKIT_MICRO_CMD_FIELD_TURN_ACCEL, NAVKIT_MICRO_CMD_FIELD_TURN_RATE}, turn, in.turn_mode);
         if (c.refusal != Refusal::none) {
             return c;
         }
@@ -155,7 +155,7 @@ Conversion Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16
     case NAVKIT_TURN_MODE_MODIFY:
     case NAVKIT_TURN_MODE_STOP:
         m.turn_cmd = static_cast<uint16_t>(in.turn_mode);
-        m.turn_distance = in.turn_distance;  // int32 to int32: any angle fits
+        m.turn_distance = in.turn_distance; // int32 to int32: any angle fits
         break;
     case NAVKIT_TURN_MODE_HEADING_SELECT:
         // 0..kFullTurn deg x 10 on both sides (docs/protocol.md seed slips): passed through
@@ -202,10 +202,10 @@ Conversion Navigation::convert(const navkit_lisp_cmd_t &in, std::optional<uint16
     const ServoSlots &slots = servo_slots();
     if (in.rc_servo_num >= 0 && in.rc_servo_num < slots.count && in.rc_param0 != 0) {
         const int(&f)[3] = slots.field[in.rc_servo_num];
-        const Conversion c = fit({NAVKIT_LISP_CMD_FIELD_RC_PARAM0, NAVKIT_LISP_CMD_FIELD_RC_PARAM1,
-                                  NAVKIT_LISP_CMD_FIELD_RC_PARAM2},
-                                 {in.rc_param0, in.rc_param1, in.rc_param2}, {f[0], f[1], f[2]},
-                                 NAVKIT_LISP_CMD_FIELD_RC_SERVO_NUM, in.rc_servo_num);
+        const Conversion c = fit(
+            {NAVKIT_LISP_CMD_FIELD_RC_PARAM0, NAVKIT_LISP_CMD_FIELD_RC_PARAM1, NAVKIT_LISP_CMD_FIELD_RC_PARAM2},
+            {in.rc_param0, in.rc_param1, in.rc_param2}, {f[0], f[1], f[2]}, NAVKIT_LISP_CMD_FIELD_RC_SERVO_NUM,
+            in.rc_servo_num);
         if (c.refusal != Refusal::none) {
             return c;
         }
@@ -232,7 +232,7 @@ navkit_micro_cmd_t Navigation::teleop(Teleop t, const ConsoleCfg &c, uint16_t di
     case Teleop::right:
         m.turn_cmd = NAVKIT_TURN_CMD_TURN;
         m.turn_rate = static_cast<int16_t>(c.teleop_turn_rate);
-        m.turn_distance = t == Teleop::right ? kForever : -kForever;  // + is clockwise (right)
+        m.turn_distance = t == Teleop::right ? kForever : -kForever; // + is clockwise (right)
         break;
     case Teleop::stop:
         m.fwd_cmd = NAVKIT_FWD_CMD_STOP;
@@ -261,7 +261,7 @@ NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> headi
         result_ = Conversion{};
         result_.nav_result = NAVKIT_NAV_RESULT_PLANNER_TIMEOUT;
     }
-    if (a.planner_rejected || a.planner_dropped) {  // judged like any new command: acknowledged
+    if (a.planner_rejected || a.planner_dropped) { // judged like any new command: acknowledged
         result_ = Conversion{};
         result_.nav_result = NAVKIT_NAV_RESULT_REJECTED;
         ack_ = a.rejected_time_tag;
@@ -288,11 +288,11 @@ NavOutput Navigation::update(const Arbitration &a, std::optional<uint16_t> headi
         o.cmd = neutral(a.dio);
     }
     if (o.is_new) {
-        o.cmd.mc_datalog_cmd = a.mc_datalog;  // every new command carries the selection
+        o.cmd.mc_datalog_cmd = a.mc_datalog; // every new command carries the selection
         dio_ = o.cmd.dio_command;
         mc_datalog_ = a.mc_datalog;
     }
     return o;
 }
 
-}  // namespace navkit
+} // namespace navkit
