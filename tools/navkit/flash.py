@@ -8,8 +8,9 @@ Steps, each failing with one line that names the fix (exit status 1):
    (`cmake --build <build> --target navkit_avr_image`); refused unless its image-info
    block (interface 1 of the AVR image: magic "NAVKITIM" in its data) says ATmega2560
    and this spec's hash;
-2. the board: --port PATH, or with `auto` the one USB-serial device found under
-   /dev/serial/by-id and /sys/class/tty/*/device (none: say so; several: list them);
+2. the board: --port PATH, or with `auto` the one USB-serial device of the serial link's
+   kinds that navkit-host finds (`navkit-host --list-ports --link serial`: the one table of
+   USB ids; none: say so, naming the devices of other kinds; several: list them);
    `$NAVKIT_DEV_ROOT` puts another root in front of /dev and /sys (tests);
 3. access: the port must open read-write (EACCES: the group to join and how);
 4. reset into the bootloader by DTR (dropped and raised; a pty has no modem lines:
@@ -28,6 +29,7 @@ from __future__ import annotations
 import argparse
 import errno
 import grp
+import json
 import os
 import pwd
 import re
@@ -58,13 +60,6 @@ APP_BYTES = 256 * 1024 - 8 * 1024  # flash below the 8 KiB boot section, bytes
 BOOT_WAIT_S = 1.5                 # the bootloader's wait after a reset (~1 s) plus margin
 ANSWER_TIMEOUT_S = 10.0           # after the wait, until a micro_data must have come
 AVRDUDE_TIMEOUT_S = 300.0
-
-_USB_IDS = {  # known boards by USB VID:PID, for the listing
-    (0x2341, 0x0010): "Arduino Mega 2560", (0x2341, 0x0042): "Arduino Mega 2560 R3",
-    (0x2A03, 0x0042): "Arduino Mega 2560 R3 (.org)", (0x0403, 0x6001): "FTDI FT232R",
-    (0x1A86, 0x7523): "CH340 (Mega clone)", (0x10C4, 0xEA60): "CP210x",
-}
-
 
 class FlashError(Exception):
     """A failure the user can fix; str() is the whole message, fix included."""
@@ -220,77 +215,74 @@ def _dev_root() -> Path:
     return Path(os.environ.get("NAVKIT_DEV_ROOT", "/"))
 
 
-def _read(path: Path) -> str:
+def _host_ports(root: Path) -> dict:
+    """The host's port discovery of the serial link's kinds (`navkit-host --list-ports --link
+    serial`, its JSON: "ports" of that kind, "others"), under `root` (--dev-root). The host
+    holds the one table of which USB ids are what (host/src/port_discovery.cpp)."""
+    from navkit.paths import build_dir
+
+    host = build_dir() / "host" / "navkit-host"
+    if not host.is_file():
+        raise FlashError(f"{host}: not built (it finds the board: run make), or give --port PATH")
+    cmd = [str(host), "--list-ports", "--link", "serial"]
+    if root != Path("/"):
+        cmd += ["--dev-root", str(root)]
     try:
-        return path.read_text().strip()
-    except OSError:
-        return ""
+        r = subprocess.run(cmd, capture_output=True, text=True, errors="replace", timeout=30,
+                           stdin=subprocess.DEVNULL)
+        found = json.loads(r.stdout) if r.returncode == 0 else None
+    except (OSError, subprocess.SubprocessError, ValueError) as e:
+        raise FlashError(f"{' '.join(cmd)}: {e}; give --port PATH") from None
+    if found is None:
+        said = r.stderr.strip().splitlines()[0] if r.stderr.strip() else f"exit status {r.returncode}"
+        raise FlashError(f"{' '.join(cmd)}: {said}; give --port PATH")
+    return found
 
 
-def _usb_description(device: Path, root: Path) -> str | None:
-    """USB product, VID:PID and serial of the USB device above sysfs `device`, or None
-    when it is not on USB (a built-in UART)."""
-    d = device.resolve()
-    try:
-        parts = d.relative_to(root.resolve()).parts
-    except ValueError:
-        parts = d.parts
-    if not any(p.startswith("usb") for p in parts):
-        return None
-    for up in (d, *d.parents):
-        vid = _read(up / "idVendor")
-        if vid:
-            pid = _read(up / "idProduct")
-            try:
-                known = _USB_IDS.get((int(vid, 16), int(pid, 16)))
-            except ValueError:
-                known = None
-            product = _read(up / "product") or known or "USB serial"
-            serial = _read(up / "serial")
-            text = f"{product} [{vid}:{pid}]"
-            return text + (f" serial {serial}" if serial else "")
-    return "USB serial"
+def _board(port: dict) -> Board:
+    """A port of the host's JSON as a Board: its /dev node and what it says it is."""
+    what = port["product"] or port["name"] or "USB serial"
+    if port["vid"]:
+        what += f" [{port['vid']}:{port['pid']}]"
+    if port["serial"]:
+        what += f" serial {port['serial']}"
+    if port["by_id"]:
+        what += f", {port['by_id']}"
+    return Board(port["dev"], what)
 
 
 def find_boards(root: Path | None = None) -> list[Board]:
-    """USB-serial devices: the /dev/serial/by-id links and the ttys whose sysfs device is
-    on USB, one Board per device node that exists, sorted by port."""
+    """The USB-serial devices a Mega can be behind (the host's serial-link kinds: the Mega's
+    own 16U2 on ttyACM, FTDI, CH340, CP210x), found by navkit-host under `root` (default
+    `$NAVKIT_DEV_ROOT` or /), sorted by port."""
     root = _dev_root() if root is None else Path(root)
-    found: dict[str, str] = {}
-    by_id = root / "dev" / "serial" / "by-id"
-    if by_id.is_dir():
-        for link in sorted(by_id.iterdir()):
-            target = os.readlink(link) if link.is_symlink() else link.name
-            found[Path(target).name] = link.name
-    ttys = root / "sys" / "class" / "tty"
-    if ttys.is_dir():
-        for tty in sorted(ttys.iterdir()):
-            if not (tty / "device").exists():
-                continue
-            desc = _usb_description(tty / "device", root)
-            if desc is not None:
-                found[tty.name] = desc if tty.name not in found else f"{desc}, {found[tty.name]}"
-    boards = []
-    for name, desc in sorted(found.items()):
-        node = root / "dev" / name
-        if node.exists():
-            boards.append(Board(node.as_posix(), desc))
-    return boards
+    return _boards(_host_ports(root)["ports"])
+
+
+def _boards(ports: list) -> list[Board]:
+    """The host's JSON ports as Boards, sorted by port."""
+    return sorted(map(_board, ports), key=lambda b: b.port)
 
 
 def choose_port(port: str | None) -> str:
-    """`port` itself, or with None/'auto' the one board found; FlashError for none or
-    several (listed), or a port path that does not exist."""
+    """`port` itself, or with None/'auto' the one board found; FlashError for none (naming
+    the USB devices of other kinds seen) or several (listed), or a port path that does not
+    exist."""
     if port and port != "auto":
         if not os.path.exists(port):
             raise FlashError(f"port {port}: no such device (plugged in? for a simulated board "
                              "give the --link path of `navkit simboard`)")
         return port
-    boards = find_boards()
+    found = _host_ports(_dev_root())
+    boards = _boards(found["ports"])
     if not boards:
+        others = "".join(f"\n  {b.port}  {b.description} (not a serial-link kind)"
+                         for b in _boards(found["others"]))
         raise FlashError("no board found: no USB-serial device under /dev/serial/by-id or "
                          "/sys/class/tty; plug the Mega in (a data cable, not charge-only), or "
-                         "give --port PATH (for `navkit simboard`: its --link path)")
+                         "give --port PATH (for `navkit simboard`: its --link path); the USB ids "
+                         "taken for one: navkit-host --list-ports" +
+                         (f"; seen:{others}" if others else ""))
     if len(boards) > 1:
         listing = "\n".join(f"  {b.port}  {b.description}" for b in boards)
         raise FlashError(f"several boards found; choose one with --port PATH:\n{listing}")

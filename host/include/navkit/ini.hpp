@@ -76,7 +76,7 @@ struct MicroCfg {
         navkit_micro_cfg_motion_defaults(&motion);
         navkit_micro_cfg_io_defaults(&io);
     }
-    std::string port = "auto"; // "auto" = first FTDI (VID 0403) serial device
+    std::string port = "auto"; // "auto" = the one USB tty of link's kind (port_discovery.hpp)
     int baud = 115200;
     int data_bits = 8;
     char parity = 'N'; // N, E or O
