@@ -6,6 +6,9 @@
 # no-op when nothing changed): the core's sources come from the navkit_fw_core target, the
 # generated protocol code from this build's gen/ folder.
 include(ExternalProject)
+# Hz: the crystal of the MCP2515 module the CAN image drives (the common MCP2515 + TJA1050
+# module: 8 MHz; some carry 16 MHz). The image's bit timing and the simulated part follow it.
+set(NAVKIT_AVR_MCP2515_OSC_HZ 8000000 CACHE STRING "Hz: the MCP2515 module's crystal (8000000 or 16000000)")
 get_target_property(navkit_avr_core navkit_fw_core SOURCES)
 list(TRANSFORM navkit_avr_core PREPEND ${CMAKE_SOURCE_DIR}/firmware/)
 string(JOIN "|" navkit_avr_core_arg ${navkit_avr_core})
@@ -13,7 +16,7 @@ string(JOIN "|" navkit_avr_core_arg ${navkit_avr_core})
 get_target_property(navkit_avr_proto navkit_proto SOURCES)
 string(JOIN "|" navkit_avr_proto_arg ${navkit_avr_proto})
 set(navkit_avr_outputs)
-foreach(n navkit-mega2560 navkit-mega2560-test)
+foreach(n navkit-mega2560 navkit-mega2560-test navkit-mega2560-can)
   list(APPEND navkit_avr_outputs ${NAVKIT_AVR_IMAGE_DIR}/${n}.elf ${NAVKIT_AVR_IMAGE_DIR}/${n}.hex
                                  ${NAVKIT_AVR_IMAGE_DIR}/${n}.size.txt)
 endforeach()
@@ -30,6 +33,7 @@ ExternalProject_Add(navkit_avr_image
     -DNAVKIT_GEN_DIR=${CMAKE_BINARY_DIR}/gen
     -DNAVKIT_PROTO_RUNTIME_DIR=${CMAKE_SOURCE_DIR}/protocol/runtime
     -DNAVKIT_AVR_RATE_MAX=${NAVKIT_AVR_RATE_MAX}
+    -DNAVKIT_AVR_MCP2515_OSC_HZ=${NAVKIT_AVR_MCP2515_OSC_HZ}
   BUILD_ALWAYS ON
   INSTALL_COMMAND ""
   DEPENDS navkit_gen

@@ -9,7 +9,8 @@
  *          Timer3 control tick (CTC, 0.5 us counts)
  *          Timer4 motor PWM (fast PWM, TOP = ICR4, 20 kHz)
  *          Timer5 free-running 0.5 us clock for sonar echo timing (+ overflow count)
- *          Timer0/Timer2 unused.
+ *          Timer2 the CAN build's MCP2515 INT poll (CTC, BOARD_CAN_POLL_US)
+ *          Timer0 unused.
  */
 #ifndef NAVKIT_BOARD_H
 #define NAVKIT_BOARD_H
@@ -82,7 +83,8 @@
 
 /* ---- Sonars: four SRF04 (trigger in, echo out), one pinged at a time ----
  * Trigger 0-3: pins A12-A15 = PK4-PK7 (outputs).
- * Echo 0-3:    pins 53, 52, 51, 50 = PB0-PB3 (PCINT0-3; the SPI pins, SPI stays off).
+ * Echo 0-3:    pins 10, 11, 12, 13 = PB4-PB7 (PCINT4-7; PB0-PB3 are the SPI pins, which
+ *              the CAN build's MCP2515 uses; pin 13's LED buffer loads the line negligibly).
  * The trigger is held high for one control tick (>= 10 us: the part fires on its falling
  * edge); the echo width is timed with Timer5 (0.5 us) at its pin-change edges. An echo of
  * 30 ms or more is the part's no-object pulse (~36 ms) and reads 0, as does no echo within
@@ -93,7 +95,8 @@
 #define BOARD_SONAR_TRIG_SHIFT 4 /* PK4..PK7 */
 #define BOARD_SONAR_ECHO_PIN PINB
 #define BOARD_SONAR_ECHO_PORT_NAME 'B'
-#define BOARD_SONAR_ECHO_MASK 0x0Fu /* PB0..PB3 */
+#define BOARD_SONAR_ECHO_SHIFT 4    /* echo i is PB(4+i) */
+#define BOARD_SONAR_ECHO_MASK 0xF0u /* PB4..PB7 */
 #define BOARD_SONAR_NOECHO_US 30000u  /* us: an echo this long or longer reads 0 */
 #define BOARD_SONAR_RISE_US 5000u     /* us: no echo edge this long after the trigger reads 0 */
 #define BOARD_SONAR_HOLDOFF_US 10000u /* us: quiet time before the next trigger */
@@ -122,6 +125,39 @@
 #define BOARD_DIO_HI_DDR DDRL
 #define BOARD_DIO_HI_PIN PINL
 #define BOARD_DIO_HI_MASK 0x0Fu /* PL0..PL3 */
+
+/* ---- CAN (the image built with the CAN link, navkit-mega2560-can): an MCP2515 module
+ * (MCP2515 + TJA1050 transceiver) on the hardware SPI, master at F_CPU/2 = 8 MHz (the part
+ * takes up to 10 MHz), mode 0,0. Pins: SCK 52 = PB1, MOSI 51 = PB2, MISO 50 = PB3,
+ * CS 53 = PB0 (SS: an output anyway in master mode, so it serves as the chip select), the
+ * part's INT (active low) on A8 = PK0, a plain input.
+ * INT0-INT5 are taken (TWI, encoders) and simavr 1.6 models no pin-change interrupt on port
+ * K (and drops a pin change that arrives while its interrupt is masked), so the INT line is
+ * polled: Timer2 (CTC) interrupts every BOARD_CAN_POLL_US, shorter than one frame on the
+ * bus, and only when INT is low does it read the part (with interrupts on: the encoders
+ * never wait for SPI). Two receive buffers then always suffice: a frame waits at most one
+ * poll period plus the read, less than the next two frames take. The crystal of the module
+ * is BOARD_CAN_OSC_HZ (CMake option NAVKIT_AVR_MCP2515_OSC_HZ: the common blue module has
+ * 8 MHz, some 16 MHz); docs/avr.md, CAN. ---- */
+#ifndef BOARD_CAN_OSC_HZ
+#define BOARD_CAN_OSC_HZ 8000000UL /* Hz: the MCP2515 module's crystal */
+#endif
+#define BOARD_CAN_SPI_PORT PORTB
+#define BOARD_CAN_SPI_DDR DDRB
+#define BOARD_CAN_CS_BIT 0   /* PB0, pin 53 */
+#define BOARD_CAN_SCK_BIT 1  /* PB1, pin 52 */
+#define BOARD_CAN_MOSI_BIT 2 /* PB2, pin 51 */
+#define BOARD_CAN_MISO_BIT 3 /* PB3, pin 50 */
+#define BOARD_CAN_SPI_PORT_NAME 'B'
+#define BOARD_CAN_INT_PIN PINK
+#define BOARD_CAN_INT_PORT PORTK
+#define BOARD_CAN_INT_DDR DDRK
+#define BOARD_CAN_INT_BIT 0 /* PK0, pin A8 */
+#define BOARD_CAN_INT_PORT_NAME 'K'
+#define BOARD_CAN_POLL_US 200u   /* us: INT poll period (Timer2); one 8-byte frame at 500 kbit/s: 222 us */
+#define BOARD_CAN_RX_FRAMES 32u  /* frames: the RX ring the poll fills (a power of two): ~7 ms of a full bus */
+#define BOARD_CAN_TX_FRAMES 32u  /* frames: the TX queue behind the part's TXB0 (a power of two): a whole
+                                    micro_data and a flow control fit (board_can.c checks) */
 
 /* ---- Control tick: Timer3 CTC, 0.5 us counts; the period is fw_tick_period_us() ---- */
 #define BOARD_TICK_COUNTS_PER_US 2u

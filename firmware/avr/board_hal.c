@@ -1,12 +1,15 @@
 /* board_hal.c: the wires of firmware/core/hal.h on the Mega 2560 (board.h names the pins).
  *
  * Inputs return the latest value the background work (interrupts) measured, at once;
- * outputs go to the timers and ports at once. The DIO pins are read and written here. */
+ * outputs go to the timers and ports at once. The DIO pins are read and written here. The
+ * image built with the CAN link (FW_LINK_CAN = 1) has the CAN wires (board_can), the serial
+ * one the UART's only. */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
 #include "board.h"
 #include "board_adc.h"
+#include "board_can.h"
 #include "board_enc.h"
 #include "board_motor.h"
 #include "board_reset.h"
@@ -15,6 +18,7 @@
 #include "board_twi.h"
 #include "board_uart.h"
 #include "hal.h"
+#include "link.h"
 
 struct hal {
     uint8_t unused; /* the board's state lives in its modules (their interrupts share it) */
@@ -99,6 +103,24 @@ void hal_uart_write(hal_t *hal, const uint8_t *buf, size_t len)
     (void)hal;
     board_uart_write(buf, len);
 }
+
+#if FW_LINK_CAN
+uint8_t hal_can_read(hal_t *hal, uint16_t *id, uint8_t data[8], uint8_t *dlc)
+{
+    (void)hal;
+    return board_can_read(id, data, dlc);
+}
+uint8_t hal_can_tx_free(hal_t *hal)
+{
+    (void)hal;
+    return board_can_tx_free();
+}
+void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
+{
+    (void)hal;
+    board_can_write(id, data);
+}
+#endif
 
 /* The one board instance main() gives the core. */
 struct hal board_hal;

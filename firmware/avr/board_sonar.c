@@ -57,7 +57,7 @@ void board_sonar_init(void)
     sonar_cur = 0u;
     sonar_state = SONAR_IDLE;
     sonar_t_state = 0u;
-    sonar_pins = (uint8_t)(BOARD_SONAR_ECHO_PIN & BOARD_SONAR_ECHO_MASK);
+    sonar_pins = (uint8_t)((BOARD_SONAR_ECHO_PIN & BOARD_SONAR_ECHO_MASK) >> BOARD_SONAR_ECHO_SHIFT);
     PCMSK0 = BOARD_SONAR_ECHO_MASK;
     PCIFR = _BV(PCIF0);
     PCICR |= _BV(PCIE0);
@@ -112,7 +112,7 @@ void board_sonar_tick(void)
         }
         break;
     default: /* SONAR_WAIT_LOW */
-        if (!(BOARD_SONAR_ECHO_PIN & (1u << cur))) {
+        if (!(BOARD_SONAR_ECHO_PIN & (1u << (BOARD_SONAR_ECHO_SHIFT + cur)))) {
             done = 1u;
         }
         break;
@@ -144,7 +144,7 @@ void board_sonar_tick(void)
 ISR(PCINT0_vect)
 {
     uint32_t now = sonar_now(); /* edge time and levels first, interrupts still off */
-    uint8_t pins = (uint8_t)(BOARD_SONAR_ECHO_PIN & BOARD_SONAR_ECHO_MASK);
+    uint8_t pins = (uint8_t)((BOARD_SONAR_ECHO_PIN & BOARD_SONAR_ECHO_MASK) >> BOARD_SONAR_ECHO_SHIFT);
     uint8_t rose, fell, bit;
     if (sonar_in_pcint) {
         return; /* nested in itself (edges < 20 us apart on one echo line): not a sonar echo */

@@ -8,6 +8,11 @@
  * follow the tick period the core has now (a config may change the rate); with nothing to
  * do, sleep until an interrupt. A tick that falls due during a long poll runs right after
  * it: none is lost (up to 255 pending).
+ * The image built with the CAN link (FW_LINK_CAN = 1, navkit-mega2560-can) polls the link
+ * when a CAN frame waits in board_can's RX ring instead of UART0, and once after every tick
+ * as well: the micro_data frames ISO-TP still holds go out as the TX queue empties, and the
+ * ISO-TP timeouts run, with no frame coming in. Each poll applies one reassembled frame at
+ * most (FW_LINK_FRAMES_PER_POLL = 1, as on the UART).
  *
  * BOARD_TEST=1 builds the test image (navkit-mega2560-test): levels set on the DIO pins
  * (inputs from reset) select a test mode checked once per pass: BOARD_TEST_HANG hangs the
@@ -20,6 +25,7 @@
 
 #include "board.h"
 #include "board_adc.h"
+#include "board_can.h"
 #include "board_enc.h"
 #include "board_motor.h"
 #include "board_reset.h"
@@ -29,6 +35,13 @@
 #include "board_twi.h"
 #include "board_uart.h"
 #include "fw.h"
+#include "link.h"
+
+#if FW_LINK_CAN
+#define MAIN_LINK_RX_READY() board_can_rx_ready()
+#else
+#define MAIN_LINK_RX_READY() board_uart_rx_ready()
+#endif
 
 #ifndef BOARD_TEST
 #define BOARD_TEST 0
@@ -62,6 +75,7 @@ static uint8_t main_test_mode(void)
 
 int main(void)
 {
+    uint8_t poll_after_tick = 0u; /* CAN: one poll is owed to the tick that just ran */
     board_reset_init();
     board_uart_init();
     board_motor_init();
@@ -70,6 +84,9 @@ int main(void)
     board_adc_init();
     board_twi_init();
     board_sonar_init();
+#if FW_LINK_CAN
+    (void)board_can_init(); /* without a part the link stays silent; the rest runs */
+#endif
     fw_init(&board_fw, &board_hal);
     board_tick_init(fw_tick_period_us(&board_fw));
     board_reset_watchdog_start();
@@ -81,6 +98,7 @@ int main(void)
             GPIOR0 = BOARD_PROF_TICK;
             fw_tick(&board_fw);
             GPIOR0 = BOARD_PROF_IDLE;
+            poll_after_tick = (uint8_t)FW_LINK_CAN;
             continue;
         }
 #if BOARD_TEST
@@ -88,7 +106,8 @@ int main(void)
             continue;
         }
 #endif
-        if (board_uart_rx_ready() || fw_link_pending(&board_fw)) {
+        if (MAIN_LINK_RX_READY() || fw_link_pending(&board_fw) || poll_after_tick) {
+            poll_after_tick = 0u;
             GPIOR0 = BOARD_PROF_POLL;
             fw_link_poll(&board_fw);
             GPIOR0 = BOARD_PROF_IDLE;
@@ -96,7 +115,7 @@ int main(void)
             continue;
         }
         cli();
-        if (!board_tick_due() && !board_uart_rx_ready() && !fw_link_pending(&board_fw)) {
+        if (!board_tick_due() && !MAIN_LINK_RX_READY() && !fw_link_pending(&board_fw)) {
             sleep_enable();
             sei(); /* the instruction after sei runs first: no wake-up is missed */
             sleep_cpu();

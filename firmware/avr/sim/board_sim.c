@@ -7,6 +7,7 @@
  *   sonars    a falling trigger edge schedules the echo pulse (rise 100 us later, width set);
  *   servos    pin edges of PORTA are timed: width = fall - rise;
  *   motors    read from Timer4's registers and the DIR pins when asked;
+ *   CAN       the MCP2515 on the SPI and its bus (board_sim_can.c);
  *   UART0     bytes are fed to the RX IRQ one per frame time at the image's baud rate; the
  *             TX IRQ fills the read queue (simavr paces TX by the data-register-empty flag);
  *   profile   writes to GPIOR0 (board.h, BOARD_PROF_*) open and close a timed section;
@@ -32,17 +33,11 @@
 #include <sim_interrupts.h>
 #include <sim_irq.h>
 
-/* avr-libc's register map as plain data-space addresses (as simavr's cores include it) */
-#define _AVR_IO_H_
-#define _SFR_IO8(a) ((a) + 0x20)
-#define _SFR_IO16(a) ((a) + 0x20)
-#define _SFR_MEM8(a) (a)
-#define _SFR_MEM16(a) (a)
-#define _SFR_MEM32(a) (a)
-#include <avr/iom2560.h>
+#include "board_sim_regs.h"
 
 #include "board.h"
 #include "board_sim.h"
+#include "board_sim_can.h"
 
 #define SIM_CYCLES_PER_US (BOARD_SIM_F_CPU_HZ / 1000000u)
 #define SIM_ECHO_DELAY_US 100u        /* us: SRF04 trigger fall to echo rise (its burst) */
@@ -111,6 +106,7 @@ struct board_sim {
     sim_servo_t servo[8];
     uint16_t dio_in;
     avr_irq_t *dio_pin[12];
+    sim_can_t *can;
     /* UART0 */
     avr_irq_t *uart_in;
     sim_queue_t to_avr, from_avr;
@@ -464,7 +460,7 @@ static void sim_after_reset(board_sim_t *b)
         b->sonar[i].busy = 0;
         b->sonar[i].trig_level = 0u;
         avr_raise_irq(b->sonar[i].echo, 0);
-        avr->data[BOARD_SONAR_ECHO_PIN] &= (uint8_t)~(1u << i);
+        avr->data[BOARD_SONAR_ECHO_PIN] &= (uint8_t)~(1u << (BOARD_SONAR_ECHO_SHIFT + i));
     }
     avr->data[BOARD_DIO_LO_PIN] = (uint8_t)b->dio_in;
     avr->data[BOARD_DIO_HI_PIN] = (uint8_t)((avr->data[BOARD_DIO_HI_PIN] & ~BOARD_DIO_HI_MASK) |
@@ -477,6 +473,7 @@ static void sim_after_reset(board_sim_t *b)
     b->uart_full = 0u;
     sim_uart_arm(b);
     b->twi_sel = NULL;
+    sim_can_after_avr_reset(b->can);
 }
 
 /* The TWI parts at power-on (the reset pin and the watchdog reset the AVR only). */
@@ -616,7 +613,7 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
     for (i = 0; i < 4; i++) {
         sim_sonar_t *s = &b->sonar[i];
         s->b = b;
-        s->echo = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SONAR_ECHO_PORT_NAME), i);
+        s->echo = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SONAR_ECHO_PORT_NAME), BOARD_SONAR_ECHO_SHIFT + i);
         avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SONAR_TRIG_PORT_NAME),
                                               BOARD_SONAR_TRIG_SHIFT + i),
                                 sim_sonar_trig, s);
@@ -637,6 +634,13 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
     b->uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), sim_uart_out, b);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), sim_uart_xoff, b);
+    /* CAN */
+    b->can = sim_can_new(avr);
+    if (b->can == NULL) {
+        sim_errf(err, err_len, "%s: out of memory", image_path);
+        board_sim_free(b);
+        return NULL;
+    }
     /* profile */
     avr_register_io_write(avr, GPIOR0, sim_gpior0_write, b);
     avr_irq_register_notify(avr_get_interrupt_irq(avr, TIMER3_COMPA_vect_num) + AVR_INT_IRQ_PENDING,
@@ -658,6 +662,7 @@ void board_sim_free(board_sim_t *b)
         avr_terminate(b->avr);
         free(b->avr);
     }
+    sim_can_free(b->can);
     free(b->to_avr.buf);
     free(b->from_avr.buf);
     free(b);
@@ -835,6 +840,26 @@ size_t board_sim_uart_read(board_sim_t *b, uint8_t *buf, size_t cap)
 uint32_t board_sim_uart_dropped(const board_sim_t *b)
 {
     return b->uart_dropped;
+}
+
+void board_sim_can_write(board_sim_t *b, uint16_t id, const uint8_t *data, uint8_t dlc)
+{
+    sim_can_write(b->can, id, data, dlc);
+}
+
+int board_sim_can_read(board_sim_t *b, board_sim_can_frame_t *out)
+{
+    return sim_can_read(b->can, out);
+}
+
+void board_sim_can_set_bitrate(board_sim_t *b, uint32_t bps)
+{
+    sim_can_set_bitrate(b->can, bps);
+}
+
+void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out)
+{
+    sim_can_stats(b->can, out);
 }
 
 void board_sim_profile(const board_sim_t *b, board_sim_profile_t *out)

@@ -5,7 +5,8 @@
  * the Intel HEX of <build>/firmware/avr/), loaded at flash address 0 (no bootloader), plus
  * models of the parts board.h wires to it: two quadrature encoders, the analog inputs, an
  * MPU-6050-class gyro and a CMPS03-class compass on TWI, four SRF04 sonars, the DIO pins,
- * the motor driver's PWM/DIR pins, eight RC servo pins and UART0. Instances are independent
+ * the motor driver's PWM/DIR pins, eight RC servo pins, UART0 and an MCP2515 CAN controller
+ * on the SPI with its bus. Instances are independent
  * (no shared state), but one instance must be used from one thread at a time.
  *
  * Time is the AVR's cycle count (16 000 000 cycles per second). Ordering:
@@ -122,6 +123,45 @@ void board_sim_uart_write(board_sim_t *b, const uint8_t *buf, size_t len);
 size_t board_sim_uart_read(board_sim_t *b, uint8_t *buf, size_t cap);
 /* Bytes dropped by either queue of this side (the image's own ring buffers are its affair). */
 uint32_t board_sim_uart_dropped(const board_sim_t *b);
+
+/* ---- CAN: an MCP2515 module on the SPI (board.h, CAN; board_sim_can.h has the model)
+ * and the bus between it and the host's end (a USB-CAN adapter). Only the image built with
+ * the CAN link (navkit-mega2560-can) drives the part; the serial image leaves it in reset.
+ * Ordering: frames written go on the bus in the order written, one at a time at the bus's
+ * bit rate (47 + 8 x DLC bits a frame, no stuff bits), each once the part acknowledges it
+ * (normal mode, bit timing at the bus rate: until then they wait, as an adapter repeats an
+ * unacknowledged frame); between a host frame and the part's, the lower identifier goes
+ * first. The part's frames come out in the order they left it. ---- */
+
+/* One classic data frame: 11-bit identifier, dlc data bytes (data past dlc: 0). */
+typedef struct {
+    uint16_t id;
+    uint8_t dlc;
+    uint8_t data[8];
+    uint64_t cycle; /* cycles: when its last bit went (frames read back; ignored on write) */
+} board_sim_can_frame_t;
+
+/* Counts of the part and the bus since board_sim_new(). */
+typedef struct {
+    uint32_t part_bps;     /* bit/s the part's CNF1-3 give at its crystal (BOARD_CAN_OSC_HZ); 0 none valid */
+    uint8_t normal_mode;   /* 1 while the part is in normal mode */
+    uint32_t to_part;      /* host frames the part acknowledged (received whole) */
+    uint32_t accepted;     /* of those, frames its masks and filters took into a receive buffer */
+    uint32_t filtered;     /* of those, frames its filters refused */
+    uint32_t overflowed;   /* of those, frames that found their buffers full (lost: EFLG RXnOVR) */
+    uint32_t from_part;    /* frames the part sent */
+    uint32_t host_waiting; /* host frames written, not yet acknowledged */
+    uint32_t dropped;      /* frames lost to a full queue of this side (BOARD_SIM_CAN_QUEUE each way) */
+} board_sim_can_stats_t;
+
+#define BOARD_SIM_CAN_QUEUE 4096u /* frames each way */
+/* Queue a frame from the host's end (id: 11 bits; dlc 0..8 bytes of data). */
+void board_sim_can_write(board_sim_t *b, uint16_t id, const uint8_t *data, uint8_t dlc);
+/* The oldest frame the part has sent: 1 and *out, or 0 if none. */
+int board_sim_can_read(board_sim_t *b, board_sim_can_frame_t *out);
+/* The bus's bit rate, bit/s (default 500 000, the spec's [can] bitrate). */
+void board_sim_can_set_bitrate(board_sim_t *b, uint32_t bps);
+void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out);
 
 /* ---- resets ---- */
 

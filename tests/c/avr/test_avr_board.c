@@ -2,8 +2,9 @@
  *
  *   test_avr_board TEST IMAGE_DIR
  *
- * IMAGE_DIR holds navkit-mega2560.{elf,hex,size.txt} and navkit-mega2560-test.elf (the
- * test image: DIO levels select hang / echo / hold modes, firmware/avr/main.c). Each TEST
+ * IMAGE_DIR holds navkit-mega2560.{elf,hex,size.txt}, navkit-mega2560-test.elf (the
+ * test image: DIO levels select hang / echo / hold modes, firmware/avr/main.c) and
+ * navkit-mega2560-can.{elf,hex,size.txt} (the CAN link on the MCP2515; the can_* tests). Each TEST
  * is one ctest; "footprint" prints the image's flash, static RAM and deepest stack and the
  * cycles of its tick and link poll. Exit 0 = pass; a failure prints the check and exits 1.
  */
@@ -678,6 +679,372 @@ static void test_tick_late(void)
     board_sim_free(b);
 }
 
+/* ---------------------------------------------------------------- CAN (navkit-mega2560-can) */
+
+/* micro_data's field name of d, or -1 if this spec has no such field (the CAN transport's
+ * counters, can_rx_*, are the spec's; a spec without them leaves those checks out). */
+static long can_counter(const navkit_micro_data_t *d, const char *name)
+{
+    int i = navkit_micro_data_field_index(name);
+    return (i < 0) ? -1L : (long)navkit_micro_data_get(d, i, 0);
+}
+
+/* The host's end of the bus: ISO-TP both ways (the firmware's own navkit_isotp), the
+ * frame parser on what it reassembles; ISO-TP's clock is the board's, in ms. */
+typedef struct {
+    navkit_isotp_tx_t tx;
+    navkit_isotp_rx_t rx;
+    navkit_parser_t parser;
+    navkit_micro_data_t last;
+    unsigned frames;      /* micro_data decoded */
+    unsigned messages;    /* host messages started */
+    int drop_cf;          /* > 0: leave out this consecutive frame (1 = the first) of the next message */
+    int cf_seen;
+} can_host_t;
+
+static uint32_t can_ms(board_sim_t *b)
+{
+    return (uint32_t)(board_sim_cycles(b) / MS(1));
+}
+
+static void can_host_init(can_host_t *h)
+{
+    memset(h, 0, sizeof *h);
+    navkit_isotp_tx_init(&h->tx);
+    navkit_isotp_rx_init(&h->rx, NAVKIT_DIR_TO_HOST);
+    navkit_parser_init(&h->parser, NAVKIT_DIR_TO_HOST);
+}
+
+/* Every frame the part sent through ISO-TP (flow controls back at once), then the frames
+ * the host's sender lets go. */
+static void can_pump(can_host_t *h, board_sim_t *b)
+{
+    board_sim_can_frame_t f;
+    navkit_isotp_frame_t out;
+    uint8_t fc_out;
+    while (board_sim_can_read(b, &f)) {
+        uint16_t n;
+        navkit_isotp_tx_frame(&h->tx, f.id, f.data, f.dlc, can_ms(b));
+        n = navkit_isotp_rx_frame(&h->rx, f.id, f.data, f.dlc, can_ms(b), &out, &fc_out);
+        if (fc_out) {
+            board_sim_can_write(b, out.id, out.data, 8u);
+        }
+        if (n > 0u) {
+            const uint8_t *frame;
+            size_t flen;
+            (void)navkit_parser_feed(&h->parser, h->rx.buf, n);
+            while (navkit_parser_next(&h->parser, &frame, &flen)) {
+                if (navkit_micro_data_decode(frame, flen, &h->last) == NAVKIT_OK) {
+                    h->frames++;
+                }
+            }
+        }
+    }
+    while (navkit_isotp_tx_next(&h->tx, can_ms(b), &out)) {
+        if ((out.data[0] >> 4) == 2u && h->drop_cf > 0 && ++h->cf_seen == h->drop_cf) {
+            h->drop_cf = 0; /* lost on the bus */
+            continue;
+        }
+        board_sim_can_write(b, out.id, out.data, 8u);
+    }
+}
+
+static void can_run(can_host_t *h, board_sim_t *b, uint64_t cycles)
+{
+    uint64_t end = board_sim_cycles(b) + cycles;
+    while (board_sim_cycles(b) < end) {
+        uint64_t step = end - board_sim_cycles(b);
+        run_for(b, (step < MS(1)) ? step : MS(1));
+        can_pump(h, b);
+    }
+}
+
+/* One serial frame (bytes buf[0..len-1] of msg_type) as an ISO-TP message, once the
+ * sender is free (at most 100 ms). */
+static void can_send(can_host_t *h, board_sim_t *b, const uint8_t *buf, size_t len, uint16_t msg_type)
+{
+    int i;
+    for (i = 0; i < 100 && navkit_isotp_tx_busy(&h->tx); i++) {
+        can_run(h, b, MS(1));
+    }
+    check(!navkit_isotp_tx_busy(&h->tx), "the host's ISO-TP sender stayed busy 100 ms");
+    memcpy(h->tx.buf, buf, len);
+    check(navkit_isotp_tx_start(&h->tx, (uint16_t)len, msg_type, can_ms(b)) == 1u, "ISO-TP refused a message");
+    h->cf_seen = 0;
+    h->messages++;
+    can_pump(h, b);
+}
+
+static void can_send_cmd(can_host_t *h, board_sim_t *b, const navkit_micro_cmd_t *c)
+{
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    can_send(h, b, buf, navkit_micro_cmd_encode(c, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CMD);
+}
+
+/* A micro_cmd with only its time tag; run until a micro_data acknowledges it (1 s at most). */
+static void can_ping(can_host_t *h, board_sim_t *b, uint16_t tag)
+{
+    navkit_micro_cmd_t c;
+    int i;
+    navkit_micro_cmd_defaults(&c);
+    c.time_tag = tag;
+    can_send_cmd(h, b, &c);
+    for (i = 0; i < 200 && !(h->frames > 0u && h->last.ack_time_tag == tag &&
+                             (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED)); i++) {
+        can_run(h, b, MS(5));
+    }
+}
+
+/* The three configs at rate_hz over CAN, then pings until a micro_data says configured. */
+static void can_configure(can_host_t *h, board_sim_t *b, uint16_t rate_hz)
+{
+    navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
+    navkit_micro_cfg_geometry_defaults(&g);
+    g.time_tag = 1u;
+    g.control_rate = rate_hz;
+    can_send(h, b, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY);
+    navkit_micro_cfg_motion_defaults(&m);
+    m.time_tag = 2u;
+    m.pwm_limit = 1000u;
+    can_send(h, b, buf, navkit_micro_cfg_motion_encode(&m, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CFG_MOTION);
+    navkit_micro_cfg_io_defaults(&io);
+    io.time_tag = 3u;
+    can_send(h, b, buf, navkit_micro_cfg_io_encode(&io, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CFG_IO);
+    can_ping(h, b, 60000u);
+    check(h->frames > 0u && (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED),
+          "the CAN image did not report configured (%u micro_data over CAN)", h->frames);
+}
+
+/* The CAN image (ELF and HEX) with the MCP2515 model: the part set to the spec's bit rate in
+ * normal mode, the three configs and micro_cmds as ISO-TP answered by micro_data over CAN
+ * with this spec's hash, and a move command driving both motors forward. */
+static void test_can_link(void)
+{
+    const char *names[2] = { "navkit-mega2560-can.elf", "navkit-mega2560-can.hex" };
+    int k;
+    for (k = 0; k < 2; k++) {
+        board_sim_t *b = open_image(names[k]);
+        can_host_t h;
+        navkit_micro_cmd_t c;
+        board_sim_can_stats_t st;
+        int16_t l = 0, r = 0;
+        can_host_init(&h);
+        run_for(b, MS(20));
+        board_sim_can_stats(b, &st);
+        check(st.normal_mode == 1u, "%s: the MCP2515 is not in normal mode", names[k]);
+        check(st.part_bps == NAVKIT_CAN_BITRATE, "%s: the MCP2515's bit timing gives %lu bit/s, want %lu", names[k],
+              (unsigned long)st.part_bps, (unsigned long)NAVKIT_CAN_BITRATE);
+        can_configure(&h, b, 400u);
+        check(h.last.spec_hash == NAVKIT_SPEC_HASH, "%s: micro_data spec_hash 0x%08lx", names[k],
+              (unsigned long)h.last.spec_hash);
+        navkit_micro_cmd_defaults(&c);
+        c.time_tag = 7u;
+        c.fwd_cmd = NAVKIT_FWD_CMD_START;
+        c.speed = 300;
+        c.accel = 1000;
+        c.distance = 5000;
+        can_send_cmd(&h, b, &c);
+        can_run(&h, b, MS(300));
+        board_sim_motor_duty(b, &l, &r);
+        can_ping(&h, b, 8u);
+        check(l > 0 && r > 0, "%s: the move over CAN drives the motors at %d / %d e-4", names[k], l, r);
+        check(h.last.ack_time_tag == 8u, "%s: ack_time_tag %u, want 8", names[k], h.last.ack_time_tag);
+        check(h.last.rx_good == h.messages, "%s: rx_good %u, want every message sent, %u", names[k], h.last.rx_good,
+              h.messages);
+        check(h.last.cmd_rejected == 0u, "%s: %u commands refused", names[k], h.last.cmd_rejected);
+        check(h.parser.stats.bad_crc == 0u && h.rx.stats.wrong_sn == 0u && h.rx.stats.bad_frame == 0u,
+              "%s: damaged micro_data over CAN", names[k]);
+        board_sim_can_stats(b, &st);
+        printf("%s: %u messages to the micro, %u micro_data back; bus: %lu frames to the part, %lu from it; motors %d / %d "
+               "e-4\n",
+               names[k], h.messages, h.frames, (unsigned long)st.to_part, (unsigned long)st.from_part, l, r);
+        board_sim_free(b);
+    }
+}
+
+/* Frames on identifiers the micro does not receive (other nodes' traffic, the micro's own
+ * micro_data identifier, the flow controls it sends) never reach the image: the part's
+ * filters drop them (none in a buffer), and the link's counters do not move. */
+static void test_can_filter(void)
+{
+    static const uint16_t other[] = { 0x000u, 0x100u, 0x111u, 0x121u, 0x123u, 0x125u, 0x180u, 0x7FFu, 0x1A0u, 0x130u };
+    board_sim_t *b = open_image("navkit-mega2560-can.elf");
+    can_host_t h;
+    board_sim_can_stats_t s0, s1;
+    navkit_micro_data_t before;
+    uint8_t sf[8] = { 0x01u, 0x00u, 0xCCu, 0xCCu, 0xCCu, 0xCCu, 0xCCu, 0xCCu };
+    size_t i;
+    int rep;
+    can_host_init(&h);
+    run_for(b, MS(20));
+    can_configure(&h, b, 400u);
+    before = h.last;
+    board_sim_can_stats(b, &s0);
+    for (rep = 0; rep < 10; rep++) {
+        for (i = 0u; i < sizeof other / sizeof other[0]; i++) {
+            board_sim_can_write(b, other[i], sf, 8u);
+        }
+    }
+    can_run(&h, b, MS(50));
+    board_sim_can_stats(b, &s1);
+    can_ping(&h, b, 9u);
+    check(s1.filtered - s0.filtered == 10u * (sizeof other / sizeof other[0]),
+          "the part's filters dropped %lu of %u foreign frames", (unsigned long)(s1.filtered - s0.filtered),
+          (unsigned)(10u * (sizeof other / sizeof other[0])));
+    check(s1.accepted == s0.accepted, "%lu foreign frames reached a receive buffer",
+          (unsigned long)(s1.accepted - s0.accepted));
+    check(h.last.rx_good == before.rx_good + 1u, "rx_good went from %u to %u for one message", before.rx_good,
+          h.last.rx_good);
+    check(can_counter(&h.last, "can_rx_bad_frame") <= 0 && can_counter(&h.last, "can_rx_unexpected") <= 0,
+          "the link saw foreign frames");
+    printf("%lu foreign frames dropped by the filters\n", (unsigned long)(s1.filtered - s0.filtered));
+    board_sim_free(b);
+}
+
+/* A micro_cmd whose fifth consecutive frame is lost on the bus is not applied (the motors
+ * stay off, it is not acknowledged, rx_good does not count it) and counted (micro_data's
+ * can_rx_wrong_sn, then the rest of its frames can_rx_unexpected); the next command is. */
+static void test_can_lost(void)
+{
+    board_sim_t *b = open_image("navkit-mega2560-can.elf");
+    can_host_t h;
+    navkit_micro_cmd_t c;
+    int16_t l = 0, r = 0;
+    long wrong_sn, unexpected;
+    can_host_init(&h);
+    run_for(b, MS(20));
+    can_configure(&h, b, 400u);
+    navkit_micro_cmd_defaults(&c);
+    c.time_tag = 20u;
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.speed = 300;
+    c.distance = 5000;
+    h.drop_cf = 5;
+    can_send_cmd(&h, b, &c);
+    can_run(&h, b, MS(100));
+    board_sim_motor_duty(b, &l, &r);
+    can_ping(&h, b, 21u); /* ack 21: the ping ran, the lost command never did */
+    check(h.last.ack_time_tag == 21u, "ack_time_tag %u after the ping, want 21", h.last.ack_time_tag);
+    wrong_sn = can_counter(&h.last, "can_rx_wrong_sn");
+    unexpected = can_counter(&h.last, "can_rx_unexpected");
+    check(wrong_sn < 0 || wrong_sn == 1, "can_rx_wrong_sn %ld, want 1", wrong_sn);
+    /* the consecutive frames after the lost one: the first aborts (wrong_sn), the rest are unexpected */
+    check(unexpected < 0 || unexpected == (long)((NAVKIT_MICRO_CMD_BYTES - 6u + 6u) / 7u) - 5 - 1,
+          "can_rx_unexpected %ld, want %ld (the frames after the gap)", unexpected,
+          (long)((NAVKIT_MICRO_CMD_BYTES - 6u + 6u) / 7u) - 5 - 1);
+    check(h.last.rx_good == h.messages - 1u, "rx_good %u, want %u (all but the broken one)", h.last.rx_good,
+          h.messages - 1u);
+    check(l == 0 && r == 0, "the broken move command ran: motors %d / %d e-4", l, r);
+    printf("lost consecutive frame: the command not applied; can_rx_wrong_sn %ld, can_rx_unexpected %ld (-1: not in "
+           "this spec)\n",
+           wrong_sn, unexpected);
+    board_sim_free(b);
+}
+
+/* The CAN image's footprint (flash, static RAM, deepest stack) and its tick lateness under
+ * CAN traffic at 400 Hz: the configs, then a micro_cmd every CAN_LATE_CMD_MS (17 frames in,
+ * a micro_data back for each) for 2 s, a new command every 100 ms, encoders turning, every
+ * sensor read. No tick may start more than one period late (hal.h: a poll applies one
+ * reassembled message at most, builds one reply at most), every command arrives and is
+ * answered. 25 Hz is 2.5 times the host's shipped rate; at 50 Hz the 16 MHz AVR at 400 Hz
+ * runs out of CPU (docs/avr.md, CAN). */
+#define CAN_LATE_CMD_MS 40u
+static void test_can_late(void)
+{
+    char path[1024], line[256];
+    unsigned long text = 0, data = 0, bss = 0, noinit = 0;
+    FILE *f;
+    board_sim_t *b;
+    can_host_t h;
+    navkit_micro_cmd_t c;
+    board_sim_profile_t p0, p;
+    board_sim_can_stats_t st;
+    uint16_t tag = 100u;
+    uint64_t c0;
+    double busy;
+    int i;
+    snprintf(path, sizeof path, "%s/navkit-mega2560-can.size.txt", image_dir);
+    f = fopen(path, "r");
+    if (f == NULL) {
+        fprintf(stderr, "FAIL: %s: cannot open\n", path);
+        exit(1);
+    }
+    while (fgets(line, sizeof line, f) != NULL) {
+        char name[64];
+        unsigned long size;
+        if (sscanf(line, "%63s %lu", name, &size) == 2) {
+            text = (strcmp(name, ".text") == 0) ? size : text;
+            data = (strcmp(name, ".data") == 0) ? size : data;
+            bss = (strcmp(name, ".bss") == 0) ? size : bss;
+            noinit = (strcmp(name, ".noinit") == 0) ? size : noinit;
+        }
+    }
+    fclose(f);
+    b = open_image("navkit-mega2560-can.elf");
+    can_host_init(&h);
+    board_sim_set_gyro_raw(b, 1310);
+    board_sim_set_compass(b, 900u);
+    for (i = 0; i < 4; i++) {
+        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
+        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
+    }
+    run_for(b, MS(20));
+    can_configure(&h, b, 400u);
+    navkit_micro_cmd_defaults(&c);
+    c.speed = 300;
+    c.turn_rate = 900;
+    c.rc0_param0 = 300;
+    c.rc0_param1 = 300;
+    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    board_sim_profile(b, &p0);
+    c0 = board_sim_cycles(b);
+    for (i = 0; i < (int)(2000u / CAN_LATE_CMD_MS); i++) {
+        if (i % (int)(100u / CAN_LATE_CMD_MS) == 0) { /* a new command every 100 ms or so */
+            c.time_tag = tag++;
+            c.fwd_cmd = NAVKIT_FWD_CMD_START;
+            c.distance = 2000 + 10 * i;
+            c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+            c.turn_distance = (tag % 2u) ? 900 : -900;
+            c.rc0_param2 = (int16_t)((tag % 2u) ? 300 : -300);
+        }
+        can_send_cmd(&h, b, &c);
+        board_sim_set_encoders(b, 80 * i, 72 * i, board_sim_cycles(b) + MS(CAN_LATE_CMD_MS));
+        can_run(&h, b, MS(CAN_LATE_CMD_MS));
+    }
+    board_sim_profile(b, &p);
+    busy = (double)(board_sim_cycles(b) - c0);
+    can_ping(&h, b, 50000u);
+    board_sim_can_stats(b, &st);
+    printf("CAN image: flash %lu B (text %lu + data %lu); static RAM %lu B (data %lu + bss %lu + noinit %lu); deepest "
+           "stack %u B\n",
+           text + data, text, data, data + bss + noinit, data, bss, noinit, p.stack_max_bytes);
+    printf("CAN traffic 2 s at 400 Hz: %lu ticks, lateness worst %lu mean %lu cycles (bound %u); fw_tick worst %lu mean "
+           "%lu cycles, CPU %.1f %%; fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
+           (unsigned long)(p.ticks - p0.ticks), (unsigned long)p.tick_late_worst_cycles,
+           (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
+           TICK_LATE_MAX_CYCLES, (unsigned long)p.tick_worst_cycles,
+           (unsigned long)((p.tick_total_cycles - p0.tick_total_cycles) / (p.ticks - p0.ticks)),
+           100.0 * (double)(p.tick_total_cycles - p0.tick_total_cycles) / busy, (unsigned long)(p.polls - p0.polls),
+           (unsigned long)p.poll_worst_cycles,
+           (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) / ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
+           100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
+    printf("bus: %lu frames to the part (%lu overflowed), %lu from it; %u micro_data for %u messages\n",
+           (unsigned long)st.to_part, (unsigned long)st.overflowed, (unsigned long)st.from_part, h.frames, h.messages);
+    check(p.tick_late_worst_cycles <= TICK_LATE_MAX_CYCLES, "a tick started %lu cycles after it fell due (bound %u)",
+          (unsigned long)p.tick_late_worst_cycles, TICK_LATE_MAX_CYCLES);
+    check(h.last.rx_good == h.messages, "the board counted %u good messages of %u sent", h.last.rx_good, h.messages);
+    check(st.overflowed == 0u, "%lu frames found the part's buffers full", (unsigned long)st.overflowed);
+    check(h.last.ack_time_tag == 50000u, "the last ping was not acknowledged");
+    check(h.frames + 2u >= h.messages, "only %u micro_data for %u messages", h.frames, h.messages);
+    check(0x200ul + data + bss + noinit <= 0x1000ul, "static RAM ends past the reset markers at 0x1000");
+    check(p.stack_min_sp > 0x1000u + 8u, "the stack reached 0x%x, into the reset markers at 0x1000", p.stack_min_sp);
+    check(p.resets == 0u, "the board reset");
+    board_sim_free(b);
+}
+
 int main(int argc, char **argv)
 {
     static const struct {
@@ -686,7 +1053,9 @@ int main(int argc, char **argv)
     } tests[] = { { "link", test_link },         { "uart", test_uart },     { "encoders", test_encoders },
                   { "outputs", test_outputs },   { "inputs", test_inputs },
                   { "tick_rate", test_tick_rate }, { "watchdog", test_watchdog },
-                  { "footprint", test_footprint }, { "tick_late", test_tick_late } };
+                  { "footprint", test_footprint }, { "tick_late", test_tick_late },
+                  { "can_link", test_can_link },   { "can_filter", test_can_filter },
+                  { "can_lost", test_can_lost },   { "can_late", test_can_late } };
     size_t i;
     if (argc != 3) {
         fprintf(stderr, "usage: %s TEST IMAGE_DIR\n", argv[0]);
