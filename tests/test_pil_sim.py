@@ -224,6 +224,7 @@ def test_cli_prints_firmware_and_rate_and_names_a_missing_fmu(tmp_path):
     bare = tmp_path / "build"
     (bare / "fmus").mkdir(parents=True)
     r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--firmware", "avr", "--build", str(bare),
+                        "--mission", str(mission),  # no commands: no host asked at load
                         "--out", str(tmp_path / "out"), "--no-plot"], capture_output=True, text=True)
     assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
     assert "navkit_firmware_avr.fmu not found" in r.stderr and "avr-gcc" in r.stderr
