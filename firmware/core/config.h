@@ -33,9 +33,9 @@
 
 /* Result of config_*(). */
 typedef enum {
-    CONFIG_OK = 0,        /* applied */
-    CONFIG_ERR_HASH = 1,  /* spec_hash differs from the firmware's: refused */
-    CONFIG_ERR_RANGE = 2  /* a field out of range, a spec constraint broken (a sign of 0, a servo_min above its
+    CONFIG_OK = 0,       /* applied */
+    CONFIG_ERR_HASH = 1, /* spec_hash differs from the firmware's: refused */
+    CONFIG_ERR_RANGE = 2 /* a field out of range, a spec constraint broken (a sign of 0, a servo_min above its
                              servo_max) or control_rate above CONFIG_RATE_MAX: refused */
 } config_result_t;
 
@@ -69,15 +69,15 @@ typedef struct {
     float stop_tolerance;     /* mm */
     wheel_gains_t wheel;      /* wheel-speed loop gains */
     /* the turn axis's window, tolerance and "stopped" speed, from geometry and motion */
-    float turn_window;        /* deg */
-    float turn_vwindow;       /* deg/s */
-    float turn_tol;           /* deg */
-    float turn_vtol;          /* deg/s */
+    float turn_window;            /* deg */
+    float turn_vwindow;           /* deg/s */
+    float turn_tol;               /* deg */
+    float turn_vtol;              /* deg/s */
     uint16_t watchdog_timeout_ms; /* ms */
     /* io */
-    uint16_t dio_direction;   /* bitmask, 1 = output */
-    uint16_t dio_safe_state;  /* bitmask */
-    uint16_t sensor_enable;   /* NAVKIT_SENSOR_ENABLE_* bits */
+    uint16_t dio_direction;  /* bitmask, 1 = output */
+    uint16_t dio_safe_state; /* bitmask */
+    uint16_t sensor_enable;  /* NAVKIT_SENSOR_ENABLE_* bits */
     servo_cal_t servo[SERVO_COUNT];
     /* which messages arrived: NAVKIT_MICRO_STATUS_CFG_*_OK bits */
     uint16_t received;

@@ -3,7 +3,7 @@
 
 #include <math.h>
 
-#define EXCITE_LFSR_TAPS 0xB400u   /* x^16 + x^14 + x^13 + x^11 + 1, Galois form */
+#define EXCITE_LFSR_TAPS 0xB400u /* x^16 + x^14 + x^13 + x^11 + 1, Galois form */
 #define EXCITE_TWO_PI 6.28318530717958647692f
 #define EXCITE_DUTY_PER_RAW 0.001f /* duty per raw unit of excite_amplitude and excite_offset */
 #define EXCITE_HZ_PER_RAW 0.01f    /* Hz per raw unit of excite_f0 and excite_f1 */

@@ -25,18 +25,18 @@
 #include "navkit/navkit_proto.h"
 
 typedef struct {
-    uint8_t mode;       /* NAVKIT_EXCITE_MODE_*: NONE while idle */
-    uint8_t wheels;     /* NAVKIT_EXCITE_WHEELS_* */
-    uint16_t lfsr;      /* PRBS: LFSR state, never 0 */
-    int16_t amplitude;  /* duty x 1000: A (excite_amplitude) */
-    int16_t offset;     /* duty x 1000: the working point (excite_offset) */
-    float f0_dt;        /* cycles per tick: chirp frequency at tick 0 times dt */
-    float df_dt;        /* cycles per tick per tick: (f1 - f0) * dt / total */
-    float phase;        /* cycles, 0..1: chirp phase of the next tick */
-    uint32_t n;         /* ticks run so far */
-    uint32_t total;     /* ticks of the experiment, >= 1 */
-    uint32_t hold;      /* ticks: step delay (0 = at once), or PRBS bit time (>= 1) */
-    uint32_t bit_left;  /* PRBS: ticks left of the current bit */
+    uint8_t mode;      /* NAVKIT_EXCITE_MODE_*: NONE while idle */
+    uint8_t wheels;    /* NAVKIT_EXCITE_WHEELS_* */
+    uint16_t lfsr;     /* PRBS: LFSR state, never 0 */
+    int16_t amplitude; /* duty x 1000: A (excite_amplitude) */
+    int16_t offset;    /* duty x 1000: the working point (excite_offset) */
+    float f0_dt;       /* cycles per tick: chirp frequency at tick 0 times dt */
+    float df_dt;       /* cycles per tick per tick: (f1 - f0) * dt / total */
+    float phase;       /* cycles, 0..1: chirp phase of the next tick */
+    uint32_t n;        /* ticks run so far */
+    uint32_t total;    /* ticks of the experiment, >= 1 */
+    uint32_t hold;     /* ticks: step delay (0 = at once), or PRBS bit time (>= 1) */
+    uint32_t bit_left; /* PRBS: ticks left of the current bit */
 } excite_t;
 
 /* Idle (the other fields are set by excite_start()). */

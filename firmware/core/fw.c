@@ -3,7 +3,7 @@
 
 #include <math.h>
 
-#define FW_DUTY_SCALE 10000.0f     /* hal_motor units per duty */
+#define FW_DUTY_SCALE 10000.0f /* hal_motor units per duty */
 /* mm/s: wheel setpoints below this (both together) count as "commanded to stand" */
 #define FW_STILL_SP_MM_S 0.5f
 
@@ -218,8 +218,8 @@ void fw_tick(fw_t *fw)
     v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM,
                         CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
     w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s,
-                       heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol,
-                       c->turn_vtol, dt);
+                       heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
+                       dt);
     /* an excitation runs open loop: the loops idle (their duty shows the excitation's to
        the datalog); with no excitation and no motion everything is 0 */
     ex_l = 0.0f;
@@ -247,8 +247,7 @@ void fw_tick(fw_t *fw)
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
     fw->slow_tick = (uint8_t)((fw->slow_tick + 1u < c->odom.xy_ticks) ? fw->slow_tick + 1u : 0u);
-    fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated ||
-                            fw->wheel_r.saturated);
+    fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated || fw->wheel_r.saturated);
 
     for (i = 0u; i < SERVO_COUNT; i++) {
         servo_step(&fw->servo[i], &c->servo[i]);

@@ -34,35 +34,35 @@
 #define FW_ADC_CHANNELS 5u
 
 typedef struct fw {
-    hal_t *hal;          /* the target's wires */
-    config_t cfg;        /* working configuration */
-    link_t link;         /* micro link */
-    odom_t odom;         /* encoders and X/Y */
-    heading_t hdg;       /* gyro heading */
-    motion_t fwd;        /* forward axis, mm */
-    turn_t turn;         /* turn axis, deg */
-    wheel_t wheel_l;     /* left wheel-speed loop */
-    wheel_t wheel_r;     /* right wheel-speed loop */
+    hal_t *hal;      /* the target's wires */
+    config_t cfg;    /* working configuration */
+    link_t link;     /* micro link */
+    odom_t odom;     /* encoders and X/Y */
+    heading_t hdg;   /* gyro heading */
+    motion_t fwd;    /* forward axis, mm */
+    turn_t turn;     /* turn axis, deg */
+    wheel_t wheel_l; /* left wheel-speed loop */
+    wheel_t wheel_r; /* right wheel-speed loop */
     servo_t servo[SERVO_COUNT];
     dio_t dio;
     watchdog_t wd;
-    excite_t excite;     /* open-loop wheel excitation experiment (bypasses the wheel loops while active) */
-    float speed_setpoint_l; /* mm/s: left wheel speed setpoint of the last tick */
-    float speed_setpoint_r; /* mm/s: right wheel speed setpoint */
-    int16_t duty_l;      /* duty*1e4, motor sign applied: left output of the last tick */
-    int16_t duty_r;      /* duty*1e4, motor sign applied: right output */
+    excite_t excite;               /* open-loop wheel excitation experiment (bypasses the wheel loops while active) */
+    float speed_setpoint_l;        /* mm/s: left wheel speed setpoint of the last tick */
+    float speed_setpoint_r;        /* mm/s: right wheel speed setpoint */
+    int16_t duty_l;                /* duty*1e4, motor sign applied: left output of the last tick */
+    int16_t duty_r;                /* duty*1e4, motor sign applied: right output */
     uint16_t adc[FW_ADC_CHANNELS]; /* counts: ADC sample of the last tick (0 if disabled) */
-    uint16_t sonar[4];   /* us: sonar echoes of the last tick (0 if disabled) */
-    uint16_t compass;    /* deg*10: compass of the last tick (0 if disabled) */
-    int16_t gyro_raw;    /* LSB: gyro of the last tick */
-    uint16_t watchdog_stops; /* watchdog stops since reset */
-    uint32_t ms;         /* ms: uptime */
-    uint16_t us_frac;    /* us: uptime below one ms */
-    uint8_t wd_stop;     /* 1 from a watchdog stop until a new fwd/turn start */
-    uint8_t reset_cause; /* NAVKIT_RESET_CAUSE_*: why the board last started (hal_reset_cause()) */
-    uint8_t limited;     /* 1 if the plant lagged or the output saturated on the last tick */
-    uint8_t servo_next;  /* servo whose pulse width is refreshed next */
-    uint8_t slow_tick;   /* tick within the slow period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
+    uint16_t sonar[4];             /* us: sonar echoes of the last tick (0 if disabled) */
+    uint16_t compass;              /* deg*10: compass of the last tick (0 if disabled) */
+    int16_t gyro_raw;              /* LSB: gyro of the last tick */
+    uint16_t watchdog_stops;       /* watchdog stops since reset */
+    uint32_t ms;                   /* ms: uptime */
+    uint16_t us_frac;              /* us: uptime below one ms */
+    uint8_t wd_stop;               /* 1 from a watchdog stop until a new fwd/turn start */
+    uint8_t reset_cause;           /* NAVKIT_RESET_CAUSE_*: why the board last started (hal_reset_cause()) */
+    uint8_t limited;               /* 1 if the plant lagged or the output saturated on the last tick */
+    uint8_t servo_next;            /* servo whose pulse width is refreshed next */
+    uint8_t slow_tick;             /* tick within the slow period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
                             the X/Y step on another (fw.c) */
 } fw_t;
 

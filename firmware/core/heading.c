@@ -3,10 +3,10 @@
 
 #include <math.h>
 
-#define HEADING_ONE_DEG 65536.0f           /* q units per deg */
-#define HEADING_FULL_Q 23592960L           /* 360 * 2^16 */
-#define HEADING_HALF_Q 11796480L           /* 180 * 2^16 */
-#define HEADING_BIAS_TAU_S 2.0f            /* s: bias tracking time constant at standstill */
+#define HEADING_ONE_DEG 65536.0f /* q units per deg */
+#define HEADING_FULL_Q 23592960L /* 360 * 2^16 */
+#define HEADING_HALF_Q 11796480L /* 180 * 2^16 */
+#define HEADING_BIAS_TAU_S 2.0f  /* s: bias tracking time constant at standstill */
 /* q units per deg*10, times 64: 2^16 / 10 * 64 = 419430.4 (the 0.4 is 3.4e-4 deg at 3599,
    far below the compass's 0.1 deg); 3599 * 419430 < 2^31 */
 #define HEADING_Q_PER_DEG10_X64 419430L
@@ -108,7 +108,7 @@ float heading_wrap180(float deg)
 
 void heading_fuse(heading_t *h, uint16_t compass10, float gain, float dt)
 {
-    int32_t err; /* deg * 2^16: compass - folded heading, the shortest way */
+    int32_t err;                 /* deg * 2^16: compass - folded heading, the shortest way */
     while (compass10 >= 3600u) { /* outside the hal_compass() contract: whole turns off */
         compass10 = (uint16_t)(compass10 - 3600u);
     }

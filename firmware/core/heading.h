@@ -22,13 +22,13 @@
 #include "navkit/navkit_proto.h"
 
 typedef struct {
-    int32_t q;        /* deg * 2^16: heading at the last fold, 0 .. 360*2^16-1 */
-    float q_frac;     /* deg * 2^16: turned since the last fold (plus its rounding residual) */
-    float deg;        /* deg: the heading now, 0 <= deg < 360, (q + q_frac) / 2^16 */
-    float bias;       /* LSB: gyro zero-rate offset estimate */
-    float rate;       /* deg/s: bias-corrected yaw rate, clockwise positive */
-    int32_t cal_sum;  /* LSB: sum of start-up calibration samples */
-    uint16_t cal_n;   /* samples in cal_sum */
+    int32_t q;           /* deg * 2^16: heading at the last fold, 0 .. 360*2^16-1 */
+    float q_frac;        /* deg * 2^16: turned since the last fold (plus its rounding residual) */
+    float deg;           /* deg: the heading now, 0 <= deg < 360, (q + q_frac) / 2^16 */
+    float bias;          /* LSB: gyro zero-rate offset estimate */
+    float rate;          /* deg/s: bias-corrected yaw rate, clockwise positive */
+    int32_t cal_sum;     /* LSB: sum of start-up calibration samples */
+    uint16_t cal_n;      /* samples in cal_sum */
     uint8_t calibrating; /* 1 during the start-up bias calibration */
 } heading_t;
 

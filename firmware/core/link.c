@@ -58,9 +58,8 @@ static uint8_t link_fwd_code_ok(uint16_t code)
 
 static uint8_t link_turn_code_ok(uint16_t code)
 {
-    return (uint8_t)(code == NAVKIT_TURN_CMD_NONE || code == NAVKIT_TURN_CMD_TURN ||
-                     code == NAVKIT_TURN_CMD_MODIFY || code == NAVKIT_TURN_CMD_STOP ||
-                     code == NAVKIT_TURN_CMD_HDG_SEL);
+    return (uint8_t)(code == NAVKIT_TURN_CMD_NONE || code == NAVKIT_TURN_CMD_TURN || code == NAVKIT_TURN_CMD_MODIFY ||
+                     code == NAVKIT_TURN_CMD_STOP || code == NAVKIT_TURN_CMD_HDG_SEL);
 }
 
 /* Reject code for a micro_cmd whose content is refused, or 0 if it may run. */
@@ -254,8 +253,7 @@ static void link_datalog(const fw_t *fw, int16_t w[4])
         w[0] = link_clamp16(fw->fwd.prof.vel);
         w[1] = link_clamp16(fw->fwd.prof.togo);
         w[2] = link_clamp16(fw->fwd.target - fw_fwd_distance(fw));
-        w[3] = (int16_t)(fw->fwd.prof.moving | (fw->fwd.done << 1) | (fw->fwd.latched << 2) |
-                         (fw->fwd.limited << 3));
+        w[3] = (int16_t)(fw->fwd.prof.moving | (fw->fwd.done << 1) | (fw->fwd.latched << 2) | (fw->fwd.limited << 3));
         break;
     case NAVKIT_MC_DATALOG_TURN_PROFILE: /* ref deg*10/s, ref to-go deg*10, measured to-go deg*10, flags */
         w[0] = link_clamp16(ax->prof.vel * 10.0f);
@@ -356,7 +354,7 @@ static void link_reply(fw_t *fw)
     fw->link.tx_tag++;
     link_telemetry(fw, &d);
     (void)navkit_isotp_tx_start(tx, (uint16_t)navkit_micro_data_encode(&d, tx->buf, sizeof tx->buf),
-                          NAVKIT_MSG_TYPE_MICRO_DATA, fw->ms);
+                                NAVKIT_MSG_TYPE_MICRO_DATA, fw->ms);
 }
 
 /* CAN: every frame read goes to ISO-TP; a flow control it asks for goes out at once (if the
@@ -453,7 +451,7 @@ static uint8_t link_frames(fw_t *fw, uint8_t *frames)
 
 /* With a bound, a poll that finds a reply due sends it and ends there (the reply is one
    piece of work, the frame before it the other: a due tick waits for one of them at most);
-   else it first takes the frames its parser kept (it stopped at the bound last time), then
+   otherwise it first takes the frames its parser kept (it stopped at the bound last time), then
    reads the UART chunk by chunk. At the bound it still feeds the rest of the chunk in
    hand: the frame just handled leaves its room in the parser, at least the smallest frame
    (36 bytes) >= LINK_RX_CHUNK, so no byte read is lost. */

@@ -65,22 +65,22 @@ struct fw;
 #endif
 
 typedef struct {
-    navkit_parser_t parser;  /* frame parser and its counters */
-    uint16_t last_tag;       /* time tag of the last handled micro_cmd */
-    uint16_t ack_tag;        /* time tag of the last executed micro_cmd */
-    uint16_t tx_tag;         /* micro_data sequence number */
-    uint16_t schema_mismatch;/* configs refused for spec_hash */
-    uint16_t cmd_rejected;   /* commands refused */
-    uint16_t last_reject;    /* code of the last refused command */
-    uint16_t mc_datalog;     /* NAVKIT_MC_DATALOG_* selection */
-    uint8_t have_tag;        /* a micro_cmd was handled since reset */
-    uint8_t tag_pending;     /* last_tag was refused only for want of the configs (never ran): its repeat runs */
-    uint8_t more;            /* the last poll stopped at FW_LINK_FRAMES_PER_POLL: the parser may hold a frame */
-    uint8_t reply_due;       /* a micro_data is still to go out: with a bound, the last frame's (next poll);
+    navkit_parser_t parser;   /* frame parser and its counters */
+    uint16_t last_tag;        /* time tag of the last handled micro_cmd */
+    uint16_t ack_tag;         /* time tag of the last executed micro_cmd */
+    uint16_t tx_tag;          /* micro_data sequence number */
+    uint16_t schema_mismatch; /* configs refused for spec_hash */
+    uint16_t cmd_rejected;    /* commands refused */
+    uint16_t last_reject;     /* code of the last refused command */
+    uint16_t mc_datalog;      /* NAVKIT_MC_DATALOG_* selection */
+    uint8_t have_tag;         /* a micro_cmd was handled since reset */
+    uint8_t tag_pending;      /* last_tag was refused only for want of the configs (never ran): its repeat runs */
+    uint8_t more;             /* the last poll stopped at FW_LINK_FRAMES_PER_POLL: the parser may hold a frame */
+    uint8_t reply_due;        /* a micro_data is still to go out: with a bound, the last frame's (next poll);
                                 over CAN, one asked while the last was going out (once the sender is free) */
 #if FW_LINK_CAN
-    navkit_isotp_rx_t can_rx;      /* ISO-TP reception of host -> micro frames (and its counters) */
-    navkit_isotp_tx_t can_tx;      /* ISO-TP transmission of micro_data */
+    navkit_isotp_rx_t can_rx; /* ISO-TP reception of host -> micro frames (and its counters) */
+    navkit_isotp_tx_t can_tx; /* ISO-TP transmission of micro_data */
 #endif
 } link_t;
 

@@ -70,8 +70,7 @@ uint8_t motion_active(const motion_t *m)
     return (uint8_t)(m->started && (m->prof.moving || !m->done));
 }
 
-float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol,
-                  float dt)
+float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol, float dt)
 {
     float vel, lead; /* u/s: reference velocity; u: reference - measured position */
     if (!motion_active(m)) {

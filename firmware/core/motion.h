@@ -31,15 +31,15 @@ typedef enum {
 } motion_result_t;
 
 typedef struct {
-    profile_t prof;   /* reference profile, u and u/s */
-    int32_t ref_l;    /* counts: left encoder at the reference (cmd 1) */
-    int32_t ref_r;    /* counts: right encoder at the reference */
-    float target;     /* u: target measured from the reference */
-    float meas;       /* u: measured position from the reference, as of the last tick */
-    uint8_t started;  /* a start since reset */
-    uint8_t latched;  /* stop latch */
-    uint8_t done;     /* at rest within tolerance of the target */
-    uint8_t limited;  /* the plant lagged the reference on the last tick */
+    profile_t prof;  /* reference profile, u and u/s */
+    int32_t ref_l;   /* counts: left encoder at the reference (cmd 1) */
+    int32_t ref_r;   /* counts: right encoder at the reference */
+    float target;    /* u: target measured from the reference */
+    float meas;      /* u: measured position from the reference, as of the last tick */
+    uint8_t started; /* a start since reset */
+    uint8_t latched; /* stop latch */
+    uint8_t done;    /* at rest within tolerance of the target */
+    uint8_t limited; /* the plant lagged the reference on the last tick */
 } motion_t;
 
 /* The forward axis's part of a checked micro_cmd c, on the forward axis m: fwd_cmd 1

@@ -24,21 +24,21 @@ typedef struct {
 } odom_geom_t;
 
 typedef struct {
-    int32_t enc_l;   /* counts: left encoder, sign-corrected, since reset */
-    int32_t enc_r;   /* counts: right encoder, sign-corrected, since reset */
-    int32_t raw_l;   /* counts: last raw left reading */
-    int32_t raw_r;   /* counts: last raw right reading */
-    float v_l;       /* mm/s: left wheel speed, low-pass filtered */
-    float v_r;       /* mm/s: right wheel speed, low-pass filtered */
-    int32_t x;       /* mm: X, whole part */
-    int32_t y;       /* mm: Y, whole part */
-    float x_frac;    /* mm: X residual, -0.5..0.5 */
-    float y_frac;    /* mm: Y residual, -0.5..0.5 */
-    int32_t xy_sum;  /* counts: left + right counts of the X/Y step in progress */
-    float xy_h0;     /* deg: heading at its start */
+    int32_t enc_l;        /* counts: left encoder, sign-corrected, since reset */
+    int32_t enc_r;        /* counts: right encoder, sign-corrected, since reset */
+    int32_t raw_l;        /* counts: last raw left reading */
+    int32_t raw_r;        /* counts: last raw right reading */
+    float v_l;            /* mm/s: left wheel speed, low-pass filtered */
+    float v_r;            /* mm/s: right wheel speed, low-pass filtered */
+    int32_t x;            /* mm: X, whole part */
+    int32_t y;            /* mm: Y, whole part */
+    float x_frac;         /* mm: X residual, -0.5..0.5 */
+    float y_frac;         /* mm: Y residual, -0.5..0.5 */
+    int32_t xy_sum;       /* counts: left + right counts of the X/Y step in progress */
+    float xy_h0;          /* deg: heading at its start */
     uint16_t still_ticks; /* ticks since an encoder last changed (capped) */
-    uint8_t xy_n;    /* ticks in the X/Y step in progress (0 = none) */
-    uint8_t primed;  /* raw_* hold a reading */
+    uint8_t xy_n;         /* ticks in the X/Y step in progress (0 = none) */
+    uint8_t primed;       /* raw_* hold a reading */
 } odom_t;
 
 /* Wheel-speed low-pass time constant, s. */

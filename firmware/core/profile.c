@@ -170,7 +170,7 @@ float profile_step(profile_t *p, float dt)
     }
     /* work in the direction of the target: u = speed toward it (a sign flip, not a
        multiply by -1: the same bits) */
-    neg = (uint8_t)!(p->togo > 0.0f || (p->togo == 0.0f && p->vel > 0.0f));
+    neg = (uint8_t) !(p->togo > 0.0f || (p->togo == 0.0f && p->vel > 0.0f));
     u = neg ? -p->vel : p->vel;
     goal = p->vmax;
     /* the braking curve can only bind within (v + dv)^2 / (2 amax) of the target, v the

@@ -22,21 +22,21 @@
 #define PROFILE_BRAKE_MARGIN 2e-3f
 
 typedef struct {
-    float togo;  /* u: reference distance still to go, + toward the target */
+    float togo;   /* u: reference distance still to go, + toward the target */
     float togo_c; /* u: compensation of togo's rounding (Kahan): the exact distance to go is togo - togo_c */
-    float vel;   /* u/s: reference velocity (+ = toward larger positions) */
-    float vmax;  /* u/s: cruise limit, > 0 */
-    float amax;  /* u/s^2: acceleration and deceleration limit, > 0 */
+    float vel;    /* u/s: reference velocity (+ = toward larger positions) */
+    float vmax;   /* u/s: cruise limit, > 0 */
+    float amax;   /* u/s^2: acceleration and deceleration limit, > 0 */
     /* per-(amax, dt) constants, recomputed only when either changes (no per-tick division) */
-    float k_amax;   /* u/s^2: amax the constants are for */
-    float k_dt;     /* s: dt the constants are for */
-    float k_dv;     /* u/s: amax * dt */
-    float k_dvp;    /* u/s: the braking curve's step, k_dv less the margin */
+    float k_amax;     /* u/s^2: amax the constants are for */
+    float k_dt;       /* s: dt the constants are for */
+    float k_dv;       /* u/s: amax * dt */
+    float k_dvp;      /* u/s: the braking curve's step, k_dv less the margin */
     float k_half_dvp; /* u/s: k_dvp / 2 */
-    float k_inv_dt; /* 1/s */
-    float k_2_dvp;  /* s/u: 2 / k_dvp */
-    float k_2ap;    /* u/s^2: 2 * amax less the margin */
-    uint8_t moving; /* 1 while the reference moves or has not reached the target */
+    float k_inv_dt;   /* 1/s */
+    float k_2_dvp;    /* s/u: 2 / k_dvp */
+    float k_2ap;      /* u/s^2: 2 * amax less the margin */
+    uint8_t moving;   /* 1 while the reference moves or has not reached the target */
 } profile_t;
 
 /* At rest on the target, with limits vmax (u/s) and amax (u/s^2). */

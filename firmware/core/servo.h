@@ -19,7 +19,7 @@
 
 #define SERVO_COUNT 8u
 #define SERVO_GOTO_FLAG NAVKIT_SERVO_GOTO_GOTO_FLAG /* param2 value that selects GoTo (9999) */
-#define SERVO_Q 1024L        /* position units per deg*10 */
+#define SERVO_Q 1024L                               /* position units per deg*10 */
 
 typedef enum {
     SERVO_OFF = 0,  /* not driven */
@@ -29,21 +29,21 @@ typedef enum {
 } servo_mode_t;
 
 typedef struct {
-    uint16_t center_us;      /* us: pulse at 0 deg */
-    uint16_t us_per_deg_e2;  /* 0.01 us/deg: pulse change per deg, + clockwise */
-    int16_t min10;           /* deg*10: left travel limit */
-    int16_t max10;           /* deg*10: right travel limit */
+    uint16_t center_us;     /* us: pulse at 0 deg */
+    uint16_t us_per_deg_e2; /* 0.01 us/deg: pulse change per deg, + clockwise */
+    int16_t min10;          /* deg*10: left travel limit */
+    int16_t max10;          /* deg*10: right travel limit */
 } servo_cal_t;
 
 typedef struct {
-    int32_t pos;     /* deg*10 * SERVO_Q: position */
-    int32_t step;    /* deg*10 * SERVO_Q per tick: speed */
-    int16_t goal;    /* deg*10: where it is moving now */
-    int16_t right;   /* deg*10: scan right limit (param1) */
-    int16_t left;    /* deg*10: scan left limit (param2) */
-    uint16_t rate;   /* deg*10/s: commanded rate */
-    uint16_t pulse;  /* us: pulse width as last refreshed */
-    uint8_t mode;    /* servo_mode_t */
+    int32_t pos;    /* deg*10 * SERVO_Q: position */
+    int32_t step;   /* deg*10 * SERVO_Q per tick: speed */
+    int16_t goal;   /* deg*10: where it is moving now */
+    int16_t right;  /* deg*10: scan right limit (param1) */
+    int16_t left;   /* deg*10: scan left limit (param2) */
+    uint16_t rate;  /* deg*10/s: commanded rate */
+    uint16_t pulse; /* us: pulse width as last refreshed */
+    uint8_t mode;   /* servo_mode_t */
 } servo_t;
 
 /* Not driven, at 0 deg. */

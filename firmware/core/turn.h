@@ -18,11 +18,11 @@
 #include "odom.h"
 
 typedef struct {
-    motion_t ax;        /* the turn axis, deg from the turn reference */
-    float hdg_target;   /* deg, 0..360: HdgSel heading */
-    float hdg_rate;     /* deg/s: HdgSel rate limit */
-    uint8_t hdg;        /* 1 while HdgSel steers */
-    uint8_t hdg_reached;/* 1 while HdgSel is within tolerance and at rest */
+    motion_t ax;         /* the turn axis, deg from the turn reference */
+    float hdg_target;    /* deg, 0..360: HdgSel heading */
+    float hdg_rate;      /* deg/s: HdgSel rate limit */
+    uint8_t hdg;         /* 1 while HdgSel steers */
+    uint8_t hdg_reached; /* 1 while HdgSel is within tolerance and at rest */
 } turn_t;
 
 /* The turn axis's part of a checked micro_cmd c, on t: turn_cmd 1 turns (turn_distance,

@@ -22,9 +22,9 @@ typedef struct {
 } wheel_gains_t;
 
 typedef struct {
-    float integ;    /* duty: integral term */
-    float prev_err; /* mm/s: speed error of the previous tick (for kd) */
-    float duty;     /* duty: last output, -pwm_limit..pwm_limit */
+    float integ;       /* duty: integral term */
+    float prev_err;    /* mm/s: speed error of the previous tick (for kd) */
+    float duty;        /* duty: last output, -pwm_limit..pwm_limit */
     uint8_t saturated; /* 1 if the last output hit pwm_limit */
 } wheel_t;
 

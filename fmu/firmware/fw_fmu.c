@@ -39,8 +39,14 @@ static uint16_t fw_fmu_adc_counts(double volts)
     return (c > 1023.0) ? 1023u : (uint16_t)c;
 }
 
-int32_t hal_enc_left(hal_t *h) { return h->io->enc_left; }
-int32_t hal_enc_right(hal_t *h) { return h->io->enc_right; }
+int32_t hal_enc_left(hal_t *h)
+{
+    return h->io->enc_left;
+}
+int32_t hal_enc_right(hal_t *h)
+{
+    return h->io->enc_right;
+}
 int16_t hal_gyro_raw(hal_t *h)
 {
     int32_t g = h->io->gyro_raw;
@@ -72,14 +78,24 @@ uint16_t hal_sonar_echo(hal_t *h, uint8_t i)
     }
     return h->sonar_us[i];
 }
-uint16_t hal_dio_in(hal_t *h) { return (uint16_t)(h->io->dio_in & 0x0FFF); }
-uint8_t hal_reset_cause(hal_t *h) { (void)h; return NAVKIT_RESET_CAUSE_POWER_ON; } /* no reset pin, watchdog or supply */
+uint16_t hal_dio_in(hal_t *h)
+{
+    return (uint16_t)(h->io->dio_in & 0x0FFF);
+}
+uint8_t hal_reset_cause(hal_t *h)
+{
+    (void)h;
+    return NAVKIT_RESET_CAUSE_POWER_ON;
+} /* no reset pin, watchdog or supply */
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
     h->io->motor_left_duty = (double)l / 10000.0;
     h->io->motor_right_duty = (double)r / 10000.0;
 }
-void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us) { h->io->servo_pulse[i] = (double)us; }
+void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us)
+{
+    h->io->servo_pulse[i] = (double)us;
+}
 void hal_dio_write(hal_t *h, uint16_t dir, uint16_t out)
 {
     h->io->dio_dir = dir;
@@ -96,7 +112,10 @@ size_t hal_uart_read(hal_t *h, uint8_t *buf, size_t cap)
     }
     return n;
 }
-size_t hal_uart_tx_free(hal_t *h) { return FW_FMU_TX_CAP - h->tx_len; }
+size_t hal_uart_tx_free(hal_t *h)
+{
+    return FW_FMU_TX_CAP - h->tx_len;
+}
 void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
 {
     size_t i;
@@ -126,7 +145,10 @@ uint8_t hal_can_read(hal_t *h, uint16_t *id, uint8_t data[8], uint8_t *dlc)
     h->canq_len--;
     return 1u;
 }
-uint8_t hal_can_tx_free(hal_t *h) { return (uint8_t)(FW_FMU_CAN_TXQ - h->can_txb_len); }
+uint8_t hal_can_tx_free(hal_t *h)
+{
+    return (uint8_t)(FW_FMU_CAN_TXQ - h->can_txb_len);
+}
 void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
 {
     uint8_t *r;
@@ -269,7 +291,10 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
     return FMIL_OK;
 }
 
-void fmil_model_inputs_changed(fmil_instance_t *c) { (void)c; /* the core reads its inputs each tick */ }
+void fmil_model_inputs_changed(fmil_instance_t *c)
+{
+    (void)c; /* the core reads its inputs each tick */
+}
 
 fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
 {
@@ -322,4 +347,7 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
     return FMIL_OK;
 }
 
-void fmil_model_free(fmil_instance_t *c) { (void)c; /* everything is in the instance */ }
+void fmil_model_free(fmil_instance_t *c)
+{
+    (void)c; /* everything is in the instance */
+}

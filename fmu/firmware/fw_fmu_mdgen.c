@@ -68,7 +68,8 @@ int main(int argc, char **argv)
             "  description=\"%s; protocol spec %s, spec_hash 0x%08lx\"\n"
             "  instantiationToken=\"%s\" generationTool=\"navkit fw_fmu_mdgen\" variableNamingConvention=\"flat\">\n",
             MD_NAME, MD_DESCRIPTION, FW_FMU_SPEC_FILE, (unsigned long)NAVKIT_SPEC_HASH, MD_TOKEN);
-    fprintf(f, "  <CoSimulation modelIdentifier=\"%s\" canHandleVariableCommunicationStepSize=\"true\"\n", MD_IDENTIFIER);
+    fprintf(f, "  <CoSimulation modelIdentifier=\"%s\" canHandleVariableCommunicationStepSize=\"true\"\n",
+            MD_IDENTIFIER);
 #ifndef FW_FMU_MDGEN_AVR
     fprintf(f, "    fixedInternalStepSize=\"%g\"\n", step);
 #endif
@@ -85,22 +86,22 @@ int main(int argc, char **argv)
                "  </LogCategories>\n");
     fprintf(f, "  <DefaultExperiment startTime=\"0\" stopTime=\"1\" stepSize=\"%g\"/>\n", step);
     fprintf(f, "  <ModelVariables>\n");
-#define F64(vr, name, caus, var, unit, start, field, desc)                                         \
-    fprintf(f, "    <Float64 name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc); \
-    var_attrs(f, #caus, #var);                                                                      \
-    fprintf(f, " unit=\"%s\"", unit);                                                               \
-    if (strcmp(#caus, "input") == 0 || strcmp(#caus, "parameter") == 0) {                           \
-        fprintf(f, " start=\"%.17g\"", (double)(start));                                            \
-    }                                                                                               \
+#define F64(vr, name, caus, var, unit, start, field, desc)                                                             \
+    fprintf(f, "    <Float64 name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc);                  \
+    var_attrs(f, #caus, #var);                                                                                         \
+    fprintf(f, " unit=\"%s\"", unit);                                                                                  \
+    if (strcmp(#caus, "input") == 0 || strcmp(#caus, "parameter") == 0) {                                              \
+        fprintf(f, " start=\"%.17g\"", (double)(start));                                                               \
+    }                                                                                                                  \
     fprintf(f, "/>\n");
     FW_FMU_FLOAT64_VARS(F64)
 #undef F64
-#define INT(vr, name, caus, var, unit, start, field, desc, tag)                                      \
-    fprintf(f, "    <%s name=\"%s\" valueReference=\"%u\" description=\"%s\"", tag, #name, vr, desc); \
-    var_attrs(f, #caus, #var);                                                                        \
-    if (strcmp(#caus, "input") == 0 || strcmp(#caus, "parameter") == 0) {                             \
-        fprintf(f, " start=\"%ld\"", (long)(start));                                                  \
-    }                                                                                                 \
+#define INT(vr, name, caus, var, unit, start, field, desc, tag)                                                        \
+    fprintf(f, "    <%s name=\"%s\" valueReference=\"%u\" description=\"%s\"", tag, #name, vr, desc);                  \
+    var_attrs(f, #caus, #var);                                                                                         \
+    if (strcmp(#caus, "input") == 0 || strcmp(#caus, "parameter") == 0) {                                              \
+        fprintf(f, " start=\"%ld\"", (long)(start));                                                                   \
+    }                                                                                                                  \
     fprintf(f, "/>\n");
 #define I32(vr, name, caus, var, unit, start, field, desc) INT(vr, name, caus, var, unit, start, field, desc, "Int32")
 #define U32(vr, name, caus, var, unit, start, field, desc) INT(vr, name, caus, var, unit, start, field, desc, "UInt32")
@@ -116,28 +117,28 @@ int main(int argc, char **argv)
 #undef U64
 #undef INT
 #ifdef FW_FMU_MDGEN_AVR
-#define STR(vr, name, caus, desc)                                                                          \
-    fprintf(f, "    <String name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc);      \
-    var_attrs(f, #caus, "fixed");                                                                           \
+#define STR(vr, name, caus, desc)                                                                                      \
+    fprintf(f, "    <String name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc);                   \
+    var_attrs(f, #caus, "fixed");                                                                                      \
     fprintf(f, ">\n      <Start value=\"\"/>\n    </String>\n");
     FWAVR_STRING_VARS(STR)
 #undef STR
 #endif
-#define BIN(vr, name, caus, desc)                                                                   \
-    fprintf(f, "    <Binary name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc); \
-    var_attrs(f, #caus, "discrete");                                                                 \
-    if (strcmp(#caus, "output") != 0) {                                                              \
-        fprintf(f, ">\n      <Start value=\"\"/>\n    </Binary>\n");                                 \
-    } else {                                                                                         \
-        fprintf(f, "/>\n");                                                                          \
+#define BIN(vr, name, caus, desc)                                                                                      \
+    fprintf(f, "    <Binary name=\"%s\" valueReference=\"%u\" description=\"%s\"", #name, vr, desc);                   \
+    var_attrs(f, #caus, "discrete");                                                                                   \
+    if (strcmp(#caus, "output") != 0) {                                                                                \
+        fprintf(f, ">\n      <Start value=\"\"/>\n    </Binary>\n");                                                   \
+    } else {                                                                                                           \
+        fprintf(f, "/>\n");                                                                                            \
     }
     FW_FMU_BINARY_VARS(BIN)
 #undef BIN
     fprintf(f, "  </ModelVariables>\n");
     fprintf(f, "  <ModelStructure>\n");
-#define OUT(vr, name, caus, ...)                                       \
-    if (strcmp(#caus, "output") == 0) {                                \
-        fprintf(f, "    <Output valueReference=\"%u\"/>\n", vr);       \
+#define OUT(vr, name, caus, ...)                                                                                       \
+    if (strcmp(#caus, "output") == 0) {                                                                                \
+        fprintf(f, "    <Output valueReference=\"%u\"/>\n", vr);                                                       \
     }
     FW_FMU_FLOAT64_VARS(OUT)
     FW_FMU_INT32_VARS(OUT)
@@ -147,9 +148,9 @@ int main(int argc, char **argv)
     FWAVR_UINT64_VARS(OUT)
 #endif
 #undef OUT
-#define INIT(vr, name, caus, ...)                                       \
-    if (strcmp(#caus, "output") == 0) {                                 \
-        fprintf(f, "    <InitialUnknown valueReference=\"%u\"/>\n", vr); \
+#define INIT(vr, name, caus, ...)                                                                                      \
+    if (strcmp(#caus, "output") == 0) {                                                                                \
+        fprintf(f, "    <InitialUnknown valueReference=\"%u\"/>\n", vr);                                               \
     }
     FW_FMU_FLOAT64_VARS(INIT)
     FW_FMU_INT32_VARS(INIT)

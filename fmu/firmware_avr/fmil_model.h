@@ -12,7 +12,7 @@
 #define FMIL_INSTANTIATION_TOKEN FWAVR_INSTANTIATION_TOKEN
 #define FMIL_NUM_VRS FWAVR_NUM_VRS
 
-#define FWAVR_RX_CAP BOARD_SIM_UART_QUEUE  /* bytes: serial_rx of one doStep */
+#define FWAVR_RX_CAP BOARD_SIM_UART_QUEUE   /* bytes: serial_rx of one doStep */
 #define FWAVR_WIRE_CAP BOARD_SIM_UART_QUEUE /* bytes: serial_tx of one doStep */
 
 /* The profile as the output variables hold it (board_sim_profile_t widened to their types). */
@@ -24,16 +24,16 @@ typedef struct {
 
 typedef struct {
     fw_fmu_io_t io;
-    double time;               /* s: the `time` variable */
-    uint32_t baud;             /* the parameter: must be the image's FWAVR_BAUD */
-    char image[FMIL_STR_MAX];  /* the parameter: path of the image, "" = the resource */
-    fmil_binary_t serial_rx;   /* -> rx: bytes for the next doStep */
-    fmil_binary_t serial_tx;   /* -> wire: bytes of the last doStep */
+    double time;              /* s: the `time` variable */
+    uint32_t baud;            /* the parameter: must be the image's FWAVR_BAUD */
+    char image[FMIL_STR_MAX]; /* the parameter: path of the image, "" = the resource */
+    fmil_binary_t serial_rx;  /* -> rx: bytes for the next doStep */
+    fmil_binary_t serial_tx;  /* -> wire: bytes of the last doStep */
     fwavr_prof_t prof;
-    board_sim_t *board;        /* NULL until the model starts */
-    double start_time;         /* s: when the board powered on (cycle 0) */
-    int32_t enc_set[2];        /* encoder counts last handed to the board (left, right) */
-    int32_t dio_in_set;        /* DIO input levels last handed to the board */
+    board_sim_t *board; /* NULL until the model starts */
+    double start_time;  /* s: when the board powered on (cycle 0) */
+    int32_t enc_set[2]; /* encoder counts last handed to the board (left, right) */
+    int32_t dio_in_set; /* DIO input levels last handed to the board */
     uint8_t rx[FWAVR_RX_CAP];
     uint8_t wire[FWAVR_WIRE_CAP];
 } fmil_model_t;

@@ -24,9 +24,8 @@
 
 #define FWAVR_ROW_STR(vr, name, caus, desc) FW_FMU_ROW(vr, name, caus, FMIL_STR, name)
 #define FWAVR_ROW_U64(vr, name, caus, var, unit, start, field, desc) FW_FMU_ROW(vr, name, caus, FMIL_U64, field)
-const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {
-    FW_FMU_FMIL_ROWS FWAVR_STRING_VARS(FWAVR_ROW_STR) FWAVR_UINT32_VARS(FW_FMU_ROW_U32)
-        FWAVR_UINT64_VARS(FWAVR_ROW_U64)};
+const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {FW_FMU_FMIL_ROWS FWAVR_STRING_VARS(FWAVR_ROW_STR) FWAVR_UINT32_VARS(
+    FW_FMU_ROW_U32) FWAVR_UINT64_VARS(FWAVR_ROW_U64)};
 
 fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
 {
@@ -93,7 +92,10 @@ fmil_status_t fmil_model_start(fmil_instance_t *c)
     return FMIL_OK;
 }
 
-void fmil_model_inputs_changed(fmil_instance_t *c) { (void)c; /* the pins take the inputs at the next step */ }
+void fmil_model_inputs_changed(fmil_instance_t *c)
+{
+    (void)c; /* the pins take the inputs at the next step */
+}
 
 /* mV for a voltage (V), clamped to the ADC's range, rounded to the nearest. */
 static uint16_t fwavr_mv(double volts)
@@ -182,4 +184,7 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h)
     return FMIL_OK;
 }
 
-void fmil_model_free(fmil_instance_t *c) { fwavr_power_off(&c->model); }
+void fmil_model_free(fmil_instance_t *c)
+{
+    fwavr_power_off(&c->model);
+}

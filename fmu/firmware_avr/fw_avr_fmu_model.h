@@ -19,42 +19,40 @@
 #define FWAVR_MODEL_IDENTIFIER "navkit_firmware_avr"
 #define FWAVR_MODEL_NAME "navkit firmware on the AVR"
 #define FWAVR_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6176}"
-#define FWAVR_DESCRIPTION                                                                                  \
-    "navkit reference firmware as the flashed ATmega2560 image, executed cycle by cycle in simavr on a " \
+#define FWAVR_DESCRIPTION                                                                                              \
+    "navkit reference firmware as the flashed ATmega2560 image, executed cycle by cycle in simavr on a "               \
     "simulated Arduino Mega 2560, coupled at its pins (processor in the loop)"
 #define FWAVR_IMAGE_RESOURCE "navkit-mega2560.elf" /* in the FMU's resources/ folder */
 #define FWAVR_F_CPU_HZ 16000000.0                  /* Hz: cycles per simulated second */
 #define FWAVR_BAUD 115200u                         /* the image's UART0 rate */
 
 /* String: X(vr, name, causality, description); the start value is "". */
-#define FWAVR_STRING_VARS(X)                                                                            \
-    X(60, image, parameter,                                                                             \
-      "AVR image to run (.elf or .hex), an absolute path; empty = the one in the FMU's resources")
+#define FWAVR_STRING_VARS(X)                                                                                           \
+    X(60, image, parameter, "AVR image to run (.elf or .hex), an absolute path; empty = the one in the FMU's resources")
 
 /* X(vr, name, causality, variability, unit, start, field, description), as fw_fmu_model.h;
  * every one an output read from the board simulator's profile (board_sim_profile_t). */
-#define FWAVR_UINT32_VARS(X)                                                                             \
-    X(62, prof_ticks, output, discrete, "", 0, prof.ticks, "fw_tick() calls completed")                   \
-    X(63, prof_tick_worst_cycles, output, discrete, "", 0, prof.tick_worst_cycles,                       \
-      "Cycles of the longest fw_tick() (interrupts taken inside it included)")                           \
-    X(64, prof_tick_mean_cycles, output, discrete, "", 0, prof.tick_mean_cycles,                         \
-      "Mean cycles of fw_tick(), rounded down")                                                          \
-    X(66, prof_polls, output, discrete, "", 0, prof.polls, "fw_link_poll() calls completed")             \
-    X(67, prof_poll_worst_cycles, output, discrete, "", 0, prof.poll_worst_cycles,                       \
-      "Cycles of the longest fw_link_poll()")                                                            \
-    X(68, prof_poll_mean_cycles, output, discrete, "", 0, prof.poll_mean_cycles,                         \
-      "Mean cycles of fw_link_poll(), rounded down")                                                     \
-    X(70, prof_resets, output, discrete, "", 0, prof.resets, "Resets of the core after its first start")  \
-    X(71, prof_watchdog_resets, output, discrete, "", 0, prof.watchdog_resets,                           \
-      "Of prof_resets, those by the hardware watchdog")                                                  \
-    X(72, prof_stack_max_bytes, output, discrete, "", 0, prof.stack_max_bytes,                           \
-      "Deepest stack seen, bytes below RAMEND")
+#define FWAVR_UINT32_VARS(X)                                                                                           \
+    X(62, prof_ticks, output, discrete, "", 0, prof.ticks, "fw_tick() calls completed")                                \
+    X(63, prof_tick_worst_cycles, output, discrete, "", 0, prof.tick_worst_cycles,                                     \
+      "Cycles of the longest fw_tick() (interrupts taken inside it included)")                                         \
+    X(64, prof_tick_mean_cycles, output, discrete, "", 0, prof.tick_mean_cycles,                                       \
+      "Mean cycles of fw_tick(), rounded down")                                                                        \
+    X(66, prof_polls, output, discrete, "", 0, prof.polls, "fw_link_poll() calls completed")                           \
+    X(67, prof_poll_worst_cycles, output, discrete, "", 0, prof.poll_worst_cycles,                                     \
+      "Cycles of the longest fw_link_poll()")                                                                          \
+    X(68, prof_poll_mean_cycles, output, discrete, "", 0, prof.poll_mean_cycles,                                       \
+      "Mean cycles of fw_link_poll(), rounded down")                                                                   \
+    X(70, prof_resets, output, discrete, "", 0, prof.resets, "Resets of the core after its first start")               \
+    X(71, prof_watchdog_resets, output, discrete, "", 0, prof.watchdog_resets,                                         \
+      "Of prof_resets, those by the hardware watchdog")                                                                \
+    X(72, prof_stack_max_bytes, output, discrete, "", 0, prof.stack_max_bytes, "Deepest stack seen, bytes below RAMEND")
 
-#define FWAVR_UINT64_VARS(X)                                                                             \
-    X(61, avr_cycles, output, discrete, "", 0, prof.cycles, "Cycles the core has run (16 MHz)")           \
-    X(65, prof_tick_total_cycles, output, discrete, "", 0, prof.tick_total_cycles,                       \
-      "Cycles of all fw_tick() calls together (CPU share = this / avr_cycles)")                          \
-    X(69, prof_poll_total_cycles, output, discrete, "", 0, prof.poll_total_cycles,                       \
+#define FWAVR_UINT64_VARS(X)                                                                                           \
+    X(61, avr_cycles, output, discrete, "", 0, prof.cycles, "Cycles the core has run (16 MHz)")                        \
+    X(65, prof_tick_total_cycles, output, discrete, "", 0, prof.tick_total_cycles,                                     \
+      "Cycles of all fw_tick() calls together (CPU share = this / avr_cycles)")                                        \
+    X(69, prof_poll_total_cycles, output, discrete, "", 0, prof.poll_total_cycles,                                     \
       "Cycles of all fw_link_poll() calls together")
 
 #define FWAVR_NUM_VRS 73u /* one past the highest value reference of both tables */

@@ -33,8 +33,17 @@
 /* The calls whose legality depends on the state (fmil_allowed). FMIL_SETUP_EXPERIMENT and
  * FMIL_GET_STATUS are FMI 2 only. */
 typedef enum {
-    FMIL_SET_DEBUG_LOGGING, FMIL_SETUP_EXPERIMENT, FMIL_ENTER_INIT, FMIL_EXIT_INIT, FMIL_TERMINATE,
-    FMIL_RESET, FMIL_GET, FMIL_SET, FMIL_DO_STEP, FMIL_GET_STATUS, FMIL_FN_COUNT
+    FMIL_SET_DEBUG_LOGGING,
+    FMIL_SETUP_EXPERIMENT,
+    FMIL_ENTER_INIT,
+    FMIL_EXIT_INIT,
+    FMIL_TERMINATE,
+    FMIL_RESET,
+    FMIL_GET,
+    FMIL_SET,
+    FMIL_DO_STEP,
+    FMIL_GET_STATUS,
+    FMIL_FN_COUNT
 } fmil_fn_t;
 
 typedef struct fmil_instance fmil_instance_t;
@@ -45,16 +54,16 @@ typedef void (*fmil_log_fn)(const fmil_instance_t *c, fmil_status_t st, const ch
 
 /* One FMU instance: the layer's bookkeeping and the model. */
 struct fmil_instance {
-    unsigned state;          /* one FMIL_ST_* bit (fmil_instance.c) */
-    int dirty;               /* parameters set since fmil_model_start last ran */
-    int log_events;          /* logEvents messages on (SetDebugLogging); errors always go */
-    char name[128];          /* instance name */
-    const char *api;         /* "fmi2" or "fmi3": prefix of function names in messages */
-    fmil_log_fn log;         /* the version layer's logger */
-    void *env;               /* the importer's environment pointer */
-    void (*callback)(void);  /* the importer's logger (cast to the version's type) */
-    char resources[1024];    /* the FMU's resources folder, a path ("" when unknown) */
-    double time;             /* s: the next communication point */
+    unsigned state;         /* one FMIL_ST_* bit (fmil_instance.c) */
+    int dirty;              /* parameters set since fmil_model_start last ran */
+    int log_events;         /* logEvents messages on (SetDebugLogging); errors always go */
+    char name[128];         /* instance name */
+    const char *api;        /* "fmi2" or "fmi3": prefix of function names in messages */
+    fmil_log_fn log;        /* the version layer's logger */
+    void *env;              /* the importer's environment pointer */
+    void (*callback)(void); /* the importer's logger (cast to the version's type) */
+    char resources[1024];   /* the FMU's resources folder, a path ("" when unknown) */
+    double time;            /* s: the next communication point */
     fmil_model_t model;
 };
 
@@ -130,8 +139,8 @@ fmil_status_t fmil_get(fmil_instance_t *c, const uint32_t vr[], size_t nvr, void
 fmil_status_t fmil_set(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const void *values, size_t nvals,
                        fmil_type_t type, const char *fn);
 /* Get of String variables: points values[i] at the value (valid until it is set again). */
-fmil_status_t fmil_get_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *values[],
-                               size_t nvals, const char *fn);
+fmil_status_t fmil_get_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *values[], size_t nvals,
+                               const char *fn);
 /* Set of String variables: copies values[i] (NULL = "", shorter than FMIL_STR_MAX). */
 fmil_status_t fmil_set_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *const values[],
                                size_t nvals, const char *fn);

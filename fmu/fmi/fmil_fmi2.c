@@ -24,9 +24,15 @@ static void fmil2_log(const fmil_instance_t *c, fmil_status_t st, const char *ca
 
 /* ---------------------------------------------------------------- common */
 
-const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetTypesPlatform(void)
+{
+    return fmi2TypesPlatform;
+}
 
-const char *fmi2GetVersion(void) { return fmi2Version; }
+const char *fmi2GetVersion(void)
+{
+    return fmi2Version;
+}
 
 fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn, size_t nCategories,
                                const fmi2String categories[])
@@ -59,10 +65,13 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                     functions ? (void (*)(void))functions->logger : NULL);
 }
 
-void fmi2FreeInstance(fmi2Component comp) { fmil_free((fmil_instance_t *)comp); }
+void fmi2FreeInstance(fmi2Component comp)
+{
+    fmil_free((fmil_instance_t *)comp);
+}
 
-fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined, fmi2Real tolerance,
-                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
+fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined, fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime)
 {
     fmil_instance_t *c = (fmil_instance_t *)comp;
     (void)toleranceDefined, (void)tolerance, (void)stopTimeDefined, (void)stopTime;
@@ -80,11 +89,20 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component comp)
     return fmil2_status(fmil_enter_init(c, c ? c->time : 0.0));
 }
 
-fmi2Status fmi2ExitInitializationMode(fmi2Component comp) { return fmil2_status(fmil_exit_init((fmil_instance_t *)comp)); }
+fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
+{
+    return fmil2_status(fmil_exit_init((fmil_instance_t *)comp));
+}
 
-fmi2Status fmi2Terminate(fmi2Component comp) { return fmil2_status(fmil_terminate((fmil_instance_t *)comp)); }
+fmi2Status fmi2Terminate(fmi2Component comp)
+{
+    return fmil2_status(fmil_terminate((fmil_instance_t *)comp));
+}
 
-fmi2Status fmi2Reset(fmi2Component comp) { return fmil2_status(fmil_reset((fmil_instance_t *)comp)); }
+fmi2Status fmi2Reset(fmi2Component comp)
+{
+    return fmil2_status(fmil_reset((fmil_instance_t *)comp));
+}
 
 /* ---------------------------------------------------------------- get / set */
 

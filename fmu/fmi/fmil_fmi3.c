@@ -23,7 +23,10 @@ static void fmil3_log(const fmil_instance_t *c, fmil_status_t st, const char *ca
 
 /* ---------------------------------------------------------------- instances */
 
-const char *fmi3GetVersion(void) { return fmi3Version; }
+const char *fmi3GetVersion(void)
+{
+    return fmi3Version;
+}
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
@@ -71,8 +74,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
                                                fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                                fmi3InstanceEnvironment instanceEnvironment,
-                                               fmi3LogMessageCallback logMessage,
-                                               fmi3ClockUpdateCallback clockUpdate,
+                                               fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
                                                fmi3LockPreemptionCallback lockPreemption,
                                                fmi3UnlockPreemptionCallback unlockPreemption)
 {
@@ -81,7 +83,10 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
     return fmil3_cosim_only(instanceEnvironment, logMessage);
 }
 
-void fmi3FreeInstance(fmi3Instance instance) { fmil_free((fmil_instance_t *)instance); }
+void fmi3FreeInstance(fmi3Instance instance)
+{
+    fmil_free((fmil_instance_t *)instance);
+}
 
 fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
                                const fmi3String categories[])
@@ -101,23 +106,28 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
     return fmil3_status(fmil_exit_init((fmil_instance_t *)instance));
 }
 
-fmi3Status fmi3Terminate(fmi3Instance instance) { return fmil3_status(fmil_terminate((fmil_instance_t *)instance)); }
+fmi3Status fmi3Terminate(fmi3Instance instance)
+{
+    return fmil3_status(fmil_terminate((fmil_instance_t *)instance));
+}
 
-fmi3Status fmi3Reset(fmi3Instance instance) { return fmil3_status(fmil_reset((fmil_instance_t *)instance)); }
+fmi3Status fmi3Reset(fmi3Instance instance)
+{
+    return fmil3_status(fmil_reset((fmil_instance_t *)instance));
+}
 
 /* ---------------------------------------------------------------- get / set */
 
 /* fmi3Get<T> / fmi3Set<T> of a scalar type the layer stores (FMIL type LT). */
-#define FMIL3_SCALAR(T, CT, LT)                                                                                   \
-    fmi3Status fmi3Get##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, CT values[],       \
-                          size_t nv)                                                                            \
-    {                                                                                                           \
-        return fmil3_status(fmil_get((fmil_instance_t *)instance, vrs, nvr, values, nv, LT, "fmi3Get" #T));     \
-    }                                                                                                           \
-    fmi3Status fmi3Set##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, const CT values[], \
-                          size_t nv)                                                                            \
-    {                                                                                                           \
-        return fmil3_status(fmil_set((fmil_instance_t *)instance, vrs, nvr, values, nv, LT, "fmi3Set" #T));     \
+#define FMIL3_SCALAR(T, CT, LT)                                                                                        \
+    fmi3Status fmi3Get##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, CT values[], size_t nv)   \
+    {                                                                                                                  \
+        return fmil3_status(fmil_get((fmil_instance_t *)instance, vrs, nvr, values, nv, LT, "fmi3Get" #T));            \
+    }                                                                                                                  \
+    fmi3Status fmi3Set##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, const CT values[],        \
+                          size_t nv)                                                                                   \
+    {                                                                                                                  \
+        return fmil3_status(fmil_set((fmil_instance_t *)instance, vrs, nvr, values, nv, LT, "fmi3Set" #T));            \
     }
 FMIL3_SCALAR(Float64, fmi3Float64, FMIL_F64)
 FMIL3_SCALAR(Int32, fmi3Int32, FMIL_I32)
@@ -125,18 +135,17 @@ FMIL3_SCALAR(UInt32, fmi3UInt32, FMIL_U32)
 FMIL3_SCALAR(UInt64, fmi3UInt64, FMIL_U64)
 
 /* fmi3Get<T> / fmi3Set<T> of a type no model has: an error for any value reference. */
-#define FMIL3_NO_TYPE(T, CT)                                                                                    \
-    fmi3Status fmi3Get##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, CT values[],       \
-                          size_t nv)                                                                            \
-    {                                                                                                           \
-        (void)vrs, (void)values, (void)nv;                                                                      \
-        return fmil3_status(fmil_no_values((fmil_instance_t *)instance, nvr, "fmi3Get" #T));                    \
-    }                                                                                                           \
-    fmi3Status fmi3Set##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, const CT values[], \
-                          size_t nv)                                                                            \
-    {                                                                                                           \
-        (void)vrs, (void)values, (void)nv;                                                                      \
-        return fmil3_status(fmil_no_values((fmil_instance_t *)instance, nvr, "fmi3Set" #T));                    \
+#define FMIL3_NO_TYPE(T, CT)                                                                                           \
+    fmi3Status fmi3Get##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, CT values[], size_t nv)   \
+    {                                                                                                                  \
+        (void)vrs, (void)values, (void)nv;                                                                             \
+        return fmil3_status(fmil_no_values((fmil_instance_t *)instance, nvr, "fmi3Get" #T));                           \
+    }                                                                                                                  \
+    fmi3Status fmi3Set##T(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, const CT values[],        \
+                          size_t nv)                                                                                   \
+    {                                                                                                                  \
+        (void)vrs, (void)values, (void)nv;                                                                             \
+        return fmil3_status(fmil_no_values((fmil_instance_t *)instance, nvr, "fmi3Set" #T));                           \
     }
 FMIL3_NO_TYPE(Float32, fmi3Float32)
 FMIL3_NO_TYPE(Int8, fmi3Int8)
@@ -152,8 +161,8 @@ fmi3Status fmi3GetString(fmi3Instance instance, const fmi3ValueReference vrs[], 
     return fmil3_status(fmil_get_strings((fmil_instance_t *)instance, vrs, nvr, values, nv, "fmi3GetString"));
 }
 
-fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr,
-                         const fmi3String values[], size_t nv)
+fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, const fmi3String values[],
+                         size_t nv)
 {
     return fmil3_status(fmil_set_strings((fmil_instance_t *)instance, vrs, nvr, values, nv, "fmi3SetString"));
 }
@@ -165,8 +174,8 @@ fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vrs[], 
         fmil_get_binaries((fmil_instance_t *)instance, vrs, nvr, valueSizes, values, nv, "fmi3GetBinary"));
 }
 
-fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr,
-                         const size_t valueSizes[], const fmi3Binary values[], size_t nv)
+fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, const size_t valueSizes[],
+                         const fmi3Binary values[], size_t nv)
 {
     return fmil3_status(
         fmil_set_binaries((fmil_instance_t *)instance, vrs, nvr, valueSizes, values, nv, "fmi3SetBinary"));
@@ -186,10 +195,9 @@ fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vrs[], s
 
 /* ---------------------------------------------------------------- co-simulation */
 
-fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
-                      fmi3Float64 communicationStepSize, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                      fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn,
-                      fmi3Float64 *lastSuccessfulTime)
+fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint, fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean *eventHandlingNeeded,
+                      fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
 {
     fmil_instance_t *c = (fmil_instance_t *)instance;
     fmil_status_t st;
@@ -214,11 +222,26 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
 
 #define FMIL3_UNSUPPORTED(name) fmil3_status(fmil_unsupported((fmil_instance_t *)instance, name))
 
-fmi3Status fmi3EnterEventMode(fmi3Instance instance) { return FMIL3_UNSUPPORTED("fmi3EnterEventMode"); }
-fmi3Status fmi3EnterStepMode(fmi3Instance instance) { return FMIL3_UNSUPPORTED("fmi3EnterStepMode (no event mode)"); }
-fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) { return FMIL3_UNSUPPORTED("fmi3EnterConfigurationMode"); }
-fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) { return FMIL3_UNSUPPORTED("fmi3ExitConfigurationMode"); }
-fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) { return FMIL3_UNSUPPORTED("fmi3EvaluateDiscreteStates"); }
+fmi3Status fmi3EnterEventMode(fmi3Instance instance)
+{
+    return FMIL3_UNSUPPORTED("fmi3EnterEventMode");
+}
+fmi3Status fmi3EnterStepMode(fmi3Instance instance)
+{
+    return FMIL3_UNSUPPORTED("fmi3EnterStepMode (no event mode)");
+}
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance)
+{
+    return FMIL3_UNSUPPORTED("fmi3EnterConfigurationMode");
+}
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance)
+{
+    return FMIL3_UNSUPPORTED("fmi3ExitConfigurationMode");
+}
+fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance)
+{
+    return FMIL3_UNSUPPORTED("fmi3EvaluateDiscreteStates");
+}
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
 {
     return FMIL3_UNSUPPORTED("fmi3EnterContinuousTimeMode");
@@ -302,15 +325,13 @@ fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReferenc
 }
 
 fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr,
-                                   fmi3UInt64 counters[], fmi3UInt64 resolutions[],
-                                   fmi3IntervalQualifier qualifiers[])
+                                   fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
 {
     (void)vrs, (void)nvr, (void)counters, (void)resolutions, (void)qualifiers;
     return FMIL3_UNSUPPORTED("fmi3GetIntervalFraction");
 }
 
-fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr,
-                               fmi3Float64 shifts[])
+fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vrs[], size_t nvr, fmi3Float64 shifts[])
 {
     (void)vrs, (void)nvr, (void)shifts;
     return FMIL3_UNSUPPORTED("fmi3GetShiftDecimal");

@@ -167,8 +167,8 @@ fmil_status_t fmil_reset(fmil_instance_t *c)
 /* ---------------------------------------------------------------- get / set */
 
 static const char *const fmil_type_name[] = {
-    [FMIL_NONE] = "no", [FMIL_F64] = "Float64", [FMIL_I32] = "Int32", [FMIL_U32] = "UInt32",
-    [FMIL_U64] = "UInt64", [FMIL_STR] = "String", [FMIL_BIN] = "Binary",
+    [FMIL_NONE] = "no",    [FMIL_F64] = "Float64", [FMIL_I32] = "Int32",  [FMIL_U32] = "UInt32",
+    [FMIL_U64] = "UInt64", [FMIL_STR] = "String",  [FMIL_BIN] = "Binary",
 };
 
 /* The table row of vr if it is a variable of type; else logs why and returns NULL. */
@@ -213,8 +213,7 @@ static fmil_status_t fmil_access(fmil_instance_t *c, int get, size_t nvr, size_t
         return FMIL_ERROR;
     }
     if (nvals != nvr) {
-        fmil_log(c, FMIL_ERROR, "%s: nValues %zu != nValueReferences %zu (all variables are scalars)", fn, nvals,
-                 nvr);
+        fmil_log(c, FMIL_ERROR, "%s: nValues %zu != nValueReferences %zu (all variables are scalars)", fn, nvals, nvr);
         return FMIL_ERROR;
     }
     if (get && c->state == FMIL_ST_INIT && fmil_ensure_started(c)) {
@@ -226,22 +225,21 @@ static fmil_status_t fmil_access(fmil_instance_t *c, int get, size_t nvr, size_t
 /* These calls run several times per 1 ms co-simulation step: per value one table check
  * and one copy of a size known at compile time (a loop per type). On an error the values
  * before the bad reference were copied. */
-#define FMIL_COPY_LOOP(CT, LT, GET)                                                       \
-    for (i = 0; i < nvr; i++) {                                                          \
-        const uint32_t r = vr[i];                                                        \
-        if (r >= FMIL_NUM_VRS || fmil_model_vars[r].type != (LT)) {                      \
-            (void)fmil_lookup(c, r, LT, fn); /* logs why */                              \
-            return FMIL_ERROR;                                                           \
-        }                                                                                \
-        if (GET) {                                                                       \
-            ((CT *)values)[i] = *(const CT *)(const void *)(base + fmil_model_vars[r].offset); \
-        } else {                                                                         \
-            if (fmil_model_vars[r].causality != FMIL_INPUT &&                            \
-                !fmil_can_set(c, &fmil_model_vars[r], fn)) {                             \
-                return FMIL_ERROR;                                                       \
-            }                                                                            \
-            *(CT *)(void *)(base + fmil_model_vars[r].offset) = ((const CT *)values)[i]; \
-        }                                                                                \
+#define FMIL_COPY_LOOP(CT, LT, GET)                                                                                    \
+    for (i = 0; i < nvr; i++) {                                                                                        \
+        const uint32_t r = vr[i];                                                                                      \
+        if (r >= FMIL_NUM_VRS || fmil_model_vars[r].type != (LT)) {                                                    \
+            (void)fmil_lookup(c, r, LT, fn); /* logs why */                                                            \
+            return FMIL_ERROR;                                                                                         \
+        }                                                                                                              \
+        if (GET) {                                                                                                     \
+            ((CT *)values)[i] = *(const CT *)(const void *)(base + fmil_model_vars[r].offset);                         \
+        } else {                                                                                                       \
+            if (fmil_model_vars[r].causality != FMIL_INPUT && !fmil_can_set(c, &fmil_model_vars[r], fn)) {             \
+                return FMIL_ERROR;                                                                                     \
+            }                                                                                                          \
+            *(CT *)(void *)(base + fmil_model_vars[r].offset) = ((const CT *)values)[i];                               \
+        }                                                                                                              \
     }
 
 /* Get (get != 0) or Set of nvr scalars of type between values and the model. */
@@ -306,8 +304,8 @@ fmil_status_t fmil_set(fmil_instance_t *c, const uint32_t vr[], size_t nvr, cons
     return fmil_copy(c, vr, nvr, (void *)values, nvals, type, 0, fn);
 }
 
-fmil_status_t fmil_get_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *values[],
-                               size_t nvals, const char *fn)
+fmil_status_t fmil_get_strings(fmil_instance_t *c, const uint32_t vr[], size_t nvr, const char *values[], size_t nvals,
+                               const char *fn)
 {
     size_t i;
     if (fmil_access(c, 1, nvr, nvals, fn)) {

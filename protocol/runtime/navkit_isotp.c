@@ -1,14 +1,14 @@
 /* navkit_isotp: ISO 15765-2 on classic CAN. See navkit/navkit_isotp.h. */
 #include "navkit/navkit_isotp.h"
 
-#define ISOTP_SF 0u   /* PCI frame types (high nibble of byte 0) */
+#define ISOTP_SF 0u /* PCI frame types (high nibble of byte 0) */
 #define ISOTP_FF 1u
 #define ISOTP_CF 2u
 #define ISOTP_FC 3u
 #define ISOTP_CONTINUE 0u /* flow statuses (low nibble of a flow control) */
 #define ISOTP_WAIT 1u
 #define ISOTP_OVERFLOW 2u
-#define ISOTP_SF_MAX 7u /* bytes: the most a single frame carries */
+#define ISOTP_SF_MAX 7u  /* bytes: the most a single frame carries */
 #define ISOTP_FF_DATA 6u /* bytes a first frame carries */
 #define ISOTP_CF_DATA 7u /* bytes a consecutive frame carries */
 
@@ -77,7 +77,7 @@ static void navkit_isotp_rx_restart(navkit_isotp_rx_t *rx)
 }
 
 uint16_t navkit_isotp_rx_frame(navkit_isotp_rx_t *rx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms,
-                         navkit_isotp_frame_t *fc, uint8_t *fc_out)
+                               navkit_isotp_frame_t *fc, uint8_t *fc_out)
 {
     uint16_t msg_type;
     uint16_t n;

@@ -40,13 +40,13 @@ extern "C" {
 #endif
 
 /* Flags a target ORs into a received identifier: such frames are refused. */
-#define NAVKIT_ISOTP_EXT 0x8000u /* an extended (29-bit) identifier frame */
-#define NAVKIT_ISOTP_RTR 0x4000u /* a remote frame */
+#define NAVKIT_ISOTP_EXT 0x8000u     /* an extended (29-bit) identifier frame */
+#define NAVKIT_ISOTP_RTR 0x4000u     /* a remote frame */
 #define NAVKIT_ISOTP_ID_MASK 0x07FFu /* the 11-bit identifier */
 
 /* bytes: a receive or send buffer, the largest frame of either direction */
-#define NAVKIT_ISOTP_MAX_BYTES \
-    (NAVKIT_CAN_MAX_TO_MICRO_BYTES > NAVKIT_CAN_MAX_TO_HOST_BYTES ? NAVKIT_CAN_MAX_TO_MICRO_BYTES \
+#define NAVKIT_ISOTP_MAX_BYTES                                                                                         \
+    (NAVKIT_CAN_MAX_TO_MICRO_BYTES > NAVKIT_CAN_MAX_TO_HOST_BYTES ? NAVKIT_CAN_MAX_TO_MICRO_BYTES                      \
                                                                   : NAVKIT_CAN_MAX_TO_HOST_BYTES)
 
 /* One classic CAN data frame as the core sends it: 11-bit identifier, 8 data bytes. */
@@ -68,14 +68,14 @@ typedef struct {
 
 typedef struct {
     uint8_t buf[NAVKIT_ISOTP_MAX_BYTES]; /* the message being received, or the one just completed */
-    uint16_t have;        /* bytes in buf */
-    uint16_t want;        /* bytes of the message in progress */
-    uint16_t id;          /* its identifier */
-    uint32_t deadline_ms; /* ms: abort unless the next consecutive frame comes by then */
-    navkit_dir_t dir;     /* the messages accepted: those travelling towards dir */
-    uint8_t active;       /* 1 while a message is in progress */
-    uint8_t sn;           /* sequence number of the next consecutive frame, 0..15 */
-    uint8_t block;        /* consecutive frames left in this block (0: no block size) */
+    uint16_t have;                       /* bytes in buf */
+    uint16_t want;                       /* bytes of the message in progress */
+    uint16_t id;                         /* its identifier */
+    uint32_t deadline_ms;                /* ms: abort unless the next consecutive frame comes by then */
+    navkit_dir_t dir;                    /* the messages accepted: those travelling towards dir */
+    uint8_t active;                      /* 1 while a message is in progress */
+    uint8_t sn;                          /* sequence number of the next consecutive frame, 0..15 */
+    uint8_t block;                       /* consecutive frames left in this block (0: no block size) */
     navkit_isotp_rx_stats_t stats;
 } navkit_isotp_rx_t;
 
@@ -91,16 +91,16 @@ typedef struct {
 
 typedef struct {
     uint8_t buf[NAVKIT_ISOTP_MAX_BYTES]; /* the message: the caller writes it, then navkit_isotp_tx_start() */
-    uint16_t len;         /* bytes of the message (0: idle) */
-    uint16_t done;        /* bytes sent so far */
-    uint16_t id;          /* identifier of its frames */
-    uint16_t fc_id;       /* identifier of its receiver's flow control */
-    uint32_t deadline_ms; /* ms: while waiting, abandon unless a flow control comes by then */
-    uint32_t next_ms;     /* ms: when the next consecutive frame may go */
-    uint8_t st_ms;        /* ms between consecutive frames (the flow control's STmin) */
-    uint8_t waiting;      /* 1: the first frame went, no flow control yet */
-    uint8_t block;        /* consecutive frames left before the next flow control (0: all) */
-    uint8_t sn;           /* sequence number of the next consecutive frame */
+    uint16_t len;                        /* bytes of the message (0: idle) */
+    uint16_t done;                       /* bytes sent so far */
+    uint16_t id;                         /* identifier of its frames */
+    uint16_t fc_id;                      /* identifier of its receiver's flow control */
+    uint32_t deadline_ms;                /* ms: while waiting, abandon unless a flow control comes by then */
+    uint32_t next_ms;                    /* ms: when the next consecutive frame may go */
+    uint8_t st_ms;                       /* ms between consecutive frames (the flow control's STmin) */
+    uint8_t waiting;                     /* 1: the first frame went, no flow control yet */
+    uint8_t block;                       /* consecutive frames left before the next flow control (0: all) */
+    uint8_t sn;                          /* sequence number of the next consecutive frame */
     navkit_isotp_tx_stats_t stats;
 } navkit_isotp_tx_t;
 
@@ -110,7 +110,7 @@ void navkit_isotp_rx_init(navkit_isotp_rx_t *rx, navkit_dir_t dir);
  * bytes) at now_ms. Returns the bytes of the message it completes (in rx->buf, valid until
  * the next call), else 0. Sets *fc_out = 1 and fills *fc when a flow control must go out. */
 uint16_t navkit_isotp_rx_frame(navkit_isotp_rx_t *rx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms,
-                         navkit_isotp_frame_t *fc, uint8_t *fc_out);
+                               navkit_isotp_frame_t *fc, uint8_t *fc_out);
 /* Abort a message whose next consecutive frame is overdue at now_ms (N_Cr). */
 void navkit_isotp_rx_poll(navkit_isotp_rx_t *rx, uint32_t now_ms);
 

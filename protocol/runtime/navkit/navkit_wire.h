@@ -38,12 +38,12 @@ extern "C" {
  * space code that no call returned). */
 enum {
     NAVKIT_OK = 0,
-    NAVKIT_ERR_CRC = 1,     /* CRC word does not match the bytes before it */
-    NAVKIT_ERR_TYPE = 2,    /* message type unknown, or not for this direction */
-    NAVKIT_ERR_LENGTH = 3,  /* length word or buffer length differs from the type's */
-    NAVKIT_ERR_RANGE = 4,   /* a field is outside its spec min..max */
-    NAVKIT_ERR_START = 6,   /* frame does not begin with the start word */
-    NAVKIT_ERR_SCHEMA = 7,  /* a CRC-good frame of another spec version (parser only) */
+    NAVKIT_ERR_CRC = 1,       /* CRC word does not match the bytes before it */
+    NAVKIT_ERR_TYPE = 2,      /* message type unknown, or not for this direction */
+    NAVKIT_ERR_LENGTH = 3,    /* length word or buffer length differs from the type's */
+    NAVKIT_ERR_RANGE = 4,     /* a field is outside its spec min..max */
+    NAVKIT_ERR_START = 6,     /* frame does not begin with the start word */
+    NAVKIT_ERR_SCHEMA = 7,    /* a CRC-good frame of another spec version (parser only) */
     NAVKIT_ERR_CONSTRAINT = 8 /* fields within their ranges break a spec constraint (le, nonzero) */
 };
 
@@ -121,19 +121,19 @@ typedef struct {
 /* Incremental frame parser. Fixed size: a buffer for the longest frame of any spec
  * version (NAVKIT_MAX_FRAME_WORDS words, to judge other versions' frames) plus counters. */
 typedef struct navkit_parser {
-    uint16_t want;             /* bytes: next() found the candidate at buf[0] short; until
+    uint16_t want; /* bytes: next() found the candidate at buf[0] short; until
                                   `have` reaches this it returns 0 at once, as judging it
                                   again could change nothing (first: a short displacement
                                   for the AVR's stores) */
     uint8_t buf[2u * NAVKIT_MAX_FRAME_WORDS];
-    uint16_t have;             /* bytes in buf */
-    uint16_t consume;          /* bytes of the frame returned last, dropped on the next call */
-    navkit_dir_t dir;          /* which types are accepted */
-    uint32_t offset;           /* stream offset (bytes fed so far) of buf[0] */
-    int last_error;            /* reason of the last rejected candidate (NAVKIT_ERR_*) */
-    uint32_t last_error_offset;/* its stream offset */
-    uint32_t foreign_hash;     /* spec hash of the last schema_mismatch frame (0: none yet) */
-    uint32_t foreign_offset;   /* its stream offset */
+    uint16_t have;              /* bytes in buf */
+    uint16_t consume;           /* bytes of the frame returned last, dropped on the next call */
+    navkit_dir_t dir;           /* which types are accepted */
+    uint32_t offset;            /* stream offset (bytes fed so far) of buf[0] */
+    int last_error;             /* reason of the last rejected candidate (NAVKIT_ERR_*) */
+    uint32_t last_error_offset; /* its stream offset */
+    uint32_t foreign_hash;      /* spec hash of the last schema_mismatch frame (0: none yet) */
+    uint32_t foreign_offset;    /* its stream offset */
     navkit_link_stats_t stats;
 } navkit_parser_t;
 

@@ -53,7 +53,7 @@
 struct hal {
     int32_t enc_l, enc_r;
     int16_t gyro;
-    int16_t gyro_per_diff; /* LSB per count of wheel difference in one tick */
+    int16_t gyro_per_diff;  /* LSB per count of wheel difference in one tick */
     int16_t duty_per_count; /* hal_motor units per count moved in one tick */
     int16_t diff_max;       /* counts of wheel difference in one tick above which the gyro saturates */
     uint16_t compass;
@@ -67,14 +67,42 @@ extern uint8_t __heap_start; /* first byte above .data/.bss (avr-libc linker sym
 static struct hal board;
 static fw_t fw;
 
-int32_t hal_enc_left(hal_t *h) { return h->enc_l; }
-int32_t hal_enc_right(hal_t *h) { return h->enc_r; }
-int16_t hal_gyro_raw(hal_t *h) { return h->gyro; }
-uint16_t hal_compass(hal_t *h) { return h->compass; }
-uint16_t hal_adc(hal_t *h, uint8_t ch) { (void)h; return ch; }
-uint16_t hal_sonar_echo(hal_t *h, uint8_t i) { (void)h; return i; }
-uint16_t hal_dio_in(hal_t *h) { (void)h; return 0u; }
-uint8_t hal_reset_cause(hal_t *h) { (void)h; return NAVKIT_RESET_CAUSE_POWER_ON; }
+int32_t hal_enc_left(hal_t *h)
+{
+    return h->enc_l;
+}
+int32_t hal_enc_right(hal_t *h)
+{
+    return h->enc_r;
+}
+int16_t hal_gyro_raw(hal_t *h)
+{
+    return h->gyro;
+}
+uint16_t hal_compass(hal_t *h)
+{
+    return h->compass;
+}
+uint16_t hal_adc(hal_t *h, uint8_t ch)
+{
+    (void)h;
+    return ch;
+}
+uint16_t hal_sonar_echo(hal_t *h, uint8_t i)
+{
+    (void)h;
+    return i;
+}
+uint16_t hal_dio_in(hal_t *h)
+{
+    (void)h;
+    return 0u;
+}
+uint8_t hal_reset_cause(hal_t *h)
+{
+    (void)h;
+    return NAVKIT_RESET_CAUSE_POWER_ON;
+}
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
     int16_t dl = (int16_t)(l / h->duty_per_count), dr = (int16_t)(r / h->duty_per_count); /* counts this tick */
@@ -84,8 +112,14 @@ void hal_motor(hal_t *h, int16_t l, int16_t r)
     /* counter-clockwise positive: the right wheel ahead turns the robot left */
     h->gyro = (int16_t)((diff > h->diff_max) ? 32000 : (diff < -h->diff_max) ? -32000 : diff * h->gyro_per_diff);
 }
-void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us) { (void)h, (void)i, (void)us; }
-void hal_dio_write(hal_t *h, uint16_t dir, uint16_t out) { (void)h, (void)dir, (void)out; }
+void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us)
+{
+    (void)h, (void)i, (void)us;
+}
+void hal_dio_write(hal_t *h, uint16_t dir, uint16_t out)
+{
+    (void)h, (void)dir, (void)out;
+}
 size_t hal_uart_read(hal_t *h, uint8_t *buf, size_t cap)
 {
     size_t n = 0u;
@@ -94,8 +128,15 @@ size_t hal_uart_read(hal_t *h, uint8_t *buf, size_t cap)
     }
     return n;
 }
-size_t hal_uart_tx_free(hal_t *h) { (void)h; return 1024u; }
-void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len) { (void)h, (void)buf, (void)len; }
+size_t hal_uart_tx_free(hal_t *h)
+{
+    (void)h;
+    return 1024u;
+}
+void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
+{
+    (void)h, (void)buf, (void)len;
+}
 
 static int uart_put(char c, FILE *f)
 {
@@ -398,7 +439,7 @@ int main(void)
     board.compass = 0u;
     configure(0u, 400u);
     run("fwd_turn", 400u, NAVKIT_TURN_CMD_TURN, 450); /* turn 45 deg clockwise: done in ~1.5 s */
-    board.compass = 100u; /* 10 deg: fusion has an error to pull */
+    board.compass = 100u;                             /* 10 deg: fusion has an error to pull */
     configure(500u, 400u);
     run("fwd_hdgsel", 400u, NAVKIT_TURN_CMD_HDG_SEL, 450); /* HdgSel 45 deg */
     board.compass = 0u;

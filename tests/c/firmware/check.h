@@ -10,22 +10,22 @@
 
 static int check_failures;
 
-#define CHECK(cond)                                                                  \
-    do {                                                                             \
-        if (!(cond)) {                                                               \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-            check_failures++;                                                        \
-        }                                                                            \
+#define CHECK(cond)                                                                                                    \
+    do {                                                                                                               \
+        if (!(cond)) {                                                                                                 \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);                                   \
+            check_failures++;                                                                                          \
+        }                                                                                                              \
     } while (0)
 
-#define CHECK_NEAR(a, b, tol)                                                                              \
-    do {                                                                                                   \
-        double check_a_ = (double)(a), check_b_ = (double)(b);                                             \
-        if (!(fabs(check_a_ - check_b_) <= (double)(tol))) {                                               \
-            fprintf(stderr, "%s:%d: CHECK_NEAR failed: %s = %g, %s = %g, tol %g\n", __FILE__, __LINE__, #a, \
-                    check_a_, #b, check_b_, (double)(tol));                                                \
-            check_failures++;                                                                              \
-        }                                                                                                  \
+#define CHECK_NEAR(a, b, tol)                                                                                          \
+    do {                                                                                                               \
+        double check_a_ = (double)(a), check_b_ = (double)(b);                                                         \
+        if (!(fabs(check_a_ - check_b_) <= (double)(tol))) {                                                           \
+            fprintf(stderr, "%s:%d: CHECK_NEAR failed: %s = %g, %s = %g, tol %g\n", __FILE__, __LINE__, #a, check_a_,  \
+                    #b, check_b_, (double)(tol));                                                                      \
+            check_failures++;                                                                                          \
+        }                                                                                                              \
     } while (0)
 
 /* check_status: the program's exit status after its cases ran: EXIT_FAILURE with the number of
@@ -52,7 +52,10 @@ typedef struct {
 /* CHECK_CASE(name): the case table entry for the function test_<name>. CMake reads these
    entries from the source (navkit_fw_cases in tests/c/firmware/CMakeLists.txt) to register
    one ctest per case, so a table is written with them, one entry per case. */
-#define CHECK_CASE(name) {#name, test_##name}
+#define CHECK_CASE(name)                                                                                               \
+    {                                                                                                                  \
+#name, test_##name                                                                                             \
+    }
 
 /* check_list: prints the names of the n cases, one a line, in table order. */
 static inline void check_list(const check_case_t *cases, size_t n)

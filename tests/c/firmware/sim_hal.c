@@ -15,25 +15,50 @@ void sim_init(struct hal *h)
     h->lsb_per_dps = 131.0;
 }
 
-int32_t hal_enc_left(hal_t *h) { return (int32_t)floor(h->enc_l); }
-int32_t hal_enc_right(hal_t *h) { return (int32_t)floor(h->enc_r); }
+int32_t hal_enc_left(hal_t *h)
+{
+    return (int32_t)floor(h->enc_l);
+}
+int32_t hal_enc_right(hal_t *h)
+{
+    return (int32_t)floor(h->enc_r);
+}
 int16_t hal_gyro_raw(hal_t *h)
 {
     /* the plant's yaw rate (clockwise) as a CCW-positive reading */
     double w_cw = (h->v_l - h->v_r) / h->track_mm * SIM_RAD_TO_DEG;
     return (int16_t)lround(-w_cw * h->lsb_per_dps) + h->gyro_bias;
 }
-uint16_t hal_compass(hal_t *h) { return h->compass; }
-uint16_t hal_adc(hal_t *h, uint8_t ch) { return h->adc[ch]; }
-uint16_t hal_sonar_echo(hal_t *h, uint8_t i) { return h->sonar[i]; }
-uint16_t hal_dio_in(hal_t *h) { return h->dio_in; }
-uint8_t hal_reset_cause(hal_t *h) { (void)h; return NAVKIT_RESET_CAUSE_POWER_ON; }
+uint16_t hal_compass(hal_t *h)
+{
+    return h->compass;
+}
+uint16_t hal_adc(hal_t *h, uint8_t ch)
+{
+    return h->adc[ch];
+}
+uint16_t hal_sonar_echo(hal_t *h, uint8_t i)
+{
+    return h->sonar[i];
+}
+uint16_t hal_dio_in(hal_t *h)
+{
+    return h->dio_in;
+}
+uint8_t hal_reset_cause(hal_t *h)
+{
+    (void)h;
+    return NAVKIT_RESET_CAUSE_POWER_ON;
+}
 void hal_motor(hal_t *h, int16_t l, int16_t r)
 {
     h->duty_l = l;
     h->duty_r = r;
 }
-void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us) { h->servo_us[i] = us; }
+void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us)
+{
+    h->servo_us[i] = us;
+}
 void hal_dio_write(hal_t *h, uint16_t dir, uint16_t out)
 {
     h->dio_dir = dir;
@@ -52,7 +77,10 @@ size_t hal_uart_read(hal_t *h, uint8_t *buf, size_t cap)
     }
     return n;
 }
-size_t hal_uart_tx_free(hal_t *h) { return SIM_UART_CAP - h->tx_len; }
+size_t hal_uart_tx_free(hal_t *h)
+{
+    return SIM_UART_CAP - h->tx_len;
+}
 void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
 {
     memcpy(h->tx + h->tx_len, buf, len);

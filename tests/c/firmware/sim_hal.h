@@ -15,14 +15,14 @@
 
 struct hal {
     /* inputs the firmware reads */
-    double enc_l, enc_r;      /* counts (continuous; read as whole counts) */
-    int16_t gyro_bias;        /* LSB */
-    uint16_t compass;         /* deg*10 */
+    double enc_l, enc_r; /* counts (continuous; read as whole counts) */
+    int16_t gyro_bias;   /* LSB */
+    uint16_t compass;    /* deg*10 */
     uint16_t adc[8];
     uint16_t sonar[4];
     uint16_t dio_in;
     /* outputs the firmware wrote */
-    int16_t duty_l, duty_r;   /* e4 */
+    int16_t duty_l, duty_r; /* e4 */
     uint16_t servo_us[8];
     uint16_t dio_dir, dio_out;
     /* UART: rx from the test to the firmware, tx from the firmware */
@@ -31,14 +31,14 @@ struct hal {
     uint8_t tx[SIM_UART_CAP];
     size_t tx_len;
     /* plant */
-    double v_l, v_r;          /* mm/s */
-    double top_speed;         /* mm/s at duty 1 */
-    double speed_cap;         /* mm/s: the plant's hard limit */
-    double tau;               /* s: wheel lag */
-    double mm_per_count;      /* must match the config sent */
+    double v_l, v_r;     /* mm/s */
+    double top_speed;    /* mm/s at duty 1 */
+    double speed_cap;    /* mm/s: the plant's hard limit */
+    double tau;          /* s: wheel lag */
+    double mm_per_count; /* must match the config sent */
     double track_mm;
-    double yaw_deg;           /* ground-truth heading, clockwise */
-    double dist_mm;           /* ground-truth path length (signed) */
+    double yaw_deg; /* ground-truth heading, clockwise */
+    double dist_mm; /* ground-truth path length (signed) */
     double lsb_per_dps;
 };
 

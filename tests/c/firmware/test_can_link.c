@@ -27,17 +27,65 @@ struct hal {
     uint8_t tx_used;
 };
 
-int32_t hal_enc_left(hal_t *hal) { (void)hal; return 0; }
-int32_t hal_enc_right(hal_t *hal) { (void)hal; return 0; }
-int16_t hal_gyro_raw(hal_t *hal) { (void)hal; return 0; }
-uint16_t hal_compass(hal_t *hal) { (void)hal; return 0u; }
-uint16_t hal_adc(hal_t *hal, uint8_t ch) { (void)hal; return (uint16_t)(100u + ch); }
-uint16_t hal_sonar_echo(hal_t *hal, uint8_t i) { (void)hal; (void)i; return 0u; }
-uint16_t hal_dio_in(hal_t *hal) { (void)hal; return 0u; }
-uint8_t hal_reset_cause(hal_t *hal) { (void)hal; return NAVKIT_RESET_CAUSE_POWER_ON; }
-void hal_motor(hal_t *hal, int16_t l, int16_t r) { (void)hal; (void)l; (void)r; }
-void hal_servo_pulse(hal_t *hal, uint8_t i, uint16_t us) { (void)hal; (void)i; (void)us; }
-void hal_dio_write(hal_t *hal, uint16_t dir, uint16_t out) { (void)hal; (void)dir; (void)out; }
+int32_t hal_enc_left(hal_t *hal)
+{
+    (void)hal;
+    return 0;
+}
+int32_t hal_enc_right(hal_t *hal)
+{
+    (void)hal;
+    return 0;
+}
+int16_t hal_gyro_raw(hal_t *hal)
+{
+    (void)hal;
+    return 0;
+}
+uint16_t hal_compass(hal_t *hal)
+{
+    (void)hal;
+    return 0u;
+}
+uint16_t hal_adc(hal_t *hal, uint8_t ch)
+{
+    (void)hal;
+    return (uint16_t)(100u + ch);
+}
+uint16_t hal_sonar_echo(hal_t *hal, uint8_t i)
+{
+    (void)hal;
+    (void)i;
+    return 0u;
+}
+uint16_t hal_dio_in(hal_t *hal)
+{
+    (void)hal;
+    return 0u;
+}
+uint8_t hal_reset_cause(hal_t *hal)
+{
+    (void)hal;
+    return NAVKIT_RESET_CAUSE_POWER_ON;
+}
+void hal_motor(hal_t *hal, int16_t l, int16_t r)
+{
+    (void)hal;
+    (void)l;
+    (void)r;
+}
+void hal_servo_pulse(hal_t *hal, uint8_t i, uint16_t us)
+{
+    (void)hal;
+    (void)i;
+    (void)us;
+}
+void hal_dio_write(hal_t *hal, uint16_t dir, uint16_t out)
+{
+    (void)hal;
+    (void)dir;
+    (void)out;
+}
 
 uint8_t hal_can_read(hal_t *hal, uint16_t *id, uint8_t data[8], uint8_t *dlc)
 {
@@ -52,7 +100,10 @@ uint8_t hal_can_read(hal_t *hal, uint16_t *id, uint8_t data[8], uint8_t *dlc)
     memcpy(data, f->data, 8u);
     return 1u;
 }
-uint8_t hal_can_tx_free(hal_t *hal) { return (uint8_t)(hal->tx_room - hal->tx_used); }
+uint8_t hal_can_tx_free(hal_t *hal)
+{
+    return (uint8_t)(hal->tx_room - hal->tx_used);
+}
 void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
 {
     qframe_t *f = &hal->from_micro[hal->from_micro_len++];
@@ -64,10 +115,10 @@ void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
 
 static fw_t fw;
 static struct hal board;
-static navkit_isotp_tx_t host_tx;       /* the host's sender */
+static navkit_isotp_tx_t host_tx; /* the host's sender */
 static uint8_t data_buf[NAVKIT_MICRO_DATA_BYTES];
 static uint16_t data_have, data_want;
-static int data_count;            /* micro_data frames reassembled */
+static int data_count; /* micro_data frames reassembled */
 static navkit_micro_data_t last_data;
 
 /* The flow control the host answers a micro_data's first frame with. */
@@ -108,11 +159,21 @@ static void host_take(const qframe_t *f)
         memcpy(data_buf, f->data + 2, 6u);
         data_have = 6u;
         switch (host_fc) {
-        case FC_CONTINUE: host_flow(0u); break;
-        case FC_WAIT_THEN_CONTINUE: host_flow(1u); host_flow(0u); break;
-        case FC_OVERFLOW: host_flow(2u); break;
-        case FC_INVALID: host_flow(5u); break;
-        default: break; /* FC_NONE: the micro's sender waits N_Bs, then abandons */
+        case FC_CONTINUE:
+            host_flow(0u);
+            break;
+        case FC_WAIT_THEN_CONTINUE:
+            host_flow(1u);
+            host_flow(0u);
+            break;
+        case FC_OVERFLOW:
+            host_flow(2u);
+            break;
+        case FC_INVALID:
+            host_flow(5u);
+            break;
+        default:
+            break; /* FC_NONE: the micro's sender waits N_Bs, then abandons */
         }
     } else if ((f->data[0] >> 4) == 2u && data_have > 0u) {
         uint16_t left = (uint16_t)(data_want - data_have);
@@ -187,8 +248,19 @@ static void send_cmd(uint16_t tag, int drop)
 }
 
 /* The CAN counters of micro_data, in the spec's order. */
-enum { C_BAD_FRAME, C_WRONG_SN, C_UNEXPECTED, C_RESTARTED, C_RX_TIMEOUT, C_RX_OVERFLOW,
-       C_TX_TIMEOUT, C_TX_OVERFLOW, C_TX_BAD_FC, C_TX_WAIT, C_COUNT };
+enum {
+    C_BAD_FRAME,
+    C_WRONG_SN,
+    C_UNEXPECTED,
+    C_RESTARTED,
+    C_RX_TIMEOUT,
+    C_RX_OVERFLOW,
+    C_TX_TIMEOUT,
+    C_TX_OVERFLOW,
+    C_TX_BAD_FC,
+    C_TX_WAIT,
+    C_COUNT
+};
 
 static void can_counters(const navkit_micro_data_t *d, uint16_t c[C_COUNT])
 {

@@ -14,15 +14,18 @@
 #define CASE_FRAMES 256
 
 typedef struct {
-    uint32_t t;      /* ms */
-    uint16_t id;     /* with NAVKIT_ISOTP_EXT / NAVKIT_ISOTP_RTR */
+    uint32_t t;  /* ms */
+    uint16_t id; /* with NAVKIT_ISOTP_EXT / NAVKIT_ISOTP_RTR */
     uint8_t dlc;
     uint8_t data[8];
 } vec_frame_t;
 
 static int hexval(char c)
 {
-    return (c >= '0' && c <= '9') ? c - '0' : (c >= 'A' && c <= 'F') ? c - 'A' + 10 : (c >= 'a' && c <= 'f') ? c - 'a' + 10 : -1;
+    return (c >= '0' && c <= '9')   ? c - '0'
+           : (c >= 'A' && c <= 'F') ? c - 'A' + 10
+           : (c >= 'a' && c <= 'f') ? c - 'a' + 10
+                                    : -1;
 }
 
 /* Hex digits from s (up to a non-hex char) into out; returns the bytes. */
@@ -126,7 +129,8 @@ static void run_case(const char *line)
     got_msgs[0] = got_fc[0] = '\0';
     for (i = 0; i < n; i++) {
         uint8_t fc_out;
-        uint16_t len = navkit_isotp_rx_frame(&rx, frames[i].id, frames[i].data, frames[i].dlc, frames[i].t, &fc, &fc_out);
+        uint16_t len = navkit_isotp_rx_frame(&rx, frames[i].id, frames[i].data, frames[i].dlc, frames[i].t, &fc,
+                                             &fc_out);
         if (len) {
             hexstr(rx.buf, len, item);
             join(got_msgs, ",", item);
@@ -248,8 +252,10 @@ static void test_sender_rules(void)
     start_data(&tx, 1000u);
     fc[0] = 0x31u;
     navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, fc, 8u, 1000u + NAVKIT_CAN_N_BS_MS - 1u);
-    CHECK(!navkit_isotp_tx_next(&tx, 1000u + NAVKIT_CAN_N_BS_MS + 1u, &f) && navkit_isotp_tx_busy(&tx) && tx.stats.wait == 1u);
-    CHECK(!navkit_isotp_tx_next(&tx, 1000u + 2u * NAVKIT_CAN_N_BS_MS, &f) && !navkit_isotp_tx_busy(&tx) && tx.stats.timeout == 1u);
+    CHECK(!navkit_isotp_tx_next(&tx, 1000u + NAVKIT_CAN_N_BS_MS + 1u, &f) && navkit_isotp_tx_busy(&tx) &&
+          tx.stats.wait == 1u);
+    CHECK(!navkit_isotp_tx_next(&tx, 1000u + 2u * NAVKIT_CAN_N_BS_MS, &f) && !navkit_isotp_tx_busy(&tx) &&
+          tx.stats.timeout == 1u);
     /* an overflow abandons the message; so does an invalid status; a short frame is no flow control */
     start_data(&tx, 2000u);
     fc[0] = 0x32u;

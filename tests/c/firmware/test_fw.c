@@ -504,7 +504,6 @@ static void test_servo_dio_sensors(void)
     CHECK(d.adc[0] == 512 && d.adc[4] == 800 && d.sonar_echo[2] == 5800 && d.compass == 1234);
 }
 
-
 /* Ticks of the host frame loop while watching the plant: max distance, min wheel speed. */
 typedef struct {
     double max_dist, min_v, max_yaw, min_w; /* mm, mm/s, deg, mm/s (left - right) */
@@ -563,7 +562,7 @@ static void test_forever_then_modify(void)
     CHECK(d.status & NAVKIT_MICRO_STATUS_FWD_DONE);
     CHECK_NEAR(h.dist_mm, 1000.0, 3.0);
     CHECK(w.max_dist < 1003.0);
-    CHECK(w.min_ref_v >= 0.0);            /* never planned back */
+    CHECK(w.min_ref_v >= 0.0);           /* never planned back */
     CHECK(w.max_dist - h.dist_mm < 0.5); /* nor backed up */
     /* turn 1 to 2e9 deg*10, then turn 3 to 90 deg (used to reach 96 and come back) */
     boot();
@@ -584,7 +583,7 @@ static void test_forever_then_modify(void)
     CHECK(d.status & NAVKIT_MICRO_STATUS_TURN_DONE);
     CHECK_NEAR(h.yaw_deg, 90.0, 1.0);
     CHECK(w.max_yaw < 91.0);
-    CHECK(w.min_ref_w >= 0.0);           /* never planned back */
+    CHECK(w.min_ref_w >= 0.0);          /* never planned back */
     CHECK(w.max_yaw - h.yaw_deg < 0.2); /* nor turned back */
 }
 
@@ -918,7 +917,7 @@ static void test_datalog_selections(void)
     c.time_tag = ++tag;
     host_run(&c, 0.1);
     d = data();
-    CHECK_NEAR(d.mc_datalog[0], 200.0, 1.0); /* reference deg*10/s */
+    CHECK_NEAR(d.mc_datalog[0], 200.0, 1.0);                 /* reference deg*10/s */
     CHECK(d.mc_datalog[1] > 2500 && d.mc_datalog[1] < 3300); /* to go, deg*10 */
     CHECK_NEAR(d.mc_datalog[2], d.mc_datalog[1], 60.0);
     CHECK((d.mc_datalog[3] & 0x11) == 0x01); /* moving, not HdgSel */

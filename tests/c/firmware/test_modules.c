@@ -275,7 +275,7 @@ static void test_servo_goto(void)
     servo_t s;
     int i;
     servo_reset(&s);
-    CHECK(servo_pulse_us(&s) == 0u); /* not driven before a command */
+    CHECK(servo_pulse_us(&s) == 0u);              /* not driven before a command */
     servo_command(&s, &cal, 0, 300, 9999, 1000u); /* param0 = 0: no command */
     CHECK(s.mode == SERVO_OFF && s.goal == 0);
     /* seed example: servo 2 to 30 deg at 100 deg/s */
@@ -367,9 +367,9 @@ static void test_dio(void)
     dio_reset(&d);
     d.in = 0x0ABC;
     CHECK(d.dir == 0u && dio_state(&d) == 0x0ABC); /* all inputs before config */
-    dio_configure(&d, 0x00FF, 0x0F0F);              /* seed default: bits 0-7 outputs */
-    CHECK(d.out == 0x000F);                         /* safe state, output bits only */
-    dio_command(&d, 0x0FF9);                        /* input bits ignored */
+    dio_configure(&d, 0x00FF, 0x0F0F);             /* seed default: bits 0-7 outputs */
+    CHECK(d.out == 0x000F);                        /* safe state, output bits only */
+    dio_command(&d, 0x0FF9);                       /* input bits ignored */
     CHECK(d.out == 0x00F9);
     CHECK(dio_state(&d) == ((0x00F9 & 0x00FF) | (0x0ABC & 0x0F00)));
     dio_command(&d, 0x0009); /* seed example: bits 0 and 3 high */
@@ -488,8 +488,8 @@ static void test_config(void)
     m.watchdog_timeout = 300;
     m.wheel_kd = 10; /* 1e-5 duty/(mm/s^2) */
     CHECK(config_motion(&c, &m) == CONFIG_OK);
-    CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 500.0, 1e-9);   /* kd / dt at 500 Hz */
-    CHECK_NEAR(c.wheel.ki_dt, 0.04 / 500.0, 1e-9);   /* ki * dt (ki 400 = 0.04 duty/mm) */
+    CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 500.0, 1e-9); /* kd / dt at 500 Hz */
+    CHECK_NEAR(c.wheel.ki_dt, 0.04 / 500.0, 1e-9); /* ki * dt (ki 400 = 0.04 duty/mm) */
     g.control_rate = 250;
     CHECK(config_geometry(&c, &g) == CONFIG_OK);
     CHECK_NEAR(c.wheel.kd_dt, 1e-5 * 250.0, 1e-9); /* a new rate re-derives both */
@@ -515,7 +515,7 @@ static void test_fw_schedule(void)
     static fw_t fw;
     static struct hal h;
     static const uint16_t rate[4] = {1000u, 500u, 250u, 100u}; /* Hz */
-    static const uint8_t period_ticks[4] = {10u, 5u, 2u, 1u};   /* odom.xy_ticks */
+    static const uint8_t period_ticks[4] = {10u, 5u, 2u, 1u};  /* odom.xy_ticks */
     static const int n[4] = {60, 60, 60, 20}; /* ticks, all accelerating (the plant keeps up: no re-plan pull) */
     int k, i;
     for (k = 0; k < 4; k++) {

@@ -150,8 +150,8 @@ static void test_stop_never_reverses(void)
 
 /* A "forever" move (2e9) modified to a near target mid-move: the axis reaches exactly
  * that target, no overshoot and no backing up (single precision coarse near 2e9). */
-static double forever_then_modify(double forever, double cruise_s, double near, double vmax, double amax,
-                                  double dt, double *maxpos, long *back)
+static double forever_then_modify(double forever, double cruise_s, double near, double vmax, double amax, double dt,
+                                  double *maxpos, long *back)
 {
     motion_t m;
     double pos = 0.0, vel = 0.0;
@@ -337,8 +337,7 @@ static int prop_case(unsigned long idx)
             dir0 = (p.togo > 0.0f) ? 1.0 : (p.togo < 0.0f) ? -1.0 : (p.vel >= 0.0f ? 1.0 : -1.0);
             /* time bound for the rest of the move, generous but finite */
             D = fabs(p.togo) + (double)p.vel * p.vel / (2.0 * amax);
-            limit = (long)((fabs(p.vel) / amax + D / vmax + 2.0 * vmax / amax + 2.0 * sqrt(D / amax) + 0.05) / dt) +
-                    20;
+            limit = (long)((fabs(p.vel) / amax + D / vmax + 2.0 * vmax / amax + 2.0 * sqrt(D / amax) + 0.05) / dt) + 20;
         }
         v = profile_step(&p, (float)dt);
         pos += v * dt;
@@ -362,7 +361,7 @@ static int prop_case(unsigned long idx)
             bad |= 4;
         }
         if (feasible && p.togo * dir0 < -(1e-2 + 1e-6 * fabs(target))) { /* 10 um: far below one encoder count */
-            bad |= 8; /* overshoot */
+            bad |= 8;                                                    /* overshoot */
         }
         if (stopped && v * stop_dir < 0.0) {
             bad |= 64; /* a stop reversed */
@@ -380,8 +379,8 @@ static int prop_case(unsigned long idx)
     }
     prop_note_final(fabs(pos - target));
     if (bad) {
-        fprintf(stderr, "property case %lu failed: mask %d (dt %g amax %g vmax %g target %g pos %g)\n", idx, bad,
-                dt, amax, vmax, target, pos);
+        fprintf(stderr, "property case %lu failed: mask %d (dt %g amax %g vmax %g target %g pos %g)\n", idx, bad, dt,
+                amax, vmax, target, pos);
     }
     return bad;
 }
@@ -398,8 +397,8 @@ static int prop_tracked_case(unsigned long idx)
     double dt = dts[rng_next() % 3u];
     double amax = rng_uniform(50.0, 2000.0);
     double vmax = rng_uniform(20.0, 800.0);
-    double cap = vmax * rng_uniform(0.3, 1.5);     /* the plant's top speed */
-    double tau = rng_uniform(0.0, 0.08);           /* s: the plant's lag */
+    double cap = vmax * rng_uniform(0.3, 1.5); /* the plant's top speed */
+    double tau = rng_uniform(0.0, 0.08);       /* s: the plant's lag */
     int forever = (rng_next() % 4u) == 0u;
     double target = forever ? ((rng_next() & 1u) ? 2e9 : -2e9) : rng_uniform(-3000.0, 3000.0);
     double pos = 0.0, vel = 0.0, bound, vc = (vmax < cap ? vmax : cap);
@@ -433,8 +432,9 @@ static int prop_tracked_case(unsigned long idx)
                 if (!latched) {
                     target = nt;
                     forever = 0;
-                    limit = k + (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau +
-                                        fabs(vel) / amax + 2.0) / dt);
+                    limit = k +
+                            (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau + fabs(vel) / amax + 2.0) /
+                                   dt);
                 }
             }
         }
@@ -443,8 +443,8 @@ static int prop_tracked_case(unsigned long idx)
             target = pos + rng_uniform(-500.0, 500.0);
             motion_modify(&m, (float)target, (float)vmax, (float)amax);
             forever = 0;
-            limit = k + (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau + fabs(vel) / amax + 2.0) /
-                               dt);
+            limit = k +
+                    (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau + fabs(vel) / amax + 2.0) / dt);
         }
         ref_prev = m.prof.vel;
         sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, (float)tol, 10.0f, (float)dt);
@@ -497,8 +497,8 @@ static int prop_tracked_case(unsigned long idx)
 /* An unsigned integer option value (decimal, 0x hex or 0 octal), the whole text, starting
  * with a digit (no sign, no blank), within lo..hi; else a message naming the option and
  * the value, and 0. */
-static int prop_arg(const char *prog, const char *opt, const char *text, unsigned long long lo,
-                    unsigned long long hi, unsigned long long *out)
+static int prop_arg(const char *prog, const char *opt, const char *text, unsigned long long lo, unsigned long long hi,
+                    unsigned long long *out)
 {
     char *end;
     errno = 0;
@@ -572,8 +572,8 @@ static void test_property(void)
             }
         }
     }
-    printf("tracked property: %lu moves, %lu failed; max final error %.3g u (tolerance 5); %.1f s in all\n", i,
-           failed, prop_stats.tracked_err, (double)(clock() - t0) / CLOCKS_PER_SEC);
+    printf("tracked property: %lu moves, %lu failed; max final error %.3g u (tolerance 5); %.1f s in all\n", i, failed,
+           prop_stats.tracked_err, (double)(clock() - t0) / CLOCKS_PER_SEC);
     CHECK(failed == 0);
 }
 

@@ -23,16 +23,16 @@
 #include <string.h>
 
 static int failures;
-#define CHECK(cond, ...)                                                   \
-    do {                                                                   \
-        if (!(cond)) {                                                     \
-            failures++;                                                    \
-            if (failures < 20) {                                           \
-                printf("FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond);     \
-                printf(__VA_ARGS__);                                       \
-                printf("\n");                                              \
-            }                                                              \
-        }                                                                  \
+#define CHECK(cond, ...)                                                                                               \
+    do {                                                                                                               \
+        if (!(cond)) {                                                                                                 \
+            failures++;                                                                                                \
+            if (failures < 20) {                                                                                       \
+                printf("FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond);                                                 \
+                printf(__VA_ARGS__);                                                                                   \
+                printf("\n");                                                                                          \
+            }                                                                                                          \
+        }                                                                                                              \
     } while (0)
 
 /* splitmix64: a tiny seeded generator, state passed explicitly. */
@@ -218,8 +218,8 @@ static void check_garbage(uint64_t *s)
         CHECK(k < r.frames && k < MAX_FRAMES && r.offset[k] == sent[j], "garbage: frame at offset %u lost",
               (unsigned)sent[j]);
     }
-    CHECK(r.frame_bytes + p.stats.dropped_bytes + p.have == n,
-          "byte accounting: %u + %u + %u != %u", r.frame_bytes, p.stats.dropped_bytes, p.have, (unsigned)n);
+    CHECK(r.frame_bytes + p.stats.dropped_bytes + p.have == n, "byte accounting: %u + %u + %u != %u", r.frame_bytes,
+          p.stats.dropped_bytes, p.have, (unsigned)n);
 }
 
 /* A frame of another spec version: hash-carrying type k, `words` long, hash h. */
@@ -267,7 +267,27 @@ static void check_schema_mismatch(uint64_t *s, size_t k, const uint8_t *good)
 
 /* rcomm messages: random bytes -> load -> store gives the same bytes; pack -> unpack
  * gives the same struct, and the words are the little-endian bytes. */
-#define RCOMM_ROUND_TRIP(name, NAME)                                                        do {                                                                                        uint8_t b[NAVKIT_##NAME##_BYTES], again[NAVKIT_##NAME##_BYTES];                         int32_t w[NAVKIT_##NAME##_WORDS];                                                       navkit_##name##_t m, d;                                                                 size_t j;                                                                               for (j = 0; j < sizeof b; j++) {                                                            b[j] = (uint8_t)rnd(s);                                                             }                                                                                       memset(&m, 0, sizeof m);                                                                memset(&d, 0, sizeof d);                                                                navkit_##name##_load(b, &m);                                                            navkit_##name##_store(&m, again);                                                       CHECK(memcmp(b, again, sizeof b) == 0, #name " load/store");                            navkit_##name##_pack(&m, w);                                                            for (j = 0; j < NAVKIT_##NAME##_WORDS; j++) {                                               CHECK((uint32_t)w[j] == navkit_get_u32(b + 4 * j), #name " word %u", (unsigned)j);         }                                                                                       navkit_##name##_unpack(w, &d);                                                          CHECK(memcmp(&m, &d, sizeof m) == 0, #name " pack/unpack");                         } while (0)
+#define RCOMM_ROUND_TRIP(name, NAME)                                                                                   \
+    do {                                                                                                               \
+        uint8_t b[NAVKIT_##NAME##_BYTES], again[NAVKIT_##NAME##_BYTES];                                                \
+        int32_t w[NAVKIT_##NAME##_WORDS];                                                                              \
+        navkit_##name##_t m, d;                                                                                        \
+        size_t j;                                                                                                      \
+        for (j = 0; j < sizeof b; j++) {                                                                               \
+            b[j] = (uint8_t)rnd(s);                                                                                    \
+        }                                                                                                              \
+        memset(&m, 0, sizeof m);                                                                                       \
+        memset(&d, 0, sizeof d);                                                                                       \
+        navkit_##name##_load(b, &m);                                                                                   \
+        navkit_##name##_store(&m, again);                                                                              \
+        CHECK(memcmp(b, again, sizeof b) == 0, #name " load/store");                                                   \
+        navkit_##name##_pack(&m, w);                                                                                   \
+        for (j = 0; j < NAVKIT_##NAME##_WORDS; j++) {                                                                  \
+            CHECK((uint32_t)w[j] == navkit_get_u32(b + 4 * j), #name " word %u", (unsigned)j);                         \
+        }                                                                                                              \
+        navkit_##name##_unpack(w, &d);                                                                                 \
+        CHECK(memcmp(&m, &d, sizeof m) == 0, #name " pack/unpack");                                                    \
+    } while (0)
 
 static void check_rcomm(uint64_t *s)
 {
@@ -278,14 +298,13 @@ static void check_rcomm(uint64_t *s)
 
 /* An unsigned integer option value (decimal, 0x hex or 0 octal), the whole text, within
  * lo..hi; else a message naming the option and the value, and 0. */
-static int props_arg(const char *prog, const char *opt, const char *text, unsigned long long lo,
-                     unsigned long long hi, unsigned long long *out)
+static int props_arg(const char *prog, const char *opt, const char *text, unsigned long long lo, unsigned long long hi,
+                     unsigned long long *out)
 {
     char *end;
     errno = 0;
     *out = strtoull(text, &end, 0);
-    if (text[0] == '\0' || *end != '\0' || strchr(text, '-') != NULL || errno == ERANGE || *out < lo ||
-        *out > hi) {
+    if (text[0] == '\0' || *end != '\0' || strchr(text, '-') != NULL || errno == ERANGE || *out < lo || *out > hi) {
         fprintf(stderr, "%s: %s: '%s' is not an integer in %llu..%llu\n", prog, opt, text, lo, hi);
         return 0;
     }
