@@ -1,6 +1,7 @@
 """run.mcap's Foxglove topics (navkit.sim.foxglove): every message of a real short
 co-simulation validates against Foxglove's official JSON schema of its schema name, and
-carries the run's values in SI units (truth and odometry poses, transforms, path, log).
+carries the run's values in SI units (truth and odometry poses, transforms, path, log with
+the host's console, the world's walls as a scene); two runs give the same bytes.
 
 The official JSON schemas are the ones Foxglove publishes in the npm package
 @foxglove/schemas (dist/jsonschema), read with node, installed into .venv/node_modules by
@@ -10,6 +11,7 @@ the package's folder); without them those tests skip, saying so."""
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -22,6 +24,7 @@ pytestmark = pytest.mark.timeout(120)
 
 MISSION = """
 duration_s = 4.0
+world = "hallway.txt"
 [[key]]
 t = 0.5
 key = "R"
@@ -43,7 +46,8 @@ NEW_TOPICS = {"/foxglove/truth_pose": "foxglove.PoseInFrame",
               "/foxglove/odom_pose": "foxglove.PoseInFrame",
               "/tf": "foxglove.FrameTransform",
               "/foxglove/path": "foxglove.PosesInFrame",
-              "/foxglove/log": "foxglove.Log"}
+              "/foxglove/log": "foxglove.Log",
+              "/foxglove/scene": "foxglove.SceneUpdate"}
 
 
 def _schemas_dir() -> Path:
@@ -99,7 +103,8 @@ def test_every_message_fits_the_official_schema(run, official):
                 (name, "jsonschema", "json"), channel.topic
             msg = json.loads(message.data)
             validators[name].validate(msg)
-            ts = msg["timestamp"]
+            ts = msg["entities"][0]["timestamp"] if name == "foxglove.SceneUpdate" \
+                else msg["timestamp"]
             assert ts["sec"] * 1_000_000_000 + ts["nsec"] == message.log_time, \
                 "timestamp = log time = simulated time"
             seen[channel.topic] += 1
@@ -251,9 +256,43 @@ def test_log_has_events_and_commands_at_their_times(run):
     assert (2.5, 2, "plug") in got
     cmd = next(m["message"] for _, m in logs if m["message"].startswith("planner:"))
     assert "[[command]] #1" in cmd and "speed=300" in cmd and "distance=400" in cmd
-    assert all(m["name"] == "navkit-sim" for _, m in logs)
+    ours = [m for _, m in logs if m["name"] == "navkit-sim"]
+    assert all((m["file"], m["line"]) == ("", 0) for m in ours)
     events = run.messages("/events")
-    assert len(logs) == len(events) + run.summary["planner"]["commands"]
+    assert len(ours) == len(events) + run.summary["planner"]["commands"]
+    assert {m["name"] for _, m in logs} == {"navkit-sim", "navkit-host"}
+
+
+# ---------------------------------------------------------------- the host's console
+
+
+def test_host_console_line_by_line_with_placeholders(run):
+    """Every line of host.log is a foxglove.Log of navkit-host, in order, numbered as in
+    the file, at the time of the frame it appeared in (the host stamps its lines with its
+    clock: in lockstep the frame's time), those of its shutdown at the run's end, with the
+    run's temporary names replaced by the harness's placeholders."""
+    text = (run.out / "host.log").read_text().splitlines()
+    host = [(t, m) for t, m in run.messages("/foxglove/log") if m["name"] == "navkit-host"]
+    assert [m["line"] for _, m in host] == list(range(1, len(text) + 1))
+    assert all(m["file"] == "host.log" for _, m in host)
+    last_frame = run.messages("/host/frame")[-1][0]
+    assert host[-1][0] == run.summary["sim_time_s"] > last_frame
+    for (t, m), line in zip(host, text):
+        stamp, _, rest = line.partition("] ")
+        assert float(stamp.lstrip("[ ")) == pytest.approx(min(t, last_frame), abs=1e-9), line
+        for name in (str(run.out), "/tmp/navkit-sim-", "/navkit-sim-", "Data "):
+            assert name not in m["message"], m["message"]
+        # the same text but for the placeholders
+        parts = re.split(r"<(?:tmp|rcomm|out|config|datalog \d+)>", m["message"])
+        assert re.fullmatch(".+".join(map(re.escape, parts)), rest), (m["message"], rest)
+    messages = [m["message"] for _, m in host]
+    assert any(re.fullmatch(r"micro port <tmp>/ttyNAVKIT open \(.*\)", x) for x in messages)
+    assert any(x.startswith("navkit-host: ") and x.endswith("rcomm <rcomm>") for x in messages)
+    assert "recording to <datalog 1>" in messages, "key R started the datalog"
+    levels = {m["message"].split(" ")[0]: m["level"] for _, m in host}
+    assert levels["status:"] == 1 and levels["recording"] == 2 and levels["link:"] == 2
+    lost = [(t, m["level"]) for t, m in host if " lost " in m["message"]]
+    assert lost and 2.0 <= lost[0][0] <= 2.2 and lost[0][1] == 3, "the unplug: a warning"
 
 
 def test_console_levels_and_placeholders(tmp_path):
@@ -285,3 +324,53 @@ def test_console_levels_and_placeholders(tmp_path):
         f.write(b"[    0.700] link: 0 rejected frames\nnavkit-host: --rate 0: not a rate")
     assert con.rest() == [(2, "link: 0 rejected frames", 8),
                           (4, "navkit-host: --rate 0: not a rate", 9)]
+
+
+# ---------------------------------------------------------------- the world's walls
+
+
+def test_walls_scene_once_at_the_start(run, official):
+    """/foxglove/scene: one SceneUpdate at t = 0 whose boxes are the world's walls (the
+    plant FMU's walls output) in frame world, in m: hallway.txt, the robot 1 m in."""
+    import jsonschema
+
+    from navkit.sim.foxglove import WALL_HEIGHT_M, WALL_THICKNESS_M
+
+    scenes = run.messages("/foxglove/scene")
+    assert [t for t, _ in scenes] == [0.0]
+    msg = scenes[0][1]
+    jsonschema.validate(msg, official["foxglove.SceneUpdate"])
+    (entity,) = msg["entities"]
+    assert (entity["id"], entity["frame_id"], entity["lifetime"]) == \
+        ("walls", "world", {"sec": 0, "nsec": 0})
+    cubes = entity["cubes"]
+    assert len(cubes) == 14, "hallway.txt: 3 + 2 + 2 + 3 walls and a box's 4 sides"
+    ends = []
+    for c in cubes:
+        p, size = c["pose"]["position"], c["size"]
+        assert (size["y"], size["z"], p["z"]) == (WALL_THICKNESS_M, WALL_HEIGHT_M, WALL_HEIGHT_M / 2)
+        yaw = _yaw(c["pose"]["orientation"])
+        half = 0.5 * size["x"]
+        ends.append(tuple(round(v, 9) for v in (p["x"] - half * math.cos(yaw), p["y"] - half * math.sin(yaw),
+                                                p["x"] + half * math.cos(yaw), p["y"] + half * math.sin(yaw))))
+    # the file's mm, 1 m behind the start: the right wall, then the bin's four sides
+    assert ends[7] == (-1.0, -0.9, 11.0, -0.9)
+    assert ends[10:] == [(4.0, -0.9, 4.4, -0.9), (4.4, -0.9, 4.4, -0.5), (4.4, -0.5, 4.0, -0.5),
+                         (4.0, -0.5, 4.0, -0.9)]
+
+
+# ---------------------------------------------------------------- determinism
+
+
+def test_two_runs_give_the_same_bytes(run, tmp_path):
+    """A second run of the mission (a file of the same name), into another folder at
+    another wall-clock time (so another pty folder, rcomm name and datalog name), writes a
+    byte-identical run.mcap."""
+    from navkit.sim.harness import SimOptions
+    from navkit.sim.harness import run as sim_run
+    from navkit.sim.mission import loads
+
+    mission = loads(MISSION, tmp_path / run.metadata["mission_file"])
+    sim_run(SimOptions(mission=mission, out=tmp_path, seed=1, plot=False))
+    assert (tmp_path / "host.log").read_text() != (run.out / "host.log").read_text()
+    assert (tmp_path / "run.mcap").read_bytes() == (run.out / "run.mcap").read_bytes()

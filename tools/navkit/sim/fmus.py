@@ -155,6 +155,21 @@ class FmuPair:
             raise MissionError(f"{where}: the plant FMU ({path}) refused it: {text} "
                                f"({e.function} failed)") from None
 
+    def walls(self, plant_path: Path) -> bytes | None:
+        """The plant's `walls` output (docs/plant.md: the world it loaded, as whole walls
+        of navkit.sim.foxglove.WALL_BYTES bytes), None if the plant `plant_path` has none;
+        SimError if it is not whole walls."""
+        from navkit.sim.foxglove import WALL_BYTES
+
+        var = next((v for v in self.plant_md.modelVariables if v.name == "walls"), None)
+        if var is None:
+            return None
+        data = bytes(self.plant.getBinary([var.valueReference])[0] or b"")
+        if len(data) % WALL_BYTES:
+            raise SimError(f"{plant_path}: its walls output is {len(data)} bytes, not whole "
+                           f"walls of {WALL_BYTES} bytes (docs/plant.md)")
+        return data
+
     def reset_firmware(self, t: float) -> None:
         """fmi3Reset of the firmware, then initialise it again starting at `t` (s)."""
         self.fw.reset()

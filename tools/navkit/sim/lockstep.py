@@ -4,7 +4,8 @@ Per host frame k at simulated time t = k * frame_s:
 
 1. faults whose time is up end; mission events due at t act (navkit.sim.faults);
 2. planner heartbeat; tick k to the host carrying the micro's bytes written since the
-   last tick; wait for done; read exactly its tx_bytes from the pty;
+   last tick; wait for done; read exactly its tx_bytes from the pty, and the lines it
+   printed in the frame from host.log (navkit.sim.host_console);
 3. the FMUs advance one frame (frame_s / STEP_S steps) in native code in two calls, with
    the host's bytes arriving at the firmware with the first step; after each call the
    firmware's bytes go to the pty;
@@ -37,7 +38,7 @@ def run_lockstep(rig, faults) -> None:
     frames_in_run = n_frames(rig.m, rig.frame_s)
     frame_ns = rig.steps_per_frame * 1_000_000
     rig.rx_count = 0
-    log, coupler, port = rig.log, rig.coupler, rig.port
+    log, coupler, port, console = rig.log, rig.coupler, rig.port, rig.console
     spf = rig.steps_per_frame
     split = min(spf, max(1, round(0.040 / STEP_S)))
     times = rig.times
@@ -90,6 +91,9 @@ def run_lockstep(rig, faults) -> None:
                 if flags & 1:
                     rig.host_state = "exited"
             rig.frames += 1
+            lines = console.read()         # all the host printed in the frame
+            if lines:
+                log.console(t_ns, lines)
         elif not gone:             # the first frame without the host
             log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, rig.host_state)
             gone = True

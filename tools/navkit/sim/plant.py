@@ -5,7 +5,8 @@ docs/internals.md ("Firmware FMU <-> plant FMU").
 The contract is read from the firmware FMU itself: every Float64 / Int32 input of the
 firmware must be a plant output of the same name and type, every firmware output a plant
 input. Optional, but checked when present: the truth outputs (Float64 outputs, the
-`/truth` columns) and the parameters `seed` (Int32) and `world_file` (String).
+`/truth` columns), the parameters `seed` (Int32) and `world_file` (String) and the
+output `walls` (Binary: the world's walls, drawn in run.mcap's /foxglove/scene).
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ FMI2_UNSUPPORTED = "FMI 2.0 plant FMUs are not supported by the native coupler"
 _LINKED_TYPES = ("Float64", "Int32")
 _OPPOSITE = {"input": "output", "output": "input"}
 # optional variables: name -> (type, causality)
-_OPTIONAL = {"seed": ("Int32", "parameter"), "world_file": ("String", "parameter")}
+_OPTIONAL = {"seed": ("Int32", "parameter"), "world_file": ("String", "parameter"),
+             "walls": ("Binary", "output")}
 
 
 class PlantFmuError(ValueError):

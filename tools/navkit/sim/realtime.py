@@ -78,6 +78,7 @@ def run_realtime(rig, faults) -> None:
                                       else "unplugged")
                         rx = tx_host = 0
                         last_frame = frame
+                rig.log.console(t_ns, rig.console.read())
             elif not gone:           # the first frame without the host
                 rig.log.frame(rig.frames, t_ns, rx, tx_host, None, b"", None,
                               rig.host_state)

@@ -634,6 +634,13 @@ class _Decoder:
             rec.reserve(item[1], item[1])
             rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
             self.fox.event(item[1], item[2], item[3])
+        elif kind == "K":        # host console lines: (K, t_ns, [(level, message, line)])
+            rec.reserve(item[1], item[1])
+            for level, text, line in item[2]:
+                self.fox.console(item[1], level, text, line)
+        elif kind == "W":        # the world's walls: (W, the plant's walls output), at 0
+            rec.reserve(0, 0)
+            self.fox.walls(0, item[1])
         elif kind == "S":        # end of a frame: (S, end of the next frame, ns)
             rec.flush_before(item[1])
         elif kind == "B":        # CAN frames: (B, records of _CAN_RECORD back to back)
@@ -813,7 +820,7 @@ class RunLog:
     the other core, off the lockstep loop. `inline=True` does it all in this process.
 
     Items: frame(), host(), micro(), received(), receiver_restart(), truth(), command(),
-    event(), can_frame(), end_frame(); each with its log time, in time order within a frame (truth rows
+    event(), can_frame(), console(), walls(), end_frame(); each with its log time, in time order within a frame (truth rows
     before the micro's bytes of the same FMU call) but for a few ms in real time;
     close() returns the worker's results (message counts, last
     decoded micro_data / lisp_data / truth, config downloads, watchdog stops, `planner`:
@@ -901,6 +908,17 @@ class RunLog:
 
     def event(self, t_ns, kind, detail) -> None:
         self._items.append(("E", t_ns, kind, detail))
+
+    def console(self, t_ns, lines) -> None:
+        """Lines of the host's console that appeared in the frame at t_ns (ns): [(level,
+        message, line number)] as navkit.sim.host_console gives them (foxglove.Log)."""
+        if lines:
+            self._items.append(("K", t_ns, lines))
+
+    def walls(self, data) -> None:
+        """The plant FMU's walls output (bytes of whole walls, navkit.sim.foxglove
+        WALL_BYTES each): the world's scene at t = 0."""
+        self._items.append(("W", data))
 
     def can_frame(self, t_ns, can_id, data, to_host, error) -> None:
         """A frame on the CAN bus at t_ns (a /can message; the log was made with can=True):

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from navkit.sim.faults import check_timeline
 from navkit.sim.fmus import FmuPair, check_seed
+from navkit.sim.host_console import HostConsole
 from navkit.sim.options import (STEP_S, SimError, SimOptions, build_folder, check_frame, fmu_paths,
                                 git_revision, host_config, host_path)
 from navkit.sim.planner import ScriptedPlanner
@@ -90,6 +91,7 @@ class SimRig:
         self.rx_count = 0       # the micro's bytes written to the pty since the last tick
         self.frames = 0         # host frames run
         self.t_ns = 0           # where the loop is (an interrupted run stopped there)
+        self.console = None     # navkit.sim.host_console.HostConsole of host.log
         self.host_exit = self.host_peak_kib = None   # the host's exit status, peak memory (KiB)
         self.fw_fmu = None                   # the firmware FMU file start() chose
         self.old_datalogs = {}               # datalogs() of the output folder before the run
@@ -146,6 +148,9 @@ class SimRig:
         # fork the log worker before any pty, socket or child process exists
         self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width,
                           inline=self.opts.log_inline, can=self.opts.link == "can")
+        walls = self.fmus.walls(plant_fmu)
+        if walls is not None:
+            self.log.walls(walls)
         self.port = Port(self.tmp / "ttyNAVKIT")
         cmd = [str(host), "--port", str(self.port.link), "--shm", self.shm,
                "--config", str(self.config_dir), "--log-dir", str(self.out.resolve())]
@@ -171,6 +176,10 @@ class SimRig:
                                       == "navkit_firmware_can")
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")
+        # what the host prints, to run.mcap: the names of this run only as placeholders
+        self.console = HostConsole(self.out / "host.log", {
+            str(self.tmp): "<tmp>", self.shm: "<rcomm>", str(self.out.resolve()): "<out>",
+            str(self.config_dir): "<config>"}, self.out.resolve())
         if not self.opts.realtime and self.opts.pin_cpu:
             self._pin()
         # its own process group: a terminal's Ctrl-C reaches the harness, which ends the
@@ -289,6 +298,12 @@ class SimRig:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.host_exit = self.proc.wait()
+        if self.console is not None:     # the host's last lines: at the run's end
+            if self.log is not None:
+                end_ns = max(self.t_ns, round(self.sim_time_s * 1e9))
+                self.log.console(end_ns, self.console.rest())
+            self.console.close()
+            self.console = None
         if self.planner is not None:
             self.planner.close()
         try:
