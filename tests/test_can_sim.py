@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 from navkit.paths import repo_root
-from test_sim_util import run_mission
+from sim_helpers import run_mission
 
 DEMO = (repo_root() / "config" / "missions" / "demo.toml").read_text()
 
@@ -220,7 +220,7 @@ def test_bench_sim_over_can_prints_its_figures(capsys):
     import argparse
 
     from navkit import sim_bench
-    from test_sim_util import require_build
+    from sim_helpers import require_build
 
     require_build()
     parser = argparse.ArgumentParser()

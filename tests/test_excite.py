@@ -8,7 +8,7 @@ import pytest
 from navkit import protocol
 from navkit.paths import repo_root
 from navkit.plot import read_datalog
-from test_sim_util import run_mission
+from sim_helpers import run_mission
 
 pytestmark = pytest.mark.timeout(180)
 

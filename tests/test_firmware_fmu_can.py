@@ -20,7 +20,7 @@ from fmpy.validation import validate_fmu  # noqa: E402
 from navkit import can as nc  # noqa: E402
 from navkit import protocol  # noqa: E402
 from navkit.paths import build_dir, repo_root  # noqa: E402
-from test_firmware_fmu import Wheels, cmd, config_frames  # noqa: E402
+from firmware_helpers import Wheels, cmd, config_frames  # noqa: E402
 
 FMU = build_dir() / "fmus" / "navkit_firmware_can.fmu"
 MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"

@@ -16,7 +16,7 @@ from navkit import protocol as p
 from navkit import vectors
 from navkit.paths import build_dir, repo_root, spec_path
 from navkit.spec import SpecError, load
-from test_spec_validate import _line_of, _spec
+from spec_helpers import edited_spec, line_of
 
 NAVKIT = [sys.executable, "-m", "navkit"]
 
@@ -65,40 +65,40 @@ NAVKIT = [sys.executable, "-m", "navkit"]
      '"rc0_param2", word = 25', "special values of servo_goto must lie within -32768..1800"),
 ])
 def test_spec_errors_name_file_line_and_key(tmp_path, old, new, needle, reason):
-    path = _spec(tmp_path, old, new, first=True)
+    path = edited_spec(tmp_path, old, new, first=True)
     with pytest.raises(SpecError) as e:
         load(path)
     msg = str(e.value)
-    assert msg.startswith(f"{path}:{_line_of(path, needle)}: "), msg
+    assert msg.startswith(f"{path}:{line_of(path, needle)}: "), msg
     assert reason in msg
 
 
 def test_seed_slip_needs_both_keys(tmp_path):
-    path = _spec(tmp_path, 'resolution = "Read as 41, 42, 43: rc6_param0/1/2."\n', "", first=True)
+    path = edited_spec(tmp_path, 'resolution = "Read as 41, 42, 43: rc6_param0/1/2."\n', "", first=True)
     with pytest.raises(SpecError, match=r":\d+: seed_slip 2.resolution: missing"):
         load(path)
 
 
 def test_spec_hash_ignores_doc_text_but_not_layout(tmp_path):
     base = load(spec_path()).hash
-    doc_only = _spec(tmp_path, 'doc = "Acceleration used when', 'doc = "Accel used when', first=True)
+    doc_only = edited_spec(tmp_path, 'doc = "Acceleration used when', 'doc = "Accel used when', first=True)
     assert load(doc_only).hash == base
-    moved = _spec(tmp_path, "default = 300, doc", "default = 301, doc", first=True)
+    moved = edited_spec(tmp_path, "default = 300, doc", "default = 301, doc", first=True)
     assert load(moved).hash != base
 
 
 def test_gen_reports_spec_errors_and_exit_status(tmp_path):
-    path = _spec(tmp_path, '{ name = "speed", word = 7,', '{ name = "speed", word = 6,', first=True)
+    path = edited_spec(tmp_path, '{ name = "speed", word = 7,', '{ name = "speed", word = 6,', first=True)
     r = subprocess.run(NAVKIT + ["gen", "--spec", str(path), "--c-out", str(tmp_path / "out")],
                        capture_output=True, text=True)
     assert r.returncode == 1
-    line = _line_of(path, '"speed", word = 6')
+    line = line_of(path, '"speed", word = 6')
     assert f"{path}:{line}: micro_cmd.speed: word 6 overlaps accel" in r.stderr
     # a missing framing key is a SpecError too (no KeyError traceback)
-    path = _spec(tmp_path, "length_word = 3\n", "", first=True)
+    path = edited_spec(tmp_path, "length_word = 3\n", "", first=True)
     r = subprocess.run(NAVKIT + ["gen", "--spec", str(path), "--print-hash"], capture_output=True, text=True)
     assert r.returncode == 1 and "Traceback" not in r.stderr
-    assert f"{path}:{_line_of(path, '[framing.serial]')}: framing.serial.length_word: missing" in r.stderr
+    assert f"{path}:{line_of(path, '[framing.serial]')}: framing.serial.length_word: missing" in r.stderr
 
 
 def test_gen_names_the_spec_it_was_given(tmp_path):

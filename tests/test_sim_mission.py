@@ -149,7 +149,7 @@ def test_planner_silent_may_not_outlast_the_mission():
 def _run(tmp_path, text, name="p.toml"):
     from navkit.sim.harness import SimOptions, run
 
-    from test_sim_util import require_build
+    from sim_helpers import require_build
 
     require_build()
     m = loads(text, tmp_path / name)
@@ -183,7 +183,7 @@ def test_sim_cli_reports_a_plant_refusal_without_a_traceback(tmp_path: Path, cap
     import argparse
 
     from navkit.sim import cli
-    from test_sim_util import require_build
+    from sim_helpers import require_build
 
     require_build()
     p = tmp_path / "heavy.toml"
@@ -343,7 +343,7 @@ def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
     from navkit.sim.mission import Command
     from navkit.sim.results import load as load_run
 
-    from test_sim_util import require_build
+    from sim_helpers import require_build
 
     require_build()
 

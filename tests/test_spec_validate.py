@@ -13,24 +13,9 @@ import pytest
 
 from navkit.paths import build_dir, repo_root, spec_path
 from navkit.spec import SpecError, load
+from spec_helpers import edited_spec, line_of
 
 NAVKIT = [sys.executable, "-m", "navkit"]
-
-
-def _spec(tmp_path: Path, old: str, new: str, first: bool = False) -> Path:
-    """A copy of the spec with `old` replaced by `new`: `old` must stand once, or with
-    `first` at least once (its first place is edited)."""
-    text = spec_path().read_text()
-    assert (old in text) if first else (text.count(old) == 1), old
-    path = tmp_path / "navkit.toml"
-    path.write_text(text.replace(old, new, 1))
-    return path
-
-
-def _line_of(path: Path, needle: str, after: str | None = None) -> int:
-    lines = path.read_text().splitlines()
-    start = next(i for i, ln in enumerate(lines) if after in ln) if after else 0
-    return next(i for i, ln in enumerate(lines[start:], start + 1) if needle in ln)
 
 
 def _refused(path: Path, line: int, reason: str) -> SpecError:
@@ -87,8 +72,8 @@ def _refused(path: Path, line: int, reason: str) -> SpecError:
      "values = [0, 1]", None, "nav_result.values: must be a table, not array [0, 1]"),
 ])
 def test_broken_spec_is_refused_at_its_line(tmp_path, old, new, needle, after, reason):
-    path = _spec(tmp_path, old, new)
-    _refused(path, _line_of(path, needle, after), reason)
+    path = edited_spec(tmp_path, old, new)
+    _refused(path, line_of(path, needle, after), reason)
 
 
 def test_a_spec_without_the_planner_links_region_is_refused(tmp_path):
@@ -99,7 +84,7 @@ def test_a_spec_without_the_planner_links_region_is_refused(tmp_path):
     end = text.index("\n[", start + 1)
     path = tmp_path / "navkit.toml"
     path.write_text(text[:start] + text[end + 1:])
-    _refused(path, _line_of(path, "[links.serial]"), "[links]: no unframed (shared-memory) link")
+    _refused(path, line_of(path, "[links.serial]"), "[links]: no unframed (shared-memory) link")
 
 
 def test_a_field_list_that_is_no_array_names_its_line(tmp_path):
@@ -107,14 +92,14 @@ def test_a_field_list_that_is_no_array_names_its_line(tmp_path):
     at = text.index("field = [", text.index('name = "emotion"'))  # the last message
     path = tmp_path / "navkit.toml"
     path.write_text(text[:at] + "field = 3\n")
-    _refused(path, _line_of(path, "field = 3"), "emotion.field: must be an array of tables, not integer 3")
+    _refused(path, line_of(path, "field = 3"), "emotion.field: must be an array of tables, not integer 3")
 
 
 def test_a_non_table_top_level_entry_names_its_line(tmp_path):
-    path = _spec(tmp_path, "[flags.micro_status]", "[flags]\nbogus = 5\n\n[flags.micro_status]")
-    _refused(path, _line_of(path, "bogus = 5"), "flags bogus: must be a table, not integer 5")
-    path = _spec(tmp_path, "[[seed_slip]]\nslip = \"RC6", "seed_slip_x = 1\n[[seed_slip]]\nslip = \"RC6")
-    _refused(path, _line_of(path, "seed_slip_x"), "unknown key 'seed_slip_x'")
+    path = edited_spec(tmp_path, "[flags.micro_status]", "[flags]\nbogus = 5\n\n[flags.micro_status]")
+    _refused(path, line_of(path, "bogus = 5"), "flags bogus: must be a table, not integer 5")
+    path = edited_spec(tmp_path, "[[seed_slip]]\nslip = \"RC6", "seed_slip_x = 1\n[[seed_slip]]\nslip = \"RC6")
+    _refused(path, line_of(path, "seed_slip_x"), "unknown key 'seed_slip_x'")
 
 
 def test_spec_error_of_an_unreadable_file_has_no_line(tmp_path):
@@ -124,8 +109,8 @@ def test_spec_error_of_an_unreadable_file_has_no_line(tmp_path):
 
 
 def test_toml_syntax_error_carries_its_line(tmp_path):
-    path = _spec(tmp_path, "\nversion = 1\n", "\nversion = = 1\n")
-    _refused(path, _line_of(path, "version = = 1"), "TOML syntax")
+    path = edited_spec(tmp_path, "\nversion = 1\n", "\nversion = = 1\n")
+    _refused(path, line_of(path, "version = = 1"), "TOML syntax")
 
 
 def test_any_wrong_kind_of_value_is_a_spec_error(tmp_path):
@@ -170,7 +155,7 @@ def test_a_broken_spec_fails_the_codec_import_with_a_spec_error(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
                        env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
-    line = _line_of(spec, '{ name = "status", word = 7')
+    line = line_of(spec, '{ name = "status", word = 7')
     assert r.stdout.startswith(f"LINE {line} {spec}:{line}: micro_data.status: flag micro_status.hdg_hold"), r.stdout
 
 
@@ -186,7 +171,7 @@ def test_the_cli_names_a_broken_specs_line_without_a_traceback(tmp_path, argv):
     spec.write_text(spec_path().read_text().replace("hdg_hold = 12,", "hdg_hold = 20,"))
     r = subprocess.run([sys.executable, "-m", "navkit", *argv], capture_output=True, text=True, cwd=tmp_path,
                        env={"PYTHONPATH": str(tree / "tools"), "PATH": "/usr/bin:/bin"})
-    line = _line_of(spec, '{ name = "status", word = 7')
+    line = line_of(spec, '{ name = "status", word = 7')
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
     assert r.stderr.startswith(f"navkit {argv[0]}: {spec}:{line}: micro_data.status:"), r.stderr
 
@@ -239,16 +224,16 @@ def test_gen_options_alone_still_work():
      "links.rcomm: a second unframed link (links.shm2 is one)"),
 ])
 def test_broken_rcomm_layout_is_refused_at_its_line(tmp_path, old, new, needle, reason):
-    path = _spec(tmp_path, old, new)
-    _refused(path, _line_of(path, needle), reason)
+    path = edited_spec(tmp_path, old, new)
+    _refused(path, line_of(path, needle), reason)
 
 
 def test_rcomm_layout_enters_the_hash_and_its_doc_does_not(tmp_path):
     base = load(spec_path())
     assert base.rcomm.slots == {"lisp_cmd": 64, "lisp_data": 192, "emotion": 384} and base.rcomm.size == 448
-    assert load(_spec(tmp_path, "magic = 0x43524B4E\n", "magic = 0x43524B4F\n")).hash != base.hash
-    assert load(_spec(tmp_path, "slot_words_at = 4\n", "slot_words_at = 8\n")).hash != base.hash
-    assert load(_spec(tmp_path, 'layout_doc = "The header', 'layout_doc = "Header')).hash == base.hash
+    assert load(edited_spec(tmp_path, "magic = 0x43524B4E\n", "magic = 0x43524B4F\n")).hash != base.hash
+    assert load(edited_spec(tmp_path, "slot_words_at = 4\n", "slot_words_at = 8\n")).hash != base.hash
+    assert load(edited_spec(tmp_path, 'layout_doc = "The header', 'layout_doc = "Header')).hash == base.hash
 
 
 def test_generated_header_and_docs_carry_the_specs_rcomm_layout():
@@ -267,7 +252,7 @@ def test_generated_header_and_docs_carry_the_specs_rcomm_layout():
 
 def test_docs_start_word_comes_from_the_spec(tmp_path):
     from navkit.gen import emit_docs
-    docs = emit_docs(load(_spec(tmp_path, "start_word = 0xFFA5\n", "start_word = 0xFEA5\n")))
+    docs = emit_docs(load(edited_spec(tmp_path, "start_word = 0xFFA5\n", "start_word = 0xFEA5\n")))
     assert "| 0 | *start* | uint16 | | | `0xFEA5` |" in docs and "FFA5" not in docs
 
 
@@ -340,7 +325,7 @@ def test_last_reject_codes_come_from_the_spec():
 
 def test_docs_table_cells_escape_a_bar(tmp_path):
     from navkit.gen import emit_docs
-    path = _spec(tmp_path, 'doc = "Watchdog stops since reset."', 'doc = "Stops | since reset."')
+    path = edited_spec(tmp_path, 'doc = "Watchdog stops since reset."', 'doc = "Stops | since reset."')
     assert "| Stops \\| since reset. |" in emit_docs(load(path))
 
 
@@ -353,8 +338,8 @@ def test_docs_table_cells_escape_a_bar(tmp_path):
      "micro_cmd.fwd_cmd: default 2 is not a value of enum fwd_cmd"),
 ])
 def test_coded_field_needs_codes_in_range(tmp_path, old, new, needle, reason):
-    path = _spec(tmp_path, old, new)
-    _refused(path, _line_of(path, needle), reason)
+    path = edited_spec(tmp_path, old, new)
+    _refused(path, line_of(path, needle), reason)
 
 
 def test_generated_check_refuses_non_codes_of_coded_fields_only():
@@ -416,14 +401,14 @@ _NZ = '{ nonzero = ["enc_left_sign", "enc_right_sign", "motor_left_sign", "motor
      "gyro_sign's default 0 breaks it (give gyro_sign a default)"),
 ])
 def test_broken_constraint_is_refused_at_its_line(tmp_path, old, new, needle, reason):
-    path = _spec(tmp_path, old, new)
-    _refused(path, _line_of(path, needle, "constraint = ["), reason)
+    path = edited_spec(tmp_path, old, new)
+    _refused(path, line_of(path, needle, "constraint = ["), reason)
 
 
 def test_a_constraint_list_that_is_no_array_names_its_line(tmp_path):
     block = "constraint = [\n  " + _LE + ': the left travel limit is not right of the right one (element by element)." },\n]'
-    path = _spec(tmp_path, block, 'constraint = "servo_min <= servo_max"')
-    _refused(path, _line_of(path, 'constraint = "servo_min'), "micro_cfg_io.constraint: must be an array")
+    path = edited_spec(tmp_path, block, 'constraint = "servo_min <= servo_max"')
+    _refused(path, line_of(path, 'constraint = "servo_min'), "micro_cfg_io.constraint: must be an array")
 
 
 def test_constraints_enter_the_hash_and_their_doc_does_not(tmp_path):
@@ -432,10 +417,10 @@ def test_constraints_enter_the_hash_and_their_doc_does_not(tmp_path):
     assert [(c.kind, c.fields) for c in io.constraints] == [("le", ("servo_min", "servo_max"))]
     assert [c.fields[0] for c in base.messages["micro_cfg_geometry"].constraints] == [
         "enc_left_sign", "enc_right_sign", "motor_left_sign", "motor_right_sign", "gyro_sign"]
-    assert load(_spec(tmp_path, _LE, _LE.replace('"servo_min", "servo_max"', '"servo_min", "servo_center"'))
+    assert load(edited_spec(tmp_path, _LE, _LE.replace('"servo_min", "servo_max"', '"servo_min", "servo_center"'))
                 ).hash != base.hash
-    assert load(_spec(tmp_path, _NZ, _NZ.replace(', "gyro_sign"]', "]"))).hash != base.hash
-    assert load(_spec(tmp_path, 'doc = "Per servo: the left', 'doc = "Each servo: the left')).hash == base.hash
+    assert load(edited_spec(tmp_path, _NZ, _NZ.replace(', "gyro_sign"]', "]"))).hash != base.hash
+    assert load(edited_spec(tmp_path, 'doc = "Per servo: the left', 'doc = "Each servo: the left')).hash == base.hash
 
 
 def test_generated_docs_list_the_constraints():

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from navkit.sweep.plan import SweepError, check_varies, grid, parse_vary, sample
-from test_sim_util import require_build
+from sim_helpers import require_build
 
 # 500 mm forward and a heading select to 90 deg in 6 s; [expect] gives the table its errors
 MISSION = """
