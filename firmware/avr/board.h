@@ -95,8 +95,8 @@
 #define BOARD_SONAR_TRIG_SHIFT 4 /* PK4..PK7 */
 #define BOARD_SONAR_ECHO_PIN PINB
 #define BOARD_SONAR_ECHO_PORT_NAME 'B'
-#define BOARD_SONAR_ECHO_SHIFT 4    /* echo i is PB(4+i) */
-#define BOARD_SONAR_ECHO_MASK 0xF0u /* PB4..PB7 */
+#define BOARD_SONAR_ECHO_SHIFT 4      /* echo i is PB(4+i) */
+#define BOARD_SONAR_ECHO_MASK 0xF0u   /* PB4..PB7 */
 #define BOARD_SONAR_NOECHO_US 30000u  /* us: an echo this long or longer reads 0 */
 #define BOARD_SONAR_RISE_US 5000u     /* us: no echo edge this long after the trigger reads 0 */
 #define BOARD_SONAR_HOLDOFF_US 10000u /* us: quiet time before the next trigger */
@@ -154,9 +154,10 @@
 #define BOARD_CAN_INT_DDR DDRK
 #define BOARD_CAN_INT_BIT 0 /* PK0, pin A8 */
 #define BOARD_CAN_INT_PORT_NAME 'K'
-#define BOARD_CAN_POLL_US 200u   /* us: INT poll period (Timer2); one 8-byte frame at 500 kbit/s: 222 us */
-#define BOARD_CAN_RX_FRAMES 32u  /* frames: the RX ring the poll fills (a power of two): ~7 ms of a full bus */
-#define BOARD_CAN_TX_FRAMES 32u  /* frames: the TX queue behind the part's TXB0 (a power of two): a whole
+#define BOARD_CAN_POLL_US 200u  /* us: INT poll period (Timer2); one 8-byte frame at 500 kbit/s: 222 us */
+#define BOARD_CAN_RX_FRAMES 32u /* frames: the RX ring the poll fills (a power of two): ~7 ms of a full bus */
+#define BOARD_CAN_TX_FRAMES                                                                                            \
+    32u /* frames: the TX queue behind the part's TXB0 (a power of two): a whole
                                     micro_data and a flow control fit (board_can.c checks) */
 
 /* ---- Control tick: Timer3 CTC, 0.5 us counts; the period is fw_tick_period_us() ---- */

@@ -6,8 +6,8 @@
 #include "board_adc.h"
 
 static volatile uint16_t adc_val[BOARD_ADC_CHANNELS]; /* counts */
-static volatile uint8_t adc_ch;   /* channel being converted */
-static volatile uint8_t adc_busy; /* 1 while a sweep runs */
+static volatile uint8_t adc_ch;                       /* channel being converted */
+static volatile uint8_t adc_busy;                     /* 1 while a sweep runs */
 
 void board_adc_init(void)
 {
@@ -17,7 +17,7 @@ void board_adc_init(void)
     }
     adc_busy = 0u;
     DIDR0 = (uint8_t)((1u << BOARD_ADC_CHANNELS) - 1u); /* digital inputs off on A0-A4 */
-    ADCSRB = 0u;                                       /* MUX5 = 0: ADC0-7 */
+    ADCSRB = 0u;                                        /* MUX5 = 0: ADC0-7 */
     ADMUX = _BV(REFS0);
     ADCSRA = _BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0); /* 16 MHz / 128 */
 }

@@ -14,32 +14,32 @@
 #define CAN_OP_WRITE 0x02u
 #define CAN_OP_BIT_MODIFY 0x05u
 #define CAN_OP_READ_STATUS 0xA0u
-#define CAN_OP_LOAD_TXB0 0x40u    /* LOAD TX BUFFER from TXB0SIDH */
-#define CAN_OP_RTS_TXB0 0x81u     /* REQUEST TO SEND, TXB0 */
-#define CAN_OP_READ_RXB0 0x90u    /* READ RX BUFFER from RXB0SIDH (RX0IF clears at CS high) */
-#define CAN_OP_READ_RXB1 0x94u    /* READ RX BUFFER from RXB1SIDH (RX1IF clears at CS high) */
+#define CAN_OP_LOAD_TXB0 0x40u /* LOAD TX BUFFER from TXB0SIDH */
+#define CAN_OP_RTS_TXB0 0x81u  /* REQUEST TO SEND, TXB0 */
+#define CAN_OP_READ_RXB0 0x90u /* READ RX BUFFER from RXB0SIDH (RX0IF clears at CS high) */
+#define CAN_OP_READ_RXB1 0x94u /* READ RX BUFFER from RXB1SIDH (RX1IF clears at CS high) */
 /* registers */
-#define CAN_RXF0 0x00u  /* RXF0..RXF2: 0x00, 0x04, 0x08 (SIDH, SIDL, EID8, EID0 each) */
-#define CAN_RXF3 0x10u  /* RXF3..RXF5: 0x10, 0x14, 0x18 */
+#define CAN_RXF0 0x00u     /* RXF0..RXF2: 0x00, 0x04, 0x08 (SIDH, SIDL, EID8, EID0 each) */
+#define CAN_RXF3 0x10u     /* RXF3..RXF5: 0x10, 0x14, 0x18 */
 #define CAN_RXM0_REG 0x20u /* RXM0, RXM1: 0x20, 0x24 */
 #define CAN_CANSTAT 0x0Eu
 #define CAN_CANCTRL 0x0Fu
-#define CAN_CNF3 0x28u  /* CNF3, CNF2, CNF1, CANINTE, CANINTF follow at 0x28..0x2C */
+#define CAN_CNF3 0x28u /* CNF3, CNF2, CNF1, CANINTE, CANINTF follow at 0x28..0x2C */
 #define CAN_CANINTF 0x2Cu
 #define CAN_RXB0CTRL 0x60u
 #define CAN_RXB1CTRL 0x70u
 /* bits */
-#define CAN_INT_RX0 0x01u    /* CANINTE/CANINTF: RX0IE/RX0IF, RX1 = 0x02, TX0 = 0x04 */
+#define CAN_INT_RX0 0x01u /* CANINTE/CANINTF: RX0IE/RX0IF, RX1 = 0x02, TX0 = 0x04 */
 #define CAN_INT_RX1 0x02u
 #define CAN_INT_TX0 0x04u
-#define CAN_ST_RX0IF 0x01u   /* READ STATUS: RX0IF, RX1IF, TXB0 TXREQ, TX0IF, ... */
+#define CAN_ST_RX0IF 0x01u /* READ STATUS: RX0IF, RX1IF, TXB0 TXREQ, TX0IF, ... */
 #define CAN_ST_RX1IF 0x02u
 #define CAN_ST_TX0IF 0x08u
-#define CAN_RXB0_BUKT 0x04u  /* RXB0CTRL: a frame for a full RXB0 rolls over into RXB1 */
-#define CAN_SIDL_IDE 0x08u   /* RXBnSIDL: extended identifier */
-#define CAN_SIDL_SRR 0x10u   /* RXBnSIDL: standard remote frame */
-#define CAN_DLC_RTR 0x40u    /* RXBnDLC: remote frame (extended) */
-#define CAN_MODE_MASK 0xE0u  /* CANCTRL.REQOP / CANSTAT.OPMOD */
+#define CAN_RXB0_BUKT 0x04u /* RXB0CTRL: a frame for a full RXB0 rolls over into RXB1 */
+#define CAN_SIDL_IDE 0x08u  /* RXBnSIDL: extended identifier */
+#define CAN_SIDL_SRR 0x10u  /* RXBnSIDL: standard remote frame */
+#define CAN_DLC_RTR 0x40u   /* RXBnDLC: remote frame (extended) */
+#define CAN_MODE_MASK 0xE0u /* CANCTRL.REQOP / CANSTAT.OPMOD */
 #define CAN_MODE_NORMAL 0x00u
 
 /* Bit timing (datasheet 5): a time quantum TQ = 2 (BRP + 1) / F_OSC; a bit is
@@ -54,33 +54,36 @@
 #define CAN_PS1 ((CAN_TQ - 1u - CAN_PS2 + 1u) / 2u)
 #define CAN_PROP (CAN_TQ - 1u - CAN_PS2 - CAN_PS1)
 typedef char can_rate_exact[(CAN_TQ * (CAN_BRP + 1u) * NAVKIT_CAN_BITRATE == CAN_HALF_OSC) ? 1 : -1];
-typedef char can_rate_quanta[(CAN_TQ >= 8u && CAN_BRP < 64u && CAN_PS1 <= 8u && CAN_PROP >= 1u && CAN_PROP <= 8u) ? 1 : -1];
+typedef char
+    can_rate_quanta[(CAN_TQ >= 8u && CAN_BRP < 64u && CAN_PS1 <= 8u && CAN_PROP >= 1u && CAN_PROP <= 8u) ? 1 : -1];
 /* the INT poll must come round within one frame (111 bits, 8 data bytes, no stuffing) so
    that the two receive buffers never overflow */
 typedef char can_poll_in_time[((uint32_t)BOARD_CAN_POLL_US * (NAVKIT_CAN_BITRATE / 1000u) < 111000u) ? 1 : -1];
 typedef char can_rings_pow2[((BOARD_CAN_RX_FRAMES & (BOARD_CAN_RX_FRAMES - 1u)) == 0u &&
-                             (BOARD_CAN_TX_FRAMES & (BOARD_CAN_TX_FRAMES - 1u)) == 0u) ? 1 : -1];
+                             (BOARD_CAN_TX_FRAMES & (BOARD_CAN_TX_FRAMES - 1u)) == 0u)
+                                ? 1
+                                : -1];
 /* Acceptance: RXB0 (two deep: a frame for a full RXB0 rolls over into RXB1) takes every
    burst, micro_cmd's frames by RXF0 and the three configs' by RXF1 under one mask RXM0 that
    ignores the bits in which the configs' identifiers differ; RXB1's own filters (RXF2-5,
    exact) take micro_data's flow control, one frame per reply. The mask lets a few unused
    identifiers through too (0x112/0x114/0x116/0x126 for the spec's ids), which the link's
    ISO-TP ignores as other nodes' traffic; never one the micro sends itself (checked below). */
-#define CAN_CFG_SPREAD                                                                                        \
-    ((NAVKIT_CAN_ID_MICRO_CFG_GEOMETRY ^ NAVKIT_CAN_ID_MICRO_CFG_MOTION) |                                   \
+#define CAN_CFG_SPREAD                                                                                                 \
+    ((NAVKIT_CAN_ID_MICRO_CFG_GEOMETRY ^ NAVKIT_CAN_ID_MICRO_CFG_MOTION) |                                             \
      (NAVKIT_CAN_ID_MICRO_CFG_GEOMETRY ^ NAVKIT_CAN_ID_MICRO_CFG_IO))
 #define CAN_RXM0 (0x7FFu & ~CAN_CFG_SPREAD)
-#define CAN_RXB0_TAKES(id)                                                                                    \
-    ((((id) ^ NAVKIT_CAN_ID_MICRO_CMD) & CAN_RXM0) == 0u ||                                                  \
+#define CAN_RXB0_TAKES(id)                                                                                             \
+    ((((id) ^ NAVKIT_CAN_ID_MICRO_CMD) & CAN_RXM0) == 0u ||                                                            \
      (((id) ^ NAVKIT_CAN_ID_MICRO_CFG_GEOMETRY) & CAN_RXM0) == 0u)
-typedef char can_filters_own[(!CAN_RXB0_TAKES(NAVKIT_CAN_ID_MICRO_DATA) && !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CMD) &&
-                              !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CFG_GEOMETRY) &&
-                              !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CFG_MOTION) &&
-                              !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CFG_IO) &&
-                              !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_DATA) &&
-                              CAN_RXB0_TAKES(NAVKIT_CAN_ID_MICRO_CFG_MOTION) && CAN_RXB0_TAKES(NAVKIT_CAN_ID_MICRO_CFG_IO))
-                                 ? 1
-                                 : -1];
+typedef char
+    can_filters_own[(!CAN_RXB0_TAKES(NAVKIT_CAN_ID_MICRO_DATA) && !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CMD) &&
+                     !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CFG_GEOMETRY) &&
+                     !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CFG_MOTION) &&
+                     !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_CFG_IO) && !CAN_RXB0_TAKES(NAVKIT_CAN_FC_ID_MICRO_DATA) &&
+                     CAN_RXB0_TAKES(NAVKIT_CAN_ID_MICRO_CFG_MOTION) && CAN_RXB0_TAKES(NAVKIT_CAN_ID_MICRO_CFG_IO))
+                        ? 1
+                        : -1];
 
 /* the TX queue takes a whole micro_data (a first frame of 6 bytes, consecutive frames of
    7) and the flow control the link owes the host meanwhile: hal_can_tx_free() never stops
@@ -300,7 +303,7 @@ uint8_t board_can_init(void)
     /* CNF3, CNF2, CNF1, CANINTE */
     r[0] = (uint8_t)(CAN_PS2 - 1u);
     r[1] = (uint8_t)(0x80u | ((CAN_PS1 - 1u) << 3) | (CAN_PROP - 1u)); /* BTLMODE: PHSEG2 from CNF3 */
-    r[2] = (uint8_t)CAN_BRP;                                          /* SJW 1 */
+    r[2] = (uint8_t)CAN_BRP;                                           /* SJW 1 */
     r[3] = (uint8_t)(CAN_INT_RX0 | CAN_INT_RX1 | CAN_INT_TX0);
     can_write_regs(CAN_CNF3, r, 4u);
     /* the acceptance above: RXF0, RXF1 under RXM0; RXF2..RXF5 all micro_data's flow

@@ -8,7 +8,7 @@
 /* Count step for (last state << 2 | new state), state = A << 1 | B; 0 for no change and
  * for the four transitions that change both pins (an edge was missed: not counted).
  * Forward (A leads B): 0 2 3 1 0. */
-static const int8_t enc_step[16] = { 0, -1, 1, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 1, -1, 0 };
+static const int8_t enc_step[16] = {0, -1, 1, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 1, -1, 0};
 
 /* The interrupts only add to 16-bit accumulators (short interrupts: the other encoder's
  * edges must not wait); board_enc_left/right fold them into the 32-bit counts. At 50 000
@@ -19,8 +19,8 @@ static int32_t enc_l, enc_r;           /* counts up to the last fold (main loop 
 
 void board_enc_init(void)
 {
-    DDRE &= (uint8_t)~(3u << BOARD_ENC_L_SHIFT);
-    DDRD &= (uint8_t)~(3u << BOARD_ENC_R_SHIFT);
+    DDRE &= (uint8_t) ~(3u << BOARD_ENC_L_SHIFT);
+    DDRD &= (uint8_t) ~(3u << BOARD_ENC_R_SHIFT);
     enc_l = 0;
     enc_r = 0;
     enc_l_acc = 0;

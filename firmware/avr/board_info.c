@@ -6,9 +6,9 @@
 typedef char board_info_size_check[(sizeof(board_info_t) == 36u) ? 1 : -1];
 
 const board_info_t board_info __attribute__((used, section(".progmem.navkit_info"))) = {
-    { 'N', 'A', 'V', 'K', 'I', 'T', 'I', 'M' },
+    {'N', 'A', 'V', 'K', 'I', 'T', 'I', 'M'},
     BOARD_INFO_VERSION,
-    { BOARD_SIGNATURE_0, BOARD_SIGNATURE_1, BOARD_SIGNATURE_2 },
+    {BOARD_SIGNATURE_0, BOARD_SIGNATURE_1, BOARD_SIGNATURE_2},
     (uint32_t)NAVKIT_SPEC_HASH,
     (uint32_t)BOARD_F_CPU_HZ,
     BOARD_MCU_NAME,

@@ -11,12 +11,12 @@
 #define BOARD_INFO_VERSION 1u
 
 typedef struct {
-    char magic[8];         /* BOARD_INFO_MAGIC */
-    uint8_t info_version;  /* BOARD_INFO_VERSION */
-    uint8_t signature[3];  /* device signature: 1E 98 01 = ATmega2560 */
-    uint32_t spec_hash;    /* NAVKIT_SPEC_HASH the image was built from */
-    uint32_t f_cpu_hz;     /* Hz: the clock the image is built for */
-    char mcu[16];          /* avr-gcc -mmcu name, NUL-padded */
+    char magic[8];        /* BOARD_INFO_MAGIC */
+    uint8_t info_version; /* BOARD_INFO_VERSION */
+    uint8_t signature[3]; /* device signature: 1E 98 01 = ATmega2560 */
+    uint32_t spec_hash;   /* NAVKIT_SPEC_HASH the image was built from */
+    uint32_t f_cpu_hz;    /* Hz: the clock the image is built for */
+    char mcu[16];         /* avr-gcc -mmcu name, NUL-padded */
 } board_info_t;
 
 /* The block itself, kept by the link (-Wl,-u,board_info) although no code reads it. */

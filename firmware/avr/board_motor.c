@@ -7,11 +7,11 @@
 
 void board_motor_init(void)
 {
-    BOARD_MOTOR_PORT &= (uint8_t)~(_BV(BOARD_MOTOR_L_PWM_BIT) | _BV(BOARD_MOTOR_R_PWM_BIT) |
-                                   _BV(BOARD_MOTOR_L_DIR_BIT) | _BV(BOARD_MOTOR_R_DIR_BIT));
-    BOARD_MOTOR_DDR |= (uint8_t)(_BV(BOARD_MOTOR_L_PWM_BIT) | _BV(BOARD_MOTOR_R_PWM_BIT) |
-                                 _BV(BOARD_MOTOR_L_DIR_BIT) | _BV(BOARD_MOTOR_R_DIR_BIT));
-    TCCR4A = _BV(WGM41); /* outputs disconnected until a duty is set */
+    BOARD_MOTOR_PORT &= (uint8_t) ~(_BV(BOARD_MOTOR_L_PWM_BIT) | _BV(BOARD_MOTOR_R_PWM_BIT) |
+                                    _BV(BOARD_MOTOR_L_DIR_BIT) | _BV(BOARD_MOTOR_R_DIR_BIT));
+    BOARD_MOTOR_DDR |= (uint8_t)(_BV(BOARD_MOTOR_L_PWM_BIT) | _BV(BOARD_MOTOR_R_PWM_BIT) | _BV(BOARD_MOTOR_L_DIR_BIT) |
+                                 _BV(BOARD_MOTOR_R_DIR_BIT));
+    TCCR4A = _BV(WGM41);                          /* outputs disconnected until a duty is set */
     TCCR4B = _BV(WGM43) | _BV(WGM42) | _BV(CS40); /* fast PWM, TOP = ICR4, 16 MHz */
     ICR4 = BOARD_MOTOR_PWM_TOP;
     OCR4A = 0u;

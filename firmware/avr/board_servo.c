@@ -8,10 +8,10 @@
 #define SERVO_COUNTS_PER_US 2u /* Timer1 at 16 MHz / 8 */
 
 static volatile uint16_t servo_counts[8]; /* 0.5 us counts of each pulse, 0 = none */
-static uint8_t servo_slot;  /* slot in progress, or the next one while the last ends */
-static uint8_t servo_pin;   /* its PORTA bit */
-static uint8_t servo_high;  /* 1 while its pulse is high */
-static uint16_t servo_cur;  /* counts of its pulse (taken when the slot before ended) */
+static uint8_t servo_slot;                /* slot in progress, or the next one while the last ends */
+static uint8_t servo_pin;                 /* its PORTA bit */
+static uint8_t servo_high;                /* 1 while its pulse is high */
+static uint16_t servo_cur;                /* counts of its pulse (taken when the slot before ended) */
 
 void board_servo_init(void)
 {

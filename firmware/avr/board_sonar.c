@@ -9,12 +9,12 @@
 
 enum { SONAR_IDLE, SONAR_TRIG, SONAR_WAIT_RISE, SONAR_ECHO, SONAR_WAIT_LOW };
 
-static volatile uint16_t sonar_us[4]; /* us: results */
+static volatile uint16_t sonar_us[4];   /* us: results */
 static volatile uint16_t sonar_t5_high; /* Timer5 overflows */
 static uint8_t sonar_state;
-static uint8_t sonar_cur;      /* sonar being pinged */
-static uint8_t sonar_pins;     /* echo pin levels at the last pin change */
-static uint32_t sonar_t_state; /* 0.5 us: when the state began (rise time in SONAR_ECHO) */
+static uint8_t sonar_cur;               /* sonar being pinged */
+static uint8_t sonar_pins;              /* echo pin levels at the last pin change */
+static uint32_t sonar_t_state;          /* 0.5 us: when the state began (rise time in SONAR_ECHO) */
 static volatile uint8_t sonar_in_pcint; /* 1 while the pin-change interrupt runs with interrupts on */
 
 /* The sequence's state is shared by the pin-change interrupt and the tick's step; neither
@@ -46,7 +46,7 @@ void board_sonar_init(void)
     for (i = 0u; i < 4u; i++) {
         sonar_us[i] = 0u;
     }
-    BOARD_SONAR_TRIG_PORT &= (uint8_t)~(0x0Fu << BOARD_SONAR_TRIG_SHIFT);
+    BOARD_SONAR_TRIG_PORT &= (uint8_t) ~(0x0Fu << BOARD_SONAR_TRIG_SHIFT);
     BOARD_SONAR_TRIG_DDR |= (uint8_t)(0x0Fu << BOARD_SONAR_TRIG_SHIFT);
     DDRB &= (uint8_t)~BOARD_SONAR_ECHO_MASK;
     sonar_t5_high = 0u;

@@ -16,13 +16,13 @@
 
 /* Script steps: what to do when the previous step is done. */
 enum {
-    TWI_OP_START,  /* (repeated) START */
-    TWI_OP_SEND,   /* send the byte `arg` (an SLA+R/W or a register/value) */
-    TWI_OP_READ,   /* receive a byte into twi_raw[arg], acknowledge it (more follow) */
-    TWI_OP_LAST,   /* receive the last byte into twi_raw[arg], no acknowledge */
-    TWI_OP_AWAKE,  /* the gyro's writes went through: STOP, START, and skip them from now */
-    TWI_OP_NEXT,   /* STOP, then START the next part's transfer */
-    TWI_OP_END     /* STOP: the round is over */
+    TWI_OP_START, /* (repeated) START */
+    TWI_OP_SEND,  /* send the byte `arg` (an SLA+R/W or a register/value) */
+    TWI_OP_READ,  /* receive a byte into twi_raw[arg], acknowledge it (more follow) */
+    TWI_OP_LAST,  /* receive the last byte into twi_raw[arg], no acknowledge */
+    TWI_OP_AWAKE, /* the gyro's writes went through: STOP, START, and skip them from now */
+    TWI_OP_NEXT,  /* STOP, then START the next part's transfer */
+    TWI_OP_END    /* STOP: the round is over */
 };
 
 typedef struct {
@@ -33,47 +33,47 @@ typedef struct {
 
 #define TWI_SLA_W(a) ((uint8_t)(((a) << 1) | TW_WRITE))
 #define TWI_SLA_R(a) ((uint8_t)(((a) << 1) | TW_READ))
-#define TWI_READS 4u /* gyro ZOUT H/L, compass bearing H/L */
-#define TWI_READ_FROM 9u  /* index of the reads' START (after the wake-up writes) */
-#define TWI_COMPASS 16u   /* index of the compass transfer's START (a TWI_OP_NEXT) */
+#define TWI_READS 4u     /* gyro ZOUT H/L, compass bearing H/L */
+#define TWI_READ_FROM 9u /* index of the reads' START (after the wake-up writes) */
+#define TWI_COMPASS 16u  /* index of the compass transfer's START (a TWI_OP_NEXT) */
 #define TWI_FAIL_END 0xFFu
 
 /* Each entry is the step the bus does next; the interrupt that follows finishes it. */
 static const twi_step_t twi_script[] = {
     /* wake the gyro (PWR_MGMT_1 = 0), then its range (GYRO_CONFIG = 0: 131 LSB per deg/s) */
-    { TWI_OP_START, 0u, TWI_COMPASS },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS },
-    { TWI_OP_SEND, BOARD_GYRO_REG_PWR_MGMT_1, TWI_COMPASS },
-    { TWI_OP_SEND, 0x00u, TWI_COMPASS },
-    { TWI_OP_NEXT, 0u, TWI_COMPASS },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS },
-    { TWI_OP_SEND, BOARD_GYRO_REG_GYRO_CONFIG, TWI_COMPASS },
-    { TWI_OP_SEND, 0x00u, TWI_COMPASS },
-    { TWI_OP_AWAKE, 0u, TWI_COMPASS }, /* its START counts as the reads' first step */
+    {TWI_OP_START, 0u, TWI_COMPASS},
+    {TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS},
+    {TWI_OP_SEND, BOARD_GYRO_REG_PWR_MGMT_1, TWI_COMPASS},
+    {TWI_OP_SEND, 0x00u, TWI_COMPASS},
+    {TWI_OP_NEXT, 0u, TWI_COMPASS},
+    {TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS},
+    {TWI_OP_SEND, BOARD_GYRO_REG_GYRO_CONFIG, TWI_COMPASS},
+    {TWI_OP_SEND, 0x00u, TWI_COMPASS},
+    {TWI_OP_AWAKE, 0u, TWI_COMPASS}, /* its START counts as the reads' first step */
     /* TWI_READ_FROM: the gyro's GYRO_ZOUT_H/L */
-    { TWI_OP_START, 0u, TWI_COMPASS },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS },
-    { TWI_OP_SEND, BOARD_GYRO_REG_ZOUT_H, TWI_COMPASS },
-    { TWI_OP_START, 0u, TWI_COMPASS },
-    { TWI_OP_SEND, TWI_SLA_R(BOARD_GYRO_ADDR), TWI_COMPASS },
-    { TWI_OP_READ, 0u, TWI_COMPASS },
-    { TWI_OP_LAST, 1u, TWI_COMPASS },
+    {TWI_OP_START, 0u, TWI_COMPASS},
+    {TWI_OP_SEND, TWI_SLA_W(BOARD_GYRO_ADDR), TWI_COMPASS},
+    {TWI_OP_SEND, BOARD_GYRO_REG_ZOUT_H, TWI_COMPASS},
+    {TWI_OP_START, 0u, TWI_COMPASS},
+    {TWI_OP_SEND, TWI_SLA_R(BOARD_GYRO_ADDR), TWI_COMPASS},
+    {TWI_OP_READ, 0u, TWI_COMPASS},
+    {TWI_OP_LAST, 1u, TWI_COMPASS},
     /* TWI_COMPASS: the compass's bearing word */
-    { TWI_OP_NEXT, 0u, TWI_FAIL_END },
-    { TWI_OP_SEND, TWI_SLA_W(BOARD_COMPASS_ADDR), TWI_FAIL_END },
-    { TWI_OP_SEND, BOARD_COMPASS_REG_BEARING, TWI_FAIL_END },
-    { TWI_OP_START, 0u, TWI_FAIL_END },
-    { TWI_OP_SEND, TWI_SLA_R(BOARD_COMPASS_ADDR), TWI_FAIL_END },
-    { TWI_OP_READ, 2u, TWI_FAIL_END },
-    { TWI_OP_LAST, 3u, TWI_FAIL_END },
-    { TWI_OP_END, 0u, TWI_FAIL_END },
+    {TWI_OP_NEXT, 0u, TWI_FAIL_END},
+    {TWI_OP_SEND, TWI_SLA_W(BOARD_COMPASS_ADDR), TWI_FAIL_END},
+    {TWI_OP_SEND, BOARD_COMPASS_REG_BEARING, TWI_FAIL_END},
+    {TWI_OP_START, 0u, TWI_FAIL_END},
+    {TWI_OP_SEND, TWI_SLA_R(BOARD_COMPASS_ADDR), TWI_FAIL_END},
+    {TWI_OP_READ, 2u, TWI_FAIL_END},
+    {TWI_OP_LAST, 3u, TWI_FAIL_END},
+    {TWI_OP_END, 0u, TWI_FAIL_END},
 };
 
 #define TWI_GO (_BV(TWINT) | _BV(TWEN) | _BV(TWIE))
 
-static volatile uint8_t twi_busy;       /* 1 while a round runs */
-static volatile uint8_t twi_gyro_awake; /* 1 once the wake-up writes were acknowledged */
-static uint8_t twi_step;                /* index of the step in progress */
+static volatile uint8_t twi_busy;           /* 1 while a round runs */
+static volatile uint8_t twi_gyro_awake;     /* 1 once the wake-up writes were acknowledged */
+static uint8_t twi_step;                    /* index of the step in progress */
 static volatile uint8_t twi_raw[TWI_READS]; /* bytes read, big-endian pairs */
 static volatile uint16_t twi_err;
 
@@ -108,8 +108,8 @@ ISR(TWI_vect)
     uint8_t st = TW_STATUS;
     const twi_step_t *s = &twi_script[twi_step];
     /* the step in progress went through? (START, acknowledged SLA/data, a received byte) */
-    if (!(st == TW_START || st == TW_REP_START || st == TW_MT_SLA_ACK || st == TW_MT_DATA_ACK ||
-          st == TW_MR_SLA_ACK || st == TW_MR_DATA_ACK || st == TW_MR_DATA_NACK)) {
+    if (!(st == TW_START || st == TW_REP_START || st == TW_MT_SLA_ACK || st == TW_MT_DATA_ACK || st == TW_MR_SLA_ACK ||
+          st == TW_MR_DATA_ACK || st == TW_MR_DATA_NACK)) {
         twi_err++;
         if (twi_step < TWI_READ_FROM) {
             twi_gyro_awake = 0u; /* its wake-up writes again next round */

@@ -11,10 +11,10 @@
 
 static uint8_t uart_rx[BOARD_UART_RX_SIZE];
 static uint8_t uart_tx[BOARD_UART_TX_SIZE];
-static volatile uint8_t uart_rx_head; /* written by the RX interrupt */
-static volatile uint8_t uart_rx_tail; /* written by board_uart_read() */
-static volatile uint8_t uart_tx_head; /* written by board_uart_write() */
-static volatile uint8_t uart_tx_tail; /* written by the UDRE interrupt */
+static volatile uint8_t uart_rx_head;  /* written by the RX interrupt */
+static volatile uint8_t uart_rx_tail;  /* written by board_uart_read() */
+static volatile uint8_t uart_tx_head;  /* written by board_uart_write() */
+static volatile uint8_t uart_tx_tail;  /* written by the UDRE interrupt */
 static volatile uint16_t uart_rx_lost; /* bytes dropped on a full RX ring */
 
 void board_uart_init(void)

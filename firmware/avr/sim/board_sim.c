@@ -40,9 +40,9 @@
 #include "board_sim_can.h"
 
 #define SIM_CYCLES_PER_US (BOARD_SIM_F_CPU_HZ / 1000000u)
-#define SIM_ECHO_DELAY_US 100u        /* us: SRF04 trigger fall to echo rise (its burst) */
-#define SIM_ECHO_NOOBJECT_US 36000u   /* us: the SRF04's echo when nothing answers */
-#define SIM_SERVO_STALE_US 100000u    /* us: no pulse for this long = not driven */
+#define SIM_ECHO_DELAY_US 100u      /* us: SRF04 trigger fall to echo rise (its burst) */
+#define SIM_ECHO_NOOBJECT_US 36000u /* us: the SRF04's echo when nothing answers */
+#define SIM_SERVO_STALE_US 100000u  /* us: no pulse for this long = not driven */
 #define SIM_QUEUE_MASK (BOARD_SIM_UART_QUEUE - 1u)
 
 /* A byte queue of BOARD_SIM_UART_QUEUE bytes (a power of two). */
@@ -55,19 +55,19 @@ typedef struct {
 typedef struct {
     board_sim_t *b;
     avr_irq_t *pin_a, *pin_b;
-    int32_t pos;        /* counts the pins show */
-    int32_t target;     /* counts asked for */
-    uint32_t spacing;   /* cycles between edges */
-    int armed;          /* its cycle timer is registered */
+    int32_t pos;      /* counts the pins show */
+    int32_t target;   /* counts asked for */
+    uint32_t spacing; /* cycles between edges */
+    int armed;        /* its cycle timer is registered */
 } sim_enc_t;
 
 /* One SRF04. */
 typedef struct {
     board_sim_t *b;
     avr_irq_t *echo;
-    uint16_t width_us;  /* us: the next echo; 0 = no object */
+    uint16_t width_us; /* us: the next echo; 0 = no object */
     uint32_t trig_level;
-    int busy;           /* an echo is on its way or high */
+    int busy; /* an echo is on its way or high */
 } sim_sonar_t;
 
 /* One RC servo pin. */
@@ -75,9 +75,9 @@ typedef struct {
     board_sim_t *b;
     uint8_t index;
     uint32_t level;
-    uint64_t rise;      /* cycle of the last rising edge */
-    uint64_t fall;      /* cycle of the last falling edge (0 = none yet) */
-    uint16_t width_us;  /* us: the last complete pulse */
+    uint64_t rise;     /* cycle of the last rising edge */
+    uint64_t fall;     /* cycle of the last falling edge (0 = none yet) */
+    uint16_t width_us; /* us: the last complete pulse */
 } sim_servo_t;
 
 /* A TWI part: a register file behind a 7-bit address. */
@@ -90,10 +90,10 @@ typedef struct {
 struct board_sim {
     avr_t *avr;
     char err[256];
-    avr_run_t run_fn;   /* simavr's run function: any other means a reset is pending */
+    avr_run_t run_fn; /* simavr's run function: any other means a reset is pending */
     int bootloader_clears_mcusr;
     /* parts */
-    sim_enc_t enc[2];   /* 0 left, 1 right */
+    sim_enc_t enc[2]; /* 0 left, 1 right */
     avr_irq_t *adc_irq;
     int16_t gyro_raw;
     uint16_t compass;
@@ -460,7 +460,7 @@ static void sim_after_reset(board_sim_t *b)
         b->sonar[i].busy = 0;
         b->sonar[i].trig_level = 0u;
         avr_raise_irq(b->sonar[i].echo, 0);
-        avr->data[BOARD_SONAR_ECHO_PIN] &= (uint8_t)~(1u << (BOARD_SONAR_ECHO_SHIFT + i));
+        avr->data[BOARD_SONAR_ECHO_PIN] &= (uint8_t) ~(1u << (BOARD_SONAR_ECHO_SHIFT + i));
     }
     avr->data[BOARD_DIO_LO_PIN] = (uint8_t)b->dio_in;
     avr->data[BOARD_DIO_HI_PIN] = (uint8_t)((avr->data[BOARD_DIO_HI_PIN] & ~BOARD_DIO_HI_MASK) |
@@ -501,7 +501,7 @@ static void sim_logger(avr_t *avr, const int level, const char *format, va_list 
 static int sim_load(board_sim_t *b, const char *path, char *err, size_t err_len)
 {
     FILE *f = fopen(path, "rb");
-    unsigned char head[4] = { 0, 0, 0, 0 };
+    unsigned char head[4] = {0, 0, 0, 0};
     size_t got;
     if (f == NULL) {
         sim_errf(err, err_len, "%s: cannot open the image", path);
@@ -614,16 +614,16 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
         sim_sonar_t *s = &b->sonar[i];
         s->b = b;
         s->echo = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SONAR_ECHO_PORT_NAME), BOARD_SONAR_ECHO_SHIFT + i);
-        avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SONAR_TRIG_PORT_NAME),
-                                              BOARD_SONAR_TRIG_SHIFT + i),
-                                sim_sonar_trig, s);
+        avr_irq_register_notify(
+            avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SONAR_TRIG_PORT_NAME), BOARD_SONAR_TRIG_SHIFT + i),
+            sim_sonar_trig, s);
     }
     /* servos */
     for (i = 0; i < 8; i++) {
         b->servo[i].b = b;
         b->servo[i].index = (uint8_t)i;
-        avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SERVO_PORT_NAME), i),
-                                sim_servo_pin, &b->servo[i]);
+        avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(BOARD_SERVO_PORT_NAME), i), sim_servo_pin,
+                                &b->servo[i]);
     }
     /* DIO inputs */
     for (i = 0; i < 12; i++) {
@@ -643,8 +643,8 @@ board_sim_t *board_sim_new(const char *image_path, char *err, size_t err_len)
     }
     /* profile */
     avr_register_io_write(avr, GPIOR0, sim_gpior0_write, b);
-    avr_irq_register_notify(avr_get_interrupt_irq(avr, TIMER3_COMPA_vect_num) + AVR_INT_IRQ_PENDING,
-                            sim_tick_requested, b);
+    avr_irq_register_notify(avr_get_interrupt_irq(avr, TIMER3_COMPA_vect_num) + AVR_INT_IRQ_PENDING, sim_tick_requested,
+                            b);
     b->prof.stack_min_sp = BOARD_RAMEND;
     /* a power-on start */
     avr->data[MCUSR] = (uint8_t)(1u << PORF);

@@ -36,18 +36,18 @@ typedef struct board_sim board_sim_t;
  * fw_tick() and fw_link_poll() each from their first to their last instruction, interrupts
  * taken inside them included. */
 typedef struct {
-    uint32_t ticks;                /* fw_tick() calls completed */
-    uint32_t tick_worst_cycles;    /* cycles: the longest fw_tick() */
-    uint32_t tick_mean_cycles;     /* cycles: mean fw_tick(), rounded down; 0 if no tick */
-    uint32_t polls;                /* fw_link_poll() calls completed */
-    uint32_t poll_worst_cycles;    /* cycles: the longest fw_link_poll() */
-    uint32_t poll_mean_cycles;     /* cycles: mean fw_link_poll(); 0 if no poll */
-    uint64_t tick_total_cycles;    /* cycles: all fw_tick() together (CPU share = this / cycles) */
-    uint64_t poll_total_cycles;    /* cycles: all fw_link_poll() together */
-    uint32_t resets;               /* resets of the core after the first start (any cause) */
-    uint32_t watchdog_resets;      /* of which by the hardware watchdog */
-    uint16_t stack_min_sp;         /* the lowest stack pointer seen (a data address; RAMEND = 0x21FF) */
-    uint16_t stack_max_bytes;      /* bytes: deepest stack, RAMEND - stack_min_sp */
+    uint32_t ticks;             /* fw_tick() calls completed */
+    uint32_t tick_worst_cycles; /* cycles: the longest fw_tick() */
+    uint32_t tick_mean_cycles;  /* cycles: mean fw_tick(), rounded down; 0 if no tick */
+    uint32_t polls;             /* fw_link_poll() calls completed */
+    uint32_t poll_worst_cycles; /* cycles: the longest fw_link_poll() */
+    uint32_t poll_mean_cycles;  /* cycles: mean fw_link_poll(); 0 if no poll */
+    uint64_t tick_total_cycles; /* cycles: all fw_tick() together (CPU share = this / cycles) */
+    uint64_t poll_total_cycles; /* cycles: all fw_link_poll() together */
+    uint32_t resets;            /* resets of the core after the first start (any cause) */
+    uint32_t watchdog_resets;   /* of which by the hardware watchdog */
+    uint16_t stack_min_sp;      /* the lowest stack pointer seen (a data address; RAMEND = 0x21FF) */
+    uint16_t stack_max_bytes;   /* bytes: deepest stack, RAMEND - stack_min_sp */
     /* tick lateness: cycles from the tick timer's interrupt request (Timer3 compare A: the
      * moment a tick falls due) to the start of the fw_tick() that serves it, due ticks
      * served oldest first; what a long fw_link_poll() (or a run of ticks) holds them up */
@@ -165,8 +165,8 @@ void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out);
 
 /* ---- resets ---- */
 
-#define BOARD_SIM_RESET_EXTERNAL 0 /* the reset pin (the USB-serial's DTR): SRAM kept, MCUSR EXTRF */
-#define BOARD_SIM_RESET_POWER_ON 1 /* power cycle: SRAM arbitrary, MCUSR PORF */
+#define BOARD_SIM_RESET_EXTERNAL 0  /* the reset pin (the USB-serial's DTR): SRAM kept, MCUSR EXTRF */
+#define BOARD_SIM_RESET_POWER_ON 1  /* power cycle: SRAM arbitrary, MCUSR PORF */
 #define BOARD_SIM_RESET_BROWN_OUT 2 /* supply dip: SRAM kept, MCUSR BORF */
 /* Reset the core now with one of BOARD_SIM_RESET_*: the image starts again from address 0
  * (the parts keep their inputs and state; a power-on also restarts the gyro asleep). */

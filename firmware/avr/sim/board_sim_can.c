@@ -49,8 +49,8 @@ typedef struct {
 
 struct sim_can {
     avr_t *avr;
-    avr_spi_t *spi;   /* simavr's SPI module (its SPDR write is the board's, can_spdr_write) */
-    uint8_t spi_out;  /* the byte being shifted out */
+    avr_spi_t *spi;  /* simavr's SPI module (its SPDR write is the board's, can_spdr_write) */
+    uint8_t spi_out; /* the byte being shifted out */
     avr_irq_t *int_irq;
     uint8_t regs[128];
     /* the SPI transaction under way */
@@ -64,7 +64,7 @@ struct sim_can {
     /* the bus */
     uint32_t bus_bps;
     int busy;
-    int src;          /* the frame on the bus: SRC_HOST, a TXB, or SRC_NONE (cut off) */
+    int src; /* the frame on the bus: SRC_HOST, a TXB, or SRC_NONE (cut off) */
     can_frame_t cur;
     can_frame_t *host_q, *out_q;
     uint32_t host_head, host_tail, out_head, out_tail;
@@ -214,7 +214,7 @@ static void can_cs(avr_irq_t *irq, uint32_t value, void *param)
     }
     if (c->selected && c->nbytes > 0u && (c->op & 0xF9u) == 0x90u) {
         /* READ RX BUFFER: the buffer's flag clears as CS goes high */
-        c->regs[R_CANINTF] &= (uint8_t)~((c->op & 0x04u) ? INTF_RX1 : INTF_RX0);
+        c->regs[R_CANINTF] &= (uint8_t) ~((c->op & 0x04u) ? INTF_RX1 : INTF_RX0);
         can_update_int(c);
     }
     c->selected = 0;
@@ -325,7 +325,7 @@ static avr_cycle_count_t can_spi_done(avr_t *avr, avr_cycle_count_t when, void *
 
 static void can_spdr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 {
-    static const uint8_t div[4] = { 4u, 16u, 64u, 128u };
+    static const uint8_t div[4] = {4u, 16u, 64u, 128u};
     sim_can_t *c = (sim_can_t *)param;
     avr_spi_t *spi = c->spi;
     uint32_t d;

@@ -46,46 +46,45 @@
 #include <sim_regbit.h>
 
 #define SB_MCU "atmega2560"
-#define SB_F_CPU 16000000u          /* Hz, the Mega's crystal */
+#define SB_F_CPU 16000000u /* Hz, the Mega's crystal */
 #define SB_FLASH_BYTES (256u * 1024u)
-#define SB_BOOT_START 0x3E000u      /* bytes: BOOTSZ=00, 4096 words at the top */
-#define SB_FUSE_LOW 0xFFu           /* the Arduino Mega 2560's fuses */
-#define SB_FUSE_HIGH 0xD8u          /* BOOTRST programmed, BOOTSZ=00 */
+#define SB_BOOT_START 0x3E000u /* bytes: BOOTSZ=00, 4096 words at the top */
+#define SB_FUSE_LOW 0xFFu      /* the Arduino Mega 2560's fuses */
+#define SB_FUSE_HIGH 0xD8u     /* BOOTRST programmed, BOOTSZ=00 */
 #define SB_FUSE_EXT 0xFDu
 #define SB_LOCKBITS 0xCFu
-#define SB_UCSR0B 0xC1u             /* data address of UCSR0B (RXEN0 is bit 4) */
+#define SB_UCSR0B 0xC1u /* data address of UCSR0B (RXEN0 is bit 4) */
 #define SB_RXEN0 4
-#define SB_SLICE_CYCLES 16000u      /* cycles between two services of the pty: 1 ms */
-#define SB_QUEUE 8192u              /* bytes held each way (pty -> UART, UART -> pty) */
-#define SB_DEFAULT_BOOTLOADER \
-    "/usr/share/arduino/hardware/arduino/avr/bootloaders/stk500v2/stk500boot_v2_mega2560.hex"
+#define SB_SLICE_CYCLES 16000u /* cycles between two services of the pty: 1 ms */
+#define SB_QUEUE 8192u         /* bytes held each way (pty -> UART, UART -> pty) */
+#define SB_DEFAULT_BOOTLOADER "/usr/share/arduino/hardware/arduino/avr/bootloaders/stk500v2/stk500boot_v2_mega2560.hex"
 
 /* A byte queue (ring) of SB_QUEUE bytes. */
 typedef struct {
     uint8_t buf[SB_QUEUE];
-    size_t head;    /* index of the oldest byte */
-    size_t len;     /* bytes held */
-    uint64_t lost;  /* bytes dropped because the queue was full */
+    size_t head;   /* index of the oldest byte */
+    size_t len;    /* bytes held */
+    uint64_t lost; /* bytes dropped because the queue was full */
 } sb_queue_t;
 
 typedef struct {
     avr_t *avr;
-    const char *link;           /* the symlink path */
-    const char *flash_path;     /* NULL: no persistence */
-    uint8_t *saved;             /* flash as last written to flash_path */
-    int master;                 /* pty master fd */
-    int watch;                  /* inotify fd watching the slave's opens/closes, -1 = none */
-    char slave[128];            /* pty slave device name */
-    int open;                   /* 1 while a client has the slave open */
-    int xoff;                   /* 1 while the UART's input FIFO is full */
-    avr_irq_t *uart_in;         /* UART0 input IRQ */
-    sb_queue_t rx;              /* pty -> UART0 */
-    sb_queue_t tx;              /* UART0 -> pty */
-    uint64_t cycle_base;        /* cycles run before the last reset of avr->cycle */
+    const char *link;       /* the symlink path */
+    const char *flash_path; /* NULL: no persistence */
+    uint8_t *saved;         /* flash as last written to flash_path */
+    int master;             /* pty master fd */
+    int watch;              /* inotify fd watching the slave's opens/closes, -1 = none */
+    char slave[128];        /* pty slave device name */
+    int open;               /* 1 while a client has the slave open */
+    int xoff;               /* 1 while the UART's input FIFO is full */
+    avr_irq_t *uart_in;     /* UART0 input IRQ */
+    sb_queue_t rx;          /* pty -> UART0 */
+    sb_queue_t tx;          /* UART0 -> pty */
+    uint64_t cycle_base;    /* cycles run before the last reset of avr->cycle */
     avr_cycle_count_t last_cycle;
-    double speed;               /* simulated seconds per wall second, 0 = unpaced */
+    double speed; /* simulated seconds per wall second, 0 = unpaced */
     int quiet;
-    unsigned resets;            /* resets by port open */
+    unsigned resets; /* resets by port open */
 } sb_t;
 
 static volatile sig_atomic_t sb_stop = 0;
@@ -216,8 +215,8 @@ static int sb_save_flash(sb_t *sb)
     }
     snprintf(tmp, sizeof tmp, "%s.tmp", sb->flash_path);
     f = fopen(tmp, "wb");
-    if (!f || fwrite(sb->avr->flash, 1, SB_FLASH_BYTES, f) != SB_FLASH_BYTES || fflush(f) != 0
-        || fsync(fileno(f)) != 0) {
+    if (!f || fwrite(sb->avr->flash, 1, SB_FLASH_BYTES, f) != SB_FLASH_BYTES || fflush(f) != 0 ||
+        fsync(fileno(f)) != 0) {
         sb_error("%s: cannot write the flash: %s", tmp, strerror(errno));
         if (f) {
             fclose(f);
@@ -243,8 +242,8 @@ static int sb_load_flash(sb_t *sb)
     if (sb->flash_path && stat(sb->flash_path, &st) == 0) {
         if (!S_ISREG(st.st_mode) || (size_t)st.st_size != SB_FLASH_BYTES) {
             sb_error("%s: not a flash image of the ATmega2560 (%lld bytes, needs %u): remove it "
-                     "or give another --flash FILE", sb->flash_path, (long long)st.st_size,
-                     SB_FLASH_BYTES);
+                     "or give another --flash FILE",
+                     sb->flash_path, (long long)st.st_size, SB_FLASH_BYTES);
             return -1;
         }
         f = fopen(sb->flash_path, "rb");
@@ -291,7 +290,8 @@ static int sb_load_bootloader(sb_t *sb, const char *path)
     FILE *f = fopen(path, "r");
     if (!f) {
         sb_error("bootloader %s: %s: install arduino-core-avr (scripts/setup.sh) or give "
-                 "--bootloader HEX", path, strerror(errno));
+                 "--bootloader HEX",
+                 path, strerror(errno));
         return -1;
     }
     while (!done && fgets(line, sizeof line, f)) {
@@ -328,7 +328,8 @@ static int sb_load_bootloader(sb_t *sb, const char *path)
             uint32_t at = base + (uint32_t)addr;
             if (at < SB_BOOT_START || at + (uint32_t)count > SB_FLASH_BYTES) {
                 sb_error("bootloader %s:%u: data at 0x%05x is outside the boot section "
-                         "0x%05x..0x%05x", path, lineno, at, SB_BOOT_START, SB_FLASH_BYTES - 1u);
+                         "0x%05x..0x%05x",
+                         path, lineno, at, SB_BOOT_START, SB_FLASH_BYTES - 1u);
                 fclose(f);
                 return -1;
             }
@@ -376,8 +377,8 @@ static int sb_open_pty(sb_t *sb)
     struct stat st;
     int s;
     sb->master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
-    if (sb->master < 0 || grantpt(sb->master) != 0 || unlockpt(sb->master) != 0
-        || ptsname_r(sb->master, sb->slave, sizeof sb->slave) != 0) {
+    if (sb->master < 0 || grantpt(sb->master) != 0 || unlockpt(sb->master) != 0 ||
+        ptsname_r(sb->master, sb->slave, sizeof sb->slave) != 0) {
         sb_error("cannot create a pseudo-terminal: %s", strerror(errno));
         return -1;
     }
@@ -402,8 +403,7 @@ static int sb_open_pty(sb_t *sb)
     }
     if (lstat(sb->link, &st) == 0) {
         if (!S_ISLNK(st.st_mode)) {
-            sb_error("--link %s: exists and is not a symlink (remove it or choose another path)",
-                     sb->link);
+            sb_error("--link %s: exists and is not a symlink (remove it or choose another path)", sb->link);
             return -1;
         }
         unlink(sb->link);
@@ -451,7 +451,7 @@ static void sb_port_closed(sb_t *sb)
 /* Move bytes between the pty and the queues; see a client's open and close. */
 static void sb_service_pty(sb_t *sb)
 {
-    struct pollfd p = { sb->master, POLLIN, 0 };
+    struct pollfd p = {sb->master, POLLIN, 0};
     uint8_t buf[512];
     ssize_t n;
     int reopened = sb_reopened(sb);
@@ -494,7 +494,7 @@ static void sb_service_pty(sb_t *sb)
 /* Wait up to `seconds`, returning early when a client sends bytes. */
 static void sb_wait(const sb_t *sb, double seconds)
 {
-    struct pollfd p = { sb->master, POLLIN, 0 };
+    struct pollfd p = {sb->master, POLLIN, 0};
     if (sb->open) {
         poll(&p, 1, (int)(seconds * 1000.0 + 0.5)); /* a closed slave reports POLLHUP at once */
     } else {
@@ -580,8 +580,8 @@ int main(int argc, char **argv)
             sb.quiet = 1;
             continue;
         }
-        if (strcmp(a, "--link") != 0 && strcmp(a, "--flash") != 0 && strcmp(a, "--bootloader") != 0
-            && strcmp(a, "--speed") != 0) {
+        if (strcmp(a, "--link") != 0 && strcmp(a, "--flash") != 0 && strcmp(a, "--bootloader") != 0 &&
+            strcmp(a, "--speed") != 0) {
             sb_error("unknown option %s (--help)", a);
             return 2;
         }
@@ -634,12 +634,9 @@ int main(int argc, char **argv)
     /* UART0: no console echo, no real-time sleeps when the image polls it */
     avr_ioctl(sb.avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
     sb.uart_in = avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
-    avr_irq_register_notify(avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
-                            sb_on_uart_out, &sb);
-    avr_irq_register_notify(avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
-                            sb_on_xon, &sb);
-    avr_irq_register_notify(avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
-                            sb_on_xoff, &sb);
+    avr_irq_register_notify(avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), sb_on_uart_out, &sb);
+    avr_irq_register_notify(avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), sb_on_xon, &sb);
+    avr_irq_register_notify(avr_io_getirq(sb.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), sb_on_xoff, &sb);
 
     if (sb_open_pty(&sb) != 0) {
         return 1;
@@ -661,9 +658,11 @@ int main(int argc, char **argv)
     if (sb.watch >= 0) {
         close(sb.watch);
     }
-    sb_say(&sb, "stopped after %.3f s of simulated time (%u resets by port open; bytes dropped "
-           "by full queues: %llu to the image, %llu from it)", (double)sb_cycles(&sb) / SB_F_CPU,
-           sb.resets, (unsigned long long)sb.rx.lost, (unsigned long long)sb.tx.lost);
+    sb_say(&sb,
+           "stopped after %.3f s of simulated time (%u resets by port open; bytes dropped "
+           "by full queues: %llu to the image, %llu from it)",
+           (double)sb_cycles(&sb) / SB_F_CPU, sb.resets, (unsigned long long)sb.rx.lost,
+           (unsigned long long)sb.tx.lost);
     avr_terminate(sb.avr);
     free(sb.saved);
     return status;

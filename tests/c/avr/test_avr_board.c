@@ -20,7 +20,7 @@
 
 #define F_CPU_HZ BOARD_SIM_F_CPU_HZ
 #define MS(x) ((uint64_t)(x) * (F_CPU_HZ / 1000u)) /* cycles of x ms */
-#define TEST_HANG 0xA5Au /* DIO levels of the test image's modes (firmware/avr/main.c) */
+#define TEST_HANG 0xA5Au                           /* DIO levels of the test image's modes (firmware/avr/main.c) */
 #define TEST_ECHO 0x5A5u
 #define TEST_HOLD 0x3C3u
 #define RX_RING_USABLE 255u /* bytes the image's UART RX ring holds (board.h) */
@@ -174,7 +174,7 @@ static void configure(board_sim_t *b, host_t *h, uint16_t rate_hz, uint16_t pwm_
  * CRC-good. */
 static void test_link(void)
 {
-    const char *names[2] = { "navkit-mega2560.elf", "navkit-mega2560.hex" };
+    const char *names[2] = {"navkit-mega2560.elf", "navkit-mega2560.hex"};
     int k;
     for (k = 0; k < 2; k++) {
         board_sim_t *b = open_image(names[k]);
@@ -205,11 +205,11 @@ static void test_link(void)
               frames_sent);
         check(h.last.ack_time_tag == 201u, "%s: ack_time_tag %u, want 201", names[k], h.last.ack_time_tag);
         check(h.last.rx_bad_crc == 0u && h.last.rx_dropped_bytes == 0u && h.last.rx_bad_length == 0u,
-              "%s: the board saw damaged frames (bad crc %u, dropped %u, bad length %u)", names[k],
-              h.last.rx_bad_crc, h.last.rx_dropped_bytes, h.last.rx_bad_length);
+              "%s: the board saw damaged frames (bad crc %u, dropped %u, bad length %u)", names[k], h.last.rx_bad_crc,
+              h.last.rx_dropped_bytes, h.last.rx_bad_length);
         check(h.parser.stats.bad_crc == 0u && h.parser.stats.dropped_bytes == 0u,
-              "%s: damaged micro_data (bad crc %lu, dropped %lu)", names[k],
-              (unsigned long)h.parser.stats.bad_crc, (unsigned long)h.parser.stats.dropped_bytes);
+              "%s: damaged micro_data (bad crc %lu, dropped %lu)", names[k], (unsigned long)h.parser.stats.bad_crc,
+              (unsigned long)h.parser.stats.dropped_bytes);
         check(h.frames >= 20u, "%s: only %u micro_data frames", names[k], h.frames);
         printf("%s: %u micro_data frames, rx_good %u: every frame of the flood arrived whole\n", names[k], h.frames,
                h.last.rx_good);
@@ -266,8 +266,8 @@ static void test_encoders(void)
     board_sim_t *b = open_image("navkit-mega2560.elf");
     host_t h;
     navkit_micro_cmd_t c;
-    int32_t steps[3][2] = { { 20000, -20000 }, { -5000, 7000 }, { 3, -1 } };
-    int32_t pos[2] = { 0, 0 };
+    int32_t steps[3][2] = {{20000, -20000}, {-5000, 7000}, {3, -1}};
+    int32_t pos[2] = {0, 0};
     int k;
     uint16_t tag = 1u;
     host_init(&h);
@@ -289,12 +289,10 @@ static void test_encoders(void)
         pos[1] = steps[k][1];
         run_for(b, MS(20));
         ping(b, &h, tag++);
-        check(h.last.enc_left == pos[0] && h.last.enc_right == pos[1],
-              "encoders: counts %ld/%ld, want %ld/%ld", (long)h.last.enc_left, (long)h.last.enc_right,
-              (long)pos[0], (long)pos[1]);
-        printf("encoders at %u edges/s each: %ld/%ld (want %ld/%ld)\n",
-               F_CPU_HZ / BOARD_SIM_ENC_MIN_EDGE_CYCLES, (long)h.last.enc_left, (long)h.last.enc_right,
-               (long)pos[0], (long)pos[1]);
+        check(h.last.enc_left == pos[0] && h.last.enc_right == pos[1], "encoders: counts %ld/%ld, want %ld/%ld",
+              (long)h.last.enc_left, (long)h.last.enc_right, (long)pos[0], (long)pos[1]);
+        printf("encoders at %u edges/s each: %ld/%ld (want %ld/%ld)\n", F_CPU_HZ / BOARD_SIM_ENC_MIN_EDGE_CYCLES,
+               (long)h.last.enc_left, (long)h.last.enc_right, (long)pos[0], (long)pos[1]);
     }
     board_sim_free(b);
 }
@@ -362,8 +360,8 @@ static void test_outputs(void)
  * answers only later is woken and read then. */
 static void test_inputs(void)
 {
-    static const uint16_t mv[5] = { 400u, 1250u, 2500u, 4999u, 3700u };
-    static const uint16_t echo[4] = { 580u, 1000u, 0u, 17400u };
+    static const uint16_t mv[5] = {400u, 1250u, 2500u, 4999u, 3700u};
+    static const uint16_t echo[4] = {580u, 1000u, 0u, 17400u};
     board_sim_t *b = open_image("navkit-mega2560.elf");
     host_t h;
     int i, k;
@@ -448,8 +446,8 @@ static void test_tick_rate(void)
         board_sim_profile(b, &p1);
         check(p1.ticks - p0.ticks >= want / 2u - 1u && p1.ticks - p0.ticks <= want / 2u + 1u,
               "%lu ticks in half a second, want %lu", (unsigned long)(p1.ticks - p0.ticks), (unsigned long)want / 2u);
-        printf("%lu Hz configured: %lu ticks in half a simulated second; worst tick %lu cycles\n",
-               (unsigned long)want, (unsigned long)(p1.ticks - p0.ticks), (unsigned long)p1.tick_worst_cycles);
+        printf("%lu Hz configured: %lu ticks in half a simulated second; worst tick %lu cycles\n", (unsigned long)want,
+               (unsigned long)(p1.ticks - p0.ticks), (unsigned long)p1.tick_worst_cycles);
     }
     board_sim_free(b);
 }
@@ -498,11 +496,11 @@ static void test_watchdog(void)
                rc);
     }
     {
-        static const int causes[3] = { BOARD_SIM_RESET_EXTERNAL, BOARD_SIM_RESET_POWER_ON, BOARD_SIM_RESET_BROWN_OUT };
-        static const uint16_t want_flags[3] = { NAVKIT_RESET_CAUSE_EXTERNAL, NAVKIT_RESET_CAUSE_POWER_ON,
-                                                NAVKIT_RESET_CAUSE_BROWN_OUT };
-        static const uint16_t want_marks[3] = { NAVKIT_RESET_CAUSE_EXTERNAL, NAVKIT_RESET_CAUSE_POWER_ON,
-                                                NAVKIT_RESET_CAUSE_EXTERNAL };
+        static const int causes[3] = {BOARD_SIM_RESET_EXTERNAL, BOARD_SIM_RESET_POWER_ON, BOARD_SIM_RESET_BROWN_OUT};
+        static const uint16_t want_flags[3] = {NAVKIT_RESET_CAUSE_EXTERNAL, NAVKIT_RESET_CAUSE_POWER_ON,
+                                               NAVKIT_RESET_CAUSE_BROWN_OUT};
+        static const uint16_t want_marks[3] = {NAVKIT_RESET_CAUSE_EXTERNAL, NAVKIT_RESET_CAUSE_POWER_ON,
+                                               NAVKIT_RESET_CAUSE_EXTERNAL};
         int i;
         for (boot = 0; boot < 2; boot++) {
             board_sim_set_bootloader_clears_mcusr(b, boot);
@@ -600,7 +598,8 @@ static void test_footprint(void)
            (unsigned long)((p.tick_total_cycles - p0.tick_total_cycles) / (p.ticks - p0.ticks)),
            100.0 * (double)(p.tick_total_cycles - p0.tick_total_cycles) / busy, (unsigned long)(p.polls - p0.polls),
            (unsigned long)p.poll_worst_cycles,
-           (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) / ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
+           (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) /
+                           ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
            100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
     printf("tick lateness (timer request to fw_tick start): worst %lu mean %lu cycles (%.2f / %.2f tick periods)\n",
            (unsigned long)p.tick_late_worst_cycles,
@@ -664,12 +663,13 @@ static void test_tick_late(void)
     host_drain(&h, b);
     ping(b, &h, 50000u); /* the counters after every frame */
     board_sim_profile(b, &p);
-    printf("host traffic at 400 Hz: %lu ticks, tick lateness worst %lu mean %lu cycles (bound %u); fw_link_poll %lu polls, "
-           "worst %lu mean %lu cycles; fw_tick worst %lu mean %lu cycles\n",
-           (unsigned long)p.ticks, (unsigned long)p.tick_late_worst_cycles,
-           (unsigned long)(p.tick_late_total_cycles / (p.ticks ? p.ticks : 1u)), TICK_LATE_MAX_CYCLES,
-           (unsigned long)p.polls, (unsigned long)p.poll_worst_cycles, (unsigned long)p.poll_mean_cycles,
-           (unsigned long)p.tick_worst_cycles, (unsigned long)p.tick_mean_cycles);
+    printf(
+        "host traffic at 400 Hz: %lu ticks, tick lateness worst %lu mean %lu cycles (bound %u); fw_link_poll %lu polls, "
+        "worst %lu mean %lu cycles; fw_tick worst %lu mean %lu cycles\n",
+        (unsigned long)p.ticks, (unsigned long)p.tick_late_worst_cycles,
+        (unsigned long)(p.tick_late_total_cycles / (p.ticks ? p.ticks : 1u)), TICK_LATE_MAX_CYCLES,
+        (unsigned long)p.polls, (unsigned long)p.poll_worst_cycles, (unsigned long)p.poll_mean_cycles,
+        (unsigned long)p.tick_worst_cycles, (unsigned long)p.tick_mean_cycles);
     check(p.tick_late_worst_cycles <= TICK_LATE_MAX_CYCLES, "a tick started %lu cycles after it fell due (bound %u)",
           (unsigned long)p.tick_late_worst_cycles, TICK_LATE_MAX_CYCLES);
     check(h.last.rx_good == frames_sent, "the board counted %u good frames of %u sent", h.last.rx_good, frames_sent);
@@ -696,9 +696,9 @@ typedef struct {
     navkit_isotp_rx_t rx;
     navkit_parser_t parser;
     navkit_micro_data_t last;
-    unsigned frames;      /* micro_data decoded */
-    unsigned messages;    /* host messages started */
-    int drop_cf;          /* > 0: leave out this consecutive frame (1 = the first) of the next message */
+    unsigned frames;   /* micro_data decoded */
+    unsigned messages; /* host messages started */
+    int drop_cf;       /* > 0: leave out this consecutive frame (1 = the first) of the next message */
     int cf_seen;
 } can_host_t;
 
@@ -789,8 +789,9 @@ static void can_ping(can_host_t *h, board_sim_t *b, uint16_t tag)
     navkit_micro_cmd_defaults(&c);
     c.time_tag = tag;
     can_send_cmd(h, b, &c);
-    for (i = 0; i < 200 && !(h->frames > 0u && h->last.ack_time_tag == tag &&
-                             (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED)); i++) {
+    for (i = 0; i < 200 &&
+                !(h->frames > 0u && h->last.ack_time_tag == tag && (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED));
+         i++) {
         can_run(h, b, MS(5));
     }
 }
@@ -823,7 +824,7 @@ static void can_configure(can_host_t *h, board_sim_t *b, uint16_t rate_hz)
  * with this spec's hash, and a move command driving both motors forward. */
 static void test_can_link(void)
 {
-    const char *names[2] = { "navkit-mega2560-can.elf", "navkit-mega2560-can.hex" };
+    const char *names[2] = {"navkit-mega2560-can.elf", "navkit-mega2560-can.hex"};
     int k;
     for (k = 0; k < 2; k++) {
         board_sim_t *b = open_image(names[k]);
@@ -858,9 +859,10 @@ static void test_can_link(void)
         check(h.parser.stats.bad_crc == 0u && h.rx.stats.wrong_sn == 0u && h.rx.stats.bad_frame == 0u,
               "%s: damaged micro_data over CAN", names[k]);
         board_sim_can_stats(b, &st);
-        printf("%s: %u messages to the micro, %u micro_data back; bus: %lu frames to the part, %lu from it; motors %d / %d "
-               "e-4\n",
-               names[k], h.messages, h.frames, (unsigned long)st.to_part, (unsigned long)st.from_part, l, r);
+        printf(
+            "%s: %u messages to the micro, %u micro_data back; bus: %lu frames to the part, %lu from it; motors %d / %d "
+            "e-4\n",
+            names[k], h.messages, h.frames, (unsigned long)st.to_part, (unsigned long)st.from_part, l, r);
         board_sim_free(b);
     }
 }
@@ -870,12 +872,12 @@ static void test_can_link(void)
  * filters drop them (none in a buffer), and the link's counters do not move. */
 static void test_can_filter(void)
 {
-    static const uint16_t other[] = { 0x000u, 0x100u, 0x111u, 0x121u, 0x123u, 0x125u, 0x180u, 0x7FFu, 0x1A0u, 0x130u };
+    static const uint16_t other[] = {0x000u, 0x100u, 0x111u, 0x121u, 0x123u, 0x125u, 0x180u, 0x7FFu, 0x1A0u, 0x130u};
     board_sim_t *b = open_image("navkit-mega2560-can.elf");
     can_host_t h;
     board_sim_can_stats_t s0, s1;
     navkit_micro_data_t before;
-    uint8_t sf[8] = { 0x01u, 0x00u, 0xCCu, 0xCCu, 0xCCu, 0xCCu, 0xCCu, 0xCCu };
+    uint8_t sf[8] = {0x01u, 0x00u, 0xCCu, 0xCCu, 0xCCu, 0xCCu, 0xCCu, 0xCCu};
     size_t i;
     int rep;
     can_host_init(&h);
@@ -1021,16 +1023,18 @@ static void test_can_late(void)
     printf("CAN image: flash %lu B (text %lu + data %lu); static RAM %lu B (data %lu + bss %lu + noinit %lu); deepest "
            "stack %u B\n",
            text + data, text, data, data + bss + noinit, data, bss, noinit, p.stack_max_bytes);
-    printf("CAN traffic 2 s at 400 Hz: %lu ticks, lateness worst %lu mean %lu cycles (bound %u); fw_tick worst %lu mean "
-           "%lu cycles, CPU %.1f %%; fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
-           (unsigned long)(p.ticks - p0.ticks), (unsigned long)p.tick_late_worst_cycles,
-           (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
-           TICK_LATE_MAX_CYCLES, (unsigned long)p.tick_worst_cycles,
-           (unsigned long)((p.tick_total_cycles - p0.tick_total_cycles) / (p.ticks - p0.ticks)),
-           100.0 * (double)(p.tick_total_cycles - p0.tick_total_cycles) / busy, (unsigned long)(p.polls - p0.polls),
-           (unsigned long)p.poll_worst_cycles,
-           (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) / ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
-           100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
+    printf(
+        "CAN traffic 2 s at 400 Hz: %lu ticks, lateness worst %lu mean %lu cycles (bound %u); fw_tick worst %lu mean "
+        "%lu cycles, CPU %.1f %%; fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
+        (unsigned long)(p.ticks - p0.ticks), (unsigned long)p.tick_late_worst_cycles,
+        (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
+        TICK_LATE_MAX_CYCLES, (unsigned long)p.tick_worst_cycles,
+        (unsigned long)((p.tick_total_cycles - p0.tick_total_cycles) / (p.ticks - p0.ticks)),
+        100.0 * (double)(p.tick_total_cycles - p0.tick_total_cycles) / busy, (unsigned long)(p.polls - p0.polls),
+        (unsigned long)p.poll_worst_cycles,
+        (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) /
+                        ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
+        100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
     printf("bus: %lu frames to the part (%lu overflowed), %lu from it; %u micro_data for %u messages\n",
            (unsigned long)st.to_part, (unsigned long)st.overflowed, (unsigned long)st.from_part, h.frames, h.messages);
     check(p.tick_late_worst_cycles <= TICK_LATE_MAX_CYCLES, "a tick started %lu cycles after it fell due (bound %u)",
@@ -1050,12 +1054,19 @@ int main(int argc, char **argv)
     static const struct {
         const char *name;
         void (*fn)(void);
-    } tests[] = { { "link", test_link },         { "uart", test_uart },     { "encoders", test_encoders },
-                  { "outputs", test_outputs },   { "inputs", test_inputs },
-                  { "tick_rate", test_tick_rate }, { "watchdog", test_watchdog },
-                  { "footprint", test_footprint }, { "tick_late", test_tick_late },
-                  { "can_link", test_can_link },   { "can_filter", test_can_filter },
-                  { "can_lost", test_can_lost },   { "can_late", test_can_late } };
+    } tests[] = {{"link", test_link},
+                 {"uart", test_uart},
+                 {"encoders", test_encoders},
+                 {"outputs", test_outputs},
+                 {"inputs", test_inputs},
+                 {"tick_rate", test_tick_rate},
+                 {"watchdog", test_watchdog},
+                 {"footprint", test_footprint},
+                 {"tick_late", test_tick_late},
+                 {"can_link", test_can_link},
+                 {"can_filter", test_can_filter},
+                 {"can_lost", test_can_lost},
+                 {"can_late", test_can_late}};
     size_t i;
     if (argc != 3) {
         fprintf(stderr, "usage: %s TEST IMAGE_DIR\n", argv[0]);
