@@ -1,6 +1,7 @@
 """`navkit flash`: image checks, board discovery, permissions, and flashing through a
 simboard with the real avrdude (tests/avr_helpers.py builds the test images)."""
 
+import json
 import os
 import shutil
 import stat
@@ -332,6 +333,47 @@ def test_several_boards_through_the_cli(tmp_path, images):
     assert r.returncode == 1
     assert r.stderr.splitlines()[0] == "navkit flash: several boards found; choose one with --port PATH:"
     assert len(r.stderr.splitlines()) == 3
+
+
+def test_a_can_adapter_is_no_board_and_is_named(tmp_path, monkeypatch):
+    """A CANable (16d0:117e, the slcan link's kind) alone: no board, and the message says
+    what was seen instead."""
+    _usb_tty(tmp_path, "ttyACM1", "16d0", "117e", "CANable")
+    monkeypatch.setenv("NAVKIT_DEV_ROOT", str(tmp_path))
+    assert fl.find_boards() == []
+    with pytest.raises(fl.FlashError) as e:
+        fl.choose_port("auto")
+    assert str(e.value).startswith("no board found: ")
+    assert str(e.value).endswith(f"; seen:\n  {tmp_path}/dev/ttyACM1  CANable [16d0:117e] serial 85735 "
+                                 "(not a serial-link kind)")
+
+
+def test_the_org_mega_and_a_clone_are_boards_an_unknown_tty_is_not(tmp_path, monkeypatch):
+    _usb_tty(tmp_path, "ttyACM0", "2a03", "0042", "Arduino Mega 2560")
+    _usb_tty(tmp_path, "ttyUSB3", "1a86", "7523", "USB2.0-Serial")
+    _usb_tty(tmp_path, "ttyUSB4", "1d50", "6018", "Black Magic Probe")
+    monkeypatch.setenv("NAVKIT_DEV_ROOT", str(tmp_path))
+    assert fl.find_boards() == [
+        fl.Board(str(tmp_path / "dev" / "ttyACM0"), "Arduino Mega 2560 [2a03:0042] serial 85735"),
+        fl.Board(str(tmp_path / "dev" / "ttyUSB3"), "USB2.0-Serial [1a86:7523] serial 85735")]
+
+
+def test_flash_reads_the_hosts_listing(tmp_path):
+    """What `navkit flash` asks: navkit-host --list-ports, here for the slcan link: the
+    CANable among the ports, the Mega among the others, each with its ids and kind."""
+    _usb_tty(tmp_path, "ttyACM0", "2341", "0042", "Arduino Mega 2560",
+             by_id="usb-Arduino__www.arduino.cc__0042_85735-if00")
+    _usb_tty(tmp_path, "ttyACM1", "16d0", "117e", "CANable")
+    r = subprocess.run([str(build_dir() / "host" / "navkit-host"), "--list-ports", "--link", "slcan",
+                        "--dev-root", str(tmp_path)], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    found = json.loads(r.stdout)
+    assert found["link"] == "slcan"
+    assert [(p["tty"], p["vid"], p["pid"], p["link"], p["name"]) for p in found["ports"]] == [
+        ("ttyACM1", "16d0", "117e", "slcan", "CANable (slcan firmware)")]
+    assert [(p["path"], p["dev"], p["link"], p["name"]) for p in found["others"]] == [
+        (f"{tmp_path}/dev/serial/by-id/usb-Arduino__www.arduino.cc__0042_85735-if00",
+         f"{tmp_path}/dev/ttyACM0", "serial", "Arduino Mega 2560 R3")]
 
 
 def test_port_that_does_not_exist(tmp_path):
