@@ -71,10 +71,7 @@ public:
         space();
         return i_ == s_.size() ? "" : "text after the object";
     }
-    size_t offset() const
-    {
-        return i_;
-    }
+    size_t offset() const { return i_; }
 
 private:
     void space()

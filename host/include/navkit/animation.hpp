@@ -70,23 +70,11 @@ public:
     // Drop the face (the seed's End(): deletes the bitmaps); start() may be called again.
     void end();
 
-    bool started() const
-    {
-        return !head_.empty();
-    }
+    bool started() const { return !head_.empty(); }
     // The face as drawn now: the head's lines with every feature over it (width() chars each).
-    const std::vector<std::string> &lines() const
-    {
-        return lines_;
-    }
-    int width() const
-    {
-        return width_;
-    }
-    const std::vector<FaceFeature> &features() const
-    {
-        return features_;
-    }
+    const std::vector<std::string> &lines() const { return lines_; }
+    int width() const { return width_; }
+    const std::vector<FaceFeature> &features() const { return features_; }
     // One line for logs: "name=version" per feature in drawing order, ":talk" while a
     // talking feature shows its talk strip, "@dx,dy" for features that follow the gaze.
     std::string state() const;

@@ -42,18 +42,9 @@ public:
     ~RealClock() override;
     bool wait_frame(FrameTick *tick) override;
     void frame_done(uint32_t tx_bytes, uint32_t flags) override;
-    uint64_t overruns() const override
-    {
-        return overruns_;
-    }
-    uint64_t skipped() const override
-    {
-        return skipped_;
-    }
-    std::string error() const override
-    {
-        return error_;
-    }
+    uint64_t overruns() const override { return overruns_; }
+    uint64_t skipped() const override { return skipped_; }
+    std::string error() const override { return error_; }
 
 private:
     Schedule sched_;
@@ -71,18 +62,9 @@ public:
     ~LockstepClock() override;
     bool wait_frame(FrameTick *tick) override;
     void frame_done(uint32_t tx_bytes, uint32_t flags) override;
-    uint64_t overruns() const override
-    {
-        return 0;
-    }
-    uint64_t skipped() const override
-    {
-        return 0;
-    }
-    std::string error() const override
-    {
-        return error_;
-    }
+    uint64_t overruns() const override { return 0; }
+    uint64_t skipped() const override { return 0; }
+    std::string error() const override { return error_; }
 
 private:
     int fd_;

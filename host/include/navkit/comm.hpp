@@ -37,16 +37,10 @@ public:
     void set_host_heartbeat(uint32_t v);
     // "" while the region is usable; else why it was let go (cut short by another
     // process): every access since reads nothing and writes nothing.
-    const std::string &lost() const
-    {
-        return lost_;
-    }
+    const std::string &lost() const { return lost_; }
     // Called between each access's size check and the access (tests: another process
     // cutting the region in that moment); empty by default.
-    void set_between_check_and_access(std::function<void()> f)
-    {
-        between_ = std::move(f);
-    }
+    void set_between_check_and_access(std::function<void()> f) { between_ = std::move(f); }
 
 private:
     // Runs access() on the mapping when it is whole and returns true; false (and the

@@ -30,19 +30,13 @@ public:
     // the last held back of each.
     void print_limited(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
     static constexpr int64_t kRepeatPeriodUs = 1000000;
-    void set_time_us(int64_t t_us)
-    {
-        t_us_ = t_us;
-    }
+    void set_time_us(int64_t t_us) { t_us_ = t_us; }
     void status(const std::string &line);
     // The face's lines: on a terminal drawn above the status line from the next status()
     // on (only redrawn when they change); an empty list removes the face. Nothing when
     // stdout is not a terminal.
     void set_face(const std::vector<std::string> &lines);
-    bool out_tty() const
-    {
-        return out_tty_;
-    } // stdout is a terminal (known after init())
+    bool out_tty() const { return out_tty_; } // stdout is a terminal (known after init())
     // Keys typed since the last call (bytes), at most kMaxKeyBytes of them (the rest
     // comes with the next calls); never blocks.
     std::string keys();

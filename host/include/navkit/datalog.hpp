@@ -20,10 +20,7 @@ struct LogParam {
 class Datalog {
 public:
     explicit Datalog(std::string dir) : dir_(std::move(dir)) {}
-    ~Datalog()
-    {
-        stop();
-    }
+    ~Datalog() { stop(); }
     // "" on success, else why not. `when` names the file.
     std::string start(std::time_t when, const std::vector<LogParam> &params);
     // "" when written (or not recording); else why not: a row whose count differs from
@@ -31,14 +28,8 @@ public:
     // quietly.
     std::string row(const std::vector<double> &values);
     void stop();
-    bool recording() const
-    {
-        return f_ != nullptr;
-    }
-    const std::string &path() const
-    {
-        return path_;
-    }
+    bool recording() const { return f_ != nullptr; }
+    const std::string &path() const { return path_; }
 
     static std::string file_name(const std::tm &t);
     static std::string header(const std::vector<LogParam> &params);

@@ -58,14 +58,8 @@ public:
     // starting: a port another process holds is refused (std::runtime_error), not retried;
     // else any failure is said once (per distinct reason) and tried again next frame.
     bool open(bool starting = false);
-    void close()
-    {
-        port_.close();
-    }
-    bool is_open() const
-    {
-        return port_.is_open();
-    }
+    void close() { port_.close(); }
+    bool is_open() const { return port_.is_open(); }
 
     // Start of a frame at frame time now_us (us): reopens a lost port (true when it opened
     // now) and writes the SLCAN adapter's set-up after an open.
@@ -88,24 +82,12 @@ public:
     bool write_frame_now(const uint8_t *buf, size_t len);
 
     // Bytes written in this frame (lockstep tells the driver).
-    uint32_t tx_bytes_frame() const
-    {
-        return tx_frame_;
-    }
+    uint32_t tx_bytes_frame() const { return tx_frame_; }
     // The counters so far.
     LinkCounters counters() const;
-    uint64_t superseded() const
-    {
-        return superseded_;
-    }
-    uint64_t short_reads() const
-    {
-        return short_reads_;
-    }
-    uint64_t tx_errors() const
-    {
-        return tx_errors_;
-    }
+    uint64_t superseded() const { return superseded_; }
+    uint64_t short_reads() const { return short_reads_; }
+    uint64_t tx_errors() const { return tx_errors_; }
 
 private:
     void port_lost(const char *why);
@@ -118,10 +100,7 @@ private:
     // to take_frames (out == nullptr: not wanted now); can_send(): start a message (skipped,
     // counted in tx_errors, while the last is still going out); can_pump(): the frames
     // ISO-TP lets go now.
-    bool slcan() const
-    {
-        return cfg_.link == "slcan";
-    }
+    bool slcan() const { return cfg_.link == "slcan"; }
     void can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *out, MicroReceived *r);
     bool can_send(const uint8_t *buf, size_t len);
     void can_pump();
@@ -129,10 +108,7 @@ private:
     // flow control came) or ISO-TP gives it up (no flow control within N_Bs).
     void can_flush();
     void can_write(const std::string &line);
-    uint32_t can_ms() const
-    {
-        return static_cast<uint32_t>(now_us_ / 1000);
-    } // ISO-TP clock: frame time
+    uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); } // ISO-TP clock: frame time
 
     const MicroCfg &cfg_;
     Console &con_;

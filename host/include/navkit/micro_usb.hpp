@@ -38,18 +38,9 @@ public:
     bool online(int64_t now_us) const;
     // Our config is in force: all three config messages went out since start-up (or the
     // last port reopen, micro reset or refusal) and a micro_data since says configured.
-    bool configured() const
-    {
-        return taken_;
-    }
-    bool spec_mismatch() const
-    {
-        return mismatch_;
-    }
-    bool needs_config() const
-    {
-        return !taken_ || mismatch_;
-    }
+    bool configured() const { return taken_; }
+    bool spec_mismatch() const { return mismatch_; }
+    bool needs_config() const { return !taken_ || mismatch_; }
 
     // The command of this frame: new (a new time tag) or not (repeat the last one).
     void queue_command(const navkit_micro_cmd_t &cmd, bool is_new);
@@ -60,53 +51,23 @@ public:
     // configured micro of our spec (an unconfigured one is not moving); true if sent.
     bool send_stop(uint16_t dio);
     // The last message written whole was a stop command (fwd 5, turn 5).
-    bool stop_was_last() const
-    {
-        return stop_last_;
-    }
+    bool stop_was_last() const { return stop_last_; }
 
     // A stop command carrying these DIO levels (the seed's Navigation Init command).
     static navkit_micro_cmd_t stop_command(uint16_t dio);
 
-    bool port_open() const
-    {
-        return link_.is_open();
-    }
-    uint32_t tx_bytes_frame() const
-    {
-        return link_.tx_bytes_frame();
-    }
+    bool port_open() const { return link_.is_open(); }
+    uint32_t tx_bytes_frame() const { return link_.tx_bytes_frame(); }
     void begin_frame(int64_t now_us);
     // The counters so far; link_errors() is their rejected() sum (lisp_data.link_errors).
-    LinkCounters counters() const
-    {
-        return link_.counters();
-    }
+    LinkCounters counters() const { return link_.counters(); }
     uint32_t link_errors() const;
-    uint64_t config_downloads() const
-    {
-        return config_sent_;
-    } // rounds started
-    uint64_t superseded() const
-    {
-        return link_.superseded();
-    }
-    uint64_t short_reads() const
-    {
-        return link_.short_reads();
-    }
-    uint64_t tx_errors() const
-    {
-        return link_.tx_errors();
-    }
-    uint16_t last_tag() const
-    {
-        return last_.time_tag;
-    }
-    const navkit_micro_cmd_t &last_command() const
-    {
-        return last_;
-    }
+    uint64_t config_downloads() const { return config_sent_; } // rounds started
+    uint64_t superseded() const { return link_.superseded(); }
+    uint64_t short_reads() const { return link_.short_reads(); }
+    uint64_t tx_errors() const { return link_.tx_errors(); }
+    uint16_t last_tag() const { return last_.time_tag; }
+    const navkit_micro_cmd_t &last_command() const { return last_; }
 
 private:
     // The port (re)opened: whatever the micro on the other end reports, it may hold another

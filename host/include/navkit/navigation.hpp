@@ -56,24 +56,12 @@ public:
     // or the micro offline), used when heading hold (mode 11) arrives: without it a
     // heading hold is rejected (heading_missing() says why).
     NavOutput update(const Arbitration &a, std::optional<uint16_t> heading);
-    int nav_result() const
-    {
-        return result_.nav_result;
-    }
+    int nav_result() const { return result_.nav_result; }
     // The verdict on the last new planner command (why it was rejected).
-    const Conversion &conversion() const
-    {
-        return result_;
-    }
+    const Conversion &conversion() const { return result_; }
     // The last new planner command was a heading hold rejected for want of a heading.
-    bool heading_missing() const
-    {
-        return result_.refusal == Refusal::heading_missing;
-    }
-    int32_t ack_time_tag() const
-    {
-        return ack_;
-    }
+    bool heading_missing() const { return result_.refusal == Refusal::heading_missing; }
+    int32_t ack_time_tag() const { return ack_; }
 
     // One full turn in turn_distance's raw units (deg x 0.1): a heading select takes
     // 0..kFullTurn (docs/protocol.md seed slips), a heading hold wraps to 0..kFullTurn-1.

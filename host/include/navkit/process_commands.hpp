@@ -75,10 +75,7 @@ class ProcessCommands {
 public:
     ProcessCommands(const ExecutiveCfg &exec);
     Arbitration update(const PlannerInput &p, const ConsoleInput &c, const SafetyInput &s, int64_t now_us);
-    bool planner_timed_out() const
-    {
-        return timed_out_;
-    }
+    bool planner_timed_out() const { return timed_out_; }
 
 private:
     double timeout_s_, idle_s_;

@@ -16,10 +16,7 @@ namespace navkit {
 class Battery {
 public:
     explicit Battery(const BatteryCal &c) : c_(c) {}
-    void set(uint16_t adc)
-    {
-        adc_ = adc;
-    }
+    void set(uint16_t adc) { adc_ = adc; }
     double value() const; // V
 private:
     BatteryCal c_;
@@ -30,10 +27,7 @@ private:
 class Gp2d12 {
 public:
     explicit Gp2d12(const Gp2d12Cal &c) : c_(c) {}
-    void set(uint16_t adc)
-    {
-        adc_ = adc;
-    }
+    void set(uint16_t adc) { adc_ = adc; }
     int value() const;    // mm, 0 = out of range
     double volts() const; // V at the ADC pin
 private:
@@ -45,10 +39,7 @@ private:
 class Srf04 {
 public:
     explicit Srf04(const Srf04Cal &c) : c_(c) {}
-    void set(uint16_t echo_us)
-    {
-        us_ = echo_us;
-    }
+    void set(uint16_t echo_us) { us_ = echo_us; }
     int value() const; // mm
 private:
     Srf04Cal c_;
@@ -59,10 +50,7 @@ private:
 class RcServo {
 public:
     explicit RcServo(const ServoCal &c) : c_(c) {}
-    void set(int16_t pos)
-    {
-        pos_ = pos;
-    }
+    void set(int16_t pos) { pos_ = pos; }
     int value() const; // deg x 10
 private:
     ServoCal c_;

@@ -24,35 +24,20 @@ public:
     // not; busy() says whether the reason was another process holding the port.
     std::string open(const MicroCfg &cfg);
     void close();
-    bool busy() const
-    {
-        return busy_;
-    }
+    bool busy() const { return busy_; }
     // Process id holding an flock on the file of fd (st_dev, st_ino, from /proc/locks),
     // other than ours; 0 when none is listed.
     static long lock_holder(int fd);
-    bool is_open() const
-    {
-        return fd_ >= 0;
-    }
-    int fd() const
-    {
-        return fd_;
-    }
-    const std::string &path() const
-    {
-        return path_;
-    }
+    bool is_open() const { return fd_ >= 0; }
+    int fd() const { return fd_; }
+    const std::string &path() const { return path_; }
     // >0 bytes read, 0 nothing waiting, -1 the port is gone (closed by this call).
     long read_some(uint8_t *buf, size_t cap);
     // Bytes written (all or nothing on a tty), -1 the port is gone (closed by this call).
     long write_all(const uint8_t *buf, size_t len);
     // "115200 baud 8N1": the line settings of cfg.
     static std::string line_settings(const MicroCfg &cfg);
-    const DeviceRoots &roots() const
-    {
-        return roots_;
-    }
+    const DeviceRoots &roots() const { return roots_; }
 
 private:
     DeviceRoots roots_;

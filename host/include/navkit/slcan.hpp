@@ -39,19 +39,10 @@ public:
     // Bytes from the adapter (any chunking): every whole frame line goes to out.
     void feed(const uint8_t *buf, size_t len, std::vector<SlcanFrame> *out);
     // Drop a partial line (the port was reopened).
-    void reset()
-    {
-        line_.clear();
-    }
+    void reset() { line_.clear(); }
 
-    uint64_t refused() const
-    {
-        return refused_;
-    } // BEL answers: a command refused
-    uint64_t bad_lines() const
-    {
-        return bad_lines_;
-    } // lines that are no frame and no answer
+    uint64_t refused() const { return refused_; }     // BEL answers: a command refused
+    uint64_t bad_lines() const { return bad_lines_; } // lines that are no frame and no answer
 
 private:
     bool parse(const std::string &line, SlcanFrame *f) const;
