@@ -1,7 +1,8 @@
 """Shared pytest options and fixtures: the build the tests need (a missing one stops the run
 with one message), seeded property tests' seed and count from the command line (`pytest
 --prop-seed 7 --prop-count 100000`) or the environment (NAVKIT_PROP_SEED, NAVKIT_PROP_COUNT),
-the FMU helpers."""
+the host and FMU helpers. Helpers shared as plain code live in tests/*_helpers.py (no
+tests in them); no test imports another test module."""
 
 import os
 
@@ -67,6 +68,30 @@ def host_converts():
 
     if not host_binary().is_file():
         pytest.skip(f"not built: {host_binary()} (mission commands are judged by the host)")
+
+
+# ---------------------------------------------------------------- the host binary
+
+
+@pytest.fixture
+def host_factory(tmp_path):
+    """host_factory(cls=Host, **kw) -> a host_helpers.Host (or subclass `cls`) of the real
+    navkit-host in a folder of its own under tmp_path, kw to its constructor; all are
+    closed after the test."""
+    from host_helpers import Host
+
+    made = []
+
+    def make(cls: type = Host, **kw) -> Host:
+        d = tmp_path / f"h{len(made)}"
+        d.mkdir()
+        h = cls(d, **kw)
+        made.append(h)
+        return h
+
+    yield make
+    for h in made:
+        h.close()
 
 
 # ---------------------------------------------------------------- FMUs in fmpy

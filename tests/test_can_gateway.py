@@ -1,5 +1,5 @@
 """navkit.can_gateway between the real navkit-host (lockstep, `[micro] link = slcan`) and a
-micro that speaks the serial link (test_host_util's Micro, as the firmware FMU does): the
+micro that speaks the serial link (host_helpers' Micro, as the firmware FMU does): the
 host configures and drives it over the simulated CAN bus, every frame on the bus lands in
 a candump log written by python-can's Logger, and `navkit can dump` decodes that log."""
 
@@ -12,8 +12,7 @@ import pytest
 
 from navkit import protocol
 from navkit.can_gateway import CanGateway
-from test_host_util import FRAME_US, Host, Micro, RawHost
-
+from host_helpers import FRAME_US, Host, Micro, RawHost
 pytestmark = pytest.mark.timeout(60)
 
 

@@ -6,8 +6,7 @@ import argparse
 import pytest
 
 from navkit import host_bench
-from test_host_util import require_host
-
+from host_helpers import require_host
 pytestmark = pytest.mark.timeout(60)
 
 

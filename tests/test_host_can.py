@@ -1,6 +1,6 @@
 """navkit-host with `[micro] link = slcan`: the real binary in lockstep mode, its port a pty
 whose other end is a USB-CAN adapter (navkit.can_slcan) with the micro behind it on the
-CAN bus (navkit.can's ISO-TP, test_host_util's Micro for what it accepts and answers). The
+CAN bus (navkit.can's ISO-TP, host_helpers' Micro for what it accepts and answers). The
 link above the transport works as over serial: config download, one message per frame,
 repeats keeping their time tag, micro_configured; a lost CAN frame costs one message, which
 the next frame's repeat makes good; bad frames are refused and counted; the options."""
@@ -13,7 +13,7 @@ import pytest
 from navkit import can as nc
 from navkit import protocol
 from navkit.can_slcan import SlcanAdapter
-from test_host_util import FRAME_US, Micro, RawHost, host_factory, require_host  # noqa: F401  (fixture)
+from host_helpers import FRAME_US, Micro, RawHost, require_host
 
 pytestmark = pytest.mark.timeout(60)
 

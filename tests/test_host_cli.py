@@ -13,7 +13,7 @@ import tty
 import pytest
 
 from navkit import plot
-from test_host_util import Micro, host_factory, require_host  # noqa: F401  (fixture)
+from host_helpers import Micro, require_host
 
 pytestmark = pytest.mark.timeout(60)
 

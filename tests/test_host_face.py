@@ -18,7 +18,7 @@ import pytest
 
 from navkit import rcomm
 from navkit.paths import repo_root
-from test_host_util import Micro, host_factory, require_host  # noqa: F401  (fixture)
+from host_helpers import Micro, require_host
 
 pytestmark = pytest.mark.timeout(60)
 

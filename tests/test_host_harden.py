@@ -3,7 +3,7 @@ takes the SIGTERM path, a second host on the same serial port is refused naming 
 holder, a region cut short under it stops the robot instead of a SIGBUS, nothing of a
 micro_data of another spec is used, the command line's --log-dir wins over the INI's,
 INI files that never end a line or hold a NUL are refused, and the smaller refusals.
-The real binary throughout (lockstep against a pty, see test_host_util)."""
+The real binary throughout (lockstep against a pty, see host_helpers)."""
 
 import os
 import signal
@@ -12,7 +12,7 @@ import subprocess
 import pytest
 
 from navkit import protocol, rcomm
-from test_host_util import Micro, host_factory, require_host  # noqa: F401  (fixture)
+from host_helpers import Micro, require_host
 
 pytestmark = pytest.mark.timeout(60)
 

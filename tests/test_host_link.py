@@ -12,7 +12,7 @@ import signal
 import pytest
 
 from navkit import protocol
-from test_host_util import Micro, host_factory  # noqa: F401  (fixture)
+from host_helpers import Micro
 
 pytestmark = pytest.mark.timeout(60)
 

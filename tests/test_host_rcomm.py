@@ -7,7 +7,7 @@ import struct
 import pytest
 
 from navkit import protocol, rcomm
-from test_host_util import Micro, host_factory  # noqa: F401  (fixture)
+from host_helpers import Micro
 
 pytestmark = pytest.mark.timeout(60)
 

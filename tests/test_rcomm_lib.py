@@ -13,7 +13,7 @@ import pytest
 
 from navkit import protocol, rcomm
 from navkit.paths import repo_root
-from test_host_util import Micro, host_factory  # noqa: F401  (fixture)
+from host_helpers import Micro
 
 pytestmark = pytest.mark.timeout(60)
 

@@ -1,6 +1,7 @@
-"""Shared helpers of the navkit-host integration tests: the real binary in lockstep mode
-against a pseudo-terminal whose other end is a test-side micro written with the Python
-codec, and the planner through navkit.rcomm. Frame k runs at simulated time k * 100 ms."""
+"""Helpers of the navkit-host integration tests (no tests here; conftest.py's
+`host_factory` fixture makes their Hosts): the real binary in lockstep mode against a
+pseudo-terminal whose other end is a test-side micro written with the Python codec, and
+the planner through navkit.rcomm. Frame k runs at simulated time k * 100 ms."""
 
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ import pytest
 from navkit import protocol
 from navkit.paths import build_dir, repo_root
 
-__all__ = ["host_binary", "require_host", "Micro", "Host", "FRAME_US"]
+__all__ = ["host_binary", "require_host", "Micro", "Host", "RawHost", "FRAME_US"]
 
 FRAME_US = 100_000          # simulated frame period, us
 _TICK = struct.Struct("<IIQII")
@@ -283,21 +284,3 @@ class RawHost(Host):
     @staticmethod
     def decode(data: bytes) -> bytes:
         return data
-
-
-@pytest.fixture
-def host_factory(tmp_path):
-    """Make Host objects (each in its own folder); all are closed after the test."""
-    made = []
-
-    def make(cls: type = Host, **kw) -> Host:
-        """A `cls` (Host or a subclass) in a folder of its own; kw go to its constructor."""
-        d = tmp_path / f"h{len(made)}"
-        d.mkdir()
-        h = cls(d, **kw)
-        made.append(h)
-        return h
-
-    yield make
-    for h in made:
-        h.close()
