@@ -189,3 +189,15 @@ def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     secs = [float(ln.rsplit(" s ", 1)[0].split()[-1]) for ln in parts]
     total = float(lines[head[0]].split(" in ")[1].split(" s wall")[0])
     assert all(s >= 0 for s in secs) and abs(sum(secs) - total) < 0.01 + 0.001 * len(secs), (secs, total)
+
+
+def test_a_sim_that_fails_leaves_no_plot_process(tmp_path, capsys):
+    """navkit sim forks its plot process first thing; a mission that does not load ends
+    it (killed: it was given nothing to draw) before the command returns."""
+    import multiprocessing
+
+    from navkit.cli import main
+
+    assert main(["sim", "--mission", str(tmp_path / "none.toml"), "--out", str(tmp_path / "out")]) == 1
+    assert "none.toml" in capsys.readouterr().err
+    assert multiprocessing.active_children() == []

@@ -205,10 +205,12 @@ class PlotProcess:
                                  name="navkit-plot", daemon=True)
         self._proc.start()
         child.close()
+        self._used = False
 
     def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:
         """plot_mcap(path, out, series) in the child; its error (OSError, ValueError,
         McapError) is raised here."""
+        self._used = True
         self._conn.send((Path(path), Path(out), series))
         try:
             err = self._conn.recv()
@@ -218,9 +220,12 @@ class PlotProcess:
             raise err
 
     def close(self) -> None:
-        """End the child (it has drawn what it was given) and wait for it."""
+        """End the child and wait for it: once it has drawn what it was given; at once
+        (SIGKILL, it holds no file) if it was given nothing, as after a failed run."""
         if self._conn is None:
             return
+        if not self._used:
+            self._proc.kill()
         try:
             self._conn.send(None)
         except OSError:

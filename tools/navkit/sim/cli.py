@@ -84,10 +84,26 @@ def run(args) -> int:
     """Run the mission; 0 on success; 1 (a bad mission, config or run) or 2 (a bad option)
     with one line on stderr; 128 + the signal's number (130 for Ctrl-C) when a signal
     stopped it: the outputs are closed and summary.json says `interrupted`."""
-    import signal
     import time
 
     stamps = {"cli": time.monotonic()}
+    if args.no_plot:
+        return _run(args, stamps, None)
+    # plot.png's matplotlib import starts now, beside the mission's loading and the run
+    from navkit.plot import PlotProcess
+
+    plotter = PlotProcess()
+    try:
+        return _run(args, stamps, plotter)
+    finally:
+        plotter.close()
+
+
+def _run(args, stamps: dict, plotter) -> int:
+    """run(args) with the plot drawn by `plotter` (None: --no-plot)."""
+    import signal
+    import time
+
     from navkit.paths import build_dir, repo_root
     from navkit.sim.harness import SimError, SimOptions
     from navkit.sim.harness import run as run_sim
@@ -120,7 +136,7 @@ def run(args) -> int:
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, _interrupt)
     try:
-        s = run_sim(opts, stamps)
+        s = run_sim(opts, stamps, plotter)
     except (MissionError, SimError) as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1

@@ -31,27 +31,30 @@ __all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_
            "frame_period", "check_frame", "git_revision", "STEP_S"]
 
 
-def run(opts: SimOptions, stamps: dict | None = None) -> dict:
+def run(opts: SimOptions, stamps: dict | None = None, plotter=None) -> dict:
     """Do one run; write run.mcap, summary.json (and plot.png) into opts.out; return the
     summary. Raises MissionError for a mission that does not fit the FMUs, SimError if a
     part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant).
     `stamps`, when given, gets the time.monotonic() (s) at which each phase ended: "run"
     (entered), "started" (set-up), "loop", "stopped" (host, log worker, FMUs closed),
-    "summary" (summary.json written) and "plot" (plot.png written)."""
+    "summary" (summary.json written) and "plot" (plot.png written). plot.png is drawn by
+    `plotter`, a navkit.plot.PlotProcess the caller made earlier and closes (navkit sim
+    makes it first thing), else by one made and closed here: its matplotlib import runs
+    beside the set-up and the loop."""
     def stamp(key: str) -> None:
         if stamps is not None:
             stamps[key] = time.monotonic()
 
     stamp("run")
-    # plot.png's matplotlib import runs in a process of its own beside the set-up and loop
+    if plotter is not None or not opts.plot:
+        return _run(opts, plotter if opts.plot else None, stamp)
     from navkit.plot import PlotProcess
 
-    plotter = PlotProcess() if opts.plot else None
+    plotter = PlotProcess()
     try:
         return _run(opts, plotter, stamp)
     finally:
-        if plotter is not None:
-            plotter.close()
+        plotter.close()
 
 
 def _run(opts: SimOptions, plotter, stamp) -> dict:
