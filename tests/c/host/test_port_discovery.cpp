@@ -56,10 +56,7 @@ protected:
         close(slave_);
         sh("rm -rf " + root_);
     }
-    static void sh(const std::string &cmd)
-    {
-        ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-    }
+    static void sh(const std::string &cmd) { ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd; }
     static std::string slurp(const std::string &p)
     {
         std::string s;
@@ -164,6 +161,29 @@ TEST_F(FakeDevices, SlcanAdaptersAreFoundByTheirIdsAndCanusbIsNoSerialPort)
     EXPECT_EQ(none.find("no serial-link port found (USB ttys: "), 0u) << none;
     EXPECT_NE(none.find("[0403:ffa8]"), std::string::npos) << none;
     EXPECT_EQ(find_port("slcan", roots_, &path).find("several slcan-link ports found: "), 0u);
+}
+
+TEST_F(FakeDevices, MicroUsbWithLinkSlcanOpensTheOneCanAdapter)
+{
+    // the pty becomes a Lawicel CANUSB (FTDI 0403:ffa8); the CANable is unplugged
+    sh("echo ffa8 > " + roots_.sys + "/devices/usb1/1-1/idProduct");
+    sh("rm " + roots_.dev + "/serial/by-id/usb-Protofusion_Labs_CANable-if00 && rm -r " + roots_.sys +
+       "/class/tty/ttyOTHER");
+    std::FILE *out = std::tmpfile();
+    Console con(out, -1, 1.0);
+    MicroCfg cfg;
+    cfg.link = "slcan";
+    MicroUsb micro(cfg, con, roots_);
+    micro.init();
+    EXPECT_TRUE(micro.port_open()) << "port = auto, link = slcan: the CANUSB";
+    EXPECT_EQ(slurp(roots_.sys + "/bus/usb-serial/devices/" + tty_ + "/latency_timer"), "1\n")
+        << "an FTDI-based adapter's latency timer is set too";
+    micro.shutdown();
+    MicroCfg serial;
+    MicroUsb none(serial, con, roots_);
+    none.init();
+    EXPECT_FALSE(none.port_open()) << "link = serial: no port of that kind";
+    std::fclose(out);
 }
 
 TEST_F(FakeDevices, SeveralFoundAreListedAndNoneFoundSaysWhatWasSeen)
