@@ -1,65 +1,45 @@
-"""The log worker's fast /planner/data text (navkit.sim.record._fields_text) is the
-codec's decoding dumped as JSON, byte for byte."""
+"""The log worker's fast paths give what the slow ones give, byte for byte: the
+Recorder's _ChunkMessages writes the file mcap's Writer.add_message writes, and /truth's
+bytes template formats as the str template."""
 
-import json
 import random
+import struct
 
-from navkit import protocol
-from navkit.sim.record import _fields_text
-
-
-def test_lisp_data_text_is_the_codecs_json():
-    text = _fields_text(protocol, "lisp_data")
-    assert text is not None, "the fast path refused lisp_data (bench-sim gets slower)"
-    dumps = json.JSONEncoder(separators=(",", ":")).encode
-    rng = random.Random(7)
-    size = protocol.SPEC.messages["lisp_data"].size
-    for _ in range(200):
-        data = bytes(rng.randrange(256) for _ in range(size))
-        assert text(data) == dumps(protocol.from_bytes("lisp_data", data)).encode()
+from navkit.sim import record
 
 
-def _random_frame(rng, m, good_crc):
-    import struct
-
-    body = bytearray(rng.randrange(256) for _ in range(m.size - 2))
-    struct.pack_into("<HHHH", body, 0, protocol.SPEC.framing["start_word"],
-                     rng.randrange(1 << 16), m.id, m.words)
-    crc = protocol.crc16(body)
-    return bytes(body) + struct.pack("<H", crc if good_crc else crc ^ (1 << rng.randrange(16)))
-
-
-def test_frame_texts_are_the_codecs_json_and_crc():
-    from navkit.sim.record import _frame_texts
-
-    fast = _frame_texts(protocol)
-    crc_ok = fast.pop(None)
-    names = {name for name, _, _ in fast.values()}
-    assert {"micro_data", "micro_cmd"} <= names, "the fast path refused a per-frame message"
-    dumps = json.JSONEncoder(separators=(",", ":")).encode
-    rng = random.Random(11)
-    for msg_id, (name, size, text) in fast.items():
-        m = protocol.SPEC.messages[name]
-        assert (m.id, m.size) == (msg_id, size)
-        for _ in range(100):
-            frame = _random_frame(rng, m, good_crc=True)
-            assert crc_ok(frame)
-            assert text(frame) == dumps(protocol.decode_frame(frame)[1]).encode()
-            bad = _random_frame(rng, m, good_crc=False)
-            assert not crc_ok(bad)
-            try:
-                protocol.decode_frame(bad)
-            except protocol.ProtocolError:
-                pass
-            else:
-                raise AssertionError(f"{name}: the codec took a frame crc_ok refused")
+def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
+    """The same messages through _ChunkMessages and through Writer.add_message: the same
+    file, chunk ends (span and 8 MiB size), message indexes and statistics included."""
+    rng = random.Random(9)
+    topics = list(record.TOPICS)
+    script = []
+    t = 0
+    for i in range(3000):
+        t += rng.choice((0, 1_000_000, 7_000_000, 400_000_000))
+        topic = rng.choice(topics[:6] if i < 1500 else topics)
+        size = 9_000_000 if i == 2000 else rng.randrange(1, 300)
+        script.append((topic, t, bytes(rng.randrange(256) for _ in range(8)) * (size // 8 + 1)))
+    files = []
+    for fast in (True, False):
+        path = tmp_path / f"run-{fast}.mcap"
+        rec = record.Recorder(path, {"seed": 1}, fast=fast)
+        assert (rec._chunk is not None) is fast, "the fast path was refused (mcap changed?)"
+        for k, (topic, t_ns, data) in enumerate(script):
+            rec.reserve(t_ns, t_ns)
+            rec.write_raw(topic, t_ns, data)
+            if k % 10 == 9:
+                rec.flush_before(t_ns + 100_000_000)
+        counts = rec.counts
+        rec.close()
+        files.append(path.read_bytes())
+    assert files[0] == files[1]
+    assert sum(counts.values()) == len(script)
 
 
 def test_truth_bytes_template_formats_as_str(tmp_path):
     """The worker formats /truth with a bytes template; the text must be what the str
     template and encode() gave (same float conversion), tricky values included."""
-    import struct
-
     from navkit.sim.record import _HEADING_ROUNDS_TO_360, _Decoder, _heading_wrapped
 
     columns = ["x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s"] \
@@ -83,5 +63,5 @@ def test_truth_bytes_template_formats_as_str(tmp_path):
     for h, text in ((359.99996, b'"heading_deg":0.0000'), (359.99994, b'"heading_deg":359.9999')):
         row = (1.0, 0.0, 0.0, 0.0, h) + (0.0,) * (len(columns) - 4) + (0.0,)
         assert text in dec._truth_text(row)
-    dec.handle(("T", struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
+    dec.handle((record.TRUTH_ROWS, struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
     assert dec.finish()["counts"]["/truth"] == 1

@@ -23,7 +23,7 @@ import json
 import struct
 from pathlib import Path
 
-from navkit.spec import TYPES, Message, Spec, load
+from navkit.spec import STRUCT_CODES, TYPES, Message, Spec, load
 
 __all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs", "emit_dbc",
            "emit_python", "write_outputs", "spec_label", "can_frames"]
@@ -679,9 +679,6 @@ def emit_dbc(spec: Spec) -> str:
     return "\n".join(out + comments + [""] + values) + "\n"
 
 
-_STRUCT_CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
-
-
 def _py_text(m: Message) -> list[str]:
     """The generated Python lines of message `m`'s MessageText constant."""
     keys, slots = [], []        # JSON keys in spec order; (byte offset, code, key position)
@@ -690,7 +687,7 @@ def _py_text(m: Message) -> list[str]:
     at, pos = {}, 0
     for f in m.fields:
         at[f.name] = pos
-        slots += [(f.byte_offset + i * f.size, _STRUCT_CODES[f.type], pos + i) for i in range(f.count)]
+        slots += [(f.byte_offset + i * f.size, STRUCT_CODES[f.type], pos + i) for i in range(f.count)]
         pos += f.count
     fmt, end = "<", 0
     for off, code, _ in sorted(slots):

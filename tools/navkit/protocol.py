@@ -22,7 +22,7 @@ import struct
 from dataclasses import dataclass, field
 
 from navkit.paths import spec_path
-from navkit.spec import TYPES, Message, load
+from navkit.spec import STRUCT_CODES, TYPES, Message, load
 
 __all__ = [
     "SPEC", "SPEC_HASH", "ProtocolError", "crc16", "defaults", "check", "encode_frame",
@@ -50,7 +50,6 @@ _MIN_FRAME = _HEADER + 2        # header and CRC word: shorter is a bad length (
 _LEN_AT = 2 * _LEN_WORD        # byte offset of the length word (frame words)
 _TYPE_AT = _LEN_AT - 2          # byte offset of the type word, the word before the length
 _DIR_TEXT = {DIR_TO_MICRO: "to-micro", DIR_TO_HOST: "to-host"}
-_CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
 _BY_ID = {m.id: m for m in SPEC.serial_messages()}
 _HASHED = {m.id for m in SPEC.serial_messages() if any(f.name == "spec_hash" for f in m.fields)}
 
@@ -162,7 +161,7 @@ def _layout(m: Message) -> _Layout:
         items += [(0, "H", "#start", None), (2 * _LEN_WORD, "H", "#length", None)]
     for f in m.fields:
         for i in range(f.count):
-            items.append((f.byte_offset + i * f.size, _CODES[f.type], f.name, i if f.count > 1 else None))
+            items.append((f.byte_offset + i * f.size, STRUCT_CODES[f.type], f.name, i if f.count > 1 else None))
     items.sort()
     fmt, at, slots = "<", 0, []
     for off, code, name, idx in items:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 __all__ = [
     "SpecError", "Field", "Constraint", "Message", "Enum", "Rcomm", "Can", "CanId", "Spec", "load", "TYPES",
+    "STRUCT_CODES",
 ]
 
 # type name -> (size in bytes, signed, minimum, maximum)
@@ -28,6 +29,8 @@ TYPES = {
     "uint32": (4, False, 0, 0xFFFFFFFF),
     "int32": (4, True, -0x80000000, 0x7FFFFFFF),
 }
+# type name -> its Python struct format character (little-endian, standard sizes)
+STRUCT_CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
 
 _TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip", "can"}
 _MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field", "constraint"}

@@ -179,14 +179,131 @@ _CAN_RECORD = struct.Struct("<qHBB8s")
 _CAN_TEXT = b'{"t":%.6f,"id":%d,"dlc":%d,"data":"%s","direction":"%s","error_frame":%s}'
 
 
+# An MCAP message record: opcode, record length (bytes after it), then the message's
+# channel id, sequence, log time and publish time (MCAP specification, "Message"); its
+# data follows.
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ")
+
+
+def _message_index_class():
+    """mcap's MessageIndex record, its write() one struct pack of all its (log time,
+    offset) pairs instead of two calls a pair (the same bytes)."""
+    import itertools
+
+    from mcap.opcode import Opcode
+    from mcap.records import MessageIndex
+
+    class PackedMessageIndex(MessageIndex):
+        def write(self, stream) -> None:
+            stream.start_record(Opcode.MESSAGE_INDEX)
+            stream.write2(self.channel_id)
+            stream.write4(len(self.records) * 16)
+            stream.write(struct.pack(f"<{2 * len(self.records)}Q",
+                                     *itertools.chain.from_iterable(self.records)))
+            stream.finish_record()
+    return PackedMessageIndex
+
+
+class _ChunkMessages:
+    """Adds messages to an mcap Writer's open chunk as its add_message does (the record
+    and the chunk's message index entry), with one struct pack and two writes instead of
+    a Message object and a dozen calls a message: the mcap package's add_message was
+    most of the log worker's CPU. The chunk's message count and time span are set by
+    fold() before the chunk ends, the file's statistics by statistics() before
+    Writer.finish; the chunk's message indexes are written with one pack each. Built on
+    the Writer's internals (mcap 1.x: its chunk builder, statistics and chunk size);
+    make() returns None when they are not there, and the Recorder uses add_message.
+    tests/test_sim_record_text.py checks that both give the same file byte for byte."""
+
+    def __init__(self, writer, builder, stats, chunk_size: int):
+        self._w, self._cb, self._stats, self._size = writer, builder, stats, chunk_size
+        self._index = _message_index_class()
+        self._lo = self._hi = None      # earliest / latest log time (ns) of the chunks so far
+        self._channels: list = []      # channel ids in the order of their first message
+
+    @classmethod
+    def make(cls, writer):
+        """A _ChunkMessages for `writer` (started, chunked, no message yet), or None."""
+        from mcap.writer import Writer
+
+        builder = getattr(writer, "_Writer__chunk_builder", None)
+        stats = getattr(writer, "_Writer__statistics", None)
+        size = getattr(writer, "_Writer__chunk_size", None)
+        if (type(writer) is not Writer or builder is None or stats is None
+                or not isinstance(size, int) or stats.message_count
+                or not all(hasattr(builder, a) for a in ("record_writer", "message_indices",
+                                                         "message_start_time",
+                                                         "message_end_time", "num_messages"))
+                or not hasattr(builder.record_writer, "_buffer")):
+            return None
+        return cls(writer, builder, stats, size)
+
+    def writer(self, chan: int, n: list):
+        """fn(t_ns, data): one message on channel `chan` at log (= publish) time t_ns (ns),
+        its sequence number n[0] + 1 (stored back in n[0])."""
+        from mcap.opcode import Opcode
+
+        pack, index, size = _MESSAGE_HEAD.pack, self._index, self._size
+        rw, indices, op = self._cb.record_writer, self._cb.message_indices, int(Opcode.MESSAGE)
+        flush, first = self._flush, self._channels.append
+
+        def write(t_ns: int, data: bytes) -> None:
+            n[0] = seq = n[0] + 1
+            if seq == 1:
+                first(chan)
+            idx = indices.get(chan)
+            if idx is None:
+                idx = indices[chan] = index(channel_id=chan, records=[])
+            buf = rw._buffer
+            at = buf.tell()
+            idx.records.append((t_ns, at))
+            buf.write(pack(op, 22 + len(data), chan, seq, t_ns, t_ns))
+            buf.write(data)
+            if at + 31 + len(data) > size:       # as add_message: a chunk past chunk_size ends
+                flush()
+        return write
+
+    def _flush(self) -> None:
+        self.fold()
+        self._w.flush()
+
+    def fold(self) -> None:
+        """The open chunk's message count and time span (ns) from its message indexes,
+        as add_message keeps them, and the span into the file's; call before the chunk
+        ends (idempotent)."""
+        cb = self._cb
+        records = [idx.records for idx in cb.message_indices.values() if idx.records]
+        cb.num_messages = sum(map(len, records))
+        if records:
+            lo = min(min(r)[0] for r in records)
+            hi = max(0, max(max(r)[0] for r in records))
+            cb.message_start_time, cb.message_end_time = lo, hi
+            self._lo = lo if self._lo is None or lo < self._lo else self._lo
+            self._hi = hi if self._hi is None or hi > self._hi else self._hi
+
+    def statistics(self, counts: dict) -> None:
+        """The file's message statistics as add_message keeps them (channels in the order
+        of their first message); `counts`: messages per channel id."""
+        st = self._stats
+        for chan in self._channels:
+            st.channel_message_counts[chan] += counts[chan]
+            st.message_count += counts[chan]
+        if self._lo is not None:
+            st.message_start_time = self._lo
+            st.message_end_time = max(self._hi, st.message_end_time)
+
+
 class Recorder:
     """Writes `run.mcap`. Call `reserve(t0_ns, t1_ns)` before writing messages whose log
     times lie in [t0_ns, t1_ns] (at most `flush_every_s` apart), `write(topic, t_ns, obj)`
     with JSON-able objects, `flush_before(t_ns)` at each frame end with the end of the next
     frame, and `close()` at the end."""
 
-    def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False):
+    def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False,
+                 fast: bool = True):
         """`can`: the run is over CAN, so the log also has the /can topic (CAN_SCHEMA).
+        `fast`: messages go into the open chunk by _ChunkMessages where the mcap Writer
+        allows it (the same file, byte for byte, as with Writer.add_message).
         `plot_series` (navkit.plot.RunSeries) keeps what the run plot draws of the
         messages as they are written, in file order, so the plot needs no read-back."""
         from mcap.writer import CompressionType, Writer
@@ -219,6 +336,7 @@ class Recorder:
             self._chan[topic] = self._w.register_channel(topic, "json", fox_ids[name])
         self._w.add_metadata("navkit", {k: str(v) for k, v in metadata.items()})
         self._n = {topic: [0] for topic in self._chan}    # messages so far = last sequence
+        self._chunk = _ChunkMessages.make(self._w) if fast else None
         self._writers = {topic: self._make_writer(topic) for topic in self._chan}
         self.span_ns = int(flush_every_s * 1e9)     # the longest span of one chunk, ns
         self._lo = self._hi = None      # earliest / latest log time (ns) in the open chunk
@@ -238,18 +356,29 @@ class Recorder:
         return self._writers[topic]
 
     def _make_writer(self, topic: str):
-        add, chan, n = self._w.add_message, self._chan[topic], self._n[topic]
+        chan, n = self._chan[topic], self._n[topic]
         keep = self.plot_series.sink(topic)
+        if self._chunk is not None:
+            write = self._chunk.writer(chan, n)
+        else:
+            add = self._w.add_message
 
-        def write(t_ns: int, data: bytes) -> None:
-            n[0] = seq = n[0] + 1
-            add(chan, t_ns, data, t_ns, seq)
+            def write(t_ns: int, data: bytes) -> None:
+                n[0] = seq = n[0] + 1
+                add(chan, t_ns, data, t_ns, seq)
+        if keep is None:
+            return write
 
         def write_kept(t_ns: int, data: bytes) -> None:
-            n[0] = seq = n[0] + 1
-            add(chan, t_ns, data, t_ns, seq)
+            write(t_ns, data)
             keep(t_ns, data)
-        return write if keep is None else write_kept
+        return write_kept
+
+    def _flush(self) -> None:
+        """Close the open chunk (its messages into the file's statistics first)."""
+        if self._chunk is not None:
+            self._chunk.fold()
+        self._w.flush()
 
     @property
     def counts(self) -> dict:
@@ -268,7 +397,7 @@ class Recorder:
         lo = t0_ns if t0_ns < lo else lo
         hi = t1_ns if t1_ns > hi else hi
         if hi - lo > self.span_ns:
-            self._w.flush()
+            self._flush()
             self._lo, self._hi = t0_ns, t1_ns
         else:
             self._lo, self._hi = lo, hi
@@ -278,12 +407,15 @@ class Recorder:
         now if they would make it span more than `flush_every_s` (so chunks end at frame
         ends when frames are at most that long)."""
         if self._lo is not None and next_end_ns - self._lo > self.span_ns:
-            self._w.flush()
+            self._flush()
             self._lo = self._hi = None
 
     def close(self) -> None:
         """Write the summary section and close the file."""
         if self._file is not None:
+            if self._chunk is not None:
+                self._chunk.fold()
+                self._chunk.statistics({self._chan[t]: n[0] for t, n in self._n.items()})
             self._w.finish()
             self._file.close()
             self._file = None
@@ -343,99 +475,35 @@ class _Receiver:
                 "unknown_type": st["unknown_type"], "dropped_bytes": st["dropped_bytes"]}
 
 
-_STRUCT_CODES = {"int8": "b", "uint8": "B", "int16": "h", "uint16": "H", "int32": "i",
-                 "uint32": "I"}
-
-
-def _fields_text(protocol, name: str):
-    """A function from the little-endian bytes of rcomm message `name` to the JSON text
-    (bytes) of its fields exactly as `dumps(protocol.from_bytes(name, data))` gives it
-    (same key order, integers as %d), without building the dict: one struct unpack and
-    one %-format. Checked against the codec on a byte pattern when made; None (use the
-    codec) if the message has a field type it does not know or the check fails."""
-    m = protocol.SPEC.messages[name]
-    by_name = {f.name: f for f in m.fields}
-    keys = list(protocol.from_bytes(name, bytes(m.size)))   # the codec's key order
-    parts, items = [], []        # items: (byte offset, struct code) in key order
-    for key in keys:
-        f = by_name[key]
-        code = _STRUCT_CODES.get(f.type)
-        if code is None:
-            return None
-        n = f.count
-        parts.append(f'"{key}":' + ("[" + ",".join(["%d"] * n) + "]" if n > 1 else "%d"))
-        items += [(f.byte_offset + i * f.size, code) for i in range(n)]
-    order = sorted(range(len(items)), key=lambda i: items[i][0])
-    fmt, at = "<", 0
-    for i in order:
-        off, code = items[i]
-        if off < at:
-            return None
-        fmt += (f"{off - at}x" if off > at else "") + code
-        at = off + struct.calcsize("<" + code)
-    unpack = struct.Struct(fmt).unpack_from
-    back = [0] * len(items)          # key-order position -> struct position
-    for pos, i in enumerate(order):
-        back[i] = pos
-    pick = operator.itemgetter(*back) if len(back) > 1 else (lambda v: (v[back[0]],))
-    template = ("{" + ",".join(parts) + "}").encode()   # bytes %: no str, no encode
-
-    def text(data: bytes) -> bytes:
-        return template % pick(unpack(data))
-
-    dumps = json.JSONEncoder(separators=(",", ":")).encode
-    probe = bytes((i * 151 + 17) & 0xFF for i in range(m.size))   # signs and high bits
-    for data in (probe, bytes(m.size)):
-        if text(data) != dumps(protocol.from_bytes(name, data)).encode():
-            return None
-    return text
-
-
-def _frame_texts(protocol) -> dict:
-    """{message type id: (name, frame size in bytes, text)} for the serial messages whose
-    JSON text `_fields_text` makes from a whole frame's bytes (the fields sit at their frame
-    offsets), with a CRC check `crc_ok(frame)` in the same dict under key None: one
-    translate and one binascii.crc_hqx for protocol.crc16's CRC-16/MCRF4XX (the reflected
-    CRC is the plain one over bit-reversed bytes). Each entry is checked when made on a
-    frame of a byte pattern: text as the codec's decode_frame gives it, the good CRC
-    accepted and a wrong one refused; a message that fails is left out (the codec
-    decodes it)."""
-    import binascii
-
-    rev = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
-
-    def crc_ok(frame: bytes) -> bool:
-        r = frame.translate(rev)
-        return binascii.crc_hqx(r[:-2], 0xFFFF) == (r[-2] << 8 | r[-1])
-
-    dumps = json.JSONEncoder(separators=(",", ":")).encode
-    start = protocol.SPEC.framing["start_word"]
-    out = {None: crc_ok}
-    for m in protocol.SPEC.serial_messages():
-        text = _fields_text(protocol, m.name)
-        if text is None:
-            continue
-        body = bytearray((i * 151 + 17) & 0xFF for i in range(m.size - 2))
-        struct.pack_into("<HHHH", body, 0, start, 0x1234, m.id, m.words)
-        frame = bytes(body) + struct.pack("<H", protocol.crc16(body))
-        bad = frame[:-1] + bytes([frame[-1] ^ 0x40])
-        try:
-            name, fields = protocol.decode_frame(frame)
-        except protocol.ProtocolError:
-            continue
-        if (name == m.name and text(frame) == dumps(fields).encode() and crc_ok(frame)
-                and not crc_ok(bad)):
-            out[m.id] = (m.name, m.size, text)
-    return out
-
+# The kinds of the items RunLog queues for the worker (each item a tuple, its kind first;
+# the rest as each RunLog method says).
+HOST_FRAME = "host_frame"           # a host frame: k, t_ns, rx, tx, flags, host bytes, lisp_data, state
+HOST_BYTES = "host_bytes"           # bytes the host sent outside a lockstep frame: t_ns, bytes
+LISP_DATA = "lisp_data"             # a lisp_data read outside a lockstep frame: t_ns, raw bytes
+MICRO_BYTES = "micro_bytes"         # bytes the micro sent: t_ns, bytes
+TRUTH_ROWS = "truth_rows"           # truth rows, raw doubles of the coupler
+RECEIVED = "received"               # bytes an end received: "h2m" | "m2h", bytes | None (as sent)
+RECEIVER_RESTART = "receiver_restart"   # an end's parser starts anew: "h2m" | "m2h"
+PLANNER_COMMAND = "planner_command"     # a lisp_cmd written: t_ns, fields, mission entry
+EVENT = "event"                     # a mission event: t_ns, kind, detail
+HOST_CONSOLE = "host_console"       # host console lines of a frame: t_ns, [(level, message, line)]
+WALLS = "walls"                     # the world's walls: the plant's walls output (at t = 0)
+CAN_FRAMES = "can_frames"           # CAN frames: _CAN_RECORD records back to back
+FRAME_END = "frame_end"             # a frame ended: the end of the next frame, ns
 
 class _Decoder:
-    """Turns the harness's raw items into MCAP messages (runs in the log worker)."""
+    """Turns the harness's raw items into MCAP messages (runs in the log worker). The
+    protocol's messages become JSON text through the generated navkit_json
+    (protocol.json_texts);
+    frames are split and checked by navkit.protocol (split_frames, frame_crc_ok,
+    decode_frame, Parser)."""
 
-    def __init__(self, path: Path, metadata: dict, columns: list, width: int, can: bool = False):
+    def __init__(self, path: Path, metadata: dict, columns: list, width: int, can: bool = False,
+                 build: Path | None = None):
         from navkit import protocol
 
         self.p = protocol
+        texts = protocol.json_texts(build)
         self.rec = Recorder(path, metadata, can=can)
         if can:
             self.write_can = self.rec.writer("/can")
@@ -449,13 +517,9 @@ class _Decoder:
                    "m2h": _Receiver(protocol, protocol.DIR_TO_HOST)}
         self.last_sent = {"h2m": (b"", None), "m2h": (b"", None)}
         self.whole = None
-        status = protocol.SPEC.messages["micro_data"].field("status")
-        self.wd_mask = 1 << protocol.SPEC.enums[status.flags].values["watchdog_stop"]
-        self.wd_on = False
-        self.watchdog_stops = 0     # rising edges of micro_data.status watchdog_stop
         self.frame_cls = protocol.Frame
         self.dumps = json.JSONEncoder(separators=(",", ":")).encode
-        self.cache = {}
+        self.cmd_text = {}          # the last micro_cmd frame -> its text (the host repeats it)
         self.h2m_buf, self.m2h_buf = bytearray(), bytearray()
         self.width = width
         self.row_struct = struct.Struct(f"={width}d")
@@ -465,30 +529,30 @@ class _Decoder:
         self.frame_text = {h: head + b',"host":"%s"}' % h.encode() for h in HOST_STATES}
         self.frame_text_flags = {h: head + b',"flags":%%d,"host":"%s"}' % h.encode()
                                  for h in HOST_STATES}
+        # serial frames: type -> generated text; micro_data's fields read by the log
+        self.by_type = texts.BY_TYPE
+        self.micro_data = md = texts.MICRO_DATA
+        self.md_name = md.name
+        status = protocol.SPEC.messages[md.name].field("status")
+        self.wd_mask = 1 << protocol.SPEC.enums[status.flags].values["watchdog_stop"]
+        self.wd_on = False
+        self.watchdog_stops = 0     # rising edges of micro_data.status watchdog_stop
+        self.md_status = md.at["status"]
+        self.md_odom = operator.itemgetter(*(md.at[n] for n in ("x", "y", "heading")))
         self.last_micro_raw = None     # decoded by finish()
-        self.datalog = self._datalog_texts(protocol)
-        # micro_data and micro_cmd are written every frame: their text from the bytes
-        self.fast = _frame_texts(protocol)
-        self.crc_ok = self.fast.pop(None)
-        status = protocol.SPEC.messages["micro_data"].field("status")
-        self.status_at = (struct.Struct("<" + _STRUCT_CODES[status.type]).unpack_from,
-                          status.byte_offset)
+        self.datalog = self._datalog_texts(protocol, md)
+        # lisp_data: its text, and the host's verdict on each planner command
+        # (nav_result of the first lisp_data whose ack_time_tag is the command's time tag)
+        self.lisp_data = ld = texts.LISP_DATA
+        self.ack_at = (ld.at["ack_time_tag"], ld.at["nav_result"])
         self.last_lisp = None
         self.last_lisp_raw = None      # decoded into last_lisp by finish()
-        # the host's verdict on each planner command: lisp_data.nav_result of the first
-        # lisp_data whose ack_time_tag is the command's time tag
-        lisp = protocol.SPEC.messages["lisp_data"]
-        self.ack_at = [(struct.Struct("<" + _STRUCT_CODES[f.type]).unpack_from, f.byte_offset)
-                       for f in (lisp.field("ack_time_tag"), lisp.field("nav_result"))]
         self.commands = 0
         self.pending = {}              # time tag -> (mission entry, lisp_cmd) not yet acked
         self.verdicts = []             # (mission entry, lisp_cmd, nav_result) acked
         self.unacknowledged = []       # (mission entry, lisp_cmd) never acked
-        # /planner/data is written every frame: its text straight from the bytes
-        self.lisp_text = _fields_text(protocol, "lisp_data")
         self.last_row = None
         self.config_downloads = 0
-        self.lisp_size = protocol.SPEC.messages["lisp_data"].size
         idx = {name: i + 1 for i, name in enumerate(columns)}
         parts, sel = [], []
         # fixed decimals: 1 us of time, 0.1 um / 0.0001 deg of truth (and twice as fast
@@ -512,33 +576,35 @@ class _Decoder:
         self.fox = foxglove.FoxgloveWriter(self.rec.writer)
         self.fox_truth = operator.itemgetter(*[idx.get(k, width)
                                                for k in ("x_mm", "y_mm", "yaw_deg")])
-        odo = [protocol.SPEC.messages["micro_data"].field(n) for n in ("x", "y", "heading")]
-        self.odom_at = [(struct.Struct("<" + _STRUCT_CODES[f.type]).unpack_from, f.byte_offset)
-                        for f in odo]
+        self.handlers = {HOST_FRAME: self._host_frame, HOST_BYTES: self._host_bytes,
+                         LISP_DATA: self._lisp_data, MICRO_BYTES: self._micro_bytes,
+                         TRUTH_ROWS: self._truth_rows, RECEIVED: self._received,
+                         RECEIVER_RESTART: self._receiver_restart,
+                         PLANNER_COMMAND: self._planner_command, EVENT: self._event,
+                         HOST_CONSOLE: self._host_console, WALLS: self._walls,
+                         CAN_FRAMES: self._can_frames, FRAME_END: self._frame_end}
 
-    def _datalog_texts(self, protocol):
-        """A function (t_ns, micro_data frame) writing /micro/datalog when the frame's
-        mc_datalog_sel is a selection with words: the words by their spec names."""
-        m = protocol.SPEC.messages["micro_data"]
-        sel_f, words_f, time_f = (m.field(n) for n in ("mc_datalog_sel", "mc_datalog", "micro_time"))
-        sel_at = (struct.Struct("<" + _STRUCT_CODES[sel_f.type]).unpack_from, sel_f.byte_offset)
-        time_at = (struct.Struct("<" + _STRUCT_CODES[time_f.type]).unpack_from, time_f.byte_offset)
-        words_at = (struct.Struct("<" + _STRUCT_CODES[words_f.type] * words_f.count).unpack_from,
-                    words_f.byte_offset)
+    def _datalog_texts(self, protocol, md):
+        """A function (t_ns, micro_data values) writing /micro/datalog when the values'
+        mc_datalog_sel is a selection with words (spec enum mc_datalog): the words by
+        their spec names."""
+        m = protocol.SPEC.messages[md.name]
+        sel_at, time_at, words_at = (md.at[n] for n in ("mc_datalog_sel", "micro_time", "mc_datalog"))
+        count = m.field("mc_datalog").count
         enum = protocol.SPEC.enums["mc_datalog"]
         templates = {}
         for name, code in enum.values.items():
             names = enum.words.get(name, ())
             if names:
-                templates[code] = ('{"selection":"%s","micro_time_ms":%%d,' % name
-                                   + ",".join(f'"{w}":%d' for w in names) + "}").encode()
+                pick = operator.itemgetter(time_at, *range(words_at, words_at + min(len(names), count)))
+                templates[code] = (('{"selection":"%s","micro_time_ms":%%d,' % name
+                                    + ",".join(f'"{w}":%d' for w in names) + "}").encode(), pick)
         write = self.rec.writer("/micro/datalog")
 
-        def datalog(t_ns: int, frame: bytes) -> None:
-            tpl = templates.get(sel_at[0](frame, sel_at[1])[0])
-            if tpl is not None:
-                write(t_ns, tpl % ((time_at[0](frame, time_at[1])[0],)
-                                   + words_at[0](frame, words_at[1])[:tpl.count(b"%d") - 1]))
+        def datalog(t_ns: int, values: tuple) -> None:
+            hit = templates.get(values[sel_at])
+            if hit is not None:
+                write(t_ns, hit[0] % hit[1](values))
         return datalog
 
     def _truth_text(self, row) -> bytes:
@@ -549,140 +615,154 @@ class _Decoder:
         return self.truth_fmt % (vals + (dio,))
 
     def handle(self, item) -> None:
-        kind = item[0]
+        """One item of RunLog (its kind first)."""
+        self.handlers[item[0]](item)
+
+    def _host_frame(self, item) -> None:
+        _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host = item
+        self.rec.reserve(t_ns, t_ns)
+        if flags is None:
+            self.write_frame(t_ns, self.frame_text[host] % (k, t_ns / 1e9, rx, tx))
+        else:
+            self.write_frame(t_ns, self.frame_text_flags[host] % (k, t_ns / 1e9, rx, tx, flags))
+        if lisp_raw is not None:
+            self.lisp(t_ns, lisp_raw)
+        if host_bytes:
+            self.host_bytes(t_ns, host_bytes)
+
+    def _lisp_data(self, item) -> None:
+        self.rec.reserve(item[1], item[1])
+        self.lisp(item[1], item[2])
+
+    def _host_bytes(self, item) -> None:
+        self.rec.reserve(item[1], item[1])
+        self.host_bytes(item[1], item[2])
+
+    def _micro_bytes(self, item) -> None:
+        t_ns = item[1]
+        self.rec.reserve(t_ns, t_ns)
+        md_name, unpack = self.md_name, self.micro_data.unpack
+        for name, frame, text in self.frames(self.m2h_buf, self.m2h, item[2]):
+            if name == md_name:
+                self.last_micro_raw = frame
+                self.write_micro(t_ns, text)
+                values = unpack(frame)
+                self.datalog(t_ns, values)
+                self.fox.odom(t_ns, *self.md_odom(values))
+                wd = bool(values[self.md_status] & self.wd_mask)
+                if wd and not self.wd_on:
+                    self.watchdog_stops += 1
+                self.wd_on = wd
+        self.last_sent["m2h"] = (item[2], self.whole)
+
+    def _received(self, item) -> None:
+        rx = self.rx[item[1]]
+        data = item[2]
+        if data is None:
+            sent, n_frames = self.last_sent[item[1]]
+            if not rx.same(n_frames):
+                rx.feed(sent)
+        else:
+            rx.feed(data)
+
+    def _receiver_restart(self, item) -> None:
+        self.rx[item[1]].restart()
+
+    def _truth_rows(self, item) -> None:
         rec = self.rec
-        if kind == "F":   # host frame: (F, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host)
-            _, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host = item
-            rec.reserve(t_ns, t_ns)
-            if flags is None:
-                self.write_frame(t_ns, self.frame_text[host] % (k, t_ns / 1e9, rx, tx))
-            else:
-                self.write_frame(t_ns, self.frame_text_flags[host] % (k, t_ns / 1e9, rx, tx,
-                                                                       flags))
-            if lisp_raw is not None:
-                self.lisp(t_ns, lisp_raw)
-            if host_bytes:
-                self.host_bytes(t_ns, host_bytes)
-        elif kind == "L":        # lisp_data outside a lockstep frame (real time)
-            rec.reserve(item[1], item[1])
-            self.lisp(item[1], item[2])
-        elif kind == "H":        # host bytes outside a lockstep frame (real time)
-            rec.reserve(item[1], item[1])
-            self.host_bytes(item[1], item[2])
-        elif kind == "M":        # micro bytes: (M, t_ns, bytes)
-            t_ns = item[1]
-            rec.reserve(t_ns, t_ns)
-            wd_mask = self.wd_mask
-            status, at = self.status_at
-            write = self.write_micro
-            for name, frame, js in self.frames(self.m2h_buf, self.m2h, item[2]):
-                if name == "micro_data":
-                    self.last_micro_raw = frame
-                    write(t_ns, js)
-                    self.datalog(t_ns, frame)
-                    (ux, ox), (uy, oy), (uh, oh) = self.odom_at
-                    self.fox.odom(t_ns, ux(frame, ox)[0], uy(frame, oy)[0], uh(frame, oh)[0])
-                    wd = bool(status(frame, at)[0] & wd_mask)
-                    if wd and not self.wd_on:
-                        self.watchdog_stops += 1
-                    self.wd_on = wd
-            self.last_sent["m2h"] = (item[2], self.whole)
-        elif kind == "R":        # bytes an end received: (R, "h2m"|"m2h", bytes | None = as sent)
-            rx = self.rx[item[1]]
-            data = item[2]
-            if data is None:
-                sent, n_frames = self.last_sent[item[1]]
-                if not rx.same(n_frames):
-                    rx.feed(sent)
-            else:
-                rx.feed(data)
-        elif kind == "X":        # an end's parser restarts: (X, "h2m"|"m2h")
-            self.rx[item[1]].restart()
-        elif kind == "T":        # truth rows: (T, raw doubles), in time order
-            fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
-            hdg_at = self.heading_at
-            fox, fox_get, fox_ns = self.fox.truth, self.fox_truth, foxglove.TRUTH_PERIOD_NS
-            raw = item[1]
-            t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
-            t1 = round(self.first_t(raw, len(raw) - self.row_struct.size)[0] * 1e3) * 1_000_000
-            whole = t1 - t0 <= rec.span_ns      # else (a frame over 1 s) a chunk per span
-            if whole:
-                rec.reserve(t0, t1)
-            pad = (0.0,)
-            row = None
-            for row in self.row_struct.iter_unpack(raw):
-                row += pad
-                dio = int(row[dio_col]) & 0xFFF if dio_col else 0
-                t_ns = round(row[0] * 1e3) * 1_000_000
-                if not whole:
-                    rec.reserve(t_ns, t_ns)
-                vals = get(row)
-                if vals[hdg_at] >= _HEADING_ROUNDS_TO_360:
-                    vals = _heading_wrapped(vals, hdg_at)
-                write(t_ns, fmt % (vals + (dio,)))
-                if not t_ns % fox_ns:
-                    fox(t_ns, *fox_get(row))
-            if row is not None:
-                self.last_row = row
-        elif kind == "C":        # planner command: (C, t_ns, dict, mission entry)
-            rec.reserve(item[1], item[1])
-            rec.write("/planner/cmd", item[1], item[2])
-            self.fox.command(item[1], item[2], item[3])
-            self.commands += 1
-            self.pending[item[2]["time_tag"]] = (item[3], item[2])
-        elif kind == "E":        # event: (E, t_ns, kind, detail)
-            rec.reserve(item[1], item[1])
-            rec.write("/events", item[1], {"t": item[1] / 1e9, "kind": item[2], "detail": item[3]})
-            self.fox.event(item[1], item[2], item[3])
-        elif kind == "K":        # host console lines: (K, t_ns, [(level, message, line)])
-            rec.reserve(item[1], item[1])
-            for level, text, line in item[2]:
-                self.fox.console(item[1], level, text, line)
-        elif kind == "W":        # the world's walls: (W, the plant's walls output), at 0
-            rec.reserve(0, 0)
-            self.fox.walls(0, item[1])
-        elif kind == "S":        # end of a frame: (S, end of the next frame, ns)
-            rec.flush_before(item[1])
-        elif kind == "B":        # CAN frames: (B, records of _CAN_RECORD back to back)
-            write, tpl = self.write_can, _CAN_TEXT
-            for t_ns, can_id, flags, dlc, data in _CAN_RECORD.iter_unpack(item[1]):
+        fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
+        hdg_at = self.heading_at
+        fox, fox_get, fox_ns = self.fox.truth, self.fox_truth, foxglove.TRUTH_PERIOD_NS
+        raw = item[1]
+        t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
+        t1 = round(self.first_t(raw, len(raw) - self.row_struct.size)[0] * 1e3) * 1_000_000
+        whole = t1 - t0 <= rec.span_ns      # else (a frame over 1 s) a chunk per span
+        if whole:
+            rec.reserve(t0, t1)
+        pad = (0.0,)
+        row = None
+        for row in self.row_struct.iter_unpack(raw):
+            row += pad
+            dio = int(row[dio_col]) & 0xFFF if dio_col else 0
+            t_ns = round(row[0] * 1e3) * 1_000_000
+            if not whole:
                 rec.reserve(t_ns, t_ns)
-                write(t_ns, tpl % (t_ns / 1e9, can_id, dlc, data[:dlc].hex().encode(),
-                                   b"to_host" if flags & 1 else b"to_micro",
-                                   b"true" if flags & 2 else b"false"))
+            vals = get(row)
+            if vals[hdg_at] >= _HEADING_ROUNDS_TO_360:
+                vals = _heading_wrapped(vals, hdg_at)
+            write(t_ns, fmt % (vals + (dio,)))
+            if not t_ns % fox_ns:
+                fox(t_ns, *fox_get(row))
+        if row is not None:
+            self.last_row = row
+
+    def _planner_command(self, item) -> None:
+        _, t_ns, cmd, entry = item
+        self.rec.reserve(t_ns, t_ns)
+        self.rec.write("/planner/cmd", t_ns, cmd)
+        self.fox.command(t_ns, cmd, entry)
+        self.commands += 1
+        self.pending[cmd["time_tag"]] = (entry, cmd)
+
+    def _event(self, item) -> None:
+        _, t_ns, kind, detail = item
+        self.rec.reserve(t_ns, t_ns)
+        self.rec.write("/events", t_ns, {"t": t_ns / 1e9, "kind": kind, "detail": detail})
+        self.fox.event(t_ns, kind, detail)
+
+    def _host_console(self, item) -> None:
+        self.rec.reserve(item[1], item[1])
+        for level, text, line in item[2]:
+            self.fox.console(item[1], level, text, line)
+
+    def _walls(self, item) -> None:
+        self.rec.reserve(0, 0)
+        self.fox.walls(0, item[1])
+
+    def _frame_end(self, item) -> None:
+        self.rec.flush_before(item[1])
+
+    def _can_frames(self, item) -> None:
+        rec, write, tpl = self.rec, self.write_can, _CAN_TEXT
+        for t_ns, can_id, flags, dlc, data in _CAN_RECORD.iter_unpack(item[1]):
+            rec.reserve(t_ns, t_ns)
+            write(t_ns, tpl % (t_ns / 1e9, can_id, dlc, data[:dlc].hex().encode(),
+                               b"to_host" if flags & 1 else b"to_micro",
+                               b"true" if flags & 2 else b"false"))
 
     def lisp(self, t_ns: int, raw: bytes) -> None:
         """One lisp_data (its little-endian bytes) to /planner/data."""
-        if self.lisp_text is None or len(raw) != self.lisp_size:
-            d = self.p.from_bytes("lisp_data", raw)     # the codec's error for a bad size
+        ld = self.lisp_data
+        if len(raw) != ld.size:
+            d = self.p.from_bytes(ld.name, raw)     # the codec's error for a bad size
             self.write_lisp(t_ns, self.dumps(d).encode())
         else:
-            self.write_lisp(t_ns, self.lisp_text(raw))
-        if self.pending and len(raw) == self.lisp_size:
-            self.acks(raw)
+            values = ld.unpack(raw)
+            self.write_lisp(t_ns, ld.json % values)
+            if self.pending:
+                self.acks(values)
         self.last_lisp_raw = raw
         self.last_lisp = None
 
-    def acks(self, raw: bytes) -> None:
-        """The verdict of lisp_data `raw` on the pending planner command it acknowledges
-        (ack_time_tag = its time tag); a pending command with an earlier tag was never
-        taken (the host saw a later one)."""
-        (ack_unpack, ack_off), (res_unpack, res_off) = self.ack_at
-        ack = ack_unpack(raw, ack_off)[0]
+    def acks(self, values: tuple) -> None:
+        """The verdict of the lisp_data of `values` (generated unpack) on the pending
+        planner command it acknowledges (ack_time_tag = its time tag); a pending command
+        with an earlier tag was never taken (the host saw a later one)."""
+        ack = values[self.ack_at[0]]
         if ack not in self.pending:
             return
         for tag in [tag for tag in self.pending if tag < ack]:
             self.unacknowledged.append(self.pending.pop(tag))
         entry, cmd = self.pending.pop(ack)
-        self.verdicts.append((entry, cmd, res_unpack(raw, res_off)[0]))
+        self.verdicts.append((entry, cmd, values[self.ack_at[1]]))
 
     def frames(self, buf: bytearray, parser, data: bytes):
         """Whole frames of a byte stream as (name, frame bytes, JSON bytes). The logged
         streams are the senders' (before any line noise), so frames come whole and back to
-        back: those are checked (start word, type, length, CRC) and turned into text from
-        their bytes (`_frame_texts`), or else decoded with the codec's decode_frame (a
-        frame identical to the last one, like the host's repeated command, reuses its
-        text). Anything else goes through the codec's resyncing Parser."""
+        back: those (protocol.split_frames) whose type, length and CRC are good become
+        text by their generated template, or else by the codec's decode_frame (a micro_cmd
+        identical to the last one, the host's repeated command, reuses its text); at the
+        first that fails, the rest goes through the codec's resyncing Parser."""
         p = self.p
         self.whole = None       # set below when `data` is whole frames, back to back
         if parser.stats["dropped_bytes"] or buf:
@@ -695,42 +775,38 @@ class _Decoder:
             prefixed = True
         else:
             prefixed = False
-        count = 0
-        at, n = 0, len(data)
-        while at < n:
-            if n - at < 8 or data[at] != 0xA5 or data[at + 1] != 0xFF:
-                break
-            size = 2 * (data[at + 6] | data[at + 7] << 8)
-            if size < 10 or at + size > n:
-                break
-            frame = data[at:at + size]
-            hit = self.cache.get(frame)
+        frames, end, short = p.split_frames(data)
+        at = count = 0
+        by_type, crc_ok, stats = self.by_type, p.frame_crc_ok, parser.stats
+        for msg_type, frame in frames:
+            hit = self.cmd_text.get(frame)
             if hit is None:
-                fast = self.fast.get(data[at + 4] | data[at + 5] << 8)
-                if fast is not None and fast[1] == size and self.crc_ok(frame):
-                    name = fast[0]
-                    hit = (name, frame, fast[2](frame))
+                t = by_type.get(msg_type)
+                if t is not None and t.size == len(frame) and crc_ok(frame):
+                    hit = (t.name, frame, t.json % t.unpack(frame))
                 else:
                     try:
                         name, fields = p.decode_frame(frame)
                     except p.ProtocolError:
+                        short = False       # the rest from this frame on: the Parser
                         break
                     hit = (name, frame, self.dumps(fields).encode())
-                if name == "micro_cmd":
-                    self.cache = {frame: hit}
-            parser.stats["good"] += 1
+                if hit[0] == "micro_cmd":
+                    self.cmd_text = {frame: hit}
+            stats["good"] += 1
             count += 1
             yield hit
-            at += size
+            at += len(frame)
+        else:
+            at = end
+        n = len(data)
         if at == n and not prefixed:
             self.whole = count
         if at < n:
-            rest = data[at:]
-            if len(rest) < 8 or (rest[0] == 0xA5 and rest[1] == 0xFF and
-                                 at + 2 * (rest[6] | rest[7] << 8) > n):
-                buf += rest        # a frame split across chunks: wait for the rest
+            if short:
+                buf += data[at:]        # a frame split across chunks: wait for the rest
             else:
-                yield from self._parse(parser, rest)
+                yield from self._parse(parser, data[at:])
 
     def _parse(self, parser, data: bytes):
         for ev in parser.feed(data):
@@ -738,9 +814,9 @@ class _Decoder:
                 yield ev.name, ev.raw, self.dumps(ev.fields).encode()
 
     def host_bytes(self, t_ns: int, data: bytes) -> None:
-        for name, frame, js in self.frames(self.h2m_buf, self.h2m, data):
+        for name, frame, text in self.frames(self.h2m_buf, self.h2m, data):
             if name == "micro_cmd":
-                self.write_cmd(t_ns, js)
+                self.write_cmd(t_ns, text)
             else:
                 fields = self.p.decode_frame(frame)[1]
                 if name == "micro_cfg_geometry":
@@ -769,7 +845,8 @@ class _Decoder:
                          for d, sender in (("h2m", self.h2m), ("m2h", self.m2h))}}
 
 
-def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=False) -> None:
+def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=False,
+            build=None) -> None:
     """Log worker process: decode and write until the harness says stop (None) or goes
     away (EOF), then close the MCAP file and send the results back. With `spin` it polls
     instead of sleeping while waiting for work (see RunLog.spin). `harness_end`, the
@@ -787,7 +864,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
 
     cpu0 = time.process_time()
     spun = 0.0                  # CPU s spent polling for work (spin), not working
-    dec = _Decoder(path, metadata, columns, width, can)
+    dec = _Decoder(path, metadata, columns, width, can, build)
     try:
         while True:
             try:
@@ -833,13 +910,20 @@ class RunLog:
     polling for work)."""
 
     def __init__(self, path: Path, metadata: dict, columns: list, width: int,
-                 inline: bool = False, batch_frames: int = 10, can: bool = False):
-        """`can`: a run over CAN, whose bus frames (can_frame()) go to the /can topic."""
+                 inline: bool = False, batch_frames: int = 10, can: bool = False,
+                 build: Path | None = None):
+        """`can`: a run over CAN, whose bus frames (can_frame()) go to the /can topic.
+        `build`: the build folder with the generated navkit_json (protocol.json_texts;
+        default navkit.paths.build_dir()), loaded here, so that a missing or stale one is
+        an OSError of this call."""
+        from navkit import protocol
+
+        protocol.json_texts(build)
         self._items: list = []
         self._batch = batch_frames
         self._frames = 0
         if inline:
-            self._dec = _Decoder(path, metadata, columns, width, can)
+            self._dec = _Decoder(path, metadata, columns, width, can, build)
             self._conn = self._proc = None
         else:
             import multiprocessing as mp
@@ -848,7 +932,7 @@ class RunLog:
             self._conn, child = ctx.Pipe()
             self._spin = ctx.Value("b", 0, lock=False)
             self._proc = ctx.Process(target=_worker, args=(child, path, metadata, columns, width,
-                                                          self._spin, self._conn, can),
+                                                          self._spin, self._conn, can, build),
                                      name="navkit-sim-log", daemon=True)
             self._proc.start()
             child.close()
@@ -868,72 +952,72 @@ class RunLog:
         tx_bytes), the done's flags (None: no done message), the host's bytes and the raw
         lisp_data read after it (b"" / None: logged apart, or none) and the host's state
         (one of HOST_STATES)."""
-        self._items.append(("F", k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host))
+        self._items.append((HOST_FRAME, k, t_ns, rx, tx, flags, host_bytes, lisp_raw, host))
 
     def host(self, t_ns, data) -> None:
         """Bytes the host sent (real-time mode)."""
         if data:
-            self._items.append(("H", t_ns, data))
+            self._items.append((HOST_BYTES, t_ns, data))
 
     def lisp(self, t_ns, lisp_raw) -> None:
         """A lisp_data read outside a lockstep frame (real-time mode)."""
         if lisp_raw is not None:
-            self._items.append(("L", t_ns, lisp_raw))
+            self._items.append((LISP_DATA, t_ns, lisp_raw))
 
     def micro(self, t_ns, data) -> None:
         """Bytes the micro sent in the FMU chunk ending at t_ns."""
         if data:
-            self._items.append(("M", t_ns, data))
+            self._items.append((MICRO_BYTES, t_ns, data))
 
     def truth(self, raw) -> None:
         """Truth rows (raw doubles of the coupler)."""
         if raw:
-            self._items.append(("T", raw))
+            self._items.append((TRUTH_ROWS, raw))
 
     def received(self, direction, data) -> None:
         """Bytes the receiving end of `direction` ("h2m": the micro, "m2h": the host) got
         from the sender's last chunk: `data`, or None when they were that chunk unchanged.
         Call after the chunk's frame() / host() / micro() item."""
-        self._items.append(("R", direction, data))
+        self._items.append((RECEIVED, direction, data))
 
     def receiver_restart(self, direction) -> None:
         """The receiving end of `direction` starts a new frame parser (a reset micro, a
         port the host opens again)."""
-        self._items.append(("X", direction))
+        self._items.append((RECEIVER_RESTART, direction))
 
     def command(self, t_ns, msg, entry) -> None:
         """The planner wrote lisp_cmd `msg` for mission entry `entry` (any picklable
         value, handed back with the host's verdict in close()'s `planner`)."""
-        self._items.append(("C", t_ns, msg, entry))
+        self._items.append((PLANNER_COMMAND, t_ns, msg, entry))
 
     def event(self, t_ns, kind, detail) -> None:
-        self._items.append(("E", t_ns, kind, detail))
+        self._items.append((EVENT, t_ns, kind, detail))
 
     def console(self, t_ns, lines) -> None:
         """Lines of the host's console that appeared in the frame at t_ns (ns): [(level,
         message, line number)] as navkit.sim.host_console gives them (foxglove.Log)."""
         if lines:
-            self._items.append(("K", t_ns, lines))
+            self._items.append((HOST_CONSOLE, t_ns, lines))
 
     def walls(self, data) -> None:
         """The plant FMU's walls output (bytes of whole walls, navkit.sim.foxglove
         WALL_BYTES each): the world's scene at t = 0."""
-        self._items.append(("W", data))
+        self._items.append((WALLS, data))
 
     def can_frame(self, t_ns, can_id, data, to_host, error) -> None:
         """A frame on the CAN bus at t_ns (a /can message; the log was made with can=True):
         its identifier, data bytes (at most 8), direction (True: micro to host) and whether
         it is an error frame. Frames in a row share one item of packed records."""
         items = self._items
-        if not items or items[-1][0] != "B":
-            items.append(("B", bytearray()))
+        if not items or items[-1][0] is not CAN_FRAMES:
+            items.append((CAN_FRAMES, bytearray()))
         items[-1][1].extend(_CAN_RECORD.pack(t_ns, can_id, to_host | error << 1, len(data), data))
 
     def end_frame(self, next_end_ns) -> None:
         """A frame ends; the next one ends at `next_end_ns` (ns): the log closes its chunk
         here if the next frame would pass its 1 s span. Sends the batch every
         `batch_frames`."""
-        self._items.append(("S", next_end_ns))
+        self._items.append((FRAME_END, next_end_ns))
         self._frames += 1
         if self._frames >= self._batch:
             self._send()

@@ -147,7 +147,8 @@ class SimRig:
                 "firmware": self.opts.firmware, "control_rate_hz": self.control_rate}
         # fork the log worker before any pty, socket or child process exists
         self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width,
-                          inline=self.opts.log_inline, can=self.opts.link == "can")
+                          inline=self.opts.log_inline, can=self.opts.link == "can",
+                          build=self.build)
         walls = self.fmus.walls(plant_fmu)
         if walls is not None:
             self.log.walls(walls)
