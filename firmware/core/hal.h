@@ -86,7 +86,8 @@ size_t hal_uart_tx_free(hal_t *hal);
 void hal_uart_write(hal_t *hal, const uint8_t *buf, size_t len);
 
 /* ---- CAN (the micro link of a build with FW_LINK_CAN = 1, instead of the UART): only
- * from fw_link_poll(), which drains the RX until hal_can_read() returns 0 and writes a
+ * from fw_link_poll(), which reads the RX until hal_can_read() returns 0 (with
+ * FW_LINK_FRAMES_PER_POLL, until it has one whole message: the bound above) and writes a
  * frame only when hal_can_tx_free() is above 0 (a serial build never calls these, and its
  * target need not define them) ---- */
 

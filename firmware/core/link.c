@@ -359,7 +359,11 @@ static void link_reply(fw_t *fw)
 
 /* CAN: every frame read goes to ISO-TP; a flow control it asks for goes out at once (if the
    TX queue is full it is lost, and the host's sender times out); a reassembled message goes
-   through the frame parser as the UART's bytes do; then the micro_data frames ISO-TP lets go. */
+   through the frame parser as the UART's bytes do; then the micro_data frames ISO-TP lets go.
+   With FW_LINK_FRAMES_PER_POLL (any N > 0: one ISO-TP message is one frame) a poll applies
+   one reassembled message at most and stops reading there (the frames after it wait in the
+   CAN RX), leaving its reply due; a poll that can start a due reply does that and reads
+   nothing. So a due tick waits for one message's handling or one reply's build at most. */
 void link_poll(fw_t *fw)
 {
     link_t *l = &fw->link;
@@ -368,7 +372,14 @@ void link_poll(fw_t *fw)
     uint8_t data[8];
     uint8_t dlc;
     uint8_t fc_out;
-    while (hal_can_read(fw->hal, &id, data, &dlc)) {
+    if (FW_LINK_FRAMES_PER_POLL != 0u) {
+        l->more = 0u;
+        if (l->reply_due && !navkit_isotp_tx_busy(&l->can_tx)) {
+            link_reply(fw);
+            l->more = 1u; /* frames may wait in the CAN RX */
+        }
+    }
+    while (!l->more && hal_can_read(fw->hal, &id, data, &dlc)) {
         uint16_t n;
         if (dlc > 8u) {
             dlc = 8u;
@@ -384,7 +395,11 @@ void link_poll(fw_t *fw)
             (void)navkit_parser_feed(&l->parser, l->can_rx.buf, n); /* n <= the parser's buffer */
             while (navkit_parser_next(&l->parser, &frame, &flen)) {
                 if (link_frame(fw, frame, flen)) {
-                    link_reply(fw);
+                    if (FW_LINK_FRAMES_PER_POLL != 0u) {
+                        l->reply_due = 1u;
+                    } else {
+                        link_reply(fw);
+                    }
                 }
             }
             /* an ISO-TP message is one frame: what the parser still holds (a message that was
@@ -393,10 +408,13 @@ void link_poll(fw_t *fw)
             l->parser.offset += l->parser.have;
             l->parser.have = 0u;
             l->parser.want = 0u;
+            if (FW_LINK_FRAMES_PER_POLL != 0u) {
+                l->more = 1u; /* one message a poll */
+            }
         }
     }
     navkit_isotp_rx_poll(&l->can_rx, fw->ms);
-    if (l->reply_due && !navkit_isotp_tx_busy(&l->can_tx)) {
+    if (FW_LINK_FRAMES_PER_POLL == 0u && l->reply_due && !navkit_isotp_tx_busy(&l->can_tx)) {
         link_reply(fw); /* the reply left due starts once the last one has gone out */
     }
     while (hal_can_tx_free(fw->hal) > 0u && navkit_isotp_tx_next(&l->can_tx, fw->ms, &f)) {

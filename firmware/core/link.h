@@ -58,8 +58,9 @@ struct fw;
    target whose frame takes a large share of its tick period sets 1 (the AVR image): the
    bytes after that frame stay in the UART's RX (and the parser) for the next poll, the
    frame's micro_data goes out in the next poll (before any later frame is handled), and
-   link_pending() says when a poll is due although the UART may be empty. The CAN
-   transport drains. */
+   link_pending() says when a poll is due although the UART may be empty. On CAN (one
+   ISO-TP message is one frame) the bound is one message a poll, its reply built in the
+   next (link.c). */
 #ifndef FW_LINK_FRAMES_PER_POLL
 #define FW_LINK_FRAMES_PER_POLL 0u
 #endif
