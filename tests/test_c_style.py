@@ -13,7 +13,7 @@ from navkit.paths import repo_root
 # Folders whose C and C++ files (in them and below) are formatted with .clang-format
 # (docs/internals.md, C style).
 FORMATTED = ["fmu/plant", "planner", "firmware/core", "protocol/runtime", "fmu/fmi", "fmu/firmware",
-             "fmu/firmware_avr", "tests/c/firmware", "tests/c/protocol", "host"]
+             "fmu/firmware_avr", "tests/c/firmware", "tests/c/protocol", "host", "firmware/avr", "tests/c/avr"]
 _SOURCES = (".c", ".h", ".cpp", ".hpp")
 
 _HEAD = re.compile(r"^\s*(\} )?(if \(|else if \(|for \(|while \()")
