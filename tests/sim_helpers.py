@@ -1,6 +1,10 @@
 """Helpers of the co-simulation tests (tests/test_sim_*.py and the others that run
 missions; no tests here): run a mission text once per session through the real host and
-FMUs, read its outputs back, and the time span of run.mcap's chunks."""
+FMUs, read its outputs back, the time span of run.mcap's chunks, and a copy of an FMU with
+its model description edited."""
+
+import zipfile
+from pathlib import Path
 
 import pytest
 
@@ -9,7 +13,7 @@ from navkit.sim.harness import SimOptions, fmu_paths, host_path, run
 from navkit.sim.mission import loads
 from navkit.sim.results import load
 
-__all__ = ["run_mission", "require_build", "chunk_spans"]
+__all__ = ["run_mission", "require_build", "chunk_spans", "rewrite_fmu"]
 
 _CACHE = {}
 
@@ -46,3 +50,17 @@ def chunk_spans(path):
         idx = make_reader(f).get_summary().chunk_indexes
     return [(c.message_start_time, c.message_end_time)
             for c in sorted(idx, key=lambda c: c.chunk_start_offset)]
+
+
+def rewrite_fmu(src: Path, dst: Path, edit=lambda xml: xml, drop: str | None = None) -> Path:
+    """Copy FMU `src` to `dst` with modelDescription.xml passed through `edit` and the
+    members starting with `drop` left out."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            if drop and item.filename.startswith(drop):
+                continue
+            data = zin.read(item)
+            if item.filename == "modelDescription.xml":
+                data = edit(data.decode()).encode()
+            zout.writestr(item, data)
+    return dst

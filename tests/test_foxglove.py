@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from sim_helpers import run_mission
+from sim_helpers import require_build, rewrite_fmu, run_mission
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -357,6 +357,41 @@ def test_walls_scene_once_at_the_start(run, official):
     assert ends[7] == (-1.0, -0.9, 11.0, -0.9)
     assert ends[10:] == [(4.0, -0.9, 4.4, -0.9), (4.4, -0.9, 4.4, -0.5), (4.4, -0.5, 4.0, -0.5),
                          (4.0, -0.5, 4.0, -0.9)]
+
+
+def test_a_plant_without_walls_runs_without_a_scene_and_a_mistyped_one_is_refused(tmp_path):
+    """The walls output is optional (a plant of the user's): without it the run has no
+    scene; a plant whose walls is not a Binary output is refused up front, by name."""
+    from fmpy import read_model_description
+
+    from navkit.paths import build_dir
+    from navkit.sim.harness import SimError, SimOptions, fmu_paths
+    from navkit.sim.harness import run as sim_run
+    from navkit.sim.mission import loads
+    from navkit.sim.results import read_mcap
+
+    require_build()
+    plant = fmu_paths(build_dir())[1]
+    vr = {v.name: v.valueReference for v in read_model_description(str(plant)).modelVariables}
+
+    def without_walls(xml):
+        xml, n = re.subn(r'\n\s*<Binary name="walls"[^>]*/>', "", xml)
+        xml, m = re.subn(rf'\n\s*<(?:Output|InitialUnknown) valueReference="{vr["walls"]}"/>',
+                         "", xml)
+        assert (n, m) == (1, 2)
+        return xml
+
+    lean = rewrite_fmu(plant, tmp_path / "lean.fmu", without_walls)
+    mission = loads('duration_s = 0.5\nworld = "hallway.txt"\n', tmp_path / "m.toml")
+    sim_run(SimOptions(mission=mission, out=tmp_path / "out", plant_fmu=lean, plot=False))
+    topics = {topic for _, topic, _ in read_mcap(tmp_path / "out" / "run.mcap").messages}
+    assert "/foxglove/truth_pose" in topics and "/foxglove/scene" not in topics
+    odd = rewrite_fmu(plant, tmp_path / "odd.fmu",
+                      lambda xml: xml.replace('<Binary name="walls"', '<String name="walls"'))
+    with pytest.raises(SimError) as e:
+        sim_run(SimOptions(mission=mission, out=tmp_path / "odd", plant_fmu=odd, plot=False))
+    assert str(e.value).startswith(f"{odd}: ") and \
+        "walls is String output, expected Binary output" in str(e.value), str(e.value)
 
 
 # ---------------------------------------------------------------- determinism

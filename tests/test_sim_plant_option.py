@@ -7,7 +7,6 @@ checked against the chosen FMU's parameters."""
 import argparse
 import re
 import shutil
-import zipfile
 from pathlib import Path
 
 import pytest
@@ -17,7 +16,7 @@ from navkit.sim.harness import SimError, SimOptions, fmu_paths, run
 from navkit.sim.mission import MissionError, loads
 from navkit.sim.plant import FMI2_UNSUPPORTED
 from navkit.sim.results import load
-from sim_helpers import require_build, run_mission
+from sim_helpers import require_build, rewrite_fmu, run_mission
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -35,20 +34,6 @@ distance = 300
 def _plant() -> Path:
     require_build()
     return fmu_paths(build_dir())[1]
-
-
-def _rewrite(src: Path, dst: Path, edit=lambda xml: xml, drop: str | None = None) -> Path:
-    """Copy FMU `src` to `dst` with modelDescription.xml passed through `edit` and the
-    members starting with `drop` left out."""
-    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
-        for item in zin.infolist():
-            if drop and item.filename.startswith(drop):
-                continue
-            data = zin.read(item)
-            if item.filename == "modelDescription.xml":
-                data = edit(data.decode()).encode()
-            zout.writestr(item, data)
-    return dst
 
 
 def _without(xml: str, name: str) -> str:
@@ -86,7 +71,7 @@ def test_missing_and_mistyped_variables_are_named(tmp_path, capsys):
         return _without(xml, "motor_right_duty").replace('<Int32 name="gyro_raw"',
                                                          '<Float64 name="gyro_raw"')
 
-    broken = _rewrite(_plant(), tmp_path / "broken.fmu", edit)
+    broken = rewrite_fmu(_plant(), tmp_path / "broken.fmu", edit)
     m = loads(MISSION, tmp_path / "m.toml")
     with pytest.raises(SimError) as e:
         run(SimOptions(mission=m, out=tmp_path / "out", plant_fmu=broken, plot=False))
@@ -110,7 +95,7 @@ def test_unusable_plant_fmus_are_refused(tmp_path, case):
             pytest.skip(f"{fmu} not built")
         want = FMI2_UNSUPPORTED
     elif case == "no_binary":
-        fmu = _rewrite(_plant(), tmp_path / "nobin.fmu", drop="binaries/")
+        fmu = rewrite_fmu(_plant(), tmp_path / "nobin.fmu", drop="binaries/")
         want = "no binary for this platform (binaries/x86_64-linux/navkit_plant.so)"
     elif case == "not_a_zip":
         fmu = tmp_path / "text.fmu"
@@ -127,7 +112,7 @@ def test_unusable_plant_fmus_are_refused(tmp_path, case):
 
 def test_plant_overrides_checked_against_the_chosen_fmu(tmp_path):
     """mass_kg is a parameter of the built plant, but not of this one."""
-    lean = _rewrite(_plant(), tmp_path / "lean.fmu", lambda xml: _without(xml, "mass_kg"))
+    lean = rewrite_fmu(_plant(), tmp_path / "lean.fmu", lambda xml: _without(xml, "mass_kg"))
     m = loads("duration_s = 1.0\n[plant]\nmass_kg = 10.0\n", tmp_path / "p.toml")
     with pytest.raises(MissionError) as e:
         run(SimOptions(mission=m, out=tmp_path / "out", plant_fmu=lean, plot=False))
