@@ -102,12 +102,10 @@ def host_factory(tmp_path):
 @pytest.fixture(scope="session")
 def status_bit():
     """status_bit(name) -> the mask of micro_status flag `name`, from the spec (bit values
-    are never hard-coded in tests)."""
-    from navkit import protocol
+    are never hard-coded in tests; spec_helpers.bit)."""
+    from spec_helpers import bit
 
-    def bit(name: str) -> int:
-        return 1 << protocol.SPEC.enums["micro_status"].values[name]
-    return bit
+    return lambda name: bit("micro_status", name)
 
 
 @pytest.fixture(scope="module")

@@ -1,13 +1,27 @@
 """Helpers of the spec tests (test_spec_validate, test_protocol; no tests here): a copy of
-protocol/navkit.toml with one edit, and the line a text stands on in it."""
+protocol/navkit.toml with one edit, and the line a text stands on in it. And the spec's
+codes by name for every test that checks a coded field (`fwd_cmd == FWD_CMD["stop"]`,
+never a bare 5)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from navkit.paths import spec_path
+from navkit.protocol import SPEC
 
-__all__ = ["edited_spec", "line_of"]
+__all__ = ["edited_spec", "line_of", "FWD_CMD", "TURN_CMD", "NAV_RESULT", "MSG_TYPE", "bit"]
+
+FWD_CMD = SPEC.enums["fwd_cmd"].values          # fwd_cmd code by name
+TURN_CMD = SPEC.enums["turn_cmd"].values        # turn_cmd code by name
+NAV_RESULT = SPEC.enums["nav_result"].values    # lisp_data.nav_result code by name
+MSG_TYPE = SPEC.enums["msg_type"].values        # frame type code by message name
+
+
+def bit(flags: str, name: str) -> int:
+    """The mask of flag `name` of the spec's flag set `flags` (micro_status, host_status,
+    ...): bit values are never hard-coded in tests."""
+    return 1 << SPEC.enums[flags].values[name]
 
 
 def edited_spec(tmp_path: Path, old: str, new: str, first: bool = False) -> Path:

@@ -13,6 +13,7 @@ import pytest
 from navkit import protocol
 from navkit.can_gateway import CanGateway
 from host_helpers import FRAME_US, Host, Micro, RawHost
+from spec_helpers import bit
 pytestmark = pytest.mark.timeout(60)
 
 
@@ -33,7 +34,7 @@ def test_host_and_a_serial_micro_through_the_gateway(tmp_path):
             got += msgs
             replies = b"".join(m.data() for _ in msgs)  # one micro_data per message, as the firmware
             h.write(back + gw.from_micro(replies, t))
-        assert h.client.read_data()["host_status"] & 2, h.output()
+        assert h.client.read_data()["host_status"] & bit("host_status", "micro_configured"), h.output()
     finally:
         writer.stop()
         h.close()

@@ -14,6 +14,7 @@ from navkit import protocol
 from navkit.paths import build_dir, repo_root
 from navkit.sim.harness import host_path
 from sim_helpers import require_build, run_mission
+from spec_helpers import FWD_CMD
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -117,4 +118,4 @@ def test_a_reset_micro_gets_the_selection_back(tmp_path_factory):
     back = next(t for t, s in reported if t > 1.5 and s == SEL["wheels"])
     assert back < 2.5
     cmds = [m for t, m in r.messages("/micro/cmd") if t > 1.5]
-    assert any(m["fwd_cmd"] == 5 and m["mc_datalog_cmd"] == SEL["wheels"] for m in cmds)
+    assert any(m["fwd_cmd"] == FWD_CMD["stop"] and m["mc_datalog_cmd"] == SEL["wheels"] for m in cmds)

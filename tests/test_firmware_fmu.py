@@ -21,6 +21,7 @@ from fmpy.validation import validate_fmu  # noqa: E402
 from navkit import protocol  # noqa: E402
 from navkit.paths import build_dir, repo_root, spec_path  # noqa: E402
 from firmware_helpers import Wheels, cmd, config_frames  # noqa: E402
+from spec_helpers import FWD_CMD, TURN_CMD  # noqa: E402
 
 FMU = build_dir() / "fmus" / "navkit_firmware.fmu"
 MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"
@@ -205,7 +206,7 @@ def test_unconfigured_until_three_configs_and_again_after_reset(micro, status_bi
     configured = status_bit("configured")
     data = run(m, w, 0.3, cmd(5, fwd_cmd=1, speed=200, distance=500))
     assert len(data) == 3 and not data[-1]["status"] & configured
-    assert data[-1]["cmd_rejected"] == 1 and data[-1]["last_reject"] == 1
+    assert data[-1]["cmd_rejected"] == 1 and data[-1]["last_reject"] == FWD_CMD["start"]
     assert w.dist == 0.0
     # a config built from another spec is refused and counted
     data = run(m, w, 0.05, config_frames(hash_override=protocol.SPEC_HASH ^ 1))
@@ -257,7 +258,7 @@ def test_pivot_and_heading_select_across_north(micro, status_bit):
     assert data[-1]["status"] & status_bit("hdg_active")
     # an unimplemented turn code is refused and counted
     data = run(m, w, 0.2, cmd(22, turn_cmd=20, turn_distance=100))
-    assert data[-1]["last_reject"] == 20 and data[-1]["cmd_rejected"] == 1
+    assert data[-1]["last_reject"] == TURN_CMD["radius"] and data[-1]["cmd_rejected"] == 1
 
 
 def test_watchdog_stop(micro, status_bit):

@@ -14,6 +14,7 @@ from navkit import can as nc
 from navkit import protocol
 from navkit.can_slcan import SlcanAdapter
 from host_helpers import FRAME_US, Micro, RawHost, require_host
+from spec_helpers import FWD_CMD, TURN_CMD, bit
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -74,10 +75,10 @@ def test_the_host_configures_and_drives_the_micro_over_can(can_host):
     assert names[:3] == CONFIGS and "micro_cmd" in names, names
     assert all(f["spec_hash"] == protocol.SPEC_HASH for n, f in got if n in CONFIGS)
     cmds = [f for n, f in got if n == "micro_cmd"]
-    assert cmds[0]["fwd_cmd"] == 5 and cmds[0]["turn_cmd"] == 5, "Navigation Init: Stop"
+    assert (cmds[0]["fwd_cmd"], cmds[0]["turn_cmd"]) == (FWD_CMD["stop"], TURN_CMD["stop"]), "Navigation Init: Stop"
     assert len({f["time_tag"] for f in cmds}) == 1, "a repeated message keeps its time tag"
     assert len(cmds) >= 4, "one message a frame once the pipeline runs"
-    assert h.client.read_data()["host_status"] & 2, "micro_configured"
+    assert h.client.read_data()["host_status"] & bit("host_status", "micro_configured")
     # the adapter was set up as SLCAN says: the spec's bit rate, open to send, nothing refused
     assert m.adapter.bitrate == nc.CAN.bitrate and m.adapter.is_open and not m.adapter.listen_only
     assert m.adapter.stats["refused"] == 0
@@ -92,7 +93,7 @@ def test_the_host_configures_and_drives_the_micro_over_can(can_host):
 def test_a_lost_can_frame_costs_one_message_and_bad_frames_are_counted(can_host):
     h, m = can_host(), CanMicro()
     m.run(h, 12)
-    assert h.client.read_data()["host_status"] & 2
+    assert h.client.read_data()["host_status"] & bit("host_status", "micro_configured")
     lost = []
 
     def drop(f):  # the third consecutive frame of the next micro_cmd
@@ -106,7 +107,7 @@ def test_a_lost_can_frame_costs_one_message_and_bad_frames_are_counted(can_host)
     assert lost and m.end.rx.stats["wrong_sn"] == 1
     assert [n for n, _ in got] == ["micro_cmd"] * 3, "three of four arrive; the next repeat makes it good"
     assert m.end.rx.stats["good"] == before + 3
-    assert h.client.read_data()["host_status"] & 2, "still configured: nothing above the link noticed"
+    assert h.client.read_data()["host_status"] & bit("host_status", "micro_configured"), "still configured: nothing above the link noticed"
     # frames from the bus the host refuses (a short frame on micro_data's identifier, a line
     # that is no frame), counted in link_errors and said on the console
     m.step(h, extra=b"t180140\r" + b"t18G\r")
@@ -177,4 +178,4 @@ def test_the_stop_at_shutdown_goes_out_whole(can_host):
         stop.set()
         th.join(2)
     assert rc == 0, h.output()
-    assert got and got[-1]["fwd_cmd"] == 5 and got[-1]["turn_cmd"] == 5, got
+    assert got and got[-1]["fwd_cmd"] == FWD_CMD["stop"] and got[-1]["turn_cmd"] == TURN_CMD["stop"], got

@@ -14,6 +14,7 @@ import pytest
 
 from navkit import plot
 from host_helpers import Micro, require_host
+from spec_helpers import FWD_CMD, TURN_CMD
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -74,7 +75,7 @@ def test_keys_record_a_datalog_and_quit(host_factory):
     h.proc.stdin.flush()
     msgs, flags = h.tick()
     assert flags & 1, "quitting"
-    assert msgs[-1][1]["fwd_cmd"] == 5, "the last frame's message is the stop"
+    assert msgs[-1][1]["fwd_cmd"] == FWD_CMD["stop"], "the last frame's message is the stop"
     assert h.proc.wait(timeout=10) == 0
     logs = sorted(h.tmp.glob("Data *.txt"))
     assert len(logs) == 1
@@ -258,11 +259,12 @@ def test_quit_ends_with_one_stop_going_out(host_factory):
     h, m = host_factory(), Micro()
     h.configure(m)
     h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
-    assert h.step(m)[0][0][1]["fwd_cmd"] == 1
+    assert h.step(m)[0][0][1]["fwd_cmd"] == FWD_CMD["start"]
     h.proc.stdin.write(b"Q")
     h.proc.stdin.flush()
     msgs, flags = h.tick()
-    assert flags & 1 and len(msgs) == 1 and msgs[0][1]["fwd_cmd"] == 5 and msgs[0][1]["turn_cmd"] == 5
+    assert flags & 1 and len(msgs) == 1
+    assert (msgs[0][1]["fwd_cmd"], msgs[0][1]["turn_cmd"]) == (FWD_CMD["stop"], TURN_CMD["stop"])
     assert h.proc.wait(timeout=10) == 0
     assert h.decode(h.read_available(wait_s=0.3)) == [], "the frame's stop was the last message"
     assert "stop sent" in h.output()
@@ -360,7 +362,7 @@ def test_real_time_sigint_sends_a_stop_last(host_factory):
             assert time.monotonic() < deadline, "never configured"
             time.sleep(0.02)
         h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
-        while not any(n == "micro_cmd" and f["fwd_cmd"] == 1 for n, f in state["sent"]):
+        while not any(n == "micro_cmd" and f["fwd_cmd"] == FWD_CMD["start"] for n, f in state["sent"]):
             assert time.monotonic() < deadline, "the command never went out"
             time.sleep(0.02)
         h.client.heartbeat()
@@ -371,7 +373,8 @@ def test_real_time_sigint_sends_a_stop_last(host_factory):
         stop.set()
         t.join(timeout=2)
     last = state["sent"][-1]
-    assert last[0] == "micro_cmd" and last[1]["fwd_cmd"] == 5 and last[1]["turn_cmd"] == 5, last
+    assert last[0] == "micro_cmd", last
+    assert (last[1]["fwd_cmd"], last[1]["turn_cmd"]) == (FWD_CMD["stop"], TURN_CMD["stop"]), last
     assert "signal 2" in h.output() and "stop sent" in h.output()
 
 

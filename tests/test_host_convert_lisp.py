@@ -7,6 +7,7 @@ import subprocess
 import pytest
 
 from navkit import protocol
+from spec_helpers import FWD_CMD, TURN_CMD
 
 
 def _micro(name):
@@ -34,15 +35,17 @@ def test_converted_commands_give_the_micro_cmd_the_host_sends(host_converts):
     assert ok["nav_result"] == "ok"
     m = ok["micro_cmd"]
     assert set(m) == {f.name for f in protocol.SPEC.messages["micro_cmd"].fields}
-    assert (m["fwd_cmd"], m["accel"], m["speed"], m["distance"], m["turn_cmd"]) == (1, 400, 250, -2000000000, 0)
+    assert (m["fwd_cmd"], m["accel"], m["speed"], m["distance"], m["turn_cmd"]) == \
+        (FWD_CMD["start"], 400, 250, -2000000000, TURN_CMD["none"])
     # a hold: HdgSel to the heading given + the offset, wrapped to 0..3599
-    assert (hold["micro_cmd"]["turn_cmd"], hold["micro_cmd"]["turn_distance"]) == (10, 3400)
+    assert (hold["micro_cmd"]["turn_cmd"], hold["micro_cmd"]["turn_distance"]) == (TURN_CMD["hdg_sel"], 3400)
     assert hold["micro_cmd"]["turn_rate"] == 200
     # rc7's words follow mc_datalog_cmd: the slot of servo 7, no other
     assert [servo["micro_cmd"][f"rc7_param{i}"] for i in range(3)] == [300, 800, 9999]
     assert all(servo["micro_cmd"][f"rc{n}_param0"] == 0 for n in range(7))
     assert high["nav_result"] == "not_implemented"
-    assert (high["micro_cmd"]["fwd_cmd"], high["micro_cmd"]["turn_cmd"]) == (0, 1)
+    assert (high["micro_cmd"]["fwd_cmd"], high["micro_cmd"]["turn_cmd"]) == \
+        (FWD_CMD["none"], TURN_CMD["turn"])
 
 
 def test_each_refusal_says_why(host_converts):

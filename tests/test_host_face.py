@@ -19,6 +19,7 @@ import pytest
 from navkit import rcomm
 from navkit.paths import repo_root
 from host_helpers import Micro, require_host
+from spec_helpers import bit
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -80,7 +81,7 @@ def test_beacon_steps_only_while_the_micro_is_online(host_factory):
     for _ in range(5):
         h.step(m, reply=False)
     assert len(faces(h.output())) == n, "offline: the beacon stands still, the face does not change"
-    assert h.client.read_data()["host_status"] & 1 == 0, "micro offline"
+    assert not h.client.read_data()["host_status"] & bit("host_status", "micro_online")
 
 
 def test_talking_toggles_the_mouth_every_frame(host_factory):

@@ -13,6 +13,7 @@ import pytest
 
 from navkit import protocol, rcomm
 from host_helpers import Micro, require_host
+from spec_helpers import FWD_CMD, TURN_CMD
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -23,7 +24,7 @@ def _drive(h, m):
     """Configure the micro, then the planner starts a long drive (on the wire)."""
     h.configure(m)
     h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
-    assert h.step(m)[0][0][1]["fwd_cmd"] == 1
+    assert h.step(m)[0][0][1]["fwd_cmd"] == FWD_CMD["start"]
 
 
 @pytest.mark.parametrize("sig", [signal.SIGHUP, signal.SIGQUIT, signal.SIGUSR1, signal.SIGUSR2,
@@ -33,7 +34,8 @@ def test_every_ending_signal_stops_the_robot_closes_the_log_and_removes_the_regi
     _drive(h, m)
     assert h.stop(sig) == 0, h.output()
     tail = h.decode(h.read_available(wait_s=1.0))
-    assert tail and tail[-1][0] == "micro_cmd" and tail[-1][1]["fwd_cmd"] == 5, "the stop went out last"
+    assert tail and tail[-1][0] == "micro_cmd" and tail[-1][1]["fwd_cmd"] == FWD_CMD["stop"], \
+        "the stop went out last"
     assert not os.path.exists("/dev/shm" + h.shm), "rcomm region removed"
     out = h.output()
     assert f"signal {int(sig)}: shutting down" in out and "recording stopped:" in out, out
@@ -66,7 +68,8 @@ def test_a_region_cut_short_stops_the_robot_and_the_client_says_so(host_factory)
     assert flags & 1, "the frame ends with the host quitting"
     assert h.proc.wait(timeout=10) == 1, h.output()
     tail = h.decode(h.read_available(wait_s=1.0))
-    assert tail and tail[-1][1]["fwd_cmd"] == 5 and tail[-1][1]["turn_cmd"] == 5, "stop sent last"
+    assert tail and (tail[-1][1]["fwd_cmd"], tail[-1][1]["turn_cmd"]) == (FWD_CMD["stop"], TURN_CMD["stop"]), \
+        "stop sent last"
     assert f"rcomm {h.shm}: the region was cut to 0 bytes by another process" in h.output()
     assert not os.path.exists("/dev/shm" + h.shm)
 

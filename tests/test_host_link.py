@@ -13,6 +13,7 @@ import pytest
 
 from navkit import protocol
 from host_helpers import Micro
+from spec_helpers import FWD_CMD, NAV_RESULT, TURN_CMD, bit
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -25,7 +26,8 @@ def test_config_download_at_start_then_one_command_per_frame(host_factory):
     assert [n for n, _ in sent] == CONFIGS + ["micro_cmd"], "config in order, then the command"
     assert sent[0][1]["spec_hash"] == protocol.SPEC_HASH
     cmd = sent[-1][1]
-    assert cmd["fwd_cmd"] == 5 and cmd["turn_cmd"] == 5, "Navigation Init: the current command is Stop"
+    assert (cmd["fwd_cmd"], cmd["turn_cmd"]) == (FWD_CMD["stop"], TURN_CMD["stop"]), \
+        "Navigation Init: the current command is Stop"
     tags = set()
     for _ in range(5):
         msgs, flags = h.step(m)
@@ -47,7 +49,7 @@ def test_restarted_host_downloads_its_config_to_a_configured_micro(host_factory)
     assert got["micro_cfg_geometry"]["wheel_diameter"] == 12000
     assert got["micro_cfg_motion"]["wheel_kp"] == 500
     assert got["micro_cfg_io"]["servo_max"] == [800] * 8
-    assert h.client.read_data()["host_status"] & 2, "micro_configured once ours is in force"
+    assert h.client.read_data()["host_status"] & bit("host_status", "micro_configured"), "once ours is in force"
 
 
 def test_a_refused_config_is_said_and_never_taken_for_configured(host_factory):
@@ -64,7 +66,7 @@ def test_a_refused_config_is_said_and_never_taken_for_configured(host_factory):
     names = [n for n, _ in sent]
     assert "micro_cmd" not in names, "never driven with another config"
     assert names[:6] == CONFIGS * 2, "a refusal sends the whole config again"
-    assert not h.client.read_data()["host_status"] & 2, "micro_configured stays off"
+    assert not h.client.read_data()["host_status"] & bit("host_status", "micro_configured"), "it stays off"
     out = h.output()
     assert "micro refused micro_cfg_io (last_reject 0x8004" in out, out
     assert out.count("micro refused micro_cfg_io") == 1, "said again at most every 5 s (3 s here)"
@@ -88,14 +90,14 @@ def test_micro_reset_config_again_and_no_old_command_rerun(host_factory):
     h.client.write_cmd({"time_tag": 10, "fwd_cmd": 1, "speed": 300, "distance": 2000})
     msgs, _ = h.step(m)
     go = msgs[0][1]
-    assert go["fwd_cmd"] == 1 and go["speed"] == 300
+    assert go["fwd_cmd"] == FWD_CMD["start"] and go["speed"] == 300
     m.reset()
     h.step(m)                      # the host learns of the reset from this frame's reply
     again = h.configure(m)
     assert [n for n, _ in again[:3]] == CONFIGS, "the config is downloaded again"
     after = again[-1][1]
     assert after["time_tag"] != go["time_tag"], "a new time tag after the reset"
-    assert after["fwd_cmd"] == 5, "the old start is not run again by the reset micro"
+    assert after["fwd_cmd"] == FWD_CMD["stop"], "the old start is not run again by the reset micro"
     assert "micro reset" in h.output()
 
 
@@ -117,7 +119,7 @@ def test_planner_command_reaches_the_wire_in_the_next_frame(host_factory):
     again, _ = h.step(m)
     assert again[0][1] == c, "repeated unchanged, same time tag"
     data = h.client.read_data()
-    assert data["ack_time_tag"] == 1234 and data["nav_result"] == 0
+    assert data["ack_time_tag"] == 1234 and data["nav_result"] == NAV_RESULT["ok"]
 
 
 def test_heading_hold_and_high_level_codes(host_factory):
@@ -126,17 +128,17 @@ def test_heading_hold_and_high_level_codes(host_factory):
     h.configure(m)
     h.client.write_cmd({"time_tag": 5, "turn_mode": 11, "turn_rate": 200, "turn_distance": 300})
     c = h.step(m)[0][0][1]
-    assert c["turn_cmd"] == 10 and c["turn_distance"] == 200, "3500 + 300 wraps to 200"
+    assert c["turn_cmd"] == TURN_CMD["hdg_sel"] and c["turn_distance"] == 200, "3500 + 300 wraps to 200"
     h.client.write_cmd({"time_tag": 6, "fwd_cmd": 105})
     c = h.step(m)[0][0][1]
-    assert c["fwd_cmd"] == 0
+    assert c["fwd_cmd"] == FWD_CMD["none"]
     h.step(m)
-    assert h.client.read_data()["nav_result"] == 1, "not_implemented"
+    assert h.client.read_data()["nav_result"] == NAV_RESULT["not_implemented"]
     assert "not implemented" in h.output()
     h.client.write_cmd({"time_tag": 7, "fwd_cmd": 2})
     h.step(m)
     h.step(m)
-    assert h.client.read_data()["nav_result"] == 2, "rejected"
+    assert h.client.read_data()["nav_result"] == NAV_RESULT["rejected"]
 
 
 def test_only_the_newest_of_several_micro_data_is_used(host_factory):
@@ -225,12 +227,12 @@ def test_silent_planner_stops_the_robot_then_obeys_again(host_factory):
         if c["time_tag"] != go["time_tag"]:
             stop = c
             break
-    assert stop is not None and stop["fwd_cmd"] == 5 and stop["turn_cmd"] == 5
+    assert stop is not None and stop["fwd_cmd"] == FWD_CMD["stop"] and stop["turn_cmd"] == TURN_CMD["stop"]
     assert h.client.read_data()["host_status"] & (1 << 3)
     assert "planner silent" in h.output()
     h.client.write_cmd({"time_tag": 2, "fwd_cmd": 1, "speed": 100, "distance": 100})
     c = h.step(m)[0][0][1]
-    assert c["fwd_cmd"] == 1 and c["speed"] == 100
+    assert c["fwd_cmd"] == FWD_CMD["start"] and c["speed"] == 100
     assert not h.client.read_data()["host_status"] & (1 << 3)
 
 
@@ -254,7 +256,7 @@ def test_sigterm_stops_the_robot_and_exits_cleanly(host_factory):
     h.step(m)
     assert h.stop(signal.SIGTERM) == 0
     tail = h.decode(h.read_available(wait_s=1.0))
-    assert tail and tail[-1][0] == "micro_cmd" and tail[-1][1]["fwd_cmd"] == 5
+    assert tail and tail[-1][0] == "micro_cmd" and tail[-1][1]["fwd_cmd"] == FWD_CMD["stop"]
     assert not os.path.exists("/dev/shm" + h.shm), "rcomm region removed"
 
 
@@ -273,17 +275,17 @@ def test_console_teleop_only_while_the_planner_is_quiet(host_factory):
     c = h.step(m)[0][0][1]
     assert (c["fwd_cmd"], c["speed"], c["distance"]) == (1, 150, 2000000000), "no planner yet"
     h.client.write_cmd({"time_tag": 1, "fwd_cmd": 5})
-    assert h.step(m)[0][0][1]["fwd_cmd"] == 5
+    assert h.step(m)[0][0][1]["fwd_cmd"] == FWD_CMD["stop"]
     h.proc.stdin.write(b"a")
     h.proc.stdin.flush()
-    assert h.step(m)[0][0][1]["turn_cmd"] == 0, "the planner has priority"
+    assert h.step(m)[0][0][1]["turn_cmd"] == TURN_CMD["none"], "the planner has priority"
     for _ in range(10):
         h.client.heartbeat()
         h.step(m)
     h.proc.stdin.write(b"a")
     h.proc.stdin.flush()
     c = h.step(m)[0][0][1]
-    assert c["turn_cmd"] == 1 and c["turn_distance"] < 0, "1 s after the planner's last command"
+    assert c["turn_cmd"] == TURN_CMD["turn"] and c["turn_distance"] < 0, "1 s after the planner's last command"
 
 
 def test_console_stop_key_wins_over_a_driving_planner(host_factory):
@@ -291,11 +293,12 @@ def test_console_stop_key_wins_over_a_driving_planner(host_factory):
     h.configure(m)
     h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
     go = h.step(m)[0][0][1]
-    assert go["fwd_cmd"] == 1
+    assert go["fwd_cmd"] == FWD_CMD["start"]
     h.proc.stdin.write(b" ")
     h.proc.stdin.flush()
     stop = h.step(m)[0][0][1]
-    assert (stop["fwd_cmd"], stop["turn_cmd"]) == (5, 5) and stop["time_tag"] != go["time_tag"], \
+    assert (stop["fwd_cmd"], stop["turn_cmd"]) == (FWD_CMD["stop"], TURN_CMD["stop"])
+    assert stop["time_tag"] != go["time_tag"], \
         "space stops the robot while the planner drives"
     h.client.heartbeat()
     assert h.step(m)[0][0][1] == stop, "the planner's old command is not run again"
@@ -309,7 +312,7 @@ def test_console_stop_key_wins_over_a_driving_planner(host_factory):
     assert out.count("key ignored: planner has priority") == 1, "said once, at most once a second"
     h.client.write_cmd({"time_tag": 2, "fwd_cmd": 1, "speed": 100, "distance": 100})
     c = h.step(m)[0][0][1]
-    assert c["fwd_cmd"] == 1 and c["speed"] == 100, "the planner's next new command is obeyed"
+    assert c["fwd_cmd"] == FWD_CMD["start"] and c["speed"] == 100, "the planner's next new command is obeyed"
 
 
 def test_safety_stop_on_low_battery(host_factory):
@@ -318,11 +321,11 @@ def test_safety_stop_on_low_battery(host_factory):
     m.fields["adc"] = [0, 0, 0, 0, full, 0, 0, 0]
     h.configure(m)
     h.client.write_cmd({"time_tag": 1, "fwd_cmd": 1, "speed": 200, "distance": 5000})
-    assert h.step(m)[0][0][1]["fwd_cmd"] == 1
+    assert h.step(m)[0][0][1]["fwd_cmd"] == FWD_CMD["start"]
     m.fields["adc"] = [0, 0, 0, 0, low, 0, 0, 0]
     h.step(m)                                   # the host reads the low battery in the next frame
     c = h.step(m)[0][0][1]
-    assert c["fwd_cmd"] == 5 and "safety stop" in h.output()
+    assert c["fwd_cmd"] == FWD_CMD["stop"] and "safety stop" in h.output()
     h.client.write_cmd({"time_tag": 2, "fwd_cmd": 1, "speed": 200, "distance": 5000})
     assert h.step(m)[0][0][1]["time_tag"] == c["time_tag"], "motion ignored while it holds"
     assert 9900 <= h.client.read_data()["battery"] <= 10100, "mV"
@@ -351,7 +354,7 @@ def test_spec_mismatch_gets_only_a_probe_a_second_and_recovers_when_reflashed(ho
         if msgs and msgs[-1][0] == "micro_cmd":
             break
     assert msgs and msgs[-1][0] == "micro_cmd", "configured and driven after the reflash"
-    assert msgs[-1][1]["fwd_cmd"] == 5, "starting from a stop"
+    assert msgs[-1][1]["fwd_cmd"] == FWD_CMD["stop"], "starting from a stop"
     assert "matches the host's" in h.output()
     assert not h.client.read_data()["host_status"] & (1 << 2)
 
@@ -362,13 +365,13 @@ def test_heading_hold_before_any_micro_data_is_rejected(host_factory):
     msgs, _ = h.step(m, reply=False)
     assert all(n != "micro_cmd" for n, _ in msgs)
     h.step(m, reply=False)
-    assert h.client.read_data()["nav_result"] == 2, "rejected"
+    assert h.client.read_data()["nav_result"] == NAV_RESULT["rejected"]
     assert "heading hold (turn mode 11) needs the micro's current heading" in h.output()
     m.fields["heading"] = 1000
     h.configure(m)
     h.client.write_cmd({"time_tag": 6, "turn_mode": 11, "turn_rate": 200, "turn_distance": 300})
     c = h.step(m)[0][0][1]
-    assert c["turn_cmd"] == 10 and c["turn_distance"] == 1300, "with fresh data it holds"
+    assert c["turn_cmd"] == TURN_CMD["hdg_sel"] and c["turn_distance"] == 1300, "with fresh data it holds"
 
 
 def test_link_counters_are_kept_apart(host_factory):

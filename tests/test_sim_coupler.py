@@ -7,6 +7,7 @@ import pytest
 
 from navkit import protocol as P
 from navkit.paths import build_dir
+from spec_helpers import bit
 
 INPUTS_OF_FIRMWARE = ["enc_left", "enc_right", "gyro_raw", "compass_raw", "ir_voltage_0",
                       "ir_voltage_1", "ir_voltage_2", "ir_voltage_3", "battery_voltage",
@@ -58,7 +59,7 @@ def test_steps_serial_and_truth_rows(coupled):
     assert len(rows) == 10 and rows[0][0] == pytest.approx(0.02) and rows[-1][0] == pytest.approx(0.2)
     data = _micro_data(tx)
     assert len(data) == 3, "one micro_data per received frame"
-    assert data[-1]["status"] & 1, "configured"
+    assert data[-1]["status"] & bit("micro_status", "configured")
     # drive: the plant's truth moves
     cmd = P.encode_frame("micro_cmd", {"fwd_cmd": 1, "speed": 300, "distance": 300}, time_tag=1)
     tx, rows = c.run(100, cmd)
@@ -81,5 +82,5 @@ def test_firmware_reset_unconfigures_and_keeps_the_plant(coupled):
     tx, rows = c.run(100, P.encode_frame("micro_cmd", {"fwd_cmd": 1, "speed": 200,
                                                          "distance": 2000}, time_tag=2))
     d = _micro_data(tx)[-1]
-    assert not d["status"] & 1 and d["cmd_rejected"] == 1, "unconfigured: the command is refused"
+    assert not d["status"] & bit("micro_status", "configured") and d["cmd_rejected"] == 1, "the command is refused"
     assert rows[-1][1] >= x_before, "the plant keeps its state"

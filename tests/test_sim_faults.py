@@ -5,6 +5,7 @@ motion, the host recovers from an unplugged port, a silent planner stops the rob
 import pytest
 
 from sim_helpers import run_mission
+from spec_helpers import bit
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -68,7 +69,7 @@ distance = 300
     still = r.truth_between(4.5, 8.0)
     assert all(abs(m["v_mm_s"]) < 2 for m in still), "nothing moves until a new command"
     assert abs(still[0]["distance_mm"] - d_rest) < 2
-    assert r.micro_between(4.5, 8.0)[-1]["status"] & 1, "configured again"
+    assert r.micro_between(4.5, 8.0)[-1]["status"] & bit("micro_status", "configured"), "again"
     assert abs(r.truth[-1]["distance_mm"] - (d_rest + 300)) <= 15, "the new command runs"
     # the link counts are the harness's, over the whole run: a clean line delivers every
     # frame both ways, while the micro's own counter restarted at the reset

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from sim_helpers import chunk_spans, require_build, run_mission
+from spec_helpers import MSG_TYPE
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -111,7 +112,7 @@ def test_summary_fields(tmp_path_factory):
         assert k in s, k
     assert s["sim_time_s"] == pytest.approx(6.0)
     assert s["frames"] > 0 and s["realtime_factor"] > 1
-    assert s["micro"]["msg_type"] == 17
+    assert s["micro"]["msg_type"] == MSG_TYPE["micro_data"]
     assert s["link"]["host_to_micro"]["frames_sent"] > 0
     assert s["link"]["micro_to_host"]["frames_sent"] > 0
     assert "crc_errors" in s["link"] and "resyncs" in s["link"]
