@@ -86,6 +86,7 @@ class HostConsole:
         self._datalogs: dict = {}   # datalog path -> its placeholder
 
     def _stable(self, text: str) -> str:
+        """`text` with the run's temporary names as their placeholders."""
         if self._datalog is not None:
             text = self._datalog.sub(self._datalog_name, text)
         for name, placeholder in self._names:
@@ -94,9 +95,11 @@ class HostConsole:
         return text
 
     def _datalog_name(self, m) -> str:
+        """The placeholder of the datalog path matched by `m`: numbered on first sight."""
         return self._datalogs.setdefault(m.group(0), f"<datalog {len(self._datalogs) + 1}>")
 
     def _lines(self, data: bytes) -> list:
+        """[(level, message, line number)] of `data`, lines without their newlines."""
         out = []
         for raw in data.split(b"\n"):
             self._line += 1
@@ -133,6 +136,7 @@ class HostConsole:
         return out
 
     def close(self) -> None:
+        """Closes host.log (again: nothing)."""
         if self._fd is not None:
             os.close(self._fd)
             self._fd = None
