@@ -207,8 +207,7 @@ class SimRig:
         idle machine the worker runs at idle priority and polls; when other processes
         already keep the CPUs busy (1-minute load average >= CPU count) it keeps normal
         priority and sleeps, since an idle-priority worker would starve and the harness
-        would wait on it (measured under a load of ~4 on 2 CPUs: 87x real time with
-        idle priority and polling, 240x without)."""
+        would wait on it (docs/cosim.md, Speed)."""
         try:
             cpus = sorted(os.sched_getaffinity(0))
         except (AttributeError, OSError):
