@@ -247,8 +247,8 @@ def test_run_plot_has_path_speed_heading_and_a_mark_per_command(tmp_path_factory
         ev_t = [t for t, _ in r.messages("/events")]
         assert cmd_t == [0.5, 1.0, 3.0] and ev_t == [2.0, 3.5], "unplug and plug"
         for ax in (ax_v, ax_h):
-            assert [ln.get_xdata()[0] for ln in ax.get_lines() if ln.get_gid() == "command"] == cmd_t
-            assert [ln.get_xdata()[0] for ln in ax.get_lines() if ln.get_gid() == "event"] == ev_t
+            marks = {c.get_gid(): [seg[0][0] for seg in c.get_segments()] for c in ax.collections}
+            assert marks == {"command": cmd_t, "event": ev_t}
         labels = [a.get_text() for a in ax_v.texts]
         assert labels == ["fwd 105 v0 d0", "fwd 1 v200 d150", "turn 11 90deg"], labels
     finally:

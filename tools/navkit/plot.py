@@ -310,7 +310,8 @@ def run_figure(msgs: dict, title: str):
     across, x_mm up, mm) titled `title`, the speed (mm/s) and the heading (deg, clockwise
     0..360) against simulated time (s); on the speed and heading panels one vertical line
     per /planner/cmd message (gid "command") and per /events message (gid "event") at its
-    log time. Fixed margins for its 9 x 11 in (no tight_layout pass)."""
+    log time, in one LineCollection per gid and panel. Fixed margins for its 9 x 11 in (no
+    tight_layout pass)."""
     truth = [m for _, m in msgs.get("/truth", [])]
     if not truth:
         raise ValueError("no /truth messages")
@@ -345,12 +346,9 @@ def run_figure(msgs: dict, title: str):
     ax_h.set_xlabel("simulated time, s")
     ax_h.set_ylim(-5, 365)
     _legend(ax_h)
-    for ns, _ in cmds:
-        for ax in (ax_v, ax_h):
-            ax.axvline(ns / 1e9, color="tab:green", lw=0.8, alpha=0.7, gid="command")
-    for ns, _ in events:
-        for ax in (ax_v, ax_h):
-            ax.axvline(ns / 1e9, color="tab:red", lw=0.8, ls=":", gid="event")
+    for ax in (ax_v, ax_h):
+        _marks(ax, cmds, "command", color="tab:green", lw=0.8, alpha=0.7)
+        _marks(ax, events, "event", color="tab:red", lw=0.8, ls=":")
     for ns, cmd in _apart(ax_v, cmds):
         ax_v.annotate(_command_label(cmd), (ns / 1e9, 1.0), xycoords=("data", "axes fraction"),
                       rotation=90, va="top", ha="right", fontsize=_LABEL_PT, color="tab:green")
@@ -358,6 +356,20 @@ def run_figure(msgs: dict, title: str):
         ax_h.annotate(ev["kind"], (ns / 1e9, 0.0), xycoords=("data", "axes fraction"),
                       rotation=90, va="bottom", ha="right", fontsize=_LABEL_PT, color="tab:red")
     return fig
+
+
+def _marks(ax, marks: list, gid: str, **style) -> None:
+    """One vertical line across `ax` at the log time (s) of each mark [(log_time_ns,
+    msg), ...], all in one LineCollection with gid `gid` (one artist: a line per mark
+    costs a Line2D and a data-limits update each); the axes' limits are left alone."""
+    from matplotlib.collections import LineCollection
+
+    if marks:
+        segs = [((ns / 1e9, 0.0), (ns / 1e9, 1.0)) for ns, _ in marks]
+        ax.add_collection(LineCollection(segs, transform=ax.get_xaxis_transform(), gid=gid,
+                                         linestyles=style.pop("ls", "solid"),
+                                         colors=style.pop("color"), linewidths=style.pop("lw"),
+                                         **style), autolim=False)
 
 
 # Font size (pt) of a command's or event's label, written upright beside its line.
