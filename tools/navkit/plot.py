@@ -184,13 +184,14 @@ def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
     (RunSeries.raw() of the run's messages, as the log worker hands it over) when given,
     else streamed from the file: the same figure either way."""
     msgs = decoded(series) if series is not None else _read_thinned(Path(path))
-    run_figure(msgs, _run_title(Path(path))).savefig(out, dpi=110)
+    # zlib level 1, the fastest: a quick-look PNG, somewhat larger than at the default 6
+    run_figure(msgs, _run_title(Path(path))).savefig(out, dpi=110, pil_kwargs={"compress_level": 1})
 
 
 class PlotProcess:
     """A child process that imports matplotlib at once, while its parent goes on (a run's
     set-up and loop), then draws the run plots the parent hands it (plot_mcap): the import,
-    about half of plot.png's cost, leaves the parent's path. Forked: make it before the
+    a large part of plot.png's cost, leaves the parent's path. Forked: make it before the
     parent starts threads. The child runs at idle priority until it has a plot to draw,
     so its import takes only CPU time nothing else wants. It ends when close() is called
     or when the parent goes away (EOF on its pipe), however the parent ends; a terminal's
