@@ -183,11 +183,15 @@ TOPICS = {
 }
 
 _STAMP = b'{"timestamp":{"sec":%d,"nsec":%d},'
-_POSE_TEXT = (b'{"position":{"x":%.7f,"y":%.7f,"z":0.0},'
-              b'"orientation":{"x":0.0,"y":0.0,"z":%.9f,"w":%.9f}}')
+# A pose's numbers are formatted once for its PoseInFrame, its FrameTransform and the
+# path: the position's x and y (m, 7 decimals) run from the value of "x" to the name of
+# the rotation's key (_XY), the quaternion's z and w (9 decimals) from after that name
+# to the end of the rotation (_QZW); the templates fill in the keys between.
+_XY = b'%.7f,"y":%.7f,"z":0.0},"'
+_QZW = b'":{"x":0.0,"y":0.0,"z":%.9f,"w":%.9f}}'
+_POSE_TEXT = b'{"position":{"x":%sorientation%s'            # % (_XY text, _QZW text)
 _POSE_IN = _STAMP + b'"frame_id":"world","pose":' + _POSE_TEXT + b'}'
-_TF = (_STAMP + b'"parent_frame_id":"world","child_frame_id":"%s","translation":'
-       b'{"x":%.7f,"y":%.7f,"z":0.0},"rotation":{"x":0.0,"y":0.0,"z":%.9f,"w":%.9f}}')
+_TF = _STAMP + b'"parent_frame_id":"world","child_frame_id":"%s","translation":{"x":%srotation%s'
 _PATH_HEAD = _STAMP + b'"frame_id":"world","poses":['
 
 # events that are the mission's faults, or the host's end: level warning; others info
@@ -212,6 +216,7 @@ class FoxgloveWriter:
         self._steps = (PATH_STEP_M, PATH_TURN_RAD)   # now (m, rad): doubled at each thinning
         self._path_due = 0              # next time (ns) the path may be published
         self._path_grew = False
+        self._odom = (None, b"", b"")   # the last odometry (mm, mm, deg x 10) and its texts
         self._dumps = json.JSONEncoder(separators=(",", ":"), ensure_ascii=False).encode
 
     def truth(self, t_ns: int, x_mm: float, y_mm: float, yaw_deg: float) -> None:
@@ -221,9 +226,9 @@ class FoxgloveWriter:
             return
         sec, nsec = divmod(t_ns, 1_000_000_000)
         x, y, yaw = x_mm * 1e-3, y_mm * 1e-3, math.radians(yaw_deg)
-        qz, qw = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
-        self._truth_pose(t_ns, _POSE_IN % (sec, nsec, x, y, qz, qw))
-        self._tf(t_ns, _TF % (sec, nsec, b"base_link", x, y, qz, qw))
+        xy, qzw = _XY % (x, y), _QZW % (math.sin(0.5 * yaw), math.cos(0.5 * yaw))
+        self._truth_pose(t_ns, _POSE_IN % (sec, nsec, xy, qzw))
+        self._tf(t_ns, _TF % (sec, nsec, b"base_link", xy, qzw))
         kept = self._kept
         step, turn = self._steps
         if (kept is None or math.hypot(x - kept[0], y - kept[1]) >= step
@@ -233,7 +238,7 @@ class FoxgloveWriter:
             if len(path) >= PATH_MAX:
                 path[:] = path[::2]     # keeps the first pose; the latest is appended next
                 self._steps = (2 * step, 2 * turn)
-            path.append(_POSE_TEXT % (x, y, qz, qw))
+            path.append(_POSE_TEXT % (xy, qzw))
             self._path_grew = True
         if self._path_grew and t_ns >= self._path_due:
             self._path_w(t_ns, _PATH_HEAD % (sec, nsec) + b",".join(self._path) + b"]}")
@@ -244,10 +249,14 @@ class FoxgloveWriter:
         """micro_data's odometry at `t_ns` (ns): x, y (mm, the truth's axes) and the gyro
         heading (deg x 10, clockwise)."""
         sec, nsec = divmod(t_ns, 1_000_000_000)
-        x, y, yaw = x_mm * 1e-3, y_mm * 1e-3, -math.radians(heading_ddeg * 0.1)
-        qz, qw = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
-        self._odom_pose(t_ns, _POSE_IN % (sec, nsec, x, y, qz, qw))
-        self._tf(t_ns, _TF % (sec, nsec, b"odom_base_link", x, y, qz, qw))
+        odom = (x_mm, y_mm, heading_ddeg)
+        if odom != self._odom[0]:       # integers: the same values, the same text
+            yaw = -math.radians(heading_ddeg * 0.1)
+            self._odom = (odom, _XY % (x_mm * 1e-3, y_mm * 1e-3),
+                          _QZW % (math.sin(0.5 * yaw), math.cos(0.5 * yaw)))
+        _, xy, qzw = self._odom
+        self._odom_pose(t_ns, _POSE_IN % (sec, nsec, xy, qzw))
+        self._tf(t_ns, _TF % (sec, nsec, b"odom_base_link", xy, qzw))
 
     def log(self, t_ns: int, level: int, message: str, name: str = "navkit-sim",
             file: str = "", line: int = 0) -> None:
