@@ -12,8 +12,14 @@
 #define FMIL_INSTANTIATION_TOKEN FWAVR_INSTANTIATION_TOKEN
 #define FMIL_NUM_VRS FWAVR_NUM_VRS
 
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+/* bytes: can_rx and can_tx of one doStep, whole frame records (the board's queues' size) */
+#define FWAVR_RX_CAP (BOARD_SIM_CAN_QUEUE * FW_FMU_CAN_RECORD_BYTES)
+#define FWAVR_WIRE_CAP (BOARD_SIM_CAN_QUEUE * FW_FMU_CAN_RECORD_BYTES)
+#else
 #define FWAVR_RX_CAP BOARD_SIM_UART_QUEUE   /* bytes: serial_rx of one doStep */
 #define FWAVR_WIRE_CAP BOARD_SIM_UART_QUEUE /* bytes: serial_tx of one doStep */
+#endif
 
 /* The profile as the output variables hold it (board_sim_profile_t widened to their types). */
 typedef struct {
@@ -27,8 +33,13 @@ typedef struct {
     double time;              /* s: the `time` variable */
     uint32_t baud;            /* the parameter: must be the image's FWAVR_BAUD */
     char image[FMIL_STR_MAX]; /* the parameter: path of the image, "" = the resource */
-    fmil_binary_t serial_rx;  /* -> rx: bytes for the next doStep */
-    fmil_binary_t serial_tx;  /* -> wire: bytes of the last doStep */
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+    fmil_binary_t can_rx; /* -> rx: frame records for the next doStep */
+    fmil_binary_t can_tx; /* -> wire: frame records of the last doStep */
+#else
+    fmil_binary_t serial_rx; /* -> rx: bytes for the next doStep */
+    fmil_binary_t serial_tx; /* -> wire: bytes of the last doStep */
+#endif
     fwavr_prof_t prof;
     board_sim_t *board; /* NULL until the model starts */
     double start_time;  /* s: when the board powered on (cycle 0) */

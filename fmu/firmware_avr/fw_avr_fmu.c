@@ -5,13 +5,15 @@
  * One instance = one simulated Arduino Mega 2560 (firmware/avr/sim/board_sim.h) running
  * the image from power-on; it is made when the model starts (ExitInitializationMode) and
  * made again after fmi3Reset (a power cycle). A doStep from t by h:
- *   1. serial_rx goes to UART0's RX pin (paced at the line rate by the board);
+ *   1. serial_rx goes to UART0's RX pin (paced at the line rate by the board); in the CAN
+ *      build (navkit_firmware_avr_can) can_rx's frames go onto the board's CAN bus;
  *   2. the plant's values reach the pins: ADC voltages (battery through the board's
  *      divide-by-3), gyro and compass registers, sonar echo widths, DIO input levels, and
  *      the encoder positions, whose quadrature edges are spread evenly over the step;
  *   3. the core runs to cycle round((t + h - start) * 16 MHz);
  *   4. motor duty and servo pulse widths measured at the pins, the DIO pins, the bytes
- *      UART0 sent (serial_tx) and the profile come back as outputs.
+ *      UART0 sent (serial_tx; the CAN build: the frames its MCP2515 sent, can_tx) and the
+ *      profile come back as outputs.
  */
 #include <math.h>
 #include <stdio.h>
@@ -27,13 +29,23 @@
 const fmil_var_t fmil_model_vars[FMIL_NUM_VRS] = {FW_FMU_FMIL_ROWS FWAVR_STRING_VARS(FWAVR_ROW_STR) FWAVR_UINT32_VARS(
     FW_FMU_ROW_U32) FWAVR_UINT64_VARS(FWAVR_ROW_U64)};
 
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+/* The CAN build: the link's Binary variables are the bus's frames, FW_FMU_CAN_RECORD_BYTES
+   each (fw_fmu_model.h), onto and off the board's simulated MCP2515 bus (board_sim.h, CAN). */
+#define FWAVR_LINK_RX can_rx
+#define FWAVR_LINK_TX can_tx
+#else
+#define FWAVR_LINK_RX serial_rx
+#define FWAVR_LINK_TX serial_tx
+#endif
+
 fmil_status_t fmil_model_instantiate(fmil_instance_t *c)
 {
     fmil_model_t *m = &c->model;
-    m->serial_rx.data = m->rx;
-    m->serial_rx.cap = FWAVR_RX_CAP;
-    m->serial_tx.data = m->wire;
-    m->serial_tx.cap = 0u; /* an output */
+    m->FWAVR_LINK_RX.data = m->rx;
+    m->FWAVR_LINK_RX.cap = FWAVR_RX_CAP;
+    m->FWAVR_LINK_TX.data = m->wire;
+    m->FWAVR_LINK_TX.cap = 0u; /* an output */
     return FMIL_OK;
 }
 
@@ -50,7 +62,7 @@ void fmil_model_start_values(fmil_instance_t *c)
     fwavr_power_off(m);
     FW_FMU_START_VALUES(m)
     m->image[0] = '\0';
-    m->serial_rx.len = m->serial_tx.len = 0u;
+    m->FWAVR_LINK_RX.len = m->FWAVR_LINK_TX.len = 0u;
     memset(&m->prof, 0, sizeof m->prof);
     m->enc_set[0] = m->enc_set[1] = 0;
     m->dio_in_set = 0;
@@ -163,22 +175,64 @@ static void fwavr_outputs(fmil_model_t *m)
     m->prof.stack_max_bytes = p.stack_max_bytes;
 }
 
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+/* can_rx's whole records onto the bus (a partial record is ignored); the bus carries data
+   frames with 11-bit identifiers, so an extended or remote record goes on as its 11 bits. */
+static void fwavr_link_in(fmil_model_t *m)
+{
+    uint32_t i;
+    for (i = 0u; i + FW_FMU_CAN_RECORD_BYTES <= m->can_rx.len; i += FW_FMU_CAN_RECORD_BYTES) {
+        const uint8_t *r = &m->rx[i];
+        board_sim_can_write(m->board, (uint16_t)((r[0] | (r[1] << 8)) & 0x7FFu), &r[4],
+                            (uint8_t)((r[2] > 8u) ? 8u : r[2]));
+    }
+    m->can_rx.len = 0u;
+}
+
+/* The frames the part sent during the step, into can_tx's records. */
+static void fwavr_link_out(fmil_model_t *m)
+{
+    board_sim_can_frame_t f;
+    uint32_t n = 0u;
+    while (n + FW_FMU_CAN_RECORD_BYTES <= FWAVR_WIRE_CAP && board_sim_can_read(m->board, &f)) {
+        uint8_t *r = &m->wire[n];
+        r[0] = (uint8_t)(f.id & 0xFFu);
+        r[1] = (uint8_t)(f.id >> 8);
+        r[2] = f.dlc;
+        r[3] = 0u;
+        memcpy(&r[4], f.data, 8u);
+        n += FW_FMU_CAN_RECORD_BYTES;
+    }
+    m->can_tx.len = n;
+}
+#else
+static void fwavr_link_in(fmil_model_t *m)
+{
+    if (m->serial_rx.len > 0u) {
+        board_sim_uart_write(m->board, m->rx, m->serial_rx.len);
+        m->serial_rx.len = 0u;
+    }
+}
+
+static void fwavr_link_out(fmil_model_t *m)
+{
+    m->serial_tx.len = board_sim_uart_read(m->board, m->wire, FWAVR_WIRE_CAP);
+}
+#endif
+
 fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h)
 {
     fmil_model_t *m = &c->model;
     double end_s = (t + h - m->start_time) * FWAVR_F_CPU_HZ;
     uint64_t end = (uint64_t)floor(end_s + 0.5);
-    if (m->serial_rx.len > 0u) {
-        board_sim_uart_write(m->board, m->rx, m->serial_rx.len);
-        m->serial_rx.len = 0u;
-    }
+    fwavr_link_in(m);
     fwavr_inputs(m, end);
     if (board_sim_run_until(m->board, end) != 0) {
         fmil_log(c, FMIL_ERROR, "%sDoStep: the AVR core stopped at %.6f s: %s", c->api,
                  m->start_time + (double)board_sim_cycles(m->board) / FWAVR_F_CPU_HZ, board_sim_error(m->board));
         return FMIL_ERROR;
     }
-    m->serial_tx.len = board_sim_uart_read(m->board, m->wire, FWAVR_WIRE_CAP);
+    fwavr_link_out(m);
     fwavr_outputs(m);
     m->time = t + h;
     return FMIL_OK;

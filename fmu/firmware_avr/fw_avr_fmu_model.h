@@ -16,6 +16,18 @@
 #ifndef NAVKIT_FW_AVR_FMU_MODEL_H
 #define NAVKIT_FW_AVR_FMU_MODEL_H
 
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+/* The CAN build (navkit_firmware_avr_can): the CAN image (navkit-mega2560-can.elf) on the
+ * board's simulated MCP2515; its bus frames in can_rx / can_tx (fw_fmu_model.h, the CAN
+ * build's records) instead of serial_rx / serial_tx. */
+#define FWAVR_MODEL_IDENTIFIER "navkit_firmware_avr_can"
+#define FWAVR_MODEL_NAME "navkit firmware on the AVR (CAN link)"
+#define FWAVR_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6143}"
+#define FWAVR_DESCRIPTION                                                                                              \
+    "navkit reference firmware as the flashed ATmega2560 CAN image, executed cycle by cycle in simavr on a "           \
+    "simulated Arduino Mega 2560 with an MCP2515, coupled at its pins and its CAN bus (processor in the loop)"
+#define FWAVR_IMAGE_RESOURCE "navkit-mega2560-can.elf" /* in the FMU's resources/ folder */
+#else
 #define FWAVR_MODEL_IDENTIFIER "navkit_firmware_avr"
 #define FWAVR_MODEL_NAME "navkit firmware on the AVR"
 #define FWAVR_INSTANTIATION_TOKEN "{5f0c6a52-7e0b-4c8e-9a4f-6e61766b6176}"
@@ -23,8 +35,9 @@
     "navkit reference firmware as the flashed ATmega2560 image, executed cycle by cycle in simavr on a "               \
     "simulated Arduino Mega 2560, coupled at its pins (processor in the loop)"
 #define FWAVR_IMAGE_RESOURCE "navkit-mega2560.elf" /* in the FMU's resources/ folder */
-#define FWAVR_F_CPU_HZ 16000000.0                  /* Hz: cycles per simulated second */
-#define FWAVR_BAUD 115200u                         /* the image's UART0 rate */
+#endif
+#define FWAVR_F_CPU_HZ 16000000.0 /* Hz: cycles per simulated second */
+#define FWAVR_BAUD 115200u        /* the image's UART0 rate */
 
 /* String: X(vr, name, causality, description); the start value is "". */
 #define FWAVR_STRING_VARS(X)                                                                                           \

@@ -114,8 +114,8 @@ class SimRig:
 
         check_timeline(self.m, self.frame_s)
         fw_fmu, plant_fmu = fmu_paths(self.build, self.opts.firmware)[0], self.plant_fmu
-        if self.opts.link == "can" and self.opts.firmware == "fmu":   # its CAN build
-            fw_fmu = fw_fmu.with_name("navkit_firmware_can.fmu")
+        if self.opts.link == "can":   # the firmware's CAN build (the AVR's: the CAN image)
+            fw_fmu = fw_fmu.with_name(f"{fw_fmu.stem}_can.fmu")
         self.fw_fmu = fw_fmu
         self._firmware_rate(fw_fmu)
         try:
@@ -174,7 +174,7 @@ class SimRig:
             self.can_log = BusTap(can.Logger(str(self.out / "can.log")), self.log.can_frame)
             self.gateway = CanGateway(listener=self.can_log,
                                       firmware_can=self.fmus.fw_md.coSimulation.modelIdentifier
-                                      == "navkit_firmware_can")
+                                      in ("navkit_firmware_can", "navkit_firmware_avr_can"))
         cmd += list(self.opts.host_args)
         self.host_log = open(self.out / "host.log", "wb")
         # what the host prints, to run.mcap: the names of this run only as placeholders
