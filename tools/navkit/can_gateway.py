@@ -5,8 +5,9 @@ slcan`) and a firmware speaking the serial link (the firmware FMU, a test's micr
     host --SLCAN bytes--> SlcanAdapter --CAN frames--> ISO-TP (the micro's side) --frames--> firmware
     host <--SLCAN lines-- SlcanAdapter <--CAN frames-- ISO-TP <--serial bytes, cut into frames-- firmware
 
-With `firmware_can=True` the micro's side is the firmware FMU's CAN build
-(navkit_firmware_can.fmu, whose ISO-TP is the firmware's C): the gateway then only
+With `firmware_can=True` the micro's side is a firmware FMU's CAN build
+(navkit_firmware_can.fmu, or navkit_firmware_avr_can.fmu: the AVR CAN image in simavr
+with its MCP2515; either way the micro's ISO-TP is the firmware's C): the gateway then only
 translates SLCAN <-> CAN frames, the FMU's frames being 12-byte records (RECORD, the
 layout of fw_fmu_model.h), and reassembles both directions as a bus analyser would
 (listening only: its flow controls go nowhere) so the run log keeps the serial frames.
