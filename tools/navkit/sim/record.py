@@ -477,7 +477,7 @@ class _Receiver:
 
 # The kinds of the items RunLog queues for the worker (each item a tuple, its kind first;
 # the rest as each RunLog method says).
-HOST_FRAME = "host_frame"           # a host frame: k, t_ns, rx, tx, flags, host bytes, lisp_data, state
+HOST_FRAME = "host_frame"   # a host frame: k, t_ns, rx, tx, flags, host bytes, lisp_data, state
 HOST_BYTES = "host_bytes"           # bytes the host sent outside a lockstep frame: t_ns, bytes
 LISP_DATA = "lisp_data"             # a lisp_data read outside a lockstep frame: t_ns, raw bytes
 MICRO_BYTES = "micro_bytes"         # bytes the micro sent: t_ns, bytes
@@ -589,14 +589,16 @@ class _Decoder:
         mc_datalog_sel is a selection with words (spec enum mc_datalog): the words by
         their spec names."""
         m = protocol.SPEC.messages[md.name]
-        sel_at, time_at, words_at = (md.at[n] for n in ("mc_datalog_sel", "micro_time", "mc_datalog"))
+        sel_at, time_at, words_at = (md.at[n] for n in ("mc_datalog_sel", "micro_time",
+                                                       "mc_datalog"))
         count = m.field("mc_datalog").count
         enum = protocol.SPEC.enums["mc_datalog"]
         templates = {}
         for name, code in enum.values.items():
             names = enum.words.get(name, ())
             if names:
-                pick = operator.itemgetter(time_at, *range(words_at, words_at + min(len(names), count)))
+                last = words_at + min(len(names), count)
+                pick = operator.itemgetter(time_at, *range(words_at, last))
                 templates[code] = (('{"selection":"%s","micro_time_ms":%%d,' % name
                                     + ",".join(f'"{w}":%d' for w in names) + "}").encode(), pick)
         write = self.rec.writer("/micro/datalog")
@@ -893,12 +895,14 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
 class RunLog:
     """The harness's side of the run log. Items are queued raw (bytes as they were on the
     links, truth rows as doubles) and sent in batches to a worker process that decodes
-    them with the Python codec and writes run.mcap, so decoding and MCAP writing run on
-    the other core, off the lockstep loop. `inline=True` does it all in this process.
+    them with the Python codec (navkit.protocol and its generated navkit_json) and writes
+    run.mcap, so decoding and MCAP writing run on the other core, off the lockstep loop.
+    `inline=True` does it all in this process.
 
     Items: frame(), host(), micro(), received(), receiver_restart(), truth(), command(),
-    event(), can_frame(), console(), walls(), end_frame(); each with its log time, in time order within a frame (truth rows
-    before the micro's bytes of the same FMU call) but for a few ms in real time;
+    event(), can_frame(), console(), walls(), end_frame(); each with its log time, in
+    time order within a frame (truth rows before the micro's bytes of the same FMU call)
+    but for a few ms in real time;
     close() returns the worker's results (message counts, last
     decoded micro_data / lisp_data / truth, config downloads, watchdog stops, `planner`:
     commands written and per command() its entry and lisp_cmd with the host's
