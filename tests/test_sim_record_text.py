@@ -35,6 +35,7 @@ def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
         files.append(path.read_bytes())
     assert files[0] == files[1]
     assert sum(counts.values()) == len(script)
+    assert record._ChunkMessages.make(object()) is None     # not an mcap Writer: add_message
 
 
 def test_truth_bytes_template_formats_as_str(tmp_path):
