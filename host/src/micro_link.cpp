@@ -293,40 +293,94 @@ bool MicroLink::write_frame(const uint8_t *buf, size_t len)
     return true;
 }
 
-void MicroLink::can_flush()
+void MicroLink::can_read_now(int wait_ms)
+{
+    pollfd p{port_.fd(), POLLIN, 0};
+    poll(&p, 1, wait_ms);
+    uint8_t in[256];
+    long n;
+    while ((n = port_.read_some(in, sizeof in)) > 0) {
+        can_take(in, static_cast<size_t>(n), nullptr, nullptr); // micro_data: not wanted now
+    }
+    if (n < 0) {
+        port_lost("read failed or hung up");
+    }
+}
+
+bool MicroLink::can_flush()
 {
     // ISO-TP's own clock ends the wait: no flow control within N_Bs abandons the message
     // (can_pump); the bound below only guards against a clock that does not move
     const int64_t start_ms = mono_ms();
     const int64_t start_us = now_us_;
+    const navkit_isotp_tx_stats_t before = can_tx_.stats;
     while (port_.is_open() && navkit_isotp_tx_busy(&can_tx_) &&
            mono_ms() < start_ms + 2 * static_cast<int64_t>(NAVKIT_CAN_N_BS_MS)) {
-        pollfd p{port_.fd(), POLLIN, 0};
-        poll(&p, 1, 10);
-        uint8_t in[256];
-        const long n = port_.read_some(in, sizeof in);
-        if (n < 0) {
-            port_lost("read failed or hung up");
-            break;
-        }
-        now_us_ = start_us + 1000 * (mono_ms() - start_ms);     // ISO-TP's clock moves on meanwhile
-        can_take(in, static_cast<size_t>(n), nullptr, nullptr); // micro_data: not wanted now
-        can_pump();                                             // also notices an overdue flow control
+        can_read_now(10);
+        now_us_ = start_us + 1000 * (mono_ms() - start_ms); // ISO-TP's clock moves on meanwhile
+        can_pump();                                         // also notices an overdue flow control
     }
+    const navkit_isotp_tx_stats_t &s = can_tx_.stats;
+    if (!port_.is_open()) {
+        unsent_ = "the port was lost";
+    } else if (navkit_isotp_tx_busy(&can_tx_)) {
+        unsent_ = "its flow control never came and ISO-TP's clock stood still";
+    } else if (s.timeout != before.timeout) {
+        unsent_ = "no flow control from the micro within N_Bs (" + std::to_string(NAVKIT_CAN_N_BS_MS) + " ms)";
+    } else if (s.overflow != before.overflow) {
+        unsent_ = "the micro's flow control said overflow";
+    } else if (s.bad_fc != before.bad_fc) {
+        unsent_ = "the micro's flow control had an invalid status";
+    } else {
+        return true;
+    }
+    return false;
+}
+
+bool MicroLink::finish_now()
+{
+    unsent_.clear();
+    if (!port_.is_open()) {
+        unsent_ = "the port is closed";
+        return false;
+    }
+    return !slcan() || can_flush();
 }
 
 bool MicroLink::write_frame_now(const uint8_t *buf, size_t len)
 {
+    unsent_.clear();
+    if (!port_.is_open()) {
+        unsent_ = "the port is closed";
+        return false;
+    }
     const uint64_t errs = tx_errors_;
     if (slcan()) {
-        can_flush();
+        // the message going out (the last command) ends with what already came (its flow
+        // control may be waiting in the port), else gives way: ISO-TP lets a new first
+        // frame pre-empt it, and a stop must not wait behind it
+        if (navkit_isotp_tx_busy(&can_tx_)) {
+            can_read_now(0);
+        }
+        navkit_isotp_tx_abort(&can_tx_);
+        if (!port_.is_open()) {
+            unsent_ = "the port was lost";
+            return false;
+        }
         const uint16_t sent = can_tx_.stats.sent;
-        write_frame(buf, len);
-        can_flush();
-        return port_.is_open() && can_tx_.stats.sent != sent;
+        if (!write_frame(buf, len)) {
+            unsent_ = port_.is_open() ? "ISO-TP refused the message" : "the port was lost";
+            return false;
+        }
+        return can_flush() && can_tx_.stats.sent != sent;
     }
     write_frame(buf, len);
-    return port_.is_open() && tx_errors_ == errs;
+    if (!port_.is_open()) {
+        unsent_ = "the port was lost";
+    } else if (tx_errors_ != errs) {
+        unsent_ = "the port took only part of it (output buffer full)";
+    }
+    return unsent_.empty();
 }
 
 LinkCounters MicroLink::counters() const

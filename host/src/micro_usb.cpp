@@ -248,15 +248,24 @@ void MicroUsb::send()
     write_frame(buf, n);
 }
 
-bool MicroUsb::send_stop(uint16_t dio)
+std::string MicroUsb::stop_at_shutdown(uint16_t dio, bool quit_frame)
 {
-    if (!link_.is_open() || mismatch_ || !configured_) {
-        return false;
+    if (!link_.is_open()) {
+        return "port closed: no stop sent";
+    }
+    if (mismatch_) {
+        return "micro of another spec, never driven: no stop sent";
+    }
+    if (!configured_) {
+        return "micro not configured by us: not moving, no stop sent";
+    }
+    if (quit_frame && stop_last_ && link_.finish_now()) {
+        return "stop sent";
     }
     queue_command(stop_command(dio), true);
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
     stop_last_ = link_.write_frame_now(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
-    return stop_last_;
+    return stop_last_ ? "stop sent" : "stop not sent whole: " + link_.unsent_reason();
 }
 
 void MicroUsb::note_foreign_hash(uint32_t hash)

@@ -386,12 +386,8 @@ void RobotShutdown(Robot &r)
     }
     // The last message to the micro is a stop: Q's frame sent it (when the micro was
     // configured); otherwise it goes now. A micro that is not configured (or of another
-    // spec, never driven) is not moving and gets none.
-    const char *stopped = "stop sent";
-    if (!(r.quit && r.micro.stop_was_last()) && !r.micro.send_stop(r.micro.last_command().dio_command)) {
-        stopped = r.micro.port_open() ? "micro not configured by us: not moving, no stop sent"
-                                      : "port closed: no stop sent";
-    }
+    // spec, never driven) is not moving and gets none. MicroUsb says which.
+    const std::string stopped = r.micro.stop_at_shutdown(r.micro.last_command().dio_command, r.quit);
     stop_recording(r);
     r.comm.shutdown();
     r.micro.shutdown();
@@ -399,12 +395,13 @@ void RobotShutdown(Robot &r)
     r.console.print(
         "link: %llu config downloads; rejected frames: %llu bad CRC, %llu unknown type, %llu bad length, "
         "%llu of another spec, %llu decode failures; %llu bytes dropped; %llu micro_data superseded by newer ones, "
-        "%llu messages written in part, %llu lockstep reads short",
+        "%llu messages written in part, %llu abandoned unfinished for the stop, %llu lockstep reads short",
         static_cast<unsigned long long>(r.micro.config_downloads()), static_cast<unsigned long long>(lc.bad_crc),
         static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),
         static_cast<unsigned long long>(lc.schema_mismatch), static_cast<unsigned long long>(lc.decode_failures),
         static_cast<unsigned long long>(lc.dropped_bytes), static_cast<unsigned long long>(r.micro.superseded()),
-        static_cast<unsigned long long>(r.micro.tx_errors()), static_cast<unsigned long long>(r.micro.short_reads()));
+        static_cast<unsigned long long>(r.micro.tx_errors()), static_cast<unsigned long long>(r.micro.tx_aborted()),
+        static_cast<unsigned long long>(r.micro.short_reads()));
     if (r.have_data) {
         // the micro's own receive counters (host-to-micro direction), each apart
         const navkit_micro_data_t &d = r.data;
@@ -431,7 +428,8 @@ void RobotShutdown(Robot &r)
                         static_cast<unsigned long long>(r.clock->overruns()),
                         static_cast<unsigned long long>(r.clock->skipped()));
     }
-    r.console.print("shut down after %u frames (%s, rcomm %s removed)", r.frames, stopped, r.cfg.exec.shm_name.c_str());
+    r.console.print("shut down after %u frames (%s, rcomm %s removed)", r.frames, stopped.c_str(),
+                    r.cfg.exec.shm_name.c_str());
     r.console.shutdown();
 }
 

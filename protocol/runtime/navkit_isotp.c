@@ -165,7 +165,7 @@ uint16_t navkit_isotp_rx_frame(navkit_isotp_rx_t *rx, uint16_t id, const uint8_t
 
 void navkit_isotp_tx_init(navkit_isotp_tx_t *tx)
 {
-    static const navkit_isotp_tx_stats_t zero = {0u, 0u, 0u, 0u, 0u, 0u};
+    static const navkit_isotp_tx_stats_t zero = {0u, 0u, 0u, 0u, 0u, 0u, 0u};
     tx->len = 0u;
     tx->done = 0u;
     tx->waiting = 0u;
@@ -194,6 +194,17 @@ uint8_t navkit_isotp_tx_start(navkit_isotp_tx_t *tx, uint16_t len, uint16_t msg_
     tx->st_ms = 0u;
     tx->next_ms = now_ms;
     tx->deadline_ms = now_ms + NAVKIT_CAN_N_BS_MS;
+    return 1u;
+}
+
+uint8_t navkit_isotp_tx_abort(navkit_isotp_tx_t *tx)
+{
+    if (tx->len == 0u) {
+        return 0u;
+    }
+    tx->len = 0u;
+    tx->waiting = 0u;
+    tx->stats.aborted++;
     return 1u;
 }
 

@@ -76,10 +76,18 @@ public:
     // a part counted in tx_errors); false when the port is gone or, link = slcan, the last
     // message is still going out (this one skipped, counted in tx_errors).
     bool write_frame(const uint8_t *buf, size_t len);
-    // Outside the frame loop (shutdown): writes one frame and waits until it went out whole
-    // (link = slcan: the message still going out first, then this one, each given ISO-TP's
-    // N_Bs for its flow control). True if it went out whole.
+    // Outside the frame loop (shutdown's stop): writes one frame at once and waits until it
+    // went out whole. link = slcan: a message still going out is abandoned (ISO-TP abort,
+    // counted in tx_aborted; its receiver drops the part it has when our first frame comes),
+    // so this one never waits behind it; it is given ISO-TP's N_Bs (ms) for its flow control.
+    // True if it went out whole; else unsent_reason() says why not.
     bool write_frame_now(const uint8_t *buf, size_t len);
+    // Outside the frame loop: waits until the message still going out (link = slcan) went
+    // out whole or ISO-TP gave it up (no flow control within N_Bs, an overflow or bad flow
+    // control). True if nothing is left unsent and the port is open; else unsent_reason().
+    bool finish_now();
+    // Why the last write_frame_now() / finish_now() left its frame unsent ("" if it did not).
+    const std::string &unsent_reason() const { return unsent_; }
 
     // Bytes written in this frame (lockstep tells the driver).
     uint32_t tx_bytes_frame() const { return tx_frame_; }
@@ -88,6 +96,8 @@ public:
     uint64_t superseded() const { return superseded_; }
     uint64_t short_reads() const { return short_reads_; }
     uint64_t tx_errors() const { return tx_errors_; }
+    // link = slcan: messages abandoned unfinished for a more urgent one (a stop at shutdown).
+    uint64_t tx_aborted() const { return can_tx_.stats.aborted; }
 
 private:
     void port_lost(const char *why);
@@ -105,8 +115,12 @@ private:
     bool can_send(const uint8_t *buf, size_t len);
     void can_pump();
     // Outside the frame loop: read the port until the message going out is sent whole (its
-    // flow control came) or ISO-TP gives it up (no flow control within N_Bs).
-    void can_flush();
+    // flow control came) or ISO-TP gives it up (no flow control within N_Bs); true if it went
+    // whole (or none was going out), else unsent_ says why.
+    bool can_flush();
+    // Outside the frame loop: all the port holds (waiting up to wait_ms, ms, for the first
+    // byte) through can_take.
+    void can_read_now(int wait_ms);
     void can_write(const std::string &line);
     uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); } // ISO-TP clock: frame time
 
@@ -119,6 +133,7 @@ private:
     navkit_isotp_tx_t can_tx_{};   // link = slcan: the message going out
     bool adapter_pending_ = false; // link = slcan: the port opened, the adapter not set up yet
     std::string last_open_error_;
+    std::string unsent_; // why the last write_frame_now() / finish_now() left its frame unsent
     int64_t now_us_ = 0; // frame time of this frame, us
     uint32_t tx_frame_ = 0;
     uint64_t superseded_ = 0;  // whole micro_data dropped for a newer one

@@ -47,10 +47,14 @@ public:
     // Send the one message of this frame: config while unconfigured, else the command;
     // to a micro of another spec nothing but a config probe once a second.
     void send();
-    // Send a stop (fwd 5, turn 5) now, outside the frame order (shutdown). Only to a
-    // configured micro of our spec (an unconfigured one is not moving); true if sent.
-    bool send_stop(uint16_t dio);
-    // The last message written whole was a stop command (fwd 5, turn 5).
+    // The shutdown's stop (fwd 5, turn 5), outside the frame order, so that a stop is the
+    // last message the micro gets. Only to a configured micro of our spec (an unconfigured
+    // one is not moving). quit_frame: the last frame queued a stop (Q); if it went out, it
+    // is let finish (link = slcan: its flow control awaited), else a new stop carrying dio
+    // goes now, pre-empting a message still going out. Returns the console's words for what
+    // happened: "stop sent", or why no stop went out whole.
+    std::string stop_at_shutdown(uint16_t dio, bool quit_frame);
+    // The last message written (link = slcan: begun) was a stop command (fwd 5, turn 5).
     bool stop_was_last() const { return stop_last_; }
 
     // A stop command carrying these DIO levels (the seed's Navigation Init command).
@@ -66,6 +70,7 @@ public:
     uint64_t superseded() const { return link_.superseded(); }
     uint64_t short_reads() const { return link_.short_reads(); }
     uint64_t tx_errors() const { return link_.tx_errors(); }
+    uint64_t tx_aborted() const { return link_.tx_aborted(); }
     uint16_t last_tag() const { return last_.time_tag; }
     const navkit_micro_cmd_t &last_command() const { return last_; }
 

@@ -24,7 +24,10 @@
  * Sending (navkit_isotp_tx_*): one message at a time; the first frame, then the consecutive
  * frames as the flow control allows (block size; STmin in whole ms, a sub-ms STmin taken
  * as 1 ms); a wait flow control restarts the NAVKIT_CAN_N_BS_MS wait, an overflow or an
- * invalid status abandons the message, as does no flow control within that wait.
+ * invalid status abandons the message, as does no flow control within that wait. The
+ * sender may also abort a message it is sending (navkit_isotp_tx_abort: a stop that must
+ * not wait behind an unfinished command); its receiver drops the part it got when the
+ * next first or single frame comes (restarted), as ISO 15765-2 lets a new message pre-empt.
  * Times are the caller's ms clock (wrapping uint32 arithmetic). No statics: all state is
  * in the structs, so several can coexist.
  */
@@ -87,6 +90,7 @@ typedef struct {
     uint16_t overflow; /* messages abandoned on an overflow flow control */
     uint16_t bad_fc;   /* malformed flow controls, and messages abandoned on an invalid status */
     uint16_t wait;     /* wait flow controls */
+    uint16_t aborted;  /* messages the caller abandoned unfinished (navkit_isotp_tx_abort) */
 } navkit_isotp_tx_stats_t;
 
 typedef struct {
@@ -122,6 +126,10 @@ uint8_t navkit_isotp_tx_busy(const navkit_isotp_tx_t *tx);
  * message type msg_type, from now_ms. Returns 1, or 0 (counted in busy) while another
  * message is being sent or for a bad len or msg_type. */
 uint8_t navkit_isotp_tx_start(navkit_isotp_tx_t *tx, uint16_t len, uint16_t msg_type, uint32_t now_ms);
+/* Abandon the message being sent, if any (counted in aborted): the sender is idle at once,
+ * and the next navkit_isotp_tx_start() begins a new message with its first or single frame.
+ * Returns 1 if a message was abandoned, 0 if none was being sent. */
+uint8_t navkit_isotp_tx_abort(navkit_isotp_tx_t *tx);
 /* Take a frame seen on the bus: a flow control for the message being sent (others are ignored). */
 void navkit_isotp_tx_frame(navkit_isotp_tx_t *tx, uint16_t id, const uint8_t *data, uint8_t dlc, uint32_t now_ms);
 /* The next frame due at now_ms into *out: 1, or 0 when none is (abandons a message whose

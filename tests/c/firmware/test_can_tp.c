@@ -276,9 +276,48 @@ static void test_sender_rules(void)
     CHECK(!navkit_isotp_tx_start(&tx, 2u, 99u, 4000u)); /* no identifier for an unknown msg_type */
 }
 
+/* A message pre-empted by the sender (a stop that must not wait behind an unfinished
+ * command, host/src/micro_link.cpp): abort makes the sender idle at once; the receiver,
+ * holding the first frame of the abandoned message, drops it when the next one's first
+ * frame comes (restarted) and completes the new message. */
+static void test_sender_abort(void)
+{
+    static navkit_isotp_tx_t tx;
+    static navkit_isotp_rx_t rx;
+    navkit_isotp_frame_t f, fc;
+    uint8_t fc_out = 0u;
+    uint16_t got = 0u, i;
+    const uint8_t cts[8] = {0x30, 0, 0, 0xCC, 0xCC, 0xCC, 0xCC, 0xCC}; /* continue, all the rest, no gap */
+    navkit_isotp_tx_init(&tx);
+    navkit_isotp_rx_init(&rx, NAVKIT_DIR_TO_HOST);
+    CHECK(!navkit_isotp_tx_abort(&tx) && tx.stats.aborted == 0u); /* idle: nothing to abandon */
+    memset(tx.buf, 0x5A, sizeof tx.buf);
+    CHECK(navkit_isotp_tx_start(&tx, NAVKIT_MICRO_DATA_BYTES, NAVKIT_MSG_TYPE_MICRO_DATA, 0u));
+    CHECK(navkit_isotp_tx_next(&tx, 0u, &f) && f.data[0] == 0x10u); /* its first frame; no flow control yet */
+    CHECK(navkit_isotp_rx_frame(&rx, f.id, f.data, 8u, 0u, &fc, &fc_out) == 0u && fc_out && rx.active);
+    CHECK(!navkit_isotp_tx_start(&tx, NAVKIT_MICRO_DATA_BYTES, NAVKIT_MSG_TYPE_MICRO_DATA, 5u)); /* still busy */
+    CHECK(navkit_isotp_tx_abort(&tx) && !navkit_isotp_tx_busy(&tx) && tx.stats.aborted == 1u);
+    CHECK(!navkit_isotp_tx_next(&tx, 5u, &f)); /* nothing more of the abandoned message */
+    for (i = 0u; i < NAVKIT_MICRO_DATA_BYTES; i++) {
+        tx.buf[i] = (uint8_t)(i * 7u);
+    }
+    CHECK(navkit_isotp_tx_start(&tx, NAVKIT_MICRO_DATA_BYTES, NAVKIT_MSG_TYPE_MICRO_DATA, 5u));
+    CHECK(navkit_isotp_tx_next(&tx, 5u, &f) && f.data[0] == 0x10u); /* the new message's first frame, at once */
+    CHECK(navkit_isotp_rx_frame(&rx, f.id, f.data, 8u, 5u, &fc, &fc_out) == 0u && fc_out && rx.stats.restarted == 1u);
+    navkit_isotp_tx_frame(&tx, NAVKIT_CAN_FC_ID_MICRO_DATA, cts, 8u, 6u);
+    while (navkit_isotp_tx_next(&tx, 6u, &f)) {
+        got = navkit_isotp_rx_frame(&rx, f.id, f.data, 8u, 6u, &fc, &fc_out);
+    }
+    CHECK(got == NAVKIT_MICRO_DATA_BYTES && tx.stats.sent == 1u && rx.stats.good == 1u);
+    for (i = 0u; i < NAVKIT_MICRO_DATA_BYTES; i++) {
+        CHECK(rx.buf[i] == (uint8_t)(i * 7u));
+    }
+}
+
 static const check_case_t cases[] = {
     CHECK_CASE(vectors),
     CHECK_CASE(sender_rules),
+    CHECK_CASE(sender_abort),
 };
 
 int main(int argc, char **argv)
