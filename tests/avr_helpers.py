@@ -9,14 +9,15 @@ __all__ = ["TEST_SPEED", "ECHO_C", "build_image", "avrdude"]
 
 TEST_SPEED = 4.0    # simulated s per wall s: the bootloader waits ~0.25 s of wall time
 
-# The info block of interface 1 (36 bytes, little-endian) as C; {hash} {sig} {mcu} filled in.
+# The image-info block (firmware/avr/board_info.h; little-endian) as C: version 1 (36 bytes)
+# or, with {link}, version 2 (37: + the link byte); {hash} {sig} {mcu} {version} filled in.
 INFO_C = r"""
 #include <avr/pgmspace.h>
 #include <stdint.h>
 struct image_info { char magic[8]; uint8_t version; uint8_t signature[3]; uint32_t spec_hash;
-                    uint32_t f_cpu_hz; char mcu[16]; };
+                    uint32_t f_cpu_hz; char mcu[16]; {link_field} };
 const struct image_info image_info __attribute__((used)) PROGMEM =
-    { {'N','A','V','K','I','T','I','M'}, 1, {{{sig}}}, {hash}UL, 16000000UL, "{mcu}" };
+    { {'N','A','V','K','I','T','I','M'}, {version}, {{{sig}}}, {hash}UL, 16000000UL, "{mcu}" {link} };
 """
 
 # Greets at boot, then sends back each byte + 1: shows when the image runs and its UART.
@@ -35,11 +36,15 @@ int main(void)
 
 def build_image(tmp: Path, name: str, source: str, *, info: dict | None = None) -> Path:
     """Compile `source` for the ATmega2560 with avr-gcc into tmp/name.hex; with `info`
-    (keys spec_hash, signature (3 ints), mcu) an image-info block is linked in."""
+    (keys spec_hash, signature (3 ints), mcu; with key link (its code) a version-2 block,
+    else version 1) an image-info block is linked in."""
     if info is not None:
         sig = ", ".join(f"0x{b:02x}" for b in info["signature"])
+        v2 = "link" in info
         source += (INFO_C.replace("{{{sig}}}", "{" + sig + "}").replace("{hash}", str(info["spec_hash"]))
-                   .replace("{mcu}", info["mcu"]))
+                   .replace("{mcu}", info["mcu"]).replace("{version}", "2" if v2 else "1")
+                   .replace("{link_field}", "uint8_t link;" if v2 else "")
+                   .replace("{link}", f", {info['link']}" if v2 else ""))
     c = tmp / f"{name}.c"
     c.write_text(source)
     elf, hexfile = tmp / f"{name}.elf", tmp / f"{name}.hex"

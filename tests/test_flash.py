@@ -21,12 +21,14 @@ from avr_helpers import ECHO_C, TEST_SPEED, avrdude, build_image
 
 MEGA = {"spec_hash": SPEC_HASH, "signature": (0x1E, 0x98, 0x01), "mcu": "atmega2560"}
 REAL_IMAGE = build_dir() / "firmware" / "avr" / "navkit-mega2560.hex"
+CAN_IMAGE = build_dir() / "firmware" / "avr" / "navkit-mega2560-can.hex"
 
 needs_avr = pytest.mark.skipif(
     any(shutil.which(t) is None for t in ("avr-gcc", "avr-objcopy", "avrdude")),
     reason="avr-gcc/avrdude missing: run make (scripts/setup.sh)")
 needs_sim = pytest.mark.skipif(not program().exists(), reason=f"{program()} not built: run make")
 needs_real = pytest.mark.skipif(not REAL_IMAGE.exists(), reason=f"{REAL_IMAGE} not built: run make")
+needs_can = pytest.mark.skipif(not CAN_IMAGE.exists(), reason=f"{CAN_IMAGE} not built: run make")
 
 
 def responder_c(spec_hash: int) -> str:
@@ -176,6 +178,37 @@ def test_real_image_with_plain_avrdude_boots_and_answers(tmp_path):
     assert again["reset_cause"] == causes["external"]
 
 
+@needs_avr
+@needs_sim
+@needs_can
+def test_can_image_flashes_and_says_where_it_answers(tmp_path):
+    """The CAN image's micro link is the MCP2515's bus, never the USB-serial port: after
+    avrdude's verify navkit asks nothing on the port and says where and how to check it,
+    exit 0 (a waited-for micro_data that cannot come would be a false failure)."""
+    with SimBoard(tmp_path / "mega", tmp_path / "flash.bin", speed=TEST_SPEED) as board:
+        r = navkit_flash("--port", board.link, "--hex", CAN_IMAGE)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stderr == ""
+    lines = r.stdout.splitlines()
+    assert lines[0].endswith(f"spec hash 0x{SPEC_HASH:08x}, micro link can")
+    assert "bytes written and verified in" in lines[3]
+    assert lines[-1] == f"navkit flash: {fl.can_image_text(str(board.link))}"
+    assert f"over CAN (the MCP2515 on the SPI, {SPEC.can.bitrate} bit/s), not on {board.link}" in lines[-1]
+    assert "[micro] link = slcan" in lines[-1] and "`navkit can dump --port ADAPTER`" in lines[-1]
+    assert "never answered" not in r.stdout
+    image = fl.read_hex(CAN_IMAGE)
+    flashed = (tmp_path / "flash.bin").read_bytes()
+    assert all(flashed[a] == b for a, b in image.items())      # what avrdude verified is on the board
+
+
+@needs_real
+@needs_can
+def test_the_builds_images_say_their_link():
+    assert fl.check_image(REAL_IMAGE)[0].link == "serial"
+    can_info, _ = fl.check_image(CAN_IMAGE)
+    assert (can_info.info_version, can_info.link) == (fl.INFO_VERSION, "can") == (2, "can")
+
+
 # ---- the image ----
 
 @needs_avr
@@ -198,11 +231,35 @@ def _hex_record(addr: int, data: bytes, kind: int = 0) -> str:
     return ":" + (rec + bytes(((-sum(rec)) & 0xFF,))).hex().upper()
 
 
-def _info_block(**over) -> bytes:
+def _info_block(link: int | None = None, **over) -> bytes:
+    """An image-info block: version 1, or with `link` (its code) version 2."""
     f = dict(MEGA, **over)
     import struct
-    return struct.pack(fl.INFO_FORMAT, fl.IMAGE_MAGIC, 1, bytes(f["signature"]), f["spec_hash"],
-                       16_000_000, f["mcu"].encode())
+    block = struct.pack(fl.INFO_FORMAT, fl.IMAGE_MAGIC, 1 if link is None else 2, bytes(f["signature"]),
+                        f["spec_hash"], 16_000_000, f["mcu"].encode())
+    return block if link is None else block + bytes((link,))
+
+
+@pytest.mark.parametrize("link, name", [(None, "serial"), (0, "serial"), (1, "can")])
+def test_image_info_versions_and_links(tmp_path, link, name):
+    path = tmp_path / "x.hex"
+    path.write_text("\n".join([_hex_record(0x100, _info_block(link)), ":00000001FF"]) + "\n")
+    info, _ = fl.check_image(path)
+    assert (info.info_version, info.link, info.offset) == (1 if link is None else 2, name, 0x100)
+
+
+def test_unknown_link_or_version_is_refused(tmp_path):
+    path = tmp_path / "x.hex"
+    path.write_text("\n".join([_hex_record(0, _info_block(7)), ":00000001FF"]) + "\n")
+    r = navkit_flash("--port", "/nonexistent", "--hex", path)
+    assert r.returncode == 1 and r.stdout == ""
+    assert r.stderr == (f"navkit flash: {path}: its image-info names micro link #7, this navkit knows 0 serial, "
+                        "1 can: flash it with the navkit of the checkout it came from\n")
+    block = bytearray(_info_block(1))
+    block[8] = 3                                                   # a version from a later navkit
+    path.write_text("\n".join([_hex_record(0, bytes(block)), ":00000001FF"]) + "\n")
+    with pytest.raises(fl.FlashError, match="image-info version 3, this navkit reads 1 to 2: rebuild"):
+        fl.check_image(path)
 
 
 def test_image_info_is_found_across_records_and_segments(tmp_path):

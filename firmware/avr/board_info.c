@@ -3,7 +3,14 @@
 #include "board_info.h"
 #include "navkit/navkit_proto.h"
 
-typedef char board_info_size_check[(sizeof(board_info_t) == 36u) ? 1 : -1];
+typedef char board_info_size_check[(sizeof(board_info_t) == 37u) ? 1 : -1];
+
+/* FW_LINK_CAN: given by the CAN image's build (firmware/avr/CMakeLists.txt), else 0 */
+#if defined(FW_LINK_CAN) && FW_LINK_CAN
+#define BOARD_INFO_LINK BOARD_INFO_LINK_CAN
+#else
+#define BOARD_INFO_LINK BOARD_INFO_LINK_SERIAL
+#endif
 
 const board_info_t board_info __attribute__((used, section(".progmem.navkit_info"))) = {
     {'N', 'A', 'V', 'K', 'I', 'T', 'I', 'M'},
@@ -12,4 +19,5 @@ const board_info_t board_info __attribute__((used, section(".progmem.navkit_info
     (uint32_t)NAVKIT_SPEC_HASH,
     (uint32_t)BOARD_F_CPU_HZ,
     BOARD_MCU_NAME,
+    BOARD_INFO_LINK,
 };

@@ -6,8 +6,9 @@
 Steps, each failing with one line that names the fix (exit status 1):
 1. the image: --hex FILE, else `<build>/firmware/avr/navkit-mega2560.hex`, built first
    (`cmake --build <build> --target navkit_avr_image`); refused unless its image-info
-   block (interface 1 of the AVR image: magic "NAVKITIM" in its data) says ATmega2560
-   and this spec's hash;
+   block (magic "NAVKITIM" in its data; version 1, or 2 with the link byte) says
+   ATmega2560 and this spec's hash; the block also says which micro link the image
+   speaks (serial on UART0, or CAN on the MCP2515: step 6);
 2. the board: --port PATH, or with `auto` the one USB-serial device of the serial link's
    kinds that navkit-host finds (`navkit-host --list-ports --link serial`: the one table of
    USB ids; none: say so, naming the devices of other kinds; several: list them);
@@ -22,6 +23,8 @@ Steps, each failing with one line that names the fix (exit status 1):
    bootloader waits ~1 s), then a micro_cmd and the three config messages, built by
    navkit.protocol, until a micro_data comes back; its spec_hash must be this spec's,
    and its fw_version, reset_cause and configured state (or the refusal) are reported.
+   A CAN image answers on the CAN bus, never on this port: navkit says so and how to
+   check it there (navkit-host with link = slcan, `navkit can dump`), and asks nothing.
 """
 
 from __future__ import annotations
@@ -44,14 +47,15 @@ from pathlib import Path
 __all__ = [
     "add_arguments", "run", "FlashError", "ImageInfo", "Board", "read_hex", "image_info",
     "check_image", "find_boards", "choose_port", "check_access", "permission_message",
-    "reset_by_dtr", "run_avrdude", "query_board", "flash", "FlashResult",
-    "IMAGE_MAGIC", "INFO_FORMAT", "MCU", "SIGNATURE", "F_CPU_HZ", "BAUD", "APP_BYTES",
+    "reset_by_dtr", "run_avrdude", "query_board", "flash", "FlashResult", "can_image_text",
+    "IMAGE_MAGIC", "INFO_FORMAT", "INFO_VERSION", "LINKS", "MCU", "SIGNATURE", "F_CPU_HZ", "BAUD", "APP_BYTES",
 ]
 
 IMAGE_MAGIC = b"NAVKITIM"
-INFO_FORMAT = "<8sB3sII16s"      # interface 1: magic, info_version, signature, spec_hash, f_cpu, mcu
-INFO_BYTES = struct.calcsize(INFO_FORMAT)   # 36
-INFO_VERSION = 1
+INFO_FORMAT = "<8sB3sII16s"      # versions 1 and 2: magic, info_version, signature, spec_hash, f_cpu, mcu
+INFO_BYTES = struct.calcsize(INFO_FORMAT)   # 36; version 2 adds the link byte after them
+INFO_VERSION = 2                  # the newest (firmware/avr/board_info.h); 1 is read too (a serial image)
+LINKS = {0: "serial", 1: "can"}   # the link byte: board_info.h BOARD_INFO_LINK_*
 MCU = "atmega2560"
 SIGNATURE = bytes((0x1E, 0x98, 0x01))
 F_CPU_HZ = 16_000_000
@@ -75,6 +79,7 @@ class ImageInfo:
     spec_hash: int
     f_cpu_hz: int
     mcu: str
+    link: str = "serial"  # LINKS' name of the micro link it speaks; "#N" for a code not in LINKS
 
 
 @dataclass(frozen=True)
@@ -87,14 +92,17 @@ class Board:
 
 @dataclass
 class FlashResult:
-    """What a flash did: seconds of avrdude (write + verify), bytes, the board's answer."""
+    """What a flash did: seconds of avrdude (write + verify), bytes, the board's answer
+    (micro_data's fields and the seconds until it came; None and 0 for a CAN image, whose
+    answer goes to the CAN bus) and the link the image speaks."""
 
     port: str
     image: Path
     image_bytes: int
     avrdude_s: float
     answer_s: float
-    micro_data: dict
+    micro_data: dict | None
+    link: str = "serial"
 
 
 # ---- the image ----
@@ -150,8 +158,14 @@ def image_info(data: dict[int, int]) -> ImageInfo | None:
     if at < 0 or at + INFO_BYTES > len(flat):
         return None
     _, version, sig, spec_hash, f_cpu, mcu = struct.unpack_from(INFO_FORMAT, flat, at)
+    link = "serial"                   # version 1 had only serial images
+    if version >= 2:
+        if at + INFO_BYTES + 1 > len(flat):
+            return None
+        code = flat[at + INFO_BYTES]
+        link = LINKS.get(code, f"#{code}")
     return ImageInfo(lo + at, version, bytes(sig), spec_hash, f_cpu,
-                     mcu.split(b"\0", 1)[0].decode("ascii", "replace"))
+                     mcu.split(b"\0", 1)[0].decode("ascii", "replace"), link)
 
 
 def check_image(path: Path) -> tuple[ImageInfo, int]:
@@ -167,9 +181,13 @@ def check_image(path: Path) -> tuple[ImageInfo, int]:
         raise FlashError(f"{path}: not a navkit image (no {IMAGE_MAGIC.decode()} image-info block in "
                          "its data): flash the image `make` builds, "
                          "build/firmware/avr/navkit-mega2560.hex")
-    if info.info_version != INFO_VERSION:
-        raise FlashError(f"{path}: image-info version {info.info_version}, this navkit reads "
+    if not 1 <= info.info_version <= INFO_VERSION:
+        raise FlashError(f"{path}: image-info version {info.info_version}, this navkit reads 1 to "
                          f"{INFO_VERSION}: rebuild the image with this checkout (make)")
+    if info.link not in LINKS.values():
+        raise FlashError(f"{path}: its image-info names micro link {info.link}, this navkit knows "
+                         + ", ".join(f"{c} {n}" for c, n in LINKS.items())
+                         + ": flash it with the navkit of the checkout it came from")
     if info.signature != SIGNATURE or info.mcu != MCU:
         raise FlashError(f"{path}: built for {info.mcu or '?'} (signature {info.signature.hex(' ')}), "
                          f"not the Arduino Mega 2560's {MCU} ({SIGNATURE.hex(' ')}): "
@@ -489,16 +507,28 @@ def _query(port: str, boot_wait: float, timeout: float) -> dict:
 
 def flash(port: str, image: Path, *, verbose: bool = False, say=print) -> FlashResult:
     """Steps 3-6 of the module docstring on a chosen port and a checked image."""
-    _, nbytes = check_image(image)
+    info, nbytes = check_image(image)
     check_access(port)
     why = reset_by_dtr(port)
     say(f"navkit flash: {port}: " + (why or "reset by DTR"))
     say(f"navkit flash: avrdude -c wiring -p {MCU} -P {port} -b {BAUD} -D -U flash:w:{image}:i")
     took = run_avrdude(port, image, verbose=verbose)
     say(f"navkit flash: {nbytes} bytes written and verified in {took:.2f} s")
+    if info.link != "serial":         # its micro link is on the CAN bus: nothing answers here
+        return FlashResult(port, Path(image), nbytes, took, 0.0, None, info.link)
     t0 = time.monotonic()
     data = query_board(port)
     return FlashResult(port, Path(image), nbytes, took, time.monotonic() - t0, data)
+
+
+def can_image_text(port: str) -> str:
+    """What `navkit flash` says after flashing a CAN image on `port`: where the micro
+    answers (the CAN bus at the spec's bit rate) and how to check it there."""
+    from navkit.protocol import SPEC
+    return (f"the image speaks the micro link over CAN (the MCP2515 on the SPI, {SPEC.can.bitrate} bit/s), "
+            f"not on {port}, so its answer is not checked here; to see it answer, wire an SLCAN adapter "
+            "(CANable, USBtin, CANUSB) to the MCP2515's CAN bus, run navkit-host with [micro] link = slcan "
+            "and port = auto, and watch the bus with `navkit can dump --port ADAPTER` (docs/can.md)")
 
 
 def _bench(image: Path) -> int:
@@ -519,8 +549,11 @@ def _bench(image: Path) -> int:
         m = re.search(r"stopped after ([0-9.]+) s of simulated time", board.output())
     print(f"flash time through simboard ({BAUD} bit/s, write + verify): {r.avrdude_s:.2f} s for "
           f"{r.image_bytes} bytes = {r.image_bytes / r.avrdude_s:.0f} bytes/s")
-    print(f"board answered {r.answer_s:.2f} s after the port was opened again (bootloader wait "
-          f"{BOOT_WAIT_S} s included): {_micro_data_text(r.micro_data)}")
+    if r.micro_data is None:
+        print(f"board answer not measured: the image speaks the micro link over {r.link.upper()}")
+    else:
+        print(f"board answered {r.answer_s:.2f} s after the port was opened again (bootloader wait "
+              f"{BOOT_WAIT_S} s included): {_micro_data_text(r.micro_data)}")
     if m:
         print(f"simboard ran {float(m.group(1)):.2f} s of simulated time in {wall:.2f} s "
               f"({float(m.group(1)) / wall:.2f} of real time)")
@@ -547,12 +580,16 @@ def run(args) -> int:
         if not image.exists():
             raise FlashError(f"--hex {image}: no such file")
         info, nbytes = check_image(image)
-        print(f"navkit flash: {image}: {nbytes} bytes for {info.mcu}, spec hash 0x{info.spec_hash:08x}")
+        print(f"navkit flash: {image}: {nbytes} bytes for {info.mcu}, spec hash 0x{info.spec_hash:08x}, "
+              f"micro link {info.link}")
         if args.bench:
             return _bench(image)
         port = choose_port(args.port)
         r = flash(port, image, verbose=args.verbose)
-        print(f"navkit flash: the board on {port} answers: {_micro_data_text(r.micro_data)}")
+        if r.micro_data is None:
+            print(f"navkit flash: {can_image_text(port)}")
+        else:
+            print(f"navkit flash: the board on {port} answers: {_micro_data_text(r.micro_data)}")
         return 0
     except FlashError as e:
         print(f"navkit flash: {e}", file=sys.stderr)

@@ -1,7 +1,8 @@
 # The image-info block in the HEX (firmware/avr/board_info.h): found by its magic in the
-# data records alone, 36 bytes: "NAVKITIM", version 1, signature 1E 98 01, this build's
-# spec hash (little-endian), 16000000 Hz, "atmega2560" NUL-padded to 16.
-# Arguments (-D): HEX (the image), SPEC_HEADER (generated navkit_proto.h: NAVKIT_SPEC_HASH).
+# data records alone, 37 bytes: "NAVKITIM", version 2, signature 1E 98 01, this build's
+# spec hash (little-endian), 16000000 Hz, "atmega2560" NUL-padded to 16, the link byte.
+# Arguments (-D): HEX (the image), SPEC_HEADER (generated navkit_proto.h: NAVKIT_SPEC_HASH),
+# LINK (the link byte as two hex digits: 00 serial, 01 CAN; default 00).
 file(STRINGS ${HEX} lines REGEX "^:" NO_HEX_CONVERSION)
 set(data "")
 foreach(l ${lines})
@@ -27,7 +28,10 @@ math(EXPR odd "${at} % 2")
 if(odd)
   message(FATAL_ERROR "${HEX}: the magic is not byte-aligned")
 endif()
-string(SUBSTRING "${data}" ${at} 72 block)
+if(NOT DEFINED LINK)
+  set(LINK "00")
+endif()
+string(SUBSTRING "${data}" ${at} 74 block)
 file(STRINGS ${SPEC_HEADER} hash_line REGEX "#define NAVKIT_SPEC_HASH ")
 string(REGEX MATCH "0x([0-9a-fA-F]+)" m "${hash_line}")
 string(TOUPPER "${CMAKE_MATCH_1}" h)
@@ -35,8 +39,9 @@ string(SUBSTRING "${h}" 6 2 b0)
 string(SUBSTRING "${h}" 4 2 b1)
 string(SUBSTRING "${h}" 2 2 b2)
 string(SUBSTRING "${h}" 0 2 b3)
-# magic, version, signature, spec hash (LE), 16000000 (LE), "atmega2560" + 6 NULs
-set(want "4E41564B4954494D" "01" "1E9801" "${b0}${b1}${b2}${b3}" "0024F400" "61746D65676132353630000000000000")
+# magic, version, signature, spec hash (LE), 16000000 (LE), "atmega2560" + 6 NULs, link
+set(want "4E41564B4954494D" "02" "1E9801" "${b0}${b1}${b2}${b3}" "0024F400" "61746D65676132353630000000000000"
+         "${LINK}")
 string(JOIN "" want ${want})
 if(NOT block STREQUAL want)
   message(FATAL_ERROR "${HEX}: image-info block\n  ${block}\nwant\n  ${want}")
