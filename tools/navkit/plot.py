@@ -379,17 +379,18 @@ _LABEL_PT = 6
 
 def _apart(ax, marks: list) -> list:
     """The marks [(log_time_ns, msg), ...] (in time order) whose upright labels on `ax`
-    do not overlap: a mark is labelled when it lies at least a label's height (_LABEL_PT
-    plus 1 pt) to the right of the last labelled one, in points of the figure at any dpi.
-    Every mark keeps its line; labels drawn over each other could not be read and their
-    glyphs are most of the drawing's time."""
+    stand apart: a mark is labelled when it lies at least two labels' heights
+    (2 * _LABEL_PT) to the right of the last labelled one, in points of the figure at any
+    dpi, so each label has a gap of its own height beside it. Every mark keeps its line;
+    labels packed closer could not be read, and their glyphs are the largest part of the
+    drawing's time."""
     x0, x1 = ax.get_xlim()
     width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72
     per_s = width_pt / (x1 - x0) if x1 > x0 else 0.0
     out, last = [], None
     for ns, msg in marks:
         x = ns / 1e9 * per_s
-        if last is None or x - last >= _LABEL_PT + 1:
+        if last is None or x - last >= 2 * _LABEL_PT:
             out.append((ns, msg))
             last = x
     return out
