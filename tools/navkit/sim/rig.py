@@ -272,8 +272,9 @@ class SimRig:
             raise SimError(f"navkit-host exited with status {self.proc.returncode}:\n{tail}")
 
     def stop(self) -> None:
-        """End every part that was started, in order (host, planner, port, CAN log, log
-        worker, coupler, FMUs), keeping what each reports; remove the temporary folder."""
+        """End every part that was started, in order (host, with the bus played out until it
+        has exited: navkit.sim.playout; planner, port, CAN log, log worker, coupler, FMUs),
+        keeping what each reports; remove the temporary folder."""
         if self.progress is not None:
             self.progress.close()
         gc.unfreeze()             # the lockstep loop froze the objects of the set-up
@@ -293,6 +294,11 @@ class SimRig:
                 pass
             if self.opts.realtime and self.proc.poll() is None:
                 self.proc.send_signal(signal.SIGINT)
+            # over CAN the host's last message, a stop, needs the bus (and the micro's flow
+            # control) while it shuts down
+            from navkit.sim.playout import play_out
+
+            play_out(self)
             try:
                 self.host_exit = self.proc.wait(timeout=10)
             except subprocess.TimeoutExpired:
