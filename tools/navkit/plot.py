@@ -188,30 +188,46 @@ def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
     run_figure(msgs, _run_title(Path(path))).savefig(out, dpi=110, pil_kwargs={"compress_level": 1})
 
 
+# matplotlib's import in small steps, in dependency order: a held PlotProcess pauses
+# between two of them
+_IMPORT_STEPS = ("numpy", "PIL.PngImagePlugin", "matplotlib", "matplotlib.text",
+                 "matplotlib.collections", "matplotlib.axis", "matplotlib.axes",
+                 "matplotlib.projections", "matplotlib.figure", "matplotlib.backends.backend_agg")
+
+
 class PlotProcess:
     """A child process that imports matplotlib at once, while its parent goes on (a run's
-    set-up and loop), then draws the run plots the parent hands it (plot_mcap): the import,
-    a large part of plot.png's cost, leaves the parent's path. Forked: make it before the
-    parent starts threads. The child runs at idle priority until it has a plot to draw,
-    so its import takes only CPU time nothing else wants. It ends when close() is called
-    or when the parent goes away (EOF on its pipe), however the parent ends; a terminal's
-    signals to the process group are the parent's to act on."""
+    set-up), then draws the run plots the parent hands it (plot_mcap): the import, a large
+    part of plot.png's cost, leaves the parent's path. Forked: make it before the parent
+    starts threads. The child runs at idle priority until it has a plot to draw, so its
+    import takes only CPU time nothing else wants; hold(True) pauses the import (between
+    two of its steps) while the parent's work must have every CPU to itself (the lockstep
+    loop: an idle-priority process still shares a CPU with the log worker, which polls at
+    idle priority). It ends when close() is called or when the parent goes away (EOF on
+    its pipe), however the parent ends; a terminal's signals to the process group are the
+    parent's to act on."""
 
     def __init__(self):
         import multiprocessing as mp
 
         ctx = mp.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn),
+        self._hold = ctx.Value("b", 0, lock=False)
+        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._hold),
                                  name="navkit-plot", daemon=True)
         self._proc.start()
         child.close()
         self._used = False
 
+    def hold(self, on: bool) -> None:
+        """Pause (True) or go on with (False) the child's import of matplotlib."""
+        self._hold.value = 1 if on else 0
+
     def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:
         """plot_mcap(path, out, series) in the child; its error (OSError, ValueError,
         McapError) is raised here."""
         self._used = True
+        self.hold(False)
         self._conn.send((Path(path), Path(out), series))
         try:
             err = self._conn.recv()
@@ -239,11 +255,13 @@ class PlotProcess:
             self._proc.join()
 
 
-def _plot_process(conn, parent_end) -> None:
-    """PlotProcess's child: import matplotlib at idle priority, then draw each job
+def _plot_process(conn, parent_end, hold) -> None:
+    """PlotProcess's child: import matplotlib at idle priority (_IMPORT_STEPS, waiting
+    before a step while `hold` is set and nothing is on the pipe), then draw each job
     (path, out, series) and answer None or the error, until None or EOF. `parent_end`,
     the parent's end of the pipe that fork() copied here, is closed first, so a parent
     that dies is seen as EOF."""
+    import importlib
     import os
     import signal
 
@@ -256,12 +274,12 @@ def _plot_process(conn, parent_end) -> None:
             os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
     except OSError:
         idle = False
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.backends.backend_agg  # noqa: F401
-    import matplotlib.figure  # noqa: F401
-
+    for name in _IMPORT_STEPS:
+        while hold.value and not conn.poll(0.01):   # a job, or EOF: the parent is gone
+            pass
+        importlib.import_module(name)
+        if name == "matplotlib":
+            importlib.import_module(name).use("Agg")
     while True:
         try:
             job = conn.recv()

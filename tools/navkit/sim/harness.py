@@ -74,11 +74,15 @@ def _run(opts: SimOptions, plotter, stamp) -> dict:
     try:
         rig.start()
         stamp("started")
+        if plotter is not None:     # the loop has the CPUs; the plot's import waits
+            plotter.hold(True)
         if opts.realtime:
             run_realtime(rig, faults)
         else:
             run_lockstep(rig, faults)
         stamp("loop")
+        if plotter is not None:
+            plotter.hold(False)
     except (LinkError, CouplerError) as e:
         rig.stop()
         raise SimError(f"{e} (host log: {rig.out / 'host.log'})") from e
