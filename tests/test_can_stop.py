@@ -5,7 +5,7 @@ micro's flow control while it shuts down: the harness plays the bus until it has
 (navkit.sim.playout), and the host's stop pre-empts a command still waiting for its own
 (host/src/micro_link.cpp). Checked on the bus log both ways (can.log through `navkit can
 dump`, run.mcap's /can reassembled with navkit.can), for a run's normal end while the robot
-drives, a planner timeout, SIGTERM to the harness, and the real-time loop. The serial
+drives, a planner timeout, the Q key mid-run, SIGTERM to the harness, and the real-time loop. The serial
 versions: test_host_harden, test_host_cli (the host), test_sim_harden (SIGTERM)."""
 
 import json
@@ -105,6 +105,21 @@ def test_a_planner_timeout_run_ends_with_a_stop_on_the_bus(tmp_path_factory):
     data = [m for t, m in r.messages("/planner/data")]
     assert data[-1]["host_status"] & (1 << protocol.SPEC.enums["host_status"].values["planner_timeout_stop"])
     _ends_with_a_stop(r.out, r)
+
+
+def test_the_q_key_mid_run_ends_with_its_stop_on_the_bus(tmp_path_factory):
+    """Q: the host's quitting frame sends the stop's first frame; it gets that frame's flow
+    control and finishes the stop while the run goes on without it."""
+    r = run_mission(tmp_path_factory, "can-stop-q", DRIVING + """[[key]]
+t = 1.5
+key = "Q"
+""", link="can")
+    msgs = _ends_with_a_stop(r.out, r)
+    assert any(m.get("fwd_cmd") == FWD_CMD["start"] for m in msgs), "it was driving"
+    assert "Q: quitting" in (r.out / "host.log").read_text()
+    assert [m["host"] for t, m in r.messages("/host/frame")][-1] == "exited"
+    h2m = r.summary["link"]["host_to_micro"]
+    assert h2m["frames_received"] == h2m["frames_sent"] == len(msgs), "the stop reached the micro"
 
 
 def test_the_real_time_loop_ends_with_a_stop_on_the_bus(tmp_path_factory):

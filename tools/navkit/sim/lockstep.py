@@ -11,7 +11,9 @@ Per host frame k at simulated time t = k * frame_s:
    firmware's bytes go to the pty;
 4. everything decoded goes to the log (run.mcap) with log time = simulated time.
 
-If the host exits or is killed, the FMUs keep stepping frame by frame without it. Wall
+If the host exits or is killed, the FMUs keep stepping frame by frame without it; a host
+that quits (its done's flag) gets the frame's answers first, and over CAN the bus is played
+until it has exited (navkit.sim.playout), its last frames reaching the micro next frame. Wall
 time per part (s) is added to `rig.times`: "fmus", "pty", "host" and "harness" (the rest
 of the loop)."""
 
@@ -53,6 +55,8 @@ def run_lockstep(rig, faults) -> None:
     gone = False            # the /host/frame saying the host is gone is written
     progress = rig.progress = Progress(rig.m.duration_s) if rig.opts.progress else None
     can_back = b""          # --link can: the adapter's answers and frames due for the host
+    carry = b""             # --link can: the quitting host's last frames, for the micro's next step
+    quitting = False        # over CAN the host's done said it quits: it still reads the port
     loop0 = pc()
     for k in range(frames_in_run):
         t_ns = k * frame_ns
@@ -63,7 +67,7 @@ def run_lockstep(rig, faults) -> None:
         while ei < n_ev and events[ei][0] * 1e9 <= t_ns + 1:
             faults.apply(t_ns, events[ei][2], events[ei][3])
             ei += 1
-        host_bytes = b""
+        host_bytes, carried, carry = b"", carry, b""
         if rig.host_state == "running":
             if faults.silent_until is None:
                 rig.planner.beat()
@@ -88,8 +92,9 @@ def run_lockstep(rig, faults) -> None:
                     logged = rig.gateway.h2m_serial if rig.gateway.firmware_can else host_bytes
                 log.frame(k, t_ns, rig.rx_count, tx_bytes, flags, logged,
                           lisp_raw(), "running" if faults.unplug_until is None else "unplugged")
-                if flags & 1:
-                    rig.host_state = "exited"
+                if flags & 1:   # over CAN it still reads the port, for its stop's flow control
+                    quitting = rig.gateway is not None
+                    rig.host_state = "running" if quitting else "exited"
             rig.frames += 1
             lines = console.read()         # all the host printed in the frame
             if lines:
@@ -97,7 +102,7 @@ def run_lockstep(rig, faults) -> None:
         elif not gone:             # the first frame without the host
             log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, rig.host_state)
             gone = True
-        host_bytes = faults.to_micro(host_bytes)
+        host_bytes = faults.to_micro(host_bytes) + carried     # carried: logged by play_out
         # The frame's FMU chunk runs in two calls: the micro answers within the first
         # tens of ms, so its bytes go to the pty while the rest of the chunk computes
         # and the kernel moves them meanwhile. All are written before the next tick
@@ -121,6 +126,15 @@ def run_lockstep(rig, faults) -> None:
             out = faults.can_out(b"", tx2, t_ns + frame_ns)
             log.micro(t_ns + frame_ns, out[-1])
             rig.rx_count += faults.to_host(*out)
+        if quitting:
+            # the micro's answers of this frame reached the host, which shuts down now: over
+            # CAN its stop still needs the bus (navkit.sim.playout); the frames it sends go
+            # to the micro with the next frame's step
+            from navkit.sim.playout import play_out
+
+            carry = play_out(rig, deliver=False)
+            rig.host_state = "exited"
+            quitting = False
         log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
         if progress is not None and k & 63 == 0:
             progress.at(t_ns / 1e9)

@@ -48,19 +48,21 @@ def _fc_ids() -> dict:
     return {c.id: c.fc_id for c in nc.CAN.ids.values()}
 
 
-def play_out(rig) -> None:
-    """Carry the bus of `rig` (a navkit.sim.rig.SimRig whose host has been told to end) until
-    the host has exited, its port is empty, or PLAY_OUT_S of wall time have passed. Nothing
-    to do unless the run is over CAN, the host still ran at the loop's end and its port is
-    plugged. A firmware FMU that fails (CouplerError) ends it: the host then says its stop
-    went unsent."""
+def play_out(rig, deliver: bool = True) -> bytes:
+    """Carry the bus of `rig` (a navkit.sim.rig.SimRig whose host is ending) until the host
+    has exited, its port is empty, or PLAY_OUT_S of wall time have passed. Nothing to do
+    unless the run is over CAN, the host still ran and its port is plugged. A firmware FMU
+    that fails (CouplerError) ends it: the host then says its stop went unsent. `deliver`:
+    the frames the host sent after the last flow control go to the micro here; else they
+    are returned (the firmware FMU's records) for the caller's next step, as the lockstep
+    loop does for a host that quit mid-run."""
     from navkit import can as nc
     from navkit.can_gateway import RECORD
 
     gw, port, coupler, log, proc = rig.gateway, rig.port, rig.coupler, rig.log, rig.proc
     if gw is None or proc is None or coupler is None or log is None or port is None \
             or not port.plugged or rig.host_state != "running":
-        return
+        return b""
     fc_of = _fc_ids()
     data_id = nc.CAN.ids["micro_data"].id
     t_ns = round(coupler.time_s * 1e3) * 1_000_000    # where the FMUs are (whole ms): the bus's time
@@ -89,12 +91,15 @@ def play_out(rig) -> None:
         if waiting:
             t_ns = _step_until(rig, t_ns, pending, lambda tx: _answered(waiting, tx))
             if t_ns is None:
-                return
+                return b""
+    if not deliver:
+        return bytes(pending)
     if pending and gw.firmware_can:
         # the frames after the last flow control (the stop's last ones) reach the micro: it
         # has every message the bus carried, and begins its reply to the last (a first frame)
         _step_until(rig, t_ns, pending, lambda tx: any(dlc and d[0] >> 4 in (0, 1) and (can_id & 0x7FF) == data_id
                                                        for can_id, dlc, d in RECORD.iter_unpack(tx)))
+    return b""
 
 
 def _answered(waiting: set, tx: bytes) -> bool:
