@@ -54,7 +54,7 @@ def test_the_mapping_reaches_the_c_header_and_the_docs():
     assert f"#define NAVKIT_CAN_MAX_TO_MICRO_BYTES {spec.messages['micro_cmd'].size}u" in h
     assert f"#define NAVKIT_CAN_MAX_TO_HOST_BYTES {spec.messages['micro_data'].size}u" in h
     doc = emit_docs(spec)
-    assert "## CAN" in doc and "| micro_data | micro to host | `0x180` | `0x181` | 150 | 1 first + 21 consecutive |" in doc
+    assert "## CAN" in doc and "| micro_data | micro to host | `0x180` | `0x181` | 152 | 1 first + 21 consecutive |" in doc
 
 
 @pytest.mark.parametrize("old,new,needle,reason", [

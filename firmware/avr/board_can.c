@@ -26,13 +26,16 @@
 #define CAN_CANCTRL 0x0Fu
 #define CAN_CNF3 0x28u /* CNF3, CNF2, CNF1, CANINTE, CANINTF follow at 0x28..0x2C */
 #define CAN_CANINTF 0x2Cu
+#define CAN_EFLG 0x2Du
 #define CAN_RXB0CTRL 0x60u
 #define CAN_RXB1CTRL 0x70u
 /* bits */
 #define CAN_INT_RX0 0x01u /* CANINTE/CANINTF: RX0IE/RX0IF, RX1 = 0x02, TX0 = 0x04 */
 #define CAN_INT_RX1 0x02u
 #define CAN_INT_TX0 0x04u
-#define CAN_ST_RX0IF 0x01u /* READ STATUS: RX0IF, RX1IF, TXB0 TXREQ, TX0IF, ... */
+#define CAN_INT_ERR 0x20u    /* ERRIE/ERRIF: a change in EFLG, e.g. a receive-buffer overflow */
+#define CAN_EFLG_RXOVR 0xC0u /* EFLG: RX1OVR (bit 7), RX0OVR (bit 6); the only bits a write changes */
+#define CAN_ST_RX0IF 0x01u   /* READ STATUS: RX0IF, RX1IF, TXB0 TXREQ, TX0IF, ... */
 #define CAN_ST_RX1IF 0x02u
 #define CAN_ST_TX0IF 0x08u
 #define CAN_RXB0_BUKT 0x04u /* RXB0CTRL: a frame for a full RXB0 rolls over into RXB1 */
@@ -103,7 +106,7 @@ typedef struct {
 
 static can_frame_t can_rx[BOARD_CAN_RX_FRAMES];
 static volatile uint8_t can_rx_head, can_rx_tail; /* free-running: the poll writes head, main tail */
-static volatile uint16_t can_rx_drop;
+static volatile uint16_t can_rx_drop;             /* frames: a full RX ring, plus each overflow the part flagged */
 static can_frame_t can_tx[BOARD_CAN_TX_FRAMES];
 static volatile uint8_t can_tx_head, can_tx_tail; /* main writes head, the poll (or main, locked) tail */
 static volatile uint8_t can_tx_busy;              /* TXB0 holds a frame not yet sent */
@@ -238,9 +241,20 @@ static void can_tx_next(void)
     can_tx_busy = 1u;
 }
 
+/* The part's error interrupt: each receive-buffer overflow flag set counts one lost frame
+   (the part keeps no count); the flags and ERRIF are cleared. */
+static void can_error(void)
+{
+    uint8_t e = can_read_reg(CAN_EFLG) & CAN_EFLG_RXOVR;
+    can_rx_drop = (uint16_t)(can_rx_drop + (e >> 7) + ((e >> 6) & 1u));
+    can_bit_modify(CAN_EFLG, CAN_EFLG_RXOVR, 0u);
+    can_bit_modify(CAN_CANINTF, CAN_INT_ERR, 0u);
+}
+
 /* Serve the part until it asks for nothing: received frames into the RX ring (per status
    read RXB0 before RXB1: a frame rolls over into RXB1 only while RXB0 holds an older one,
-   and reading takes far less than a frame's time on the bus), a sent TXB0 refilled. Called
+   and reading takes far less than a frame's time on the bus), a sent TXB0 refilled, then an
+   error interrupt's overflow flags counted. Called
    with the lock held (the poll's own interrupt off), interrupts on. */
 static void can_service(void)
 {
@@ -261,6 +275,9 @@ static void can_service(void)
             can_bit_modify(CAN_CANINTF, CAN_INT_TX0, 0u);
             can_tx_next();
         } else {
+            if (!(BOARD_CAN_INT_PIN & _BV(BOARD_CAN_INT_BIT))) {
+                can_error(); /* INT low with no RX or TX flag: ERRIF, the one other enabled */
+            }
             return;
         }
     }
@@ -304,7 +321,7 @@ uint8_t board_can_init(void)
     r[0] = (uint8_t)(CAN_PS2 - 1u);
     r[1] = (uint8_t)(0x80u | ((CAN_PS1 - 1u) << 3) | (CAN_PROP - 1u)); /* BTLMODE: PHSEG2 from CNF3 */
     r[2] = (uint8_t)CAN_BRP;                                           /* SJW 1 */
-    r[3] = (uint8_t)(CAN_INT_RX0 | CAN_INT_RX1 | CAN_INT_TX0);
+    r[3] = (uint8_t)(CAN_INT_RX0 | CAN_INT_RX1 | CAN_INT_TX0 | CAN_INT_ERR);
     can_write_regs(CAN_CNF3, r, 4u);
     /* the acceptance above: RXF0, RXF1 under RXM0; RXF2..RXF5 all micro_data's flow
        control under RXM1 (all 11 bits) */
@@ -398,7 +415,7 @@ void board_can_write(uint16_t id, const uint8_t data[8])
     }
 }
 
-uint16_t board_can_rx_dropped(void)
+uint16_t board_can_rx_lost(void)
 {
     uint16_t v;
     uint8_t s = SREG;

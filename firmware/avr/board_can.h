@@ -3,7 +3,8 @@
  *
  * Reception: Timer2 interrupts every BOARD_CAN_POLL_US; when the part's INT line is low it
  * reads the part (interrupts on) into an RX ring of BOARD_CAN_RX_FRAMES frames, oldest
- * first (a full ring drops the new frame and counts it). Transmission: frames queue in a
+ * first (a full ring drops the new frame and counts it); a receive-buffer overflow the part
+ * flags (EFLG RXnOVR, through its error interrupt) is counted too. Transmission: frames queue in a
  * TX ring of BOARD_CAN_TX_FRAMES and leave one at a time through the part's TXB0, in the
  * order queued (the part's three buffers would reorder equal-priority frames, and ISO-TP's
  * consecutive frames must keep their order); the next is loaded when TXB0's interrupt
@@ -32,7 +33,9 @@ uint8_t board_can_tx_free(void);
 /* Queue a data frame: 11-bit id, 8 data bytes (the caller checks board_can_tx_free()).
  * Main loop only. */
 void board_can_write(uint16_t id, const uint8_t data[8]);
-/* Frames dropped since init because the RX ring was full. */
-uint16_t board_can_rx_dropped(void);
+/* Frames lost since init before board_can_read() could return them: those dropped for a
+ * full RX ring, plus one for each receive-buffer overflow the part flagged (it keeps a
+ * flag per buffer, not a count); wraps. */
+uint16_t board_can_rx_lost(void);
 
 #endif /* NAVKIT_BOARD_CAN_H */

@@ -120,6 +120,11 @@ void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
     (void)hal;
     board_can_write(id, data);
 }
+uint16_t hal_can_rx_lost(hal_t *hal)
+{
+    (void)hal;
+    return board_can_rx_lost();
+}
 #endif
 
 /* The one board instance main() gives the core. */

@@ -25,6 +25,11 @@ static volatile uint8_t sonar_in_pcint; /* 1 while the pin-change interrupt runs
  * PCIE0 would be simpler, but simavr 1.6 drops a pin change that arrives while its
  * interrupt is masked.) */
 
+/* Each sonar's trigger bit in BOARD_SONAR_TRIG_PORT: a table, since 1 << n by a variable n
+ * is a loop on the AVR, too long for the step's critical section (the encoders wait). */
+static const uint8_t sonar_trig_bit[4] = {1u << BOARD_SONAR_TRIG_SHIFT, 1u << (BOARD_SONAR_TRIG_SHIFT + 1),
+                                          1u << (BOARD_SONAR_TRIG_SHIFT + 2), 1u << (BOARD_SONAR_TRIG_SHIFT + 3)};
+
 /* The 32-bit Timer5 clock, 0.5 us. */
 static uint32_t sonar_now(void)
 {
@@ -81,7 +86,7 @@ void board_sonar_tick(void)
 {
     uint32_t now = sonar_now();
     uint8_t sreg = SREG;
-    uint8_t st, cur, next, trig_on = 0u, trig_off = 0u, done = 0u;
+    uint8_t st, cur, next, trig, trig_on = 0u, trig_off = 0u, done = 0u;
     uint32_t dt;
     /* decide on a copy with interrupts on; apply only if the state is still that copy */
     cli();
@@ -120,9 +125,9 @@ void board_sonar_tick(void)
     if (next == st && !done) {
         return;
     }
+    trig = sonar_trig_bit[cur];
     cli();
     if (!sonar_in_pcint && sonar_state == st && sonar_cur == cur) {
-        uint8_t trig = (uint8_t)(1u << (BOARD_SONAR_TRIG_SHIFT + cur));
         if (trig_on) {
             BOARD_SONAR_TRIG_PORT |= trig;
         } else if (trig_off) {

@@ -99,5 +99,9 @@ uint8_t hal_can_read(hal_t *hal, uint16_t *id, uint8_t data[8], uint8_t *dlc);
 uint8_t hal_can_tx_free(hal_t *hal);
 /* Queue a classic data frame: 11-bit identifier, 8 data bytes. */
 void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8]);
+/* Frames lost since start before hal_can_read() could return them (a full receive queue,
+ * a receive-buffer overflow of the CAN controller: each overflow it flags counts once),
+ * wraps; 0 for a target that loses none. micro_data.can_rx_lost. */
+uint16_t hal_can_rx_lost(hal_t *hal);
 
 #endif /* NAVKIT_HAL_H */

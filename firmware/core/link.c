@@ -336,6 +336,7 @@ void link_telemetry(const fw_t *fw, navkit_micro_data_t *d)
     d->can_tx_overflow = l->can_tx.stats.overflow;
     d->can_tx_bad_fc = l->can_tx.stats.bad_fc;
     d->can_tx_wait = l->can_tx.stats.wait;
+    d->can_rx_lost = hal_can_rx_lost(fw->hal);
 #endif
 }
 

@@ -162,6 +162,11 @@ void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
     r[3] = 0u;
     memcpy(r + 4, data, 8u);
 }
+/* can_rx records dropped for a full RX queue (fw_fmu_doStep), frames */
+uint16_t hal_can_rx_lost(hal_t *h)
+{
+    return (uint16_t)h->can_rx_dropped;
+}
 #else
 /* Bytes the line carries in tick_us at the baud rate, from the credit (bit-us). */
 static uint32_t fw_fmu_line_bytes(uint64_t *credit, uint32_t baud, uint32_t tick_us, uint32_t waiting)

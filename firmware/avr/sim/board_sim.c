@@ -862,6 +862,11 @@ void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out)
     sim_can_stats(b->can, out);
 }
 
+void board_sim_can_hold_int(board_sim_t *b, int held)
+{
+    sim_can_hold_int(b->can, held);
+}
+
 void board_sim_profile(const board_sim_t *b, board_sim_profile_t *out)
 {
     *out = b->prof;

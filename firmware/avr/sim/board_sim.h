@@ -162,6 +162,10 @@ int board_sim_can_read(board_sim_t *b, board_sim_can_frame_t *out);
 /* The bus's bit rate, bit/s (default 500 000, the spec's [can] bitrate). */
 void board_sim_can_set_bitrate(board_sim_t *b, uint32_t bps);
 void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out);
+/* held 1: the part's INT pin reads high at the AVR whatever the part asks, as for a driver
+ * whose poll is held off (interrupts off too long): its receive buffers fill, then
+ * overflow; 0: INT shows the part's state again. A fault for tests. */
+void board_sim_can_hold_int(board_sim_t *b, int held);
 
 /* ---- resets ---- */
 

@@ -34,8 +34,10 @@
 #define INTF_RX0 0x01u
 #define INTF_RX1 0x02u
 #define INTF_TX0 0x04u /* TX1IF 0x08, TX2IF 0x10 */
+#define INTF_ERR 0x20u /* ERRIF: EFLG changed (here: a receive-buffer overflow) */
 #define EFLG_RX0OVR 0x40u
 #define EFLG_RX1OVR 0x80u
+#define OVR_BITS (EFLG_RX0OVR | EFLG_RX1OVR)
 #define BUKT 0x04u
 #define SRC_NONE (-2)
 #define SRC_HOST (-1) /* else 0..2: the part's TXBn */
@@ -61,6 +63,7 @@ struct sim_can {
     uint8_t bm_mask;  /* BIT MODIFY's mask */
     uint8_t out_next; /* the byte the part shifts out during the next transfer */
     int int_level;    /* the INT pin: 1 high (idle), 0 low */
+    int int_held;     /* 1: the AVR sees INT high whatever the part asks (sim_can_hold_int) */
     /* the bus */
     uint32_t bus_bps;
     int busy;
@@ -115,7 +118,7 @@ static void can_port_written(avr_irq_t *irq, uint32_t value, void *param)
 
 static void can_update_int(sim_can_t *c)
 {
-    int level = (c->regs[R_CANINTE] & c->regs[R_CANINTF]) ? 0 : 1;
+    int level = (!c->int_held && (c->regs[R_CANINTE] & c->regs[R_CANINTF])) ? 0 : 1;
     if (level != c->int_level) {
         c->int_level = level;
         avr_raise_irq(c->int_irq, (uint32_t)level);
@@ -173,6 +176,10 @@ static void can_reg_write(sim_can_t *c, uint8_t a, uint8_t v)
     if (a == R_TXB0CTRL || a == R_TXB0CTRL + 0x10u || a == R_TXB0CTRL + 0x20u) {
         c->regs[a] = (uint8_t)((c->regs[a] & ~0x0Bu) | (v & 0x0Bu)); /* TXREQ, TXP */
         can_bus_kick(c);
+        return;
+    }
+    if (a == R_EFLG) {
+        c->regs[a] = (uint8_t)((c->regs[a] & ~OVR_BITS) | (v & OVR_BITS)); /* RXnOVR only: the rest is read only */
         return;
     }
     c->regs[a] = v;
@@ -376,6 +383,15 @@ static void can_store(sim_can_t *c, uint8_t n, const can_frame_t *f, uint8_t hit
     can_update_int(c);
 }
 
+/* A frame for a full buffer is lost: its EFLG overflow bit and ERRIF set. */
+static void can_overflow(sim_can_t *c, uint8_t eflg_bit)
+{
+    c->regs[R_EFLG] |= eflg_bit;
+    c->regs[R_CANINTF] |= INTF_ERR;
+    c->st.overflowed++;
+    can_update_int(c);
+}
+
 /* A host frame the part acknowledged: through its masks and filters into a buffer. */
 static void can_receive(sim_can_t *c, const can_frame_t *f)
 {
@@ -396,8 +412,7 @@ static void can_receive(sim_can_t *c, const can_frame_t *f)
         } else if ((c->regs[R_RXB0CTRL] & BUKT) && !(c->regs[R_CANINTF] & INTF_RX1)) {
             can_store(c, 1u, f, (uint8_t)hit);
         } else {
-            c->regs[R_EFLG] |= EFLG_RX0OVR;
-            c->st.overflowed++;
+            can_overflow(c, EFLG_RX0OVR);
         }
         return;
     }
@@ -414,8 +429,7 @@ static void can_receive(sim_can_t *c, const can_frame_t *f)
     } else if (!(c->regs[R_CANINTF] & INTF_RX1)) {
         can_store(c, 1u, f, (uint8_t)hit);
     } else {
-        c->regs[R_EFLG] |= EFLG_RX1OVR;
-        c->st.overflowed++;
+        can_overflow(c, EFLG_RX1OVR);
     }
 }
 
@@ -595,4 +609,10 @@ void sim_can_stats(const sim_can_t *c, board_sim_can_stats_t *out)
     out->part_bps = can_part_bps(c);
     out->normal_mode = (uint8_t)(can_mode(c) == MODE_NORMAL);
     out->host_waiting = c->host_head - c->host_tail;
+}
+
+void sim_can_hold_int(sim_can_t *c, int held)
+{
+    c->int_held = held ? 1 : 0;
+    can_update_int(c);
 }

@@ -7,7 +7,7 @@
  * (firmware/avr/board_can.c) uses and a few more: RESET, READ, WRITE, BIT MODIFY, READ
  * STATUS, RX STATUS, LOAD TX BUFFER, RTS, READ RX BUFFER; configuration and normal mode
  * (REQOP -> OPMOD at once); CNF1-3 bit timing; the acceptance masks and filters, RXB0
- * rollover (BUKT) into RXB1, overflow flags; CANINTE/CANINTF and the INT line;
+ * rollover (BUKT) into RXB1, overflow flags (EFLG RXnOVR, ERRIF); CANINTE/CANINTF and the INT line;
  * TXBnCTRL.TXREQ and the buffer priority. Not modelled: extended frames (the bus carries
  * 11-bit data frames), error counters and states, loopback, listen-only and sleep modes
  * (off the bus like configuration mode), the RXnBF/TXnRTS pins, CLKOUT.
@@ -42,5 +42,6 @@ void sim_can_write(sim_can_t *c, uint16_t id, const uint8_t *data, uint8_t dlc);
 int sim_can_read(sim_can_t *c, board_sim_can_frame_t *out);
 void sim_can_set_bitrate(sim_can_t *c, uint32_t bps);
 void sim_can_stats(const sim_can_t *c, board_sim_can_stats_t *out);
+void sim_can_hold_int(sim_can_t *c, int held);
 
 #endif /* NAVKIT_BOARD_SIM_CAN_H */

@@ -83,6 +83,10 @@ void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
 {
     hal->word = (uint16_t)(id + data[0] + data[7]);
 }
+uint16_t hal_can_rx_lost(hal_t *hal)
+{
+    return hal->word;
+}
 #else
 size_t hal_uart_read(hal_t *hal, uint8_t *buf, size_t cap)
 {

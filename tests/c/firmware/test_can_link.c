@@ -25,6 +25,7 @@ struct hal {
     int from_micro_len;
     uint8_t tx_room; /* frames the micro's TX queue takes per poll */
     uint8_t tx_used;
+    uint16_t rx_lost; /* frames the "controller" lost: hal_can_rx_lost() */
 };
 
 int32_t hal_enc_left(hal_t *hal)
@@ -111,6 +112,10 @@ void hal_can_write(hal_t *hal, uint16_t id, const uint8_t data[8])
     f->dlc = 8u;
     memcpy(f->data, data, 8u);
     hal->tx_used++;
+}
+uint16_t hal_can_rx_lost(hal_t *hal)
+{
+    return hal->rx_lost;
 }
 
 static fw_t fw;
@@ -259,6 +264,7 @@ enum {
     C_TX_OVERFLOW,
     C_TX_BAD_FC,
     C_TX_WAIT,
+    C_RX_LOST,
     C_COUNT
 };
 
@@ -274,6 +280,7 @@ static void can_counters(const navkit_micro_data_t *d, uint16_t c[C_COUNT])
     c[C_TX_OVERFLOW] = d->can_tx_overflow;
     c[C_TX_BAD_FC] = d->can_tx_bad_fc;
     c[C_TX_WAIT] = d->can_tx_wait;
+    c[C_RX_LOST] = d->can_rx_lost;
 }
 
 /* The micro_data answering the next whole command (time tag *tag, then + 1) carries counter
@@ -346,6 +353,8 @@ static void test_each_kind_counted_once(uint16_t tag)
     host_fc = FC_CONTINUE;
     CHECK(last_data.ack_time_tag == tag - 1u);
     expect_one_more(c, C_TX_WAIT, &tag);
+    board.rx_lost++; /* the target's own count of frames lost before the link saw them */
+    expect_one_more(c, C_RX_LOST, &tag);
 }
 
 int main(void)
