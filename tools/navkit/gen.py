@@ -20,10 +20,9 @@ Every generated file names its spec and carries the spec hash.
 from __future__ import annotations
 
 import json
-import struct
 from pathlib import Path
 
-from navkit.spec import STRUCT_CODES, TYPES, Message, Spec, load
+from navkit.spec import STRUCT_CODES, TYPES, Message, Spec, load, struct_format
 
 __all__ = ["add_arguments", "run", "emit_c_header", "emit_c_source", "emit_docs", "emit_dbc",
            "emit_python", "write_outputs", "spec_label", "can_frames"]
@@ -689,12 +688,7 @@ def _py_text(m: Message) -> list[str]:
         at[f.name] = pos
         slots += [(f.byte_offset + i * f.size, STRUCT_CODES[f.type], pos + i) for i in range(f.count)]
         pos += f.count
-    fmt, end = "<", 0
-    for off, code, _ in sorted(slots):
-        fmt += (f"{off - end}x" if off > end else "") + code
-        end = off + struct.calcsize("<" + code)
-    if end < m.size:
-        fmt += f"{m.size - end}x"
+    fmt = struct_format([(off, code) for off, code, _ in slots], m.size)
     order = [p for _, _, p in sorted(slots)]
     unpack = f'_Struct("{fmt}").unpack_from'
     if order != sorted(order):      # fields out of byte order: values back into spec order

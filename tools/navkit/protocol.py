@@ -22,7 +22,7 @@ import struct
 from dataclasses import dataclass, field
 
 from navkit.paths import spec_path
-from navkit.spec import STRUCT_CODES, TYPES, Message, load
+from navkit.spec import STRUCT_CODES, TYPES, Message, load, struct_format
 
 __all__ = [
     "SPEC", "SPEC_HASH", "ProtocolError", "crc16", "defaults", "check", "encode_frame",
@@ -163,16 +163,8 @@ def _layout(m: Message) -> _Layout:
         for i in range(f.count):
             items.append((f.byte_offset + i * f.size, STRUCT_CODES[f.type], f.name, i if f.count > 1 else None))
     items.sort()
-    fmt, at, slots = "<", 0, []
-    for off, code, name, idx in items:
-        if off > at:
-            fmt += f"{off - at}x"
-        fmt += code
-        at = off + struct.calcsize("<" + code)
-        slots.append((name, idx))
-    end = m.size - (2 if m.framed else 0)
-    if end > at:
-        fmt += f"{end - at}x"
+    fmt = struct_format([(off, code) for off, code, _, _ in items], m.size - (2 if m.framed else 0))
+    slots = [(name, idx) for _, _, name, idx in items]
     zero = {f.name: (0,) * f.count if f.count > 1 else 0 for f in m.fields}
     limits = {f.name: (f.count, f.min, f.max, TYPES[f.type][2], TYPES[f.type][3]) for f in m.fields}
     zero_bad = tuple(f.name for f in m.fields if not f.min <= 0 <= f.max)

@@ -13,13 +13,14 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+import struct
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = [
     "SpecError", "Field", "Constraint", "Message", "Enum", "Rcomm", "Can", "CanId", "Spec", "load", "TYPES",
-    "STRUCT_CODES",
+    "STRUCT_CODES", "struct_format",
 ]
 
 # type name -> (size in bytes, signed, minimum, maximum)
@@ -31,6 +32,17 @@ TYPES = {
 }
 # type name -> its Python struct format character (little-endian, standard sizes)
 STRUCT_CODES = {"uint16": "H", "int16": "h", "uint32": "I", "int32": "i"}
+
+
+def struct_format(values, size: int) -> str:
+    """The little-endian struct format of `size` bytes holding a value of struct code
+    `code` at each (byte offset, code) of `values`, in offset order, pad bytes between
+    them and after the last."""
+    fmt, end = "<", 0
+    for off, code in sorted(values):
+        fmt += (f"{off - end}x" if off > end else "") + code
+        end = off + struct.calcsize("<" + code)
+    return fmt + (f"{size - end}x" if size > end else "")
 
 _TOP_KEYS = {"spec", "framing", "links", "enums", "flags", "message", "seed_slip", "can"}
 _MESSAGE_KEYS = {"name", "link", "direction", "id", "doc", "field", "constraint"}
