@@ -19,6 +19,7 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 from navkit import can as nc  # noqa: E402
 from navkit import protocol  # noqa: E402
+from navkit.gen import can_frames  # noqa: E402
 from navkit.paths import build_dir, repo_root  # noqa: E402
 from firmware_helpers import Wheels, cmd, config_frames  # noqa: E402
 
@@ -37,12 +38,7 @@ def can_counters(fields: dict) -> dict:
 
 def configs_one_a_frame() -> list[bytes]:
     """The three config frames, one message each (one a host frame)."""
-    cfg, out, at = config_frames(), [], 0
-    while at < len(cfg):
-        n = 2 * struct.unpack_from("<H", cfg, at + 6)[0]
-        out.append(cfg[at:at + n])
-        at += n
-    return out
+    return [f for _, f in protocol.split_frames(config_frames())[0]]
 
 
 def pack(msgs) -> bytes:
@@ -163,7 +159,7 @@ def test_a_lost_frame_costs_one_command(micro, status_bit):
     assert data[-1]["ack_time_tag"] == 6 and len(bus.sent) > n0
     # the micro says so in micro_data: one message aborted out of sequence, the consecutive
     # frames after the one that aborted it ignored (a micro_cmd is a first + 16 consecutive)
-    n_cf = -(-(protocol.SPEC.messages["micro_cmd"].size - 6) // 7)
+    n_cf = can_frames(protocol.SPEC.messages["micro_cmd"].size) - 1
     assert before["ack_time_tag"] == 5 and not any(can_counters(before).values())
     assert can_counters(data[-1]) == dict(can_counters(before), can_rx_wrong_sn=1, can_rx_unexpected=n_cf - 4)
 
