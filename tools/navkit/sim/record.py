@@ -206,14 +206,14 @@ def _message_index_class():
 
 class _ChunkMessages:
     """Adds messages to an mcap Writer's open chunk as its add_message does (the record
-    and the chunk's message index entry), with one struct pack and two writes instead of
-    a Message object and a dozen calls a message: the mcap package's add_message was
-    most of the log worker's CPU. The chunk's message count and time span are set by
-    fold() before the chunk ends, the file's statistics by statistics() before
-    Writer.finish; the chunk's message indexes are written with one pack each. Built on
-    the Writer's internals (mcap 1.x: its chunk builder, statistics and chunk size);
-    make() returns None when they are not there, and the Recorder uses add_message.
-    tests/test_sim_record_text.py checks that both give the same file byte for byte."""
+    and the chunk's message index entry), with one struct pack and two writes a message
+    where add_message builds a Message object and makes a dozen calls. The chunk's
+    message count and time span are set by fold() before the chunk ends, the file's
+    statistics by statistics() before Writer.finish; the chunk's message indexes are
+    written with one pack each. Built on the Writer's internals (mcap 1.x: its chunk
+    builder, statistics and chunk size); make() returns None when they are not there,
+    and the Recorder uses add_message. tests/test_sim_record_text.py checks that both
+    give the same file byte for byte."""
 
     def __init__(self, writer, builder, stats, chunk_size: int):
         self._w, self._cb, self._stats, self._size = writer, builder, stats, chunk_size
