@@ -644,11 +644,12 @@ class _Decoder:
         t_ns = item[1]
         self.rec.reserve(t_ns, t_ns)
         md_name, unpack = self.md_name, self.micro_data.unpack
-        for name, frame, text in self.frames(self.m2h_buf, self.m2h, item[2]):
+        for name, frame, text, values in self.frames(self.m2h_buf, self.m2h, item[2]):
             if name == md_name:
                 self.last_micro_raw = frame
                 self.write_micro(t_ns, text)
-                values = unpack(frame)
+                if values is None:
+                    values = unpack(frame)
                 self.datalog(t_ns, values)
                 self.fox.odom(t_ns, *self.md_odom(values))
                 wd = bool(values[self.md_status] & self.wd_mask)
@@ -759,7 +760,8 @@ class _Decoder:
         self.verdicts.append((entry, cmd, values[self.ack_at[1]]))
 
     def frames(self, buf: bytearray, parser, data: bytes):
-        """Whole frames of a byte stream as (name, frame bytes, JSON bytes). The logged
+        """Whole frames of a byte stream as (name, frame bytes, JSON bytes, field values of
+        the generated unpack, or None where the codec made the text). The logged
         streams are the senders' (before any line noise), so frames come whole and back to
         back: those (protocol.split_frames) whose type, length and CRC are good become
         text by their generated template, or else by the codec's decode_frame (a micro_cmd
@@ -785,14 +787,15 @@ class _Decoder:
             if hit is None:
                 t = by_type.get(msg_type)
                 if t is not None and t.size == len(frame) and crc_ok(frame):
-                    hit = (t.name, frame, t.json % t.unpack(frame))
+                    values = t.unpack(frame)
+                    hit = (t.name, frame, t.json % values, values)
                 else:
                     try:
                         name, fields = p.decode_frame(frame)
                     except p.ProtocolError:
                         short = False       # the rest from this frame on: the Parser
                         break
-                    hit = (name, frame, self.dumps(fields).encode())
+                    hit = (name, frame, self.dumps(fields).encode(), None)
                 if hit[0] == "micro_cmd":
                     self.cmd_text = {frame: hit}
             stats["good"] += 1
@@ -813,10 +816,10 @@ class _Decoder:
     def _parse(self, parser, data: bytes):
         for ev in parser.feed(data):
             if ev.__class__ is self.frame_cls:
-                yield ev.name, ev.raw, self.dumps(ev.fields).encode()
+                yield ev.name, ev.raw, self.dumps(ev.fields).encode(), None
 
     def host_bytes(self, t_ns: int, data: bytes) -> None:
-        for name, frame, text in self.frames(self.h2m_buf, self.h2m, data):
+        for name, frame, text, _ in self.frames(self.h2m_buf, self.h2m, data):
             if name == "micro_cmd":
                 self.write_cmd(t_ns, text)
             else:
