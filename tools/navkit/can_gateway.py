@@ -173,7 +173,7 @@ class CanGateway:
                 m = can.Message(arbitration_id=can_id & 0x7FF, data=payload[:dlc], is_extended_id=False)
                 copies = self._bus(m, t, True)
                 out += self.adapter.to_host(m) * copies
-                if can_id == self._data_id and dlc and payload[0] >> 4 in (0, 1):
+                if can_id == self._data_id and dlc and payload[0] >> 4 in (nc.SINGLE, nc.FIRST):
                     self._m2h_starts += 1       # a duplicate restarts the same reply: not another
                 for _ in range(copies):
                     r = self._m2h.feed(m, t)

@@ -87,7 +87,7 @@ def play_out(rig, deliver: bool = True) -> bytes:
         pending += to_micro
         # the host's first frames wait for the micro's flow control: step until it comes
         waiting = {fc_of.get(can_id & 0x7FF) for can_id, dlc, d in RECORD.iter_unpack(to_micro)
-                   if dlc and d[0] >> 4 == 1}
+                   if dlc and d[0] >> 4 == nc.FIRST}
         if waiting:
             t_ns = _step_until(rig, t_ns, pending, lambda tx: _answered(waiting, tx))
             if t_ns is None:
@@ -97,17 +97,19 @@ def play_out(rig, deliver: bool = True) -> bytes:
     if pending and gw.firmware_can:
         # the frames after the last flow control (the stop's last ones) reach the micro: it
         # has every message the bus carried, and begins its reply to the last (a first frame)
-        _step_until(rig, t_ns, pending, lambda tx: any(dlc and d[0] >> 4 in (0, 1) and (can_id & 0x7FF) == data_id
-                                                       for can_id, dlc, d in RECORD.iter_unpack(tx)))
+        _step_until(rig, t_ns, pending,
+                    lambda tx: any(dlc and d[0] >> 4 in (nc.SINGLE, nc.FIRST) and (can_id & 0x7FF) == data_id
+                                   for can_id, dlc, d in RECORD.iter_unpack(tx)))
     return b""
 
 
 def _answered(waiting: set, tx: bytes) -> bool:
     """Drop from `waiting` (flow control identifiers) those of the flow controls among the
     firmware's CAN frame records `tx`; True when none is left."""
+    from navkit import can as nc
     from navkit.can_gateway import RECORD
 
-    waiting -= {can_id & 0x7FF for can_id, dlc, d in RECORD.iter_unpack(tx) if dlc and d[0] >> 4 == 3}
+    waiting -= {can_id & 0x7FF for can_id, dlc, d in RECORD.iter_unpack(tx) if dlc and d[0] >> 4 == nc.FLOW}
     return not waiting
 
 
