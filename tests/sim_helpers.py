@@ -1,8 +1,10 @@
 """Helpers of the co-simulation tests (tests/test_sim_*.py and the others that run
 missions; no tests here): run a mission text once per session through the real host and
-FMUs, read its outputs back, the time span of run.mcap's chunks, and a copy of an FMU with
-its model description edited."""
+FMUs, read its outputs back (can.log through `navkit can dump`), the time span of run.mcap's
+chunks, and a copy of an FMU with its model description edited."""
 
+import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -13,7 +15,7 @@ from navkit.sim.harness import SimOptions, fmu_paths, host_path, run
 from navkit.sim.mission import loads
 from navkit.sim.results import load
 
-__all__ = ["run_mission", "require_build", "chunk_spans", "rewrite_fmu"]
+__all__ = ["run_mission", "require_build", "can_dump", "chunk_spans", "rewrite_fmu"]
 
 _CACHE = {}
 
@@ -39,6 +41,13 @@ def run_mission(tmp_path_factory, name: str, text: str, seed: int = 1, **opts):
         run(SimOptions(mission=mission, out=out, seed=seed, **opts))
         _CACHE[key] = load(out)
     return _CACHE[key]
+
+
+def can_dump(log: Path) -> subprocess.CompletedProcess:
+    """`navkit can dump --file log` as a user runs it: its exit status, its messages as JSON
+    lines on stdout and its counts on stderr, as text."""
+    return subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(log)],
+                          capture_output=True, text=True, timeout=120)
 
 
 def chunk_spans(path):

@@ -4,8 +4,6 @@ host configures and drives it over the simulated CAN bus, every frame on the bus
 a candump log written by python-can's Logger, and `navkit can dump` decodes that log."""
 
 import json
-import subprocess
-import sys
 
 import can
 import pytest
@@ -13,7 +11,9 @@ import pytest
 from navkit import protocol
 from navkit.can_gateway import CanGateway
 from host_helpers import FRAME_US, Host, Micro, RawHost
+from sim_helpers import can_dump
 from spec_helpers import bit
+
 pytestmark = pytest.mark.timeout(60)
 
 
@@ -42,8 +42,7 @@ def test_host_and_a_serial_micro_through_the_gateway(tmp_path):
     assert names[:3] == ["micro_cfg_geometry", "micro_cfg_motion", "micro_cfg_io"] and "micro_cmd" in names
     assert gw.adapter.stats["refused"] == 0 and gw.frames > 100
     # the bus log: navkit can dump finds the same messages, both ways, nothing refused
-    r = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(log)], capture_output=True,
-                       text=True, timeout=60)
+    r = can_dump(log)
     assert r.returncode == 0, r.stdout + r.stderr
     dumped = [json.loads(ln) for ln in r.stdout.splitlines()]
     to_micro = [d["message"] for d in dumped if d["message"] != "micro_data"]

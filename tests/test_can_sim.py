@@ -5,11 +5,9 @@ can.log decode with `navkit can dump`; line noise becomes error frames, and CAN 
 what the micro's ISO-TP aborts reaches the host in micro_data's can_* counters."""
 
 import json
-import subprocess
-import sys
 
 from navkit.paths import repo_root
-from sim_helpers import run_mission
+from sim_helpers import can_dump, require_build, run_mission
 
 DEMO = (repo_root() / "config" / "missions" / "demo.toml").read_text()
 
@@ -38,8 +36,7 @@ def test_the_demo_over_can_ends_where_it_ends_over_serial(tmp_path_factory):
     m2h = b["link"]["micro_to_host"]
     assert m2h["frames_received"] == m2h["frames_sent"] and m2h["host_link_errors"] == 0
     # the bus log decodes with the spec, both ways, nothing refused
-    r = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(can.out / "can.log")],
-                       capture_output=True, text=True, timeout=120)
+    r = can_dump(can.out / "can.log")
     assert r.returncode == 0, r.stderr[-2000:]
     names = [json.loads(ln)["message"] for ln in r.stdout.splitlines()]
     assert len(names) - names.count("micro_data") == rx["good"], "every message the micro got, in the log"
@@ -94,8 +91,7 @@ distance = 1000
     assert s["link"]["line_noise"]["flips"] == 0, "no byte is corrupted: CAN resends"
     assert abs(s["truth"]["distance_mm"] - 1000) <= 15 and s["watchdog_stops"] == 0
     # can.log holds the error frames; navkit can dump counts them and finds nothing refused
-    d = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(r.out / "can.log")],
-                       capture_output=True, text=True, timeout=120)
+    d = can_dump(r.out / "can.log")
     assert d.returncode == 0 and f"{c['error_frames']} error frames" in d.stderr, d.stderr[-1000:]
     # run.mcap's /can has them too, each before the try it destroyed (same identifier)
     frames = [m for _, m in r.messages("/can")]
@@ -145,8 +141,7 @@ distance = 1000
     assert all(not any(m[k] for k in own) for t, m in data if t < 1.0)
     assert {k: data[-1][1][k] for k in own} == own
     assert abs(s["truth"]["distance_mm"] - 1000) <= 15 and s["watchdog_stops"] == 0
-    d = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(r.out / "can.log")],
-                       capture_output=True, text=True, timeout=120)
+    d = can_dump(r.out / "can.log")
     assert f"rx_wrong_sn {own['can_rx_wrong_sn']}" in d.stderr.split("the micro's own")[1], d.stderr[-1000:]
     assert f"wrong_sn {own['can_rx_wrong_sn']}" in d.stderr.split("host to micro:")[1].split(";")[0]
 
@@ -224,7 +219,6 @@ def test_bench_sim_over_can_prints_its_figures(capsys):
     import argparse
 
     from navkit import sim_bench
-    from sim_helpers import require_build
 
     require_build()
     parser = argparse.ArgumentParser()

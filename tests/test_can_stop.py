@@ -21,7 +21,7 @@ import pytest
 
 from navkit import can as nc
 from navkit import protocol
-from sim_helpers import require_build, run_mission
+from sim_helpers import can_dump, require_build, run_mission
 from spec_helpers import FWD_CMD, TURN_CMD
 
 pytestmark = pytest.mark.timeout(120)
@@ -45,8 +45,7 @@ kind = "planner_silent"
 def _dumped(out) -> tuple[list, int]:
     """(the messages towards the micro in `out`/can.log as `navkit can dump` decodes them, in
     order; how many it saw restarted: a message whose first frame a newer one pre-empted)."""
-    r = subprocess.run([sys.executable, "-m", "navkit", "can", "dump", "--file", str(out / "can.log")],
-                       capture_output=True, text=True, timeout=60)
+    r = can_dump(out / "can.log")
     found = re.search(r"host to micro: \d+ reassembled(?:, restarted (\d+))?", r.stderr)
     assert found, r.stderr[-2000:]
     restarted = int(found.group(1) or 0)
