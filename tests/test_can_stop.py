@@ -22,7 +22,7 @@ import pytest
 from navkit import can as nc
 from navkit import protocol
 from sim_helpers import can_dump, require_build, run_mission
-from spec_helpers import FWD_CMD, TURN_CMD
+from spec_helpers import FWD_CMD, TURN_CMD, bit
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -102,7 +102,7 @@ def test_a_run_ending_while_the_robot_drives_ends_with_a_stop_on_the_bus(tmp_pat
 def test_a_planner_timeout_run_ends_with_a_stop_on_the_bus(tmp_path_factory):
     r = run_mission(tmp_path_factory, "can-stop-silent", SILENT, link="can")
     data = [m for t, m in r.messages("/planner/data")]
-    assert data[-1]["host_status"] & (1 << protocol.SPEC.enums["host_status"].values["planner_timeout_stop"])
+    assert data[-1]["host_status"] & bit("host_status", "planner_timeout_stop")
     _ends_with_a_stop(r.out, r)
 
 
