@@ -415,12 +415,13 @@ void RobotShutdown(Robot &r)
             r.console.print("micro's CAN counters (its last micro_data): %u frames refused, %u stray consecutive "
                             "frames; messages to it aborted: %u out of sequence, %u restarted, %u N_Cr timeouts, "
                             "%u overflows; micro_data abandoned: %u N_Bs timeouts, %u overflows, %u bad flow "
-                            "controls; %u waits",
+                            "controls; %u waits; %u frames lost before the transport (controller or driver)",
                             static_cast<unsigned>(d.can_rx_bad_frame), static_cast<unsigned>(d.can_rx_unexpected),
                             static_cast<unsigned>(d.can_rx_wrong_sn), static_cast<unsigned>(d.can_rx_restarted),
                             static_cast<unsigned>(d.can_rx_timeout), static_cast<unsigned>(d.can_rx_overflow),
                             static_cast<unsigned>(d.can_tx_timeout), static_cast<unsigned>(d.can_tx_overflow),
-                            static_cast<unsigned>(d.can_tx_bad_fc), static_cast<unsigned>(d.can_tx_wait));
+                            static_cast<unsigned>(d.can_tx_bad_fc), static_cast<unsigned>(d.can_tx_wait),
+                            static_cast<unsigned>(d.can_rx_lost));
         }
     }
     if (r.clock) {
