@@ -15,9 +15,22 @@ from navkit.sim.harness import SimOptions, fmu_paths, host_path, run
 from navkit.sim.mission import loads
 from navkit.sim.results import load
 
-__all__ = ["run_mission", "require_build", "can_dump", "chunk_spans", "rewrite_fmu"]
+__all__ = ["STRAIGHT", "run_mission", "require_build", "can_dump", "chunk_spans", "rewrite_fmu"]
 
 _CACHE = {}
+
+# one straight leg of 700 mm in the demo's room (its walls for the sonars and IR rangers),
+# then standing still: the PIL runs' mission, over serial and over CAN
+STRAIGHT = """
+duration_s = 5.0
+world = "room.txt"
+[[command]]
+t = 1.5
+fwd_cmd = "start"
+accel = 600
+speed = 400
+distance = 700
+"""
 
 
 def require_build():

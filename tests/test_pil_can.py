@@ -7,7 +7,7 @@ SLCAN behind the harness's gateway; the same mission over serial PIL ends at the
 import pytest
 
 from navkit.paths import build_dir
-from sim_helpers import run_mission
+from sim_helpers import STRAIGHT, run_mission
 
 AVR_CAN_FMU = build_dir() / "fmus" / "navkit_firmware_avr_can.fmu"
 pytestmark = [pytest.mark.timeout(300),
@@ -15,21 +15,9 @@ pytestmark = [pytest.mark.timeout(300),
 
 POS_MM, HDG_DEG = 5.0, 0.5
 
-# one leg in the demo's room (walls for the sonars and IR rangers), then standing still
-STRAIGHT = """
-duration_s = 5.0
-world = "room.txt"
-[[command]]
-t = 1.5
-fwd_cmd = "start"
-accel = 600
-speed = 400
-distance = 700
-"""
-
 
 def test_pil_over_can_ends_where_pil_over_serial_ends(tmp_path_factory):
-    serial = run_mission(tmp_path_factory, "pil-straight", STRAIGHT, firmware="avr")
+    serial = run_mission(tmp_path_factory, "straight-pil", STRAIGHT, firmware="avr")     # test_pil_sim's run
     can = run_mission(tmp_path_factory, "pil-straight-can", STRAIGHT, firmware="avr", link="can")
     a, b = serial.summary, can.summary
     assert b["firmware_fmu"].endswith("navkit_firmware_avr_can.fmu") and b["link"]["transport"] == "can"

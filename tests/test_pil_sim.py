@@ -18,7 +18,7 @@ import sys
 import pytest
 
 from navkit.paths import build_dir, repo_root
-from sim_helpers import require_build, run_mission
+from sim_helpers import STRAIGHT, require_build, run_mission
 
 AVR_FMU = build_dir() / "fmus" / "navkit_firmware_avr.fmu"
 pytestmark = [pytest.mark.timeout(300),
@@ -26,19 +26,6 @@ pytestmark = [pytest.mark.timeout(300),
 
 RATE = 400            # Hz: the AVR image's ceiling
 POS_MM, HDG_DEG = 5.0, 0.5
-
-# one straight leg in the room of the demo (its walls for the sonars and IR rangers), then
-# standing still
-STRAIGHT = """
-duration_s = 5.0
-world = "room.txt"
-[[command]]
-t = 1.5
-fwd_cmd = "start"
-accel = 600
-speed = 400
-distance = 700
-"""
 
 # a leg, a heading select to 90 deg (the gyro's heading) and a leg on the new heading
 TURNS = """
