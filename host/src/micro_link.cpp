@@ -240,17 +240,23 @@ void MicroLink::can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *ou
     can_pump(); // the consecutive frames a flow control just let go
 }
 
-void MicroLink::can_write(const std::string &line)
+bool MicroLink::write_bytes(const uint8_t *buf, size_t len)
 {
-    const long n = port_.write_all(reinterpret_cast<const uint8_t *>(line.data()), line.size());
+    const long n = port_.write_all(buf, len);
     if (n < 0) {
         port_lost("write failed");
-        return;
+        return false;
     }
-    if (static_cast<size_t>(n) != line.size()) {
+    if (static_cast<size_t>(n) != len) {
         tx_errors_++;
     }
     tx_frame_ += static_cast<uint32_t>(n);
+    return true;
+}
+
+void MicroLink::can_write(const std::string &line)
+{
+    write_bytes(reinterpret_cast<const uint8_t *>(line.data()), line.size());
 }
 
 void MicroLink::can_pump()
@@ -281,16 +287,7 @@ bool MicroLink::write_frame(const uint8_t *buf, size_t len)
     if (slcan()) {
         return can_send(buf, len);
     }
-    const long n = port_.write_all(buf, len);
-    if (n < 0) {
-        port_lost("write failed");
-        return false;
-    }
-    if (static_cast<size_t>(n) != len) {
-        tx_errors_++;
-    }
-    tx_frame_ += static_cast<uint32_t>(n);
-    return true;
+    return write_bytes(buf, len);
 }
 
 void MicroLink::can_read_now(int wait_ms)

@@ -102,6 +102,9 @@ public:
 private:
     void port_lost(const char *why);
     void reset_parser();
+    // Bytes to the port, counted in tx_bytes_frame(); a part written is counted in
+    // tx_errors, a failed write loses the port (false).
+    bool write_bytes(const uint8_t *buf, size_t len);
     // Bytes of frames (the line's, or one reassembled ISO-TP message's) through the parser;
     // the newest micro_data of our spec to *out.
     void take_frames(const uint8_t *d, size_t len, navkit_micro_data_t *out, MicroReceived *r);
