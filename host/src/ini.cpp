@@ -92,6 +92,31 @@ Key int_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeri
     return Key{set, int_json(p)};
 }
 
+// An integer key into *p that takes one of `list` (decimal); any other value is refused
+// as "<value> is not <what> (<list>)".
+Key listed_key(int *p, const std::vector<int> &list, const std::string &what)
+{
+    Setter set = [p, &list, what](const std::string &v) -> std::string {
+        long x;
+        const std::string why = ini_parse_int(v, false, &x);
+        if (!why.empty()) {
+            return why;
+        }
+        for (int b : list) {
+            if (x == b) {
+                *p = b;
+                return "";
+            }
+        }
+        std::string all;
+        for (int b : list) {
+            all += (all.empty() ? "" : ", ") + std::to_string(b);
+        }
+        return std::to_string(x) + " is not " + what + " (" + all + ")";
+    };
+    return Key{set, int_json(p)};
+}
+
 // A bit-mask key into *p, lo..hi: decimal or 0x hex.
 template <class T> Key mask_key(T *p, long lo = std::numeric_limits<T>::min(), long hi = std::numeric_limits<T>::max())
 {
@@ -294,26 +319,7 @@ Table nav_table(Config &c)
     MicroCfg &m = c.micro;
     t["micro"] = {
         {"port", str_key(&m.port, false)},
-        {"baud",
-         {[&m](const std::string &v) -> std::string {
-              long x;
-              const std::string why = ini_parse_int(v, false, &x);
-              if (!why.empty()) {
-                  return why;
-              }
-              for (int b : supported_bauds()) {
-                  if (x == b) {
-                      m.baud = b;
-                      return "";
-                  }
-              }
-              std::string list;
-              for (int b : supported_bauds()) {
-                  list += (list.empty() ? "" : ", ") + std::to_string(b);
-              }
-              return std::to_string(x) + " is not a supported rate (" + list + ")";
-          },
-          int_json(&m.baud)}},
+        {"baud", listed_key(&m.baud, supported_bauds(), "a supported rate")},
         {"data_bits", int_key(&m.data_bits, 5, 8)},
         {"parity",
          {[&m](const std::string &v) -> std::string {
@@ -327,24 +333,7 @@ Table nav_table(Config &c)
         {"stop_bits", int_key(&m.stop_bits, 1, 2)},
         {"latency_timer_ms", int_key(&m.latency_timer_ms, 0, 255)},
         {"link", checked_key(&m.link, micro_link_error)},
-        {"can_bitrate",
-         {[&m](const std::string &v) -> std::string {
-              long x;
-              const std::string why = ini_parse_int(v, false, &x);
-              if (!why.empty()) {
-                  return why;
-              }
-              if (Slcan::bitrate_command(static_cast<int>(x)).empty() || x > INT32_MAX) {
-                  std::string list;
-                  for (int b : Slcan::bitrates()) {
-                      list += (list.empty() ? "" : ", ") + std::to_string(b);
-                  }
-                  return std::to_string(x) + " is not a bit rate an SLCAN adapter sets (" + list + ")";
-              }
-              m.can_bitrate = static_cast<int>(x);
-              return "";
-          },
-          int_json(&m.can_bitrate)}},
+        {"can_bitrate", listed_key(&m.can_bitrate, Slcan::bitrates(), "a bit rate an SLCAN adapter sets")},
     };
     // [micro_cfg_*]: one key per config field of the spec, of the kind the spec gives it
 #define NAVKIT_INI_CFG_KEY(name, kind) {#name, cfg_key_##kind(msg, &std::remove_pointer_t<decltype(msg)>::name)},
