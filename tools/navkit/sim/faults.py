@@ -69,7 +69,7 @@ class Faults:
     """The events of `rig`'s mission (a navkit.sim.rig.SimRig) applied to its parts, and
     the faults in force: `unplug_until`, `noise_until`, `silent_until` (s of simulated
     time; None when not in force), `noise` (navkit.sim.links.LineNoise, seeded from the
-    run's seed) and its counts so far (`noise_stats`)."""
+    run's seed) and its counts so far (`noise_stats`); `events`, the mission's timeline."""
 
     def __init__(self, rig):
         self.rig = rig
@@ -80,6 +80,17 @@ class Faults:
         self.noise_until = None
         self.noise_stats = {"flips": 0, "drops": 0, "inserts": 0}
         self.unplug_until = None
+        self.events = timeline(rig.m)
+        self.next_event = 0     # index in `events` of the first not acted out yet
+
+    def act_due(self, t_ns: int) -> None:
+        """Act out, in timeline order, the mission's events not acted out yet whose t (s)
+        is at or before `t_ns` (ns of simulated time)."""
+        events, i = self.events, self.next_event
+        while i < len(events) and events[i][0] * 1e9 <= t_ns + 1:
+            self.apply(t_ns, events[i][2], events[i][3])
+            i += 1
+            self.next_event = i
 
     def apply(self, t_ns: int, what: str, e) -> None:
         """Act out event `e` of kind `what` (timeline) at `t_ns` (ns of simulated time)."""

@@ -23,7 +23,7 @@ import array
 import gc
 import time
 
-from navkit.sim.faults import n_frames, timeline
+from navkit.sim.faults import n_frames
 from navkit.sim.options import STEP_S
 from navkit.sim.progress import Progress
 
@@ -35,8 +35,6 @@ def run_lockstep(rig, faults) -> None:
     its events through `faults` (navkit.sim.faults.Faults); sets rig.frames, rig.t_ns,
     rig.sim_time_s (s) and rig.times."""
     pc = time.perf_counter
-    events = timeline(rig.m)
-    ei, n_ev = 0, len(events)
     frames_in_run = n_frames(rig.m, rig.frame_s)
     frame_ns = rig.steps_per_frame * 1_000_000
     rig.rx_count = 0
@@ -64,9 +62,7 @@ def run_lockstep(rig, faults) -> None:
         if faults.unplug_until is not None or faults.noise is not None or \
                 faults.silent_until is not None:
             faults.expire(t_ns)
-        while ei < n_ev and events[ei][0] * 1e9 <= t_ns + 1:
-            faults.apply(t_ns, events[ei][2], events[ei][3])
-            ei += 1
+        faults.act_due(t_ns)
         host_bytes, carried, carry = b"", carry, b""
         if rig.host_state == "running":
             if faults.silent_until is None:

@@ -12,7 +12,6 @@ from __future__ import annotations
 import array
 import time
 
-from navkit.sim.faults import timeline
 from navkit.sim.options import STEP_S
 from navkit.sim.progress import Progress
 
@@ -29,8 +28,6 @@ def run_realtime(rig, faults) -> None:
     """Run the mission of `rig` (a started navkit.sim.rig.SimRig) paced to the wall clock,
     acting out its events through `faults` (navkit.sim.faults.Faults); sets rig.frames
     (the host's own frame count), rig.t_ns and rig.sim_time_s (s)."""
-    events = timeline(rig.m)
-    ei = 0
     chunk_steps = 5
     chunk_ns = chunk_steps * 1_000_000
     n_chunks = int(round(rig.m.duration_s / (chunk_steps * STEP_S)))
@@ -44,9 +41,7 @@ def run_realtime(rig, faults) -> None:
         t_ns = c * chunk_ns
         rig.t_ns = t_ns        # where an interrupted run stopped
         faults.expire(t_ns)
-        while ei < len(events) and events[ei][0] * 1e9 <= t_ns + 1:
-            faults.apply(t_ns, events[ei][2], events[ei][3])
-            ei += 1
+        faults.act_due(t_ns)
         if rig.host_state == "running" and rig.proc.poll() is not None:
             rig.host_state = "exited"
         host_bytes = rig.port.read_available()
