@@ -274,11 +274,9 @@ class FoxgloveWriter:
 
     def walls(self, t_ns: int, data: bytes) -> None:
         """The world's walls as a foxglove.SceneUpdate at `t_ns` (ns). `data`: the plant
-        FMU's walls output, WALL_BYTES a wall (ax, ay, bx, by: little-endian float64, mm,
-        in the start pose frame = frame `world`); ValueError if it is not whole walls."""
-        if len(data) % WALL_BYTES:
-            raise ValueError(f"the plant's walls output is {len(data)} bytes, not a "
-                             f"multiple of {WALL_BYTES} (docs/plant.md)")
+        FMU's walls output as navkit.sim.fmus.FmuPair.walls checked it, whole walls of
+        WALL_BYTES (ax, ay, bx, by: little-endian float64, mm, in the start pose frame =
+        frame `world`)."""
         sec, nsec = divmod(t_ns, 1_000_000_000)
         cubes = []
         for ax, ay, bx, by in struct.iter_unpack("<4d", data):
