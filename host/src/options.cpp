@@ -127,17 +127,26 @@ std::string parse_options(int argc, char **argv, Options *o)
             return a + ": unknown option (see --help)";
         }
     }
-    if (o->convert_lisp && seen.size() > 1) { // no config, no run: any other option would be ignored
+    // The options that answer and exit (no config, no run): any option beside them but
+    // those they take would be ignored, so it is refused.
+    struct Alone {
+        bool given;
+        const char *name;
+        std::set<std::string> takes;
+        const char *does;
+    };
+    const Alone alone[] = {
+        {o->convert_lisp, "--convert-lisp", {"--convert-lisp", "--help"}, "it reads stdin only"},
+        {o->list_ports,
+         "--list-ports",
+         {"--list-ports", "--link", "--dev-root", "--help"},
+         "it only lists the USB ttys"},
+    };
+    for (const Alone &x : alone) {
         for (const std::string &other : seen) {
-            if (other != "--convert-lisp" && other != "--help") {
-                return other + " has no effect with --convert-lisp (it reads stdin only)";
+            if (x.given && !x.takes.count(other)) {
+                return other + " has no effect with " + x.name + " (" + x.does + ")";
             }
-        }
-    }
-    for (const std::string &other : seen) { // discovery only: no config, no run
-        if (o->list_ports && other != "--list-ports" && other != "--link" && other != "--dev-root" &&
-            other != "--help") {
-            return other + " has no effect with --list-ports (it only lists the USB ttys)";
         }
     }
     if (!o->dev_root.empty() && !o->list_ports) {
