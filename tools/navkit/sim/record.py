@@ -245,7 +245,7 @@ class _ChunkMessages:
 
         pack, index, size = _MESSAGE_HEAD.pack, self._index, self._size
         rw, indices, op = self._cb.record_writer, self._cb.message_indices, int(Opcode.MESSAGE)
-        flush, first = self._flush, self._channels.append
+        flush, first = self.flush, self._channels.append
 
         def write(t_ns: int, data: bytes) -> None:
             n[0] = seq = n[0] + 1
@@ -263,7 +263,8 @@ class _ChunkMessages:
                 flush()
         return write
 
-    def _flush(self) -> None:
+    def flush(self) -> None:
+        """End the open chunk: fold(), then the Writer's flush."""
         self.fold()
         self._w.flush()
 
@@ -283,7 +284,9 @@ class _ChunkMessages:
 
     def statistics(self, counts: dict) -> None:
         """The file's message statistics as add_message keeps them (channels in the order
-        of their first message); `counts`: messages per channel id."""
+        of their first message), the open chunk folded first; `counts`: messages per
+        channel id. Call once, just before Writer.finish."""
+        self.fold()
         st = self._stats
         for chan in self._channels:
             st.channel_message_counts[chan] += counts[chan]
@@ -337,6 +340,7 @@ class Recorder:
         self._w.add_metadata("navkit", {k: str(v) for k, v in metadata.items()})
         self._n = {topic: [0] for topic in self._chan}    # messages so far = last sequence
         self._chunk = _ChunkMessages.make(self._w) if fast else None
+        self._flush = self._chunk.flush if self._chunk is not None else self._w.flush  # ends the open chunk
         self._writers = {topic: self._make_writer(topic) for topic in self._chan}
         self.span_ns = int(flush_every_s * 1e9)     # the longest span of one chunk, ns
         self._lo = self._hi = None      # earliest / latest log time (ns) in the open chunk
@@ -374,12 +378,6 @@ class Recorder:
             keep(t_ns, data)
         return write_kept
 
-    def _flush(self) -> None:
-        """Close the open chunk (its messages into the file's statistics first)."""
-        if self._chunk is not None:
-            self._chunk.fold()
-        self._w.flush()
-
     @property
     def counts(self) -> dict:
         """Messages written so far per topic."""
@@ -414,7 +412,6 @@ class Recorder:
         """Write the summary section and close the file."""
         if self._file is not None:
             if self._chunk is not None:
-                self._chunk.fold()
                 self._chunk.statistics({self._chan[t]: n[0] for t, n in self._n.items()})
             self._w.finish()
             self._file.close()
