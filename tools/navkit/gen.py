@@ -680,11 +680,10 @@ def emit_dbc(spec: Spec) -> str:
 
 def _py_text(m: Message) -> list[str]:
     """The generated Python lines of message `m`'s MessageText constant."""
-    keys, slots = [], []        # JSON keys in spec order; (byte offset, code, key position)
+    keys, slots = [], []        # JSON keys in spec order; (byte offset, code, value position)
+    at, pos = {}, 0             # field -> position of its first value; values so far
     for f in m.fields:
         keys.append(f'"{f.name}":' + ("[" + ",".join(["%d"] * f.count) + "]" if f.count > 1 else "%d"))
-    at, pos = {}, 0
-    for f in m.fields:
         at[f.name] = pos
         slots += [(f.byte_offset + i * f.size, STRUCT_CODES[f.type], pos + i) for i in range(f.count)]
         pos += f.count
