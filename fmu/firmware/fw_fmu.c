@@ -133,14 +133,10 @@ void hal_uart_write(hal_t *h, const uint8_t *buf, size_t len)
  * 500 kbit/s ~4.5 frames a ms, is never the limit at 1 kHz). Records: fw_fmu_model.h. */
 uint8_t hal_can_read(hal_t *h, uint16_t *id, uint8_t data[8], uint8_t *dlc)
 {
-    const uint8_t *r;
     if (h->canq_len == 0u) {
         return 0u;
     }
-    r = &h->canq[h->canq_head * FW_FMU_CAN_RECORD_BYTES];
-    *id = (uint16_t)(r[0] | (r[1] << 8));
-    *dlc = (r[2] > 8u) ? 8u : r[2];
-    memcpy(data, r + 4, 8u);
+    *dlc = fw_fmu_can_record_get(&h->canq[h->canq_head * FW_FMU_CAN_RECORD_BYTES], id, data);
     h->canq_head = (h->canq_head + 1u) % FW_FMU_CAN_RXQ;
     h->canq_len--;
     return 1u;
@@ -151,16 +147,10 @@ uint8_t hal_can_tx_free(hal_t *h)
 }
 void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
 {
-    uint8_t *r;
     if (h->can_txb_len >= FW_FMU_CAN_TXQ) {
         return; /* the core never writes more than hal_can_tx_free() */
     }
-    r = &h->can_txb[h->can_txb_len++ * FW_FMU_CAN_RECORD_BYTES];
-    r[0] = (uint8_t)(id & 0xFFu);
-    r[1] = (uint8_t)(id >> 8);
-    r[2] = 8u;
-    r[3] = 0u;
-    memcpy(r + 4, data, 8u);
+    fw_fmu_can_record_put(&h->can_txb[h->can_txb_len++ * FW_FMU_CAN_RECORD_BYTES], id, 8u, data);
 }
 /* can_rx records dropped for a full RX queue (fw_fmu_doStep), frames */
 uint16_t hal_can_rx_lost(hal_t *h)

@@ -13,6 +13,7 @@
 #define NAVKIT_FW_FMU_MODEL_H
 
 #include <stdint.h>
+#include <string.h>
 
 #if defined(FW_LINK_CAN) && FW_LINK_CAN
 /* The CAN build (navkit_firmware_can): the core's CAN link (ISO-TP, firmware/core/link.c)
@@ -81,6 +82,26 @@
  * reach the core, which refuses them), byte 2 the DLC (data bytes, 0..8), byte 3 zero,
  * bytes 4-11 the data (bytes past the DLC zero, ignored). */
 #define FW_FMU_CAN_RECORD_BYTES 12u
+
+/* Writes the record of a frame at `r` (FW_FMU_CAN_RECORD_BYTES bytes): identifier `id` with
+ * its flags, `dlc` data bytes (0..8), the 8 bytes of `data`. */
+static inline void fw_fmu_can_record_put(uint8_t *r, uint16_t id, uint8_t dlc, const uint8_t data[8])
+{
+    r[0] = (uint8_t)(id & 0xFFu);
+    r[1] = (uint8_t)(id >> 8);
+    r[2] = dlc;
+    r[3] = 0u;
+    memcpy(&r[4], data, 8u);
+}
+
+/* Reads the record at `r`: its identifier with its flags into *id, its 8 data bytes into
+ * `data`; returns its DLC (a record's DLC above 8 reads as 8). */
+static inline uint8_t fw_fmu_can_record_get(const uint8_t *r, uint16_t *id, uint8_t data[8])
+{
+    *id = (uint16_t)(r[0] | (r[1] << 8));
+    memcpy(data, &r[4], 8u);
+    return (r[2] > 8u) ? 8u : r[2];
+}
 
 /* Binary: X(vr, name, causality, description); the serial build's first, then the CAN
  * build's (tests/test_firmware_fmu.py reads the first block, test_firmware_fmu_can.py the

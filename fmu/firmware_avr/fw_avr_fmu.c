@@ -181,10 +181,12 @@ static void fwavr_outputs(fmil_model_t *m)
 static void fwavr_link_in(fmil_model_t *m)
 {
     uint32_t i;
+    uint16_t id;
+    uint8_t data[8];
+    uint8_t dlc;
     for (i = 0u; i + FW_FMU_CAN_RECORD_BYTES <= m->can_rx.len; i += FW_FMU_CAN_RECORD_BYTES) {
-        const uint8_t *r = &m->rx[i];
-        board_sim_can_write(m->board, (uint16_t)((r[0] | (r[1] << 8)) & 0x7FFu), &r[4],
-                            (uint8_t)((r[2] > 8u) ? 8u : r[2]));
+        dlc = fw_fmu_can_record_get(&m->rx[i], &id, data);
+        board_sim_can_write(m->board, (uint16_t)(id & 0x7FFu), data, dlc);
     }
     m->can_rx.len = 0u;
 }
@@ -195,12 +197,7 @@ static void fwavr_link_out(fmil_model_t *m)
     board_sim_can_frame_t f;
     uint32_t n = 0u;
     while (n + FW_FMU_CAN_RECORD_BYTES <= FWAVR_WIRE_CAP && board_sim_can_read(m->board, &f)) {
-        uint8_t *r = &m->wire[n];
-        r[0] = (uint8_t)(f.id & 0xFFu);
-        r[1] = (uint8_t)(f.id >> 8);
-        r[2] = f.dlc;
-        r[3] = 0u;
-        memcpy(&r[4], f.data, 8u);
+        fw_fmu_can_record_put(&m->wire[n], f.id, f.dlc, f.data);
         n += FW_FMU_CAN_RECORD_BYTES;
     }
     m->can_tx.len = n;
