@@ -21,21 +21,17 @@ from pathlib import Path
 import pytest
 
 from navkit import protocol
-from navkit.paths import build_dir, repo_root
+from navkit.hostconfig import host_binary
+from navkit.paths import repo_root
+from spec_helpers import bit
 
 __all__ = ["host_binary", "require_host", "Micro", "Host", "RawHost", "FRAME_US"]
 
 FRAME_US = 100_000          # simulated frame period, us
 _TICK = struct.Struct("<IIQII")
 _DONE = struct.Struct("<IIII")
-_STATUS = protocol.SPEC.enums["micro_status"].values   # bit numbers
-_OK_BITS = {f"micro_cfg_{c}": 1 << _STATUS[f"cfg_{c}_ok"] for c in ("geometry", "motion", "io")}
-_REJECT_RANGE = 1 << protocol.SPEC.enums["reject"].values["range"]
-
-
-def host_binary() -> Path:
-    """The navkit-host of the build folder."""
-    return build_dir() / "host" / "navkit-host"
+_OK_BITS = {f"micro_cfg_{c}": bit("micro_status", f"cfg_{c}_ok") for c in ("geometry", "motion", "io")}
+_REJECT_RANGE = bit("reject", "range")
 
 
 def require_host() -> Path:
@@ -68,7 +64,7 @@ class Micro:
     def status(self) -> int:
         """micro_data.status bits: configured + one bit per config message accepted."""
         s = sum(_OK_BITS[c] for c in self.cfg)
-        return s | ((1 << _STATUS["configured"]) if len(self.cfg) == 3 else 0)
+        return s | (bit("micro_status", "configured") if len(self.cfg) == 3 else 0)
 
     def handle(self, msgs: list) -> None:
         """Take the host's frames; configs carrying our spec hash are accepted, but

@@ -9,6 +9,7 @@ from navkit import protocol
 from navkit.paths import repo_root
 from navkit.plot import read_datalog
 from sim_helpers import run_mission
+from spec_helpers import bit
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -53,9 +54,9 @@ def test_step_duty_and_speed(run):
     # ended by its duration: duty 0, the status bit clear
     after = _series(run, 2.6, 2.9)
     assert after and all(m["duty_left_e4"] == 0 for m in after)
-    bit = 1 << protocol.SPEC.enums["micro_status"].values["excite_active"]
-    assert all(m["status"] & bit for m in run.micro_between(1.1, 2.4))
-    assert not any(m["status"] & bit for m in run.micro_between(2.6, 2.9))
+    active = bit("micro_status", "excite_active")
+    assert all(m["status"] & active for m in run.micro_between(1.1, 2.4))
+    assert not any(m["status"] & active for m in run.micro_between(2.6, 2.9))
 
 
 def test_prbs_and_chirp_on_the_spot(run):
