@@ -214,3 +214,10 @@ def fmu3(unzipped, md):
     yield make
     for inst in made:
         inst.free()
+
+
+@pytest.fixture
+def micro(fmu3):
+    """micro(name="micro", start=True, **params) -> an instance of the module's firmware FMU
+    (a Fmu3 of fmu3, named "micro")."""
+    return lambda name="micro", **kw: fmu3(name, **kw)

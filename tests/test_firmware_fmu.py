@@ -28,13 +28,6 @@ MODEL_H = repo_root() / "fmu" / "firmware" / "fw_fmu_model.h"
 pytestmark = pytest.mark.skipif(not FMU.exists(), reason=f"{FMU} not built")
 
 
-@pytest.fixture
-def micro(fmu3):
-    """micro(name="micro", start=True, **params) -> an instance of the firmware FMU
-    (conftest's Fmu3)."""
-    return lambda name="micro", **kw: fmu3(name, **kw)
-
-
 def run(micro, wheels: Wheels | None, seconds: float, frame: bytes = b"",
         frame_period: float = 0.1) -> list[dict]:
     """Co-simulate in 1 ms steps; the host repeats `frame` every frame_period. Returns the

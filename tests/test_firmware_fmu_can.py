@@ -51,11 +51,6 @@ def unpack(raw: bytes) -> list[can.Message]:
             for i, n, d in RECORD.iter_unpack(raw)]
 
 
-@pytest.fixture
-def micro(fmu3):
-    return lambda name="micro", **kw: fmu3(name, **kw)
-
-
 class Bus:
     """The host's end of the bus (navkit.can.Endpoint) and the FMU, in 1 ms steps: each
     host frame (every `frame_s`) sends the next of `messages` (serial frames; the last one
