@@ -134,13 +134,21 @@ def test_config_and_a_command_over_can_frames(micro, status_bit):
     assert rx["good"] == len(data) and rx["wrong_sn"] == rx["bad_frame"] == 0
 
 
-def test_a_lost_frame_costs_one_command(micro, status_bit):
-    """A consecutive frame of one micro_cmd lost on the bus: the micro's ISO-TP aborts
-    that message, the next host frame's repeat gets through and is answered."""
+def configured(micro) -> tuple:
+    """(instance, its Bus, the micro_data answering its first command, time tag 5) of a
+    micro past its gyro calibration and configured over CAN; its CAN counters are all 0."""
     m = micro()
     bus = Bus(m)
     bus.run(1.2)
     before = bus.run(0.4, configs_one_a_frame() + [cmd(5, fwd_cmd=1, speed=100, distance=10)])[-1]
+    assert before["ack_time_tag"] == 5 and not any(can_counters(before).values())
+    return m, bus, before
+
+
+def test_a_lost_frame_costs_one_command(micro, status_bit):
+    """A consecutive frame of one micro_cmd lost on the bus: the micro's ISO-TP aborts
+    that message, the next host frame's repeat gets through and is answered."""
+    _, bus, before = configured(micro)
     n0 = len(bus.sent)
     lost = []
 
@@ -155,7 +163,6 @@ def test_a_lost_frame_costs_one_command(micro, status_bit):
     # the micro says so in micro_data: one message aborted out of sequence, the consecutive
     # frames after the one that aborted it ignored (a micro_cmd is a first + 16 consecutive)
     n_cf = can_frames(protocol.SPEC.messages["micro_cmd"].size) - 1
-    assert before["ack_time_tag"] == 5 and not any(can_counters(before).values())
     assert can_counters(data[-1]) == dict(can_counters(before), can_rx_wrong_sn=1, can_rx_unexpected=n_cf - 4)
 
 
@@ -163,11 +170,7 @@ def test_refused_frames_come_back_counted_in_micro_data(micro):
     """A short, an extended and a remote frame on micro_cmd's identifier and a stray
     consecutive frame, between two host frames: the micro's ISO-TP refuses the three and
     ignores the fourth, and the next micro_data counts them, each in its own field."""
-    m = micro()
-    bus = Bus(m)
-    bus.run(1.2)
-    before = bus.run(0.4, configs_one_a_frame() + [cmd(5, fwd_cmd=1, speed=100, distance=10)])[-1]
-    assert before["ack_time_tag"] == 5 and not any(can_counters(before).values())
+    m, bus, before = configured(micro)
     bad = [RECORD.pack(0x110, 5, bytes([0x02, 1, 2, 0xCC, 0xCC]) + bytes(3)),
            RECORD.pack(0x110 | EXT, 8, bytes([0x02, 1, 2]) + bytes([0xCC]) * 5),
            RECORD.pack(0x110 | RTR, 0, bytes(8)),
