@@ -65,6 +65,54 @@ static void run_for(board_sim_t *b, uint64_t cycles)
     }
 }
 
+/* The section sizes (bytes) of an image, from its avr-size -A listing. */
+typedef struct {
+    unsigned long text, data, bss, noinit;
+} image_size_t;
+
+/* Read IMAGE_DIR/name (an avr-size -A listing) into z; a missing file or .text fails the test. */
+static void read_size(const char *name, image_size_t *z)
+{
+    char path[1024], line[256];
+    FILE *f;
+    snprintf(path, sizeof path, "%s/%s", image_dir, name);
+    memset(z, 0, sizeof *z);
+    f = fopen(path, "r");
+    if (f == NULL) {
+        fprintf(stderr, "FAIL: %s: cannot open\n", path);
+        exit(1);
+    }
+    while (fgets(line, sizeof line, f) != NULL) {
+        char sect[64];
+        unsigned long size;
+        if (sscanf(line, "%63s %lu", sect, &size) == 2) {
+            if (strcmp(sect, ".text") == 0) {
+                z->text = size;
+            } else if (strcmp(sect, ".data") == 0) {
+                z->data = size;
+            } else if (strcmp(sect, ".bss") == 0) {
+                z->bss = size;
+            } else if (strcmp(sect, ".noinit") == 0) {
+                z->noinit = size;
+            }
+        }
+    }
+    fclose(f);
+    check(z->text > 0u, "%s: no .text size", path);
+}
+
+/* The sensors of the busy runs: gyro 1310 raw (10 deg/s), compass 90.0 deg, IR/ADC inputs
+ * 1000-2500 mV, sonar echoes 2000-5000 us. */
+static void set_busy_sensors(board_sim_t *b)
+{
+    int i;
+    board_sim_set_gyro_raw(b, 1310);
+    board_sim_set_compass(b, 900u);
+    for (i = 0; i < 4; i++) {
+        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
+        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
+    }
+}
 /* ---------------------------------------------------------------- the link */
 
 typedef struct {
@@ -523,9 +571,7 @@ static void test_watchdog(void)
 /* Flash and static RAM from avr-size -A's listing; the deepest stack from a busy run. */
 static void test_footprint(void)
 {
-    char path[1024], line[256];
-    unsigned long text = 0, data = 0, bss = 0, noinit = 0;
-    FILE *f;
+    image_size_t z;
     board_sim_t *b;
     host_t h;
     navkit_micro_cmd_t c;
@@ -535,40 +581,13 @@ static void test_footprint(void)
     unsigned long ram_end;
     uint64_t c0;
     double busy;
-    snprintf(path, sizeof path, "%s/navkit-mega2560.size.txt", image_dir);
-    f = fopen(path, "r");
-    if (f == NULL) {
-        fprintf(stderr, "FAIL: %s: cannot open\n", path);
-        exit(1);
-    }
-    while (fgets(line, sizeof line, f) != NULL) {
-        char name[64];
-        unsigned long size;
-        if (sscanf(line, "%63s %lu", name, &size) == 2) {
-            if (strcmp(name, ".text") == 0) {
-                text = size;
-            } else if (strcmp(name, ".data") == 0) {
-                data = size;
-            } else if (strcmp(name, ".bss") == 0) {
-                bss = size;
-            } else if (strcmp(name, ".noinit") == 0) {
-                noinit = size;
-            }
-        }
-    }
-    fclose(f);
-    check(text > 0u, "%s: no .text size", path);
+    read_size("navkit-mega2560.size.txt", &z);
 
     b = open_image("navkit-mega2560.elf");
     host_init(&h);
     run_for(b, MS(20));
     configure(b, &h, 400u, 1000u);
-    board_sim_set_gyro_raw(b, 1310);
-    board_sim_set_compass(b, 900u);
-    for (i = 0; i < 4; i++) {
-        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
-        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
-    }
+    set_busy_sensors(b);
     navkit_micro_cmd_defaults(&c);
     c.fwd_cmd = NAVKIT_FWD_CMD_START;
     c.speed = 300;
@@ -591,11 +610,11 @@ static void test_footprint(void)
     }
     board_sim_profile(b, &p);
     busy = (double)(board_sim_cycles(b) - c0);
-    ram_end = 0x200ul + data + bss + noinit;
+    ram_end = 0x200ul + z.data + z.bss + z.noinit;
     printf("flash %lu B (text %lu + data %lu) of 262144; static RAM %lu B (data %lu + bss %lu + noinit %lu) of 8192; "
            "deepest stack %u B; RAM in use %lu B\n",
-           text + data, text, data, data + bss + noinit, data, bss, noinit, p.stack_max_bytes,
-           data + bss + noinit + p.stack_max_bytes);
+           z.text + z.data, z.text, z.data, z.data + z.bss + z.noinit, z.data, z.bss, z.noinit, p.stack_max_bytes,
+           z.data + z.bss + z.noinit + p.stack_max_bytes);
     printf("busy 3 s: fw_tick %lu ticks, worst %lu mean %lu cycles (of 40000 at 400 Hz), CPU %.1f %%; "
            "fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
            (unsigned long)(p.ticks - p0.ticks), (unsigned long)p.tick_worst_cycles,
@@ -635,12 +654,7 @@ static void test_tick_late(void)
     uint16_t tag = 100u;
     int i;
     host_init(&h);
-    board_sim_set_gyro_raw(b, 1310);
-    board_sim_set_compass(b, 900u);
-    for (i = 0; i < 4; i++) {
-        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
-        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
-    }
+    set_busy_sensors(b);
     run_for(b, MS(20));
     configure(b, &h, 400u, 1000u);
     navkit_micro_cmd_defaults(&c);
@@ -1013,9 +1027,7 @@ static void test_can_rx_lost(void)
 #define CAN_LATE_CMD_MS 40u
 static void test_can_late(void)
 {
-    char path[1024], line[256];
-    unsigned long text = 0, data = 0, bss = 0, noinit = 0;
-    FILE *f;
+    image_size_t z;
     board_sim_t *b;
     can_host_t h;
     navkit_micro_cmd_t c;
@@ -1025,31 +1037,10 @@ static void test_can_late(void)
     uint64_t c0;
     double busy;
     int i;
-    snprintf(path, sizeof path, "%s/navkit-mega2560-can.size.txt", image_dir);
-    f = fopen(path, "r");
-    if (f == NULL) {
-        fprintf(stderr, "FAIL: %s: cannot open\n", path);
-        exit(1);
-    }
-    while (fgets(line, sizeof line, f) != NULL) {
-        char name[64];
-        unsigned long size;
-        if (sscanf(line, "%63s %lu", name, &size) == 2) {
-            text = (strcmp(name, ".text") == 0) ? size : text;
-            data = (strcmp(name, ".data") == 0) ? size : data;
-            bss = (strcmp(name, ".bss") == 0) ? size : bss;
-            noinit = (strcmp(name, ".noinit") == 0) ? size : noinit;
-        }
-    }
-    fclose(f);
+    read_size("navkit-mega2560-can.size.txt", &z);
     b = open_image("navkit-mega2560-can.elf");
     can_host_init(&h);
-    board_sim_set_gyro_raw(b, 1310);
-    board_sim_set_compass(b, 900u);
-    for (i = 0; i < 4; i++) {
-        board_sim_set_adc_mv(b, (uint8_t)i, (uint16_t)(1000u + 500u * (unsigned)i));
-        board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
-    }
+    set_busy_sensors(b);
     run_for(b, MS(20));
     can_configure(&h, b, 400u);
     navkit_micro_cmd_defaults(&c);
@@ -1079,7 +1070,7 @@ static void test_can_late(void)
     board_sim_can_stats(b, &st);
     printf("CAN image: flash %lu B (text %lu + data %lu); static RAM %lu B (data %lu + bss %lu + noinit %lu); deepest "
            "stack %u B\n",
-           text + data, text, data, data + bss + noinit, data, bss, noinit, p.stack_max_bytes);
+           z.text + z.data, z.text, z.data, z.data + z.bss + z.noinit, z.data, z.bss, z.noinit, p.stack_max_bytes);
     printf(
         "CAN traffic 2 s at 400 Hz: %lu ticks, lateness worst %lu mean %lu cycles (bound %u); fw_tick worst %lu mean "
         "%lu cycles, CPU %.1f %%; fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
@@ -1100,7 +1091,7 @@ static void test_can_late(void)
     check(st.overflowed == 0u, "%lu frames found the part's buffers full", (unsigned long)st.overflowed);
     check(h.last.ack_time_tag == 50000u, "the last ping was not acknowledged");
     check(h.frames + 2u >= h.messages, "only %u micro_data for %u messages", h.frames, h.messages);
-    check(0x200ul + data + bss + noinit <= 0x1000ul, "static RAM ends past the reset markers at 0x1000");
+    check(0x200ul + z.data + z.bss + z.noinit <= 0x1000ul, "static RAM ends past the reset markers at 0x1000");
     check(p.stack_min_sp > 0x1000u + 8u, "the stack reached 0x%x, into the reset markers at 0x1000", p.stack_min_sp);
     check(p.resets == 0u, "the board reset");
     board_sim_free(b);
