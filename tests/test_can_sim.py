@@ -70,20 +70,26 @@ def test_run_mcap_has_the_bus_frames_of_can_log_on_its_can_topic(tmp_path_factor
     assert "simulated time, s" in schema.data.decode() and "to_host" in schema.data.decode()
 
 
-def test_line_noise_over_can_is_error_frames_and_nothing_lost(tmp_path_factory):
-    r = run_mission(tmp_path_factory, "noise-can", """
-duration_s = 6.0
+def _line_noise(duration_s: float, ber: float) -> str:
+    """A mission of `duration_s` s: a 1000 mm leg at 300 mm/s from 0.5 s, the line noisy at
+    bit error rate `ber` from 1 s until 1 s before the end."""
+    return f"""
+duration_s = {duration_s}
 [[fault]]
 t = 1.0
 kind = "line_noise"
-ber = 2e-4
-duration_s = 4.0
+ber = {ber}
+duration_s = {duration_s - 2.0}
 [[command]]
 t = 0.5
 fwd_cmd = 1
 speed = 300
 distance = 1000
-""", link="can")
+"""
+
+
+def test_line_noise_over_can_is_error_frames_and_nothing_lost(tmp_path_factory):
+    r = run_mission(tmp_path_factory, "noise-can", _line_noise(6.0, 2e-4), link="can")
     s = r.summary
     c = s["link"]["can"]
     assert c["error_frames"] > 10, c          # ~2 % of the frames meet a bit error at 2e-4
@@ -108,19 +114,7 @@ def test_line_noise_duplicates_move_the_micros_counters(tmp_path_factory):
     The micro's own counters in micro_data (0 before the noise) are what a bus analyser's
     ISO-TP counts from the same frames (the gateway listening, navkit can dump); the
     repeats of the command make it good."""
-    r = run_mission(tmp_path_factory, "noise-dup-can", """
-duration_s = 20.0
-[[fault]]
-t = 1.0
-kind = "line_noise"
-ber = 1e-3
-duration_s = 18.0
-[[command]]
-t = 0.5
-fwd_cmd = 1
-speed = 300
-distance = 1000
-""", link="can")
+    r = run_mission(tmp_path_factory, "noise-dup-can", _line_noise(20.0, 1e-3), link="can")
     s = r.summary
     frames = [m for _, m in r.messages("/can")]
 
