@@ -158,7 +158,7 @@ def image_info(data: dict[int, int]) -> ImageInfo | None:
     if at < 0 or at + INFO_BYTES > len(flat):
         return None
     _, version, sig, spec_hash, f_cpu, mcu = struct.unpack_from(INFO_FORMAT, flat, at)
-    link = "serial"                   # version 1 had only serial images
+    link = "serial"                   # a version-1 block names no link: a serial image
     if version >= 2:
         if at + INFO_BYTES + 1 > len(flat):
             return None
