@@ -42,12 +42,7 @@
 #define SRC_NONE (-2)
 #define SRC_HOST (-1) /* else 0..2: the part's TXBn */
 
-typedef struct {
-    uint16_t id;
-    uint8_t dlc;
-    uint8_t data[8];
-    uint64_t cycle;
-} can_frame_t;
+typedef board_sim_can_frame_t can_frame_t; /* the wires' frame, in both queues and on the bus */
 
 struct sim_can {
     avr_t *avr;
@@ -585,15 +580,10 @@ void sim_can_write(sim_can_t *c, uint16_t id, const uint8_t *data, uint8_t dlc)
 
 int sim_can_read(sim_can_t *c, board_sim_can_frame_t *out)
 {
-    const can_frame_t *f;
     if (c->out_head == c->out_tail) {
         return 0;
     }
-    f = &c->out_q[c->out_tail++ & (CAN_QUEUE - 1u)];
-    out->id = f->id;
-    out->dlc = f->dlc;
-    memcpy(out->data, f->data, 8u);
-    out->cycle = f->cycle;
+    *out = c->out_q[c->out_tail++ & (CAN_QUEUE - 1u)];
     return 1;
 }
 
