@@ -113,6 +113,7 @@ static void set_busy_sensors(board_sim_t *b)
         board_sim_set_sonar_echo_us(b, (uint8_t)i, (uint16_t)(2000u + 1000u * (unsigned)i));
     }
 }
+
 /* ---------------------------------------------------------------- the link */
 
 typedef struct {
@@ -127,6 +128,19 @@ static void host_init(host_t *h)
     navkit_parser_init(&h->parser, NAVKIT_DIR_TO_HOST);
 }
 
+/* Decode every whole frame the parser holds: each good micro_data into *last, counted in
+ * *frames. */
+static void take_replies(navkit_parser_t *p, navkit_micro_data_t *last, unsigned *frames)
+{
+    const uint8_t *frame;
+    size_t flen;
+    while (navkit_parser_next(p, &frame, &flen)) {
+        if (navkit_micro_data_decode(frame, flen, last) == NAVKIT_OK) {
+            (*frames)++;
+        }
+    }
+}
+
 /* Take every byte the board sent; decode its micro_data frames. */
 static void host_drain(host_t *h, board_sim_t *b)
 {
@@ -135,14 +149,8 @@ static void host_drain(host_t *h, board_sim_t *b)
     while ((n = board_sim_uart_read(b, buf, sizeof buf)) > 0u) {
         size_t off = 0u;
         while (off < n) {
-            const uint8_t *frame;
-            size_t flen;
             off += navkit_parser_feed(&h->parser, buf + off, n - off);
-            while (navkit_parser_next(&h->parser, &frame, &flen)) {
-                if (navkit_micro_data_decode(frame, flen, &h->last) == NAVKIT_OK) {
-                    h->frames++;
-                }
-            }
+            take_replies(&h->parser, &h->last, &h->frames);
         }
     }
 }
@@ -748,14 +756,8 @@ static void can_pump(can_host_t *h, board_sim_t *b)
             board_sim_can_write(b, out.id, out.data, 8u);
         }
         if (n > 0u) {
-            const uint8_t *frame;
-            size_t flen;
             (void)navkit_parser_feed(&h->parser, h->rx.buf, n);
-            while (navkit_parser_next(&h->parser, &frame, &flen)) {
-                if (navkit_micro_data_decode(frame, flen, &h->last) == NAVKIT_OK) {
-                    h->frames++;
-                }
-            }
+            take_replies(&h->parser, &h->last, &h->frames);
         }
     }
     while (navkit_isotp_tx_next(&h->tx, can_ms(b), &out)) {
