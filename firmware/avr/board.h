@@ -150,15 +150,14 @@
 #define BOARD_CAN_MISO_BIT 3 /* PB3, pin 50 */
 #define BOARD_CAN_SPI_PORT_NAME 'B'
 #define BOARD_CAN_INT_PIN PINK
-#define BOARD_CAN_INT_PORT PORTK
 #define BOARD_CAN_INT_DDR DDRK
 #define BOARD_CAN_INT_BIT 0 /* PK0, pin A8 */
 #define BOARD_CAN_INT_PORT_NAME 'K'
 #define BOARD_CAN_POLL_US 200u  /* us: INT poll period (Timer2); one 8-byte frame at 500 kbit/s: 222 us */
 #define BOARD_CAN_RX_FRAMES 32u /* frames: the RX ring the poll fills (a power of two): ~7 ms of a full bus */
-#define BOARD_CAN_TX_FRAMES                                                                                            \
-    32u /* frames: the TX queue behind the part's TXB0 (a power of two): a whole
-                                    micro_data and a flow control fit (board_can.c checks) */
+/* frames: the TX queue behind the part's TXB0 (a power of two): a whole micro_data and a
+ * flow control fit (board_can.c checks) */
+#define BOARD_CAN_TX_FRAMES 32u
 
 /* ---- Control tick: Timer3 CTC, 0.5 us counts; the period is fw_tick_period_us() ---- */
 #define BOARD_TICK_COUNTS_PER_US 2u
