@@ -254,8 +254,10 @@ static void can_error(void)
 /* Serve the part until it asks for nothing: received frames into the RX ring (per status
    read RXB0 before RXB1: a frame rolls over into RXB1 only while RXB0 holds an older one,
    and reading takes far less than a frame's time on the bus), a sent TXB0 refilled, then an
-   error interrupt's overflow flags counted. Called
-   with the lock held (the poll's own interrupt off), interrupts on. */
+   error interrupt's overflow flags counted. Called with the lock held (the poll's own
+   interrupt off): by the poll with interrupts on; by can_unlock() with them as its caller
+   has them (off at the end of the poll's interrupt, where INT is low again only if the part
+   asked for more after the poll's last status read). */
 static void can_service(void)
 {
     for (;;) {
