@@ -255,9 +255,8 @@ static void can_error(void)
    read RXB0 before RXB1: a frame rolls over into RXB1 only while RXB0 holds an older one,
    and reading takes far less than a frame's time on the bus), a sent TXB0 refilled, then an
    error interrupt's overflow flags counted. Called with the lock held (the poll's own
-   interrupt off): by the poll with interrupts on; by can_unlock() with them as its caller
-   has them (off at the end of the poll's interrupt, where INT is low again only if the part
-   asked for more after the poll's last status read). */
+   interrupt off) and interrupts on: reading a frame over the SPI takes longer than the
+   encoders' edge period at their guaranteed rate (320 cycles, docs/avr.md). */
 static void can_service(void)
 {
     for (;;) {
@@ -291,14 +290,23 @@ static void can_lock(void)
     TIMSK2 &= (uint8_t)~_BV(OCIE2A);
 }
 
-/* The main loop's unlock: what the part asked for meanwhile is served now, still locked
-   (a poll due during the lock is not left to the next period: simavr 1.6 drops a timer
-   interrupt that falls due while it is masked, where the AVR would run it at the unlock). */
-static void can_unlock(void)
+/* Serve the part, locked and with interrupts on, until INT is high. What it asks for after
+   the last INT check waits for the next poll, one BOARD_CAN_POLL_US at most (within a
+   frame: the buffers do not overflow). */
+static void can_serve(void)
 {
-    if (!(BOARD_CAN_INT_PIN & _BV(BOARD_CAN_INT_BIT))) {
+    while (!(BOARD_CAN_INT_PIN & _BV(BOARD_CAN_INT_BIT))) {
         can_service();
     }
+}
+
+/* The main loop's unlock (interrupts on): what the part asked for meanwhile is served now,
+   still locked (a poll due during the lock is not left to the next period: simavr 1.6
+   drops a timer interrupt that falls due while it is masked, where the AVR would run it at
+   the unlock). */
+static void can_unlock(void)
+{
+    can_serve();
     TIMSK2 |= _BV(OCIE2A);
 }
 
@@ -357,9 +365,9 @@ ISR(TIMER2_COMPA_vect)
     }
     can_lock();
     sei(); /* the SPI work may wait for the encoders */
-    can_service();
-    cli();
-    can_unlock();
+    can_serve();
+    cli(); /* the poll's interrupt back on with interrupts off: it never nests in itself */
+    TIMSK2 |= _BV(OCIE2A);
 }
 
 uint8_t board_can_rx_ready(void)

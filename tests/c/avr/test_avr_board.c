@@ -1099,6 +1099,68 @@ static void test_can_late(void)
     board_sim_free(b);
 }
 
+/* Both encoders at the guaranteed rate (BOARD_SIM_ENC_MIN_EDGE_CYCLES apart on each, both at
+ * once) on the CAN image while frames arrive: exact counts forward and back. The frames
+ * (PCI type 15 on micro_cmd's identifier: each counted in can_rx_bad_frame, none applied)
+ * come in pairs, back to back (8 data bytes: 111 bits, 3552 cycles apart), a pair every
+ * CAN_ENC_GAP_CYCLES: ten INT poll periods and 13 cycles, so that the second frame's end
+ * sweeps across the phases of the poll that serves the first, also just after its last
+ * status read (where the driver once read the new frame over the SPI with interrupts off,
+ * longer than the edge period: both encoders lost counts). ~1000 frames/s, all of which
+ * the link takes under this load (none lost). */
+#define CAN_ENC_GAP_CYCLES ((uint64_t)10u * BOARD_CAN_POLL_US * (F_CPU_HZ / 1000000u) + 13u)
+static void test_can_encoders(void)
+{
+    static const uint8_t junk[8] = {0xF0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+    board_sim_t *b = open_image("navkit-mega2560-can.elf");
+    can_host_t h;
+    board_sim_can_stats_t s0, s1;
+    int32_t steps[3][2] = {{20000, -20000}, {-5000, 7000}, {3, -1}};
+    int32_t pos[2] = {0, 0};
+    long bad0, lost0, bad, lost;
+    unsigned sent = 0u;
+    int k;
+    uint16_t tag = 1u;
+    can_host_init(&h);
+    run_for(b, MS(20));
+    can_configure(&h, b, 400u);
+    bad0 = can_counter(&h.last, "can_rx_bad_frame");
+    lost0 = can_counter(&h.last, "can_rx_lost");
+    board_sim_can_stats(b, &s0);
+    for (k = 0; k < 3; k++) {
+        int32_t dl = steps[k][0] - pos[0], dr = steps[k][1] - pos[1];
+        uint32_t n = (uint32_t)((labs(dl) > labs(dr)) ? labs(dl) : labs(dr));
+        uint64_t until = board_sim_cycles(b) + (uint64_t)n * BOARD_SIM_ENC_MIN_EDGE_CYCLES;
+        board_sim_set_encoders(b, steps[k][0], steps[k][1], until);
+        while (board_sim_cycles(b) < until) {
+            board_sim_can_write(b, NAVKIT_CAN_ID_MICRO_CMD, junk, 8u);
+            board_sim_can_write(b, NAVKIT_CAN_ID_MICRO_CMD, junk, 8u);
+            sent += 2u;
+            can_run(&h, b, CAN_ENC_GAP_CYCLES);
+        }
+        pos[0] = steps[k][0];
+        pos[1] = steps[k][1];
+        can_run(&h, b, MS(20));
+        can_ping(&h, b, tag++);
+        check(h.last.enc_left == pos[0] && h.last.enc_right == pos[1], "CAN encoders: counts %ld/%ld, want %ld/%ld",
+              (long)h.last.enc_left, (long)h.last.enc_right, (long)pos[0], (long)pos[1]);
+        printf("CAN image, encoders at %u edges/s each under CAN frames: %ld/%ld (want %ld/%ld)\n",
+               F_CPU_HZ / BOARD_SIM_ENC_MIN_EDGE_CYCLES, (long)h.last.enc_left, (long)h.last.enc_right, (long)pos[0],
+               (long)pos[1]);
+    }
+    board_sim_can_stats(b, &s1);
+    bad = can_counter(&h.last, "can_rx_bad_frame") - bad0;
+    lost = can_counter(&h.last, "can_rx_lost") - lost0;
+    check(h.last.ack_time_tag == (uint16_t)(tag - 1u), "the last ping was not acknowledged");
+    check(s1.overflowed == s0.overflowed, "%lu frames found the part's buffers full",
+          (unsigned long)(s1.overflowed - s0.overflowed));
+    check(bad0 < 0 || (bad == (long)sent && lost == 0), "the link saw %ld of %u frames, %ld lost", bad, sent, lost);
+    printf("bus: %u frames sent, %lu to the part in all; can_rx_bad_frame +%ld, can_rx_lost +%ld (-1: not in this "
+           "spec)\n",
+           sent, (unsigned long)(s1.to_part - s0.to_part), bad0 < 0 ? -1L : bad, lost0 < 0 ? -1L : lost);
+    board_sim_free(b);
+}
+
 int main(int argc, char **argv)
 {
     static const struct {
@@ -1117,7 +1179,8 @@ int main(int argc, char **argv)
                  {"can_filter", test_can_filter},
                  {"can_lost", test_can_lost},
                  {"can_rx_lost", test_can_rx_lost},
-                 {"can_late", test_can_late}};
+                 {"can_late", test_can_late},
+                 {"can_encoders", test_can_encoders}};
     size_t i;
     if (argc != 3) {
         fprintf(stderr, "usage: %s TEST IMAGE_DIR\n", argv[0]);
