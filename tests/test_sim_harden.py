@@ -153,6 +153,61 @@ def test_a_signal_stops_the_run_cleanly(tmp_path, sig, group, status):
     assert not _alive(kids)
 
 
+# A harness whose SIGTERM raises KeyboardInterrupt (as navkit sim's does) sends the log
+# worker big batches while a child process sends it SIGTERM every few ms; the log must
+# still close with the worker's results: no interrupt lands inside one message on the pipe.
+_STORM = """
+import os, signal, sys, time
+from pathlib import Path
+from navkit.sim.record import RunLog
+
+armed = False        # raise only inside the try below, never in its except or after it
+
+
+def stop(signum, frame):
+    global armed
+    if armed:
+        armed = False
+        raise KeyboardInterrupt(signum)
+
+signal.signal(signal.SIGTERM, stop)
+log = RunLog(Path(sys.argv[1]), {}, ["t"], 1, build=Path(sys.argv[2]))
+parent = os.getpid()
+storm = os.fork()
+if storm == 0:
+    for _ in range(400):
+        os.kill(parent, signal.SIGTERM)
+        time.sleep(0.002)
+    os._exit(0)
+interrupts, t_ns, line, done = 0, 0, "x" * 200000, False
+while not done:
+    try:
+        armed = True
+        t_ns += 1000000
+        log.console(t_ns, [(1, line, 1)])
+        log.end_frame(t_ns + 1000000)
+        armed = False
+        done = os.waitpid(storm, os.WNOHANG)[0] != 0
+    except KeyboardInterrupt:
+        interrupts += 1
+signal.signal(signal.SIGTERM, signal.SIG_IGN)
+t0 = time.monotonic()
+res = log.close()
+print(interrupts, bool(res), round(time.monotonic() - t0, 1))
+"""
+
+
+def test_a_signal_never_cuts_a_message_to_the_log_worker(tmp_path):
+    from navkit.paths import build_dir
+
+    out = subprocess.run([sys.executable, "-c", _STORM, str(tmp_path / "run.mcap"), str(build_dir())],
+                         capture_output=True, text=True, timeout=90)
+    assert out.returncode == 0, out.stderr[-2000:]
+    interrupts, closed, close_s = out.stdout.split()
+    assert int(interrupts) >= 50, out.stdout
+    assert closed == "True", f"the worker never answered close() ({close_s} s): a message was cut"
+
+
 @pytest.mark.parametrize("mode", [(), ("--realtime",)], ids=["lockstep", "realtime"])
 def test_a_harness_killed_outright_leaves_no_child_and_a_closed_log(tmp_path, mode):
     """In lockstep the host sees its socket's EOF; in real time it runs on its own clock

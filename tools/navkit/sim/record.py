@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import operator
 import resource
+import signal
 import struct
 from pathlib import Path
 
@@ -892,6 +893,24 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
             pass
 
 
+# The signals the harness turns into KeyboardInterrupt (navkit.sim.cli, Ctrl-C).
+_STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT})
+
+
+def _send_whole(conn, obj) -> None:
+    """conn.send(obj) with the stop signals held off until the message is written whole.
+    A Connection writes one message in several writes (length, then the pickle, each
+    retried on a partial write); a KeyboardInterrupt raised between them would leave the
+    worker waiting forever for the rest of a message, and the harness for its results.
+    A signal that comes meanwhile is delivered when send() returns (the harness runs no
+    other thread that could take it instead)."""
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        conn.send(obj)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+
 class RunLog:
     """The harness's side of the run log. Items are queued raw (bytes as they were on the
     links, truth rows as doubles) and sent in batches to a worker process that decodes
@@ -1032,7 +1051,7 @@ class RunLog:
             for it in items:
                 self._dec.handle(it)
         elif items:
-            self._conn.send(items)
+            _send_whole(self._conn, items)
 
     def close(self) -> dict:
         """Send what is left, stop the worker, return its results."""
@@ -1044,7 +1063,7 @@ class RunLog:
             return {}
         self.spin(False)
         try:
-            self._conn.send(None)
+            _send_whole(self._conn, None)
             res = self._conn.recv() if self._conn.poll(60) else {}
         except (EOFError, OSError):
             res = {}
