@@ -5,6 +5,7 @@ braced block (clang-format 14 cannot add braces, so that rule is checked here)."
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -13,7 +14,8 @@ from navkit.paths import repo_root
 # Folders whose C and C++ files (in them and below) are formatted with .clang-format
 # (docs/internals.md, C style).
 FORMATTED = ["fmu/plant", "planner", "firmware/core", "protocol/runtime", "fmu/fmi", "fmu/firmware",
-             "fmu/firmware_avr", "tests/c/firmware", "tests/c/protocol", "host", "firmware/avr", "tests/c/avr"]
+             "fmu/firmware_avr", "tests/c/firmware", "tests/c/protocol", "host", "firmware/avr", "tests/c/avr",
+             "fmu/cosim", "tests/c/host"]
 _SOURCES = (".c", ".h", ".cpp", ".hpp")
 
 _HEAD = re.compile(r"^\s*(\} )?(if \(|else if \(|for \(|while \()")
@@ -73,3 +75,20 @@ def test_formatted_folders_are_as_clang_format_writes_them():
                              capture_output=True, text=True, check=True).stdout
         assert out == text, f"{path}: not as clang-format writes it (run clang-format -i {path})"
         assert unbraced(text) == [], f"{path}: lines {unbraced(text)}: a body without braces"
+
+
+def test_every_c_file_of_the_tree_is_in_a_formatted_folder():
+    """A new C or C++ folder is held to the style too: every source outside build folders
+    (a folder holding CMakeCache.txt), dot folders and node_modules lies under FORMATTED."""
+    root = repo_root()
+    outside = []
+    for p in root.rglob("*"):
+        rel = p.relative_to(root)
+        if p.suffix not in _SOURCES or any(part.startswith(".") or part == "node_modules"
+                                           for part in rel.parts):
+            continue
+        if any((root / Path(*rel.parts[:k]) / "CMakeCache.txt").exists() for k in range(1, len(rel.parts))):
+            continue
+        if not any(rel.as_posix().startswith(d + "/") for d in FORMATTED):
+            outside.append(rel.as_posix())
+    assert outside == []

@@ -34,8 +34,7 @@ enum { COSIM_FIRMWARE = 0, COSIM_PLANT = 1 };
 /* Variable types the coupler moves. */
 enum { COSIM_FLOAT64 = 0, COSIM_INT32 = 1 };
 /* Result codes; cosim_error() says more. */
-enum { COSIM_OK = 0, COSIM_ERR_ARG = -1, COSIM_ERR_FULL = -2, COSIM_ERR_FMU = -3,
-       COSIM_ERR_TERMINATED = -4 };
+enum { COSIM_OK = 0, COSIM_ERR_ARG = -1, COSIM_ERR_FULL = -2, COSIM_ERR_FMU = -3, COSIM_ERR_TERMINATED = -4 };
 
 /* One FMU as the coupler sees it: its fmi3Instance and the addresses of its fmi3
  * functions (fmi3GetFloat64, fmi3SetFloat64, fmi3GetInt32, fmi3SetInt32, fmi3GetBinary,
@@ -56,8 +55,7 @@ typedef struct cosim cosim_t;
 
 /* A new coupler of `firmware` and `plant` (both copied) stepping `step_s` seconds per
  * step (> 0), starting at simulated time `start_s`. NULL if out of memory or bad args. */
-COSIM_API cosim_t *cosim_new(const cosim_fmu_t *firmware, const cosim_fmu_t *plant,
-                             double step_s, double start_s);
+COSIM_API cosim_t *cosim_new(const cosim_fmu_t *firmware, const cosim_fmu_t *plant, double step_s, double start_s);
 
 /* Frees the coupler (never the FMU instances, which the harness owns). NULL is fine. */
 COSIM_API void cosim_free(cosim_t *c);
@@ -98,9 +96,8 @@ COSIM_API int cosim_exchange(cosim_t *c);
  * appended to `rows` (room for `rows_cap` rows), their count stored in *n_rows.
  * Returns COSIM_OK, or an error after the step that failed (outputs up to it are kept;
  * COSIM_ERR_FULL if tx or rows had no room: the excess is dropped, the error says how much). */
-COSIM_API int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len,
-                        uint8_t *tx, size_t tx_cap, size_t *tx_len,
-                        double *rows, size_t rows_cap, size_t *n_rows);
+COSIM_API int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len, uint8_t *tx, size_t tx_cap,
+                        size_t *tx_len, double *rows, size_t rows_cap, size_t *n_rows);
 
 /* Current simulated time in s (start + steps * step). */
 COSIM_API double cosim_time(const cosim_t *c);

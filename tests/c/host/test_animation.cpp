@@ -23,17 +23,17 @@ using namespace navkit;
 static const std::string kShipped = std::string(NAVKIT_SOURCE_DIR) + "/config/Animation.ini";
 
 // A small valid file: one 5-character head line, feature m (happiness, 3 versions).
-static const char *kMini = "[face]\n"                 // 1
-                           "width = 5\n"              // 2
-                           "features = m\n"           // 3
-                           "head.0 = \"|...|\"\n"     // 4
-                           "[m]\n"                    // 5
-                           "input = happiness\n"      // 6
-                           "row = 0\n"                // 7
-                           "col = 1\n"                // 8
-                           "version.0 = \"a\"\n"      // 9
-                           "version.1 = \"b\"\n"      // 10
-                           "version.2 = \"c\"\n";     // 11
+static const char *kMini = "[face]\n"             // 1
+                           "width = 5\n"          // 2
+                           "features = m\n"       // 3
+                           "head.0 = \"|...|\"\n" // 4
+                           "[m]\n"                // 5
+                           "input = happiness\n"  // 6
+                           "row = 0\n"            // 7
+                           "col = 1\n"            // 8
+                           "version.0 = \"a\"\n"  // 9
+                           "version.1 = \"b\"\n"  // 10
+                           "version.2 = \"c\"\n"; // 11
 
 class AnimationFile : public ::testing::Test {
 protected:
@@ -90,7 +90,8 @@ TEST_F(AnimationFile, ErrorsNameFileLineKeyReason)
         {mini_with(2, "width = five\n"), p + "2: width: 'five' is not a decimal integer"},
         {mini_with(2, "width = 500\n"), p + "2: width: 500 is outside 1..120"},
         {mini_with(4, "head.0 = \"|..|\"\n"), p + "4: head.0: 4 characters, width is 5"},
-        {mini_with(4, "head.0 = |...|\n"), p + "4: head.0: '|...|' is not a quoted strip (\"...\", at least one character)"},
+        {mini_with(4, "head.0 = |...|\n"),
+         p + "4: head.0: '|...|' is not a quoted strip (\"...\", at least one character)"},
         {mini_with(4, "head.0 = \"|...|\"\nhead.2 = \"|...|\"\n"), p + "5: head.2: head.1 is missing"},
         {mini_with(3, "features = m, n\n"), p + "3: features: no [n] section"},
         {std::string(kMini) + "[nose]\nrow = 1\n", p + "12: [nose]: unknown section (not in [face] features)"},
@@ -105,7 +106,8 @@ TEST_F(AnimationFile, ErrorsNameFileLineKeyReason)
         {mini_with(6, "input = beacon\n") + "to = 5\n", p + "12: to: not used with input = beacon"},
         {mini_with(11, "gaze_cols = 2\n"), p + "11: gaze_cols: 1-character versions at col 1 +- 2 do not fit width 5"},
         {mini_with(11, "talk = \"xy\"\n"), p + "11: talk: 2 characters, version.0 has 1"},
-        {mini_with(8, "col = 1\nthis is not a key\n"), p + "9: line: malformed (not [section], key = value or a comment)"},
+        {mini_with(8, "col = 1\nthis is not a key\n"),
+         p + "9: line: malformed (not [section], key = value or a comment)"},
         {"width = 5\n" + std::string(kMini), p + "1: width: outside any [section]"},
         {"[m]\ninput = happiness\n", p + "0: [face]: missing section"},
     };
@@ -281,7 +283,7 @@ TEST(Animation, ChangedOnlyWhenTheDrawingChanges)
 {
     Animation a;
     a.start(kShipped);
-    const navkit_emotion_t e = emotion(-100, 0, 0);  // every target is version 0
+    const navkit_emotion_t e = emotion(-100, 0, 0); // every target is version 0
     EXPECT_TRUE(a.update(e, false).changed) << "the first update draws";
     EXPECT_FALSE(a.update(e, false).changed);
     EXPECT_TRUE(a.update(e, true).changed) << "the beacon stepped";
@@ -325,7 +327,8 @@ TEST(ConsoleFace, DrawnAboveTheStatusLineOnATerminal)
         EXPECT_EQ(drain(master), "\033[?7l\r\033[Ks2\033[?7h") << "an unchanged face is not redrawn";
         c.set_face({"<- ->", " --- "});
         c.status("s3");
-        EXPECT_EQ(drain(master), "\r\033[2A\033[J\033[?7l<- ->\r\n --- \r\ns3\033[?7h") << "a changed face is redrawn in place";
+        EXPECT_EQ(drain(master), "\r\033[2A\033[J\033[?7l<- ->\r\n --- \r\ns3\033[?7h")
+            << "a changed face is redrawn in place";
         c.set_time_us(1500000);
         c.print("hello");
         EXPECT_EQ(drain(master), "\r\033[2A\033[J[    1.500] hello\r\n") << "a message scrolls above the face";

@@ -103,7 +103,7 @@ TEST(Comm, SeqlockReaderNeverTakesAWriteInProgress)
     EXPECT_EQ(region[4], 0x01) << "the region is little-endian";
     ASSERT_EQ(navkit_rcomm_slot_read(region, 0, 4, out, 2), 1);
     EXPECT_EQ(std::memcmp(out, msg, sizeof msg), 0);
-    navkit_put_u32(region, 3);  // a writer stopped half way
+    navkit_put_u32(region, 3); // a writer stopped half way
     EXPECT_EQ(navkit_rcomm_slot_read(region, 0, 4, out, 2), 0);
     navkit_rcomm_slot_write(region, 0, 4, msg, 2);
     EXPECT_EQ(navkit_get_u32(region), 6u) << "the next writer skips the odd value";
@@ -167,7 +167,7 @@ TEST(Comm, ASecondHostIsRefusedWhileTheFirstRuns)
     navkit_rcomm_close(r);
     first.shutdown();
     Comm third(name, "");
-    third.init();  // the first has ended: the name is free again
+    third.init(); // the first has ended: the name is free again
 }
 
 TEST(Comm, ClientOwnerRules)
@@ -177,7 +177,8 @@ TEST(Comm, ClientOwnerRules)
     EXPECT_EQ(navkit_rcomm_owner_check(me, 12345, 0600, nullptr, 0), 0) << "ours";
     EXPECT_EQ(navkit_rcomm_owner_check(me, mine, 0666, nullptr, 0), 1) << "world-writable: never";
     EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0660, nullptr, 0), 0) << "another user's, shared with our group";
-    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0600, nullptr, 0), 2) << "our group, but the mode does not share it";
+    EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine, 0600, nullptr, 0), 2)
+        << "our group, but the mode does not share it";
     EXPECT_EQ(navkit_rcomm_owner_check(me + 1, mine + 54321, 0660, nullptr, 0), 2) << "a group that is not ours";
 }
 
@@ -197,7 +198,8 @@ TEST(Comm, ClientOpensAnotherUsersRegionSharedWithItsGroup)
     navkit_rcomm_close(r);
     ASSERT_EQ(chown(path.c_str(), 65534, 65534), 0);
     r = navkit_rcomm_open(name.c_str());
-    EXPECT_NE(std::string(navkit_rcomm_error(r)).find("not ours"), std::string::npos) << "another user, a group not ours";
+    EXPECT_NE(std::string(navkit_rcomm_error(r)).find("not ours"), std::string::npos)
+        << "another user, a group not ours";
     navkit_rcomm_close(r);
     ASSERT_EQ(chown(path.c_str(), 0, 0), 0);
     ASSERT_EQ(chmod(path.c_str(), 0666), 0);
@@ -216,7 +218,7 @@ TEST(Comm, ShmGroupGivesTheGroupAndMode0660)
     gid_t gid = 0;
     setgrent();
     while (const group *g = getgrent()) {
-        if (g->gr_gid != getegid()) {  // a group the region would not get anyway
+        if (g->gr_gid != getegid()) { // a group the region would not get anyway
             name_of_group = g->gr_name;
             gid = g->gr_gid;
             break;
@@ -245,14 +247,14 @@ TEST(Comm, ARegionOfAnotherUserIsNamedAsSuchToAUserWhoCannotOpenIt)
         GTEST_SKIP() << "needs root to make a region owned by another user";
     }
     const std::string name = unique_name("foreign-user");
-    const int fd = shm_open(name.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);  // root's, 0600
+    const int fd = shm_open(name.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600); // root's, 0600
     ASSERT_GE(fd, 0);
     close(fd);
     int p[2];
     ASSERT_EQ(pipe(p), 0);
     const pid_t child = fork();
     ASSERT_GE(child, 0);
-    if (child == 0) {  // as nobody: the message goes up the pipe
+    if (child == 0) { // as nobody: the message goes up the pipe
         close(p[0]);
         std::string said = "accepted";
         if (setgid(65534) != 0 || setuid(65534) != 0) {
@@ -275,7 +277,8 @@ TEST(Comm, ARegionOfAnotherUserIsNamedAsSuchToAUserWhoCannotOpenIt)
     waitpid(child, nullptr, 0);
     shm_unlink(name.c_str());
     ASSERT_GT(n, 0);
-    EXPECT_EQ(std::string(buf, static_cast<size_t>(n)), "rcomm " + name + ": exists and belongs to another user (uid 0): refused");
+    EXPECT_EQ(std::string(buf, static_cast<size_t>(n)),
+              "rcomm " + name + ": exists and belongs to another user (uid 0): refused");
 }
 
 TEST(Comm, ARegionCutShortIsLetGoNeverASigbus)
@@ -339,9 +342,9 @@ TEST(Comm, ThePlannerLibraryClosesARegionCutShort)
     ASSERT_EQ(truncate(("/dev/shm" + name).c_str(), 0), 0);
     int32_t w[NAVKIT_LISP_DATA_WORDS];
     EXPECT_EQ(navkit_rcomm_read_data(r, w), -1) << "no SIGBUS: the size is checked first";
-    EXPECT_EQ(std::string(navkit_rcomm_error(r)), "rcomm " + name +
-                                                      ": the region was cut to 0 bytes by another process (the layout needs " +
-                                                      std::to_string(NAVKIT_RCOMM_SIZE) + "): closed");
+    EXPECT_EQ(std::string(navkit_rcomm_error(r)),
+              "rcomm " + name + ": the region was cut to 0 bytes by another process (the layout needs " +
+                  std::to_string(NAVKIT_RCOMM_SIZE) + "): closed");
     int32_t cmd[NAVKIT_LISP_CMD_WORDS] = {1};
     EXPECT_EQ(navkit_rcomm_write_cmd(r, cmd), -1) << "does nothing on a closed region";
     EXPECT_EQ(navkit_rcomm_heartbeat(r), -1);

@@ -35,10 +35,7 @@ protected:
         std::ofstream out(dir_ + "/" + name);
         out << in.rdbuf();
     }
-    void write(const std::string &name, const std::string &text)
-    {
-        std::ofstream(dir_ + "/" + name) << text;
-    }
+    void write(const std::string &name, const std::string &text) { std::ofstream(dir_ + "/" + name) << text; }
     // The ConfigError text of loading dir_, or "" if it loads.
     std::string error()
     {
@@ -191,8 +188,9 @@ TEST_F(IniFiles, WatchdogMustOutlastTwoFrames)
 {
     // 5 Hz: 200 ms frames, two of them 400 ms, the default watchdog 300 ms (navkit-host's
     // main refuses it with the real-time clock, at the later of the two keys)
-    EXPECT_EQ(frame_watchdog_error(5.0, 300), "a frame of 200 ms at 5 Hz needs [micro_cfg_motion] watchdog_timeout "
-                                              "above two frames (400 ms), not 300 ms: one lost frame would stop the robot");
+    EXPECT_EQ(frame_watchdog_error(5.0, 300),
+              "a frame of 200 ms at 5 Hz needs [micro_cfg_motion] watchdog_timeout "
+              "above two frames (400 ms), not 300 ms: one lost frame would stop the robot");
     EXPECT_EQ(frame_watchdog_error(10.0, 200).substr(0, 31), "a frame of 100 ms at 10 Hz need");
     EXPECT_EQ(frame_watchdog_error(10.0, 201), "");
     write("NavAndControl.ini", "[executive]\nframe_rate_hz = 5\n[micro_cfg_motion]\n\nwatchdog_timeout = 400\n");
@@ -214,7 +212,8 @@ TEST_F(IniFiles, SignsMustBePlusOrMinusOne)
     // the spec's range is -1..1, but the micro refuses 0 (firmware/core/config.c)
     for (const char *key : {"enc_left_sign", "enc_right_sign", "motor_left_sign", "motor_right_sign", "gyro_sign"}) {
         write("NavAndControl.ini", std::string("[micro_cfg_geometry]\n\n") + key + " = 0\n");
-        EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:3: " + key + ": '0' is not 1 or -1 (the micro refuses any other sign)");
+        EXPECT_EQ(error(),
+                  dir_ + "/NavAndControl.ini:3: " + key + ": '0' is not 1 or -1 (the micro refuses any other sign)");
     }
     write("NavAndControl.ini", "[micro_cfg_geometry]\nenc_left_sign = -1\ngyro_sign = 1\n");
     const Config c = Ini::load(dir_);
@@ -227,7 +226,8 @@ TEST_F(IniFiles, ServoMinAboveServoMaxIsRefused)
     write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = 1000\n");
     EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:2: servo_min: servo 0's servo_min 1000 is above its servo_max 900 "
                               "(the micro refuses it)");
-    write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = -900\n\nservo_max = 900, 900, 900, -1000, 900, 900, 900, 900\n");
+    write("NavAndControl.ini",
+          "[micro_cfg_io]\nservo_min = -900\n\nservo_max = 900, 900, 900, -1000, 900, 900, 900, 900\n");
     EXPECT_EQ(error(), dir_ + "/NavAndControl.ini:4: servo_max: servo 3's servo_min -900 is above its servo_max -1000 "
                               "(the micro refuses it)");
     write("NavAndControl.ini", "[micro_cfg_io]\nservo_min = 100\nservo_max = 100\n");
@@ -245,7 +245,8 @@ TEST(IniNumbers, IntegersAreDecimalHexOnlyWhereAllowed)
     EXPECT_EQ(x, 7);
     EXPECT_EQ(ini_parse_int("0800", false, &x), "") << "no octal digit rule either";
     EXPECT_EQ(x, 800);
-    EXPECT_EQ(ini_parse_int("0x10", false, &x), "'0x10' is hex: 0x is taken by the bit masks only, this key is decimal");
+    EXPECT_EQ(ini_parse_int("0x10", false, &x),
+              "'0x10' is hex: 0x is taken by the bit masks only, this key is decimal");
     EXPECT_EQ(ini_parse_int("0x0F0", true, &x), "");
     EXPECT_EQ(x, 0xF0);
     EXPECT_EQ(ini_parse_int("0XaB", true, &x), "");

@@ -70,11 +70,11 @@ TEST_F(IniRead, RefusalsNamePathLineKeyReason)
         {"[a]\nx = " + std::string(300, 'v') + "\n", p + "2: line: longer than 198 characters"},
         // inih's multi-line continuation would append it to x, or blame x as a duplicate
         {"[a]\nx = 1\n  y = 2\n", p + "3: line: indented (keys and [sections] start at the beginning of the "
-                                         "line; continuation lines are not supported)"},
+                                      "line; continuation lines are not supported)"},
         {"[a]\nx = 1\n\tx = 2\n", p + "3: line: indented (keys and [sections] start at the beginning of the "
-                                          "line; continuation lines are not supported)"},
+                                      "line; continuation lines are not supported)"},
         {"[a]\nx = 1\n [b]\n", p + "3: line: indented (keys and [sections] start at the beginning of the "
-                                       "line; continuation lines are not supported)"},
+                                   "line; continuation lines are not supported)"},
         // the earliest line wins, whichever part finds it
         {"[a]\nnot a key\nx = 1\nx = 2\n", p + "2: line: malformed (not [section], key = value or a comment)"},
         {"[a]\nx = 1\nx = 2\nnot a key\n", p + "3: x: duplicate key in [a]"},
@@ -129,8 +129,7 @@ TEST_F(IniRead, CheckSeesHeadersAndKeysInOrderAndJoinsTheFirstRefusal)
 TEST_F(IniRead, NulByteIsRefusedNotACutValue)
 {
     // `frame_rate_hz = 2\0 0` would read as 2 through a C string
-    EXPECT_EQ(error(std::string("[a]\nx = 2\0 0\n", 13)),
-              path_ + ":2: line: a NUL byte at column 6 (not a text file)");
+    EXPECT_EQ(error(std::string("[a]\nx = 2\0 0\n", 13)), path_ + ":2: line: a NUL byte at column 6 (not a text file)");
 }
 
 TEST_F(IniRead, CrOnlyLineEndsAreSaidAsSuch)

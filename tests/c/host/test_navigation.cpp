@@ -194,17 +194,17 @@ TEST(Navigation, EveryNewCommandIsAcknowledgedWithItsVerdict)
     EXPECT_EQ(n.ack_time_tag(), 100);
     EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_OK);
     a.planner.time_tag = 200;
-    a.planner.speed = 40000;  // does not fit micro_cmd.speed
+    a.planner.speed = 40000; // does not fit micro_cmd.speed
     EXPECT_FALSE(n.update(a, 0).is_new);
     EXPECT_EQ(n.ack_time_tag(), 200);
     EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
-    Arbitration r;  // out of lisp_cmd's own range: refused by ProcessCommands
+    Arbitration r; // out of lisp_cmd's own range: refused by ProcessCommands
     r.planner_rejected = true;
     r.rejected_time_tag = 300;
     EXPECT_FALSE(n.update(r, 0).is_new);
     EXPECT_EQ(n.ack_time_tag(), 300);
     EXPECT_EQ(n.nav_result(), NAVKIT_NAV_RESULT_REJECTED);
-    Arbitration d;  // dropped by a console or safety stop
+    Arbitration d; // dropped by a console or safety stop
     d.planner_dropped = true;
     d.rejected_time_tag = 400;
     d.stop = true;

@@ -5,7 +5,7 @@
 
 using namespace navkit;
 
-static const int64_t kS = 1000000;  // us per s
+static const int64_t kS = 1000000; // us per s
 
 static PlannerInput planner(int32_t tag, int32_t active = 0, int32_t dio = 0, uint32_t hb = 1)
 {

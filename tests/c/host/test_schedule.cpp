@@ -5,13 +5,13 @@
 
 using namespace navkit;
 
-static const Schedule kS{1000, 100};  // t0 = 1000 ns, period 100 ns
+static const Schedule kS{1000, 100}; // t0 = 1000 ns, period 100 ns
 
 TEST(Schedule, FrameStartsAreAbsolute)
 {
     EXPECT_EQ(frame_start(kS, 0), 1000);
     EXPECT_EQ(frame_start(kS, 7), 1700);
-    EXPECT_EQ(frame_start(kS, 1000000), 1000 + 100000000);  // no accumulated error
+    EXPECT_EQ(frame_start(kS, 1000000), 1000 + 100000000); // no accumulated error
 }
 
 TEST(Schedule, OnTimeGoesToTheNextFrame)
@@ -33,7 +33,7 @@ TEST(Schedule, SmallOverrunRunsTheNextFrameLateWithoutSkipping)
 
 TEST(Schedule, LongOverrunSkipsMissedFrames)
 {
-    const NextFrame n = next_frame(kS, 3, 1750);  // frames 4, 5, 6 have passed; 7 starts at 1700
+    const NextFrame n = next_frame(kS, 3, 1750); // frames 4, 5, 6 have passed; 7 starts at 1700
     EXPECT_TRUE(n.overrun);
     EXPECT_EQ(n.frame, 7u);
     EXPECT_EQ(n.skipped, 3u);

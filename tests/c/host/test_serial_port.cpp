@@ -21,7 +21,7 @@ TEST(SerialPort, ReadsWritesAndSeesTheOtherEndVanish)
     cfg.port = ttyname(slave);
     SerialPort p;
     ASSERT_EQ(p.open(cfg), "");
-    close(slave);  // the port keeps its own descriptor
+    close(slave); // the port keeps its own descriptor
     uint8_t buf[16];
     EXPECT_EQ(p.read_some(buf, sizeof buf), 0) << "nothing waiting: no wait, no error";
     ASSERT_EQ(write(master, "\xa5\xff\x01", 3), 3);

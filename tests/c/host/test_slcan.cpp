@@ -37,7 +37,7 @@ TEST(Slcan, FramesInAnyChunkingAnswersSkipped)
     Slcan s;
     const std::string text = "z\r\rt1808DEADBEEF00112233\rT1ABCDEF02AABB\rr1230\rt12020102ABCD\r";
     std::vector<SlcanFrame> all;
-    for (char c : text) {  // one byte at a time
+    for (char c : text) { // one byte at a time
         std::vector<SlcanFrame> got = feed(s, std::string(1, c));
         all.insert(all.end(), got.begin(), got.end());
     }
@@ -52,7 +52,7 @@ TEST(Slcan, FramesInAnyChunkingAnswersSkipped)
     EXPECT_EQ(all[1].dlc, 2);
     EXPECT_TRUE(all[2].remote);
     EXPECT_EQ(all[2].dlc, 0);
-    EXPECT_EQ(all[3].id, 0x120u);  // a time stamp (4 digits) after the data is allowed
+    EXPECT_EQ(all[3].id, 0x120u); // a time stamp (4 digits) after the data is allowed
     EXPECT_EQ(all[3].dlc, 2);
     EXPECT_EQ(all[3].data[1], 0x02);
     EXPECT_EQ(s.bad_lines(), 0u);
@@ -62,13 +62,13 @@ TEST(Slcan, FramesInAnyChunkingAnswersSkipped)
 TEST(Slcan, BadLinesAndRefusalsAreCounted)
 {
     Slcan s;
-    const char *bad[] = {"t18G\r", "t1809\r", "t1802AA\r", "t800100\r", "t1801AABB\r", "x\r", "T2000000000\r",
-                         "t1801AA123\r"};
+    const char *bad[] = {"t18G\r",      "t1809\r", "t1802AA\r",     "t800100\r",
+                         "t1801AABB\r", "x\r",     "T2000000000\r", "t1801AA123\r"};
     for (const char *b : bad) {
         EXPECT_TRUE(feed(s, b).empty()) << b;
     }
     EXPECT_EQ(s.bad_lines(), sizeof bad / sizeof bad[0]);
-    EXPECT_TRUE(feed(s, std::string(100, 't') + "\r").empty());  // a line longer than any frame
+    EXPECT_TRUE(feed(s, std::string(100, 't') + "\r").empty()); // a line longer than any frame
     EXPECT_EQ(s.bad_lines(), sizeof bad / sizeof bad[0] + 1);
     EXPECT_TRUE(feed(s, "\a").empty());
     EXPECT_EQ(s.refused(), 1u);

@@ -31,6 +31,6 @@ struct TmpFile {
     // Replaces the file's contents with `text`.
     void write(const std::string &text) const { std::ofstream(path) << text; }
 
-    std::string dir;   // the directory
-    std::string path;  // dir/name
+    std::string dir;  // the directory
+    std::string path; // dir/name
 };
