@@ -56,13 +56,13 @@ def play_out(rig, deliver: bool = True) -> bytes:
     the frames the host sent after the last flow control go to the micro here; else they
     are returned (the firmware FMU's records) for the caller's next step, as the lockstep
     loop does for a host that quit mid-run."""
-    from navkit import can as nc
-    from navkit.can_gateway import RECORD
-
     gw, port, coupler, log, proc = rig.gateway, rig.port, rig.coupler, rig.log, rig.proc
     if gw is None or proc is None or coupler is None or log is None or port is None \
             or not port.plugged or rig.host_state != "running":
-        return b""
+        return b""      # before the imports: navkit.can's load is most of a serial run's stop
+    from navkit import can as nc
+    from navkit.can_gateway import RECORD
+
     fc_of = _fc_ids()
     data_id = nc.CAN.ids["micro_data"].id
     t_ns = round(coupler.time_s * 1e3) * 1_000_000    # where the FMUs are (whole ms): the bus's time
