@@ -53,11 +53,6 @@ void excite_stop(excite_t *e)
     e->mode = NAVKIT_EXCITE_MODE_NONE;
 }
 
-uint8_t excite_active(const excite_t *e)
-{
-    return (uint8_t)(e->mode != NAVKIT_EXCITE_MODE_NONE);
-}
-
 /* u(n) of the running experiment for its current tick e->n; steps the chirp phase and
    the LFSR for the next one. */
 static float excite_u(excite_t *e)

@@ -54,8 +54,12 @@ void excite_start(excite_t *e, const navkit_micro_cmd_t *c, uint16_t control_rat
 uint8_t excite_micro_cmd(excite_t *e, const navkit_micro_cmd_t *c, uint16_t control_rate);
 /* End at once: idle, so the next tick drives duty 0. */
 void excite_stop(excite_t *e);
-/* 1 while an experiment runs. */
-uint8_t excite_active(const excite_t *e);
+/* 1 while an experiment runs (inline: fw_tick asks every tick, so an idle experiment
+ * costs one compare there). */
+static inline uint8_t excite_active(const excite_t *e)
+{
+    return (uint8_t)(e->mode != NAVKIT_EXCITE_MODE_NONE);
+}
 /* One control tick: while active, *duty_l and *duty_r (duty, -pwm_limit..pwm_limit,
  * + = wheel forward, before the motor signs) get this tick's duties and 1 is returned (the
  * experiment ends after its last tick); idle: returns 0 and leaves them. pwm_limit in duty,

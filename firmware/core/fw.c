@@ -224,7 +224,7 @@ void fw_tick(fw_t *fw)
        the datalog); with no excitation and no motion everything is 0 */
     ex_l = 0.0f;
     ex_r = 0.0f;
-    if (excite_tick(&fw->excite, c->wheel.pwm_limit, &ex_l, &ex_r) ||
+    if ((excite_active(&fw->excite) && excite_tick(&fw->excite, c->wheel.pwm_limit, &ex_l, &ex_r)) ||
         !(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
         fw->speed_setpoint_l = 0.0f;
         fw->speed_setpoint_r = 0.0f;

@@ -295,9 +295,15 @@ fmil_status_t fmil_model_step(fmil_instance_t *c, double t, double h_s)
 {
     fmil_model_t *m = &c->model;
     struct hal *h = &m->hal;
-    /* the step's end on the microsecond clock of the tick schedule */
-    uint64_t end_us = (uint64_t)llround((t + h_s - m->t_start) * 1e6);
+    /* the step's end on the microsecond clock of the tick schedule, us, rounded half away
+       from zero as llround does but without its libm call every step (x - trunc(x) is
+       exact; a step ending before the start time would be an importer error: 0) */
+    double end_x = (t + h_s - m->t_start) * 1e6;
+    uint64_t end_us = (end_x > 0.0) ? (uint64_t)end_x : 0u;
     size_t i;
+    if (end_x - (double)end_us >= 0.5) {
+        end_us++;
+    }
     /* serial_rx joins the RX FIFO; a full FIFO drops the excess (like a real UART) */
     for (i = 0; i < m->serial_rx.len; i++) {
         if (h->rx_len < FW_FMU_RX_CAP) {
