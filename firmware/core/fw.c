@@ -181,7 +181,7 @@ void fw_tick(fw_t *fw)
     float v_fwd, w_turn, half; /* mm/s, deg/s, mm/s */
     float ex_l, ex_r;          /* duty: an excitation's wheel duties */
     int32_t raw_l, raw_r;
-    uint8_t still, i, fold;
+    uint8_t still, i, fold, excited;
 
     fw_sample(fw, &raw_l, &raw_r);
     /* the slow steps (estimation only, nothing re-planned): the heading fold on the first tick
@@ -221,19 +221,22 @@ void fw_tick(fw_t *fw)
                        heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
                        dt);
     /* an excitation runs open loop: the loops idle (their duty shows the excitation's to
-       the datalog); with no excitation and no motion everything is 0 */
-    ex_l = 0.0f;
-    ex_r = 0.0f;
-    if ((excite_active(&fw->excite) && excite_tick(&fw->excite, c->wheel.pwm_limit, &ex_l, &ex_r)) ||
-        !(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
+       the datalog); with no excitation and no motion everything is 0 (an idle excitation
+       costs the one compare of excite_active) */
+    excited = (uint8_t)(excite_active(&fw->excite) && excite_tick(&fw->excite, c->wheel.pwm_limit, &ex_l, &ex_r));
+    if (excited || !(motion_active(&fw->fwd) || turn_active(&fw->turn))) {
         fw->speed_setpoint_l = 0.0f;
         fw->speed_setpoint_r = 0.0f;
-        wheel_reset(&fw->wheel_l);
+        wheel_reset(&fw->wheel_l); /* duty 0 */
         wheel_reset(&fw->wheel_r);
-        fw->wheel_l.duty = ex_l;
-        fw->wheel_r.duty = ex_r;
-        fw->duty_l = fw_duty_e4(ex_l, c->motor_left_sign);
-        fw->duty_r = fw_duty_e4(ex_r, c->motor_right_sign);
+        fw->duty_l = 0;
+        fw->duty_r = 0;
+        if (excited) {
+            fw->wheel_l.duty = ex_l;
+            fw->wheel_r.duty = ex_r;
+            fw->duty_l = fw_duty_e4(ex_l, c->motor_left_sign);
+            fw->duty_r = fw_duty_e4(ex_r, c->motor_right_sign);
+        }
     } else {
         half = w_turn * c->wheel_mm_per_deg; /* mm/s at each wheel */
         fw->speed_setpoint_l = v_fwd + half;
