@@ -79,8 +79,10 @@ def play_out(rig, deliver: bool = True) -> bytes:
                 select.select([port.master], [], [], _IDLE_WAIT_S)
                 continue
         back, to_micro = gw.from_host(data, t_ns / 1e9)
-        log.host(t_ns, gw.h2m_serial if gw.firmware_can else to_micro)
-        log.received("h2m", None)           # on the bus: the micro's controller has them
+        serial = gw.h2m_serial if gw.firmware_can else to_micro
+        log.host(t_ns, serial)
+        if serial:      # on the bus: the micro's controller has them (a chunk without a
+            log.received("h2m", None)   # whole frame, e.g. a first frame alone, has none)
         port.write(back)
         if not gw.firmware_can:
             continue                        # the gateway's ISO-TP answered in `back`
