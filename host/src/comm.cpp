@@ -76,8 +76,15 @@ template <class F> bool Comm::guarded(F access) const
     }
     // the size may still shrink between the check and the access: the guard catches that
     sigjmp_buf back;
-    if (sigsetjmp(back, 1) != 0) { // 1: the signal mask (SIGBUS blocked in the handler) comes back too
+    // 0: no signal mask saved (a sigprocmask call per access, several a frame); the jump
+    // comes from on_bus with SIGBUS blocked, which was unblocked here (a blocked SIGBUS
+    // fault ends the process without a handler), so unblocking it restores the mask
+    if (sigsetjmp(back, 0) != 0) {
         g_guard = nullptr;
+        sigset_t bus;
+        sigemptyset(&bus);
+        sigaddset(&bus, SIGBUS);
+        sigprocmask(SIG_UNBLOCK, &bus, nullptr);
         lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
         return false;
     }

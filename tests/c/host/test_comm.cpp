@@ -304,6 +304,9 @@ TEST(Comm, ARegionCutShortIsLetGoNeverASigbus)
         EXPECT_FALSE(c.read_lisp_cmd(&cmd));
         EXPECT_EQ(c.lost(), "rcomm " + name + ": the region was cut to 0 bytes by another process (" +
                                 std::to_string(NAVKIT_RCOMM_SIZE) + " needed): refused, the planner is gone");
+        sigset_t mask;
+        ASSERT_EQ(sigprocmask(SIG_BLOCK, nullptr, &mask), 0);
+        EXPECT_EQ(sigismember(&mask, SIGBUS), 0) << "the guard's jump leaves SIGBUS unblocked";
         c.send_lisp_data(d);
         EXPECT_EQ(c.planner_heartbeat(), 0u) << "nothing is read after";
         close(rfd);
