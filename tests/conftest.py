@@ -99,6 +99,19 @@ def host_factory(tmp_path):
 # fixtures below open that file.
 
 
+@pytest.fixture
+def shm_name():
+    """A POSIX shared-memory name of this test process; the region and a "-link" beside it
+    are removed after the test."""
+    name = f"/nk-rcomm-{os.getpid()}"
+    yield name
+    for path in ("/dev/shm" + name, "/dev/shm" + name + "-link"):
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+
+
 @pytest.fixture(scope="session")
 def status_bit():
     """status_bit(name) -> the mask of micro_status flag `name`, from the spec (bit values

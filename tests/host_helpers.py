@@ -25,13 +25,28 @@ from navkit.hostconfig import host_binary
 from navkit.paths import repo_root
 from spec_helpers import bit
 
-__all__ = ["host_binary", "require_host", "Micro", "Host", "RawHost", "FRAME_US"]
+__all__ = ["host_binary", "require_host", "rcomm_region", "Micro", "Host", "RawHost", "FRAME_US"]
 
 FRAME_US = 100_000          # simulated frame period, us
 _TICK = struct.Struct("<IIQII")
 _DONE = struct.Struct("<IIII")
 _OK_BITS = {f"micro_cfg_{c}": bit("micro_status", f"cfg_{c}_ok") for c in ("geometry", "motion", "io")}
 _REJECT_RANGE = bit("reject", "range")
+
+
+def rcomm_region(name: str, magic: int = protocol.SPEC.rcomm.magic, spec_hash: int = protocol.SPEC_HASH) -> str:
+    """/dev/shm`name` made as the host lays a region out (the spec's size, header words at
+    their spec offsets, `magic` and `spec_hash` there for a test to spoil), nothing else
+    written yet; returns its path."""
+    r = protocol.SPEC.rcomm
+    path = "/dev/shm" + name
+    with open(path, "wb") as f:
+        f.write(bytes(r.size))
+    with open(path, "r+b") as f:
+        for word, value in (("magic", magic), ("version", r.version), ("spec_hash", spec_hash)):
+            f.seek(r.header[word])
+            f.write(struct.pack("<I", value))
+    return path
 
 
 def require_host() -> Path:

@@ -7,27 +7,9 @@ import struct
 import pytest
 
 from navkit import protocol, rcomm
-from host_helpers import Micro
+from host_helpers import Micro, rcomm_region
 
 pytestmark = pytest.mark.timeout(60)
-
-
-def _region(name: str, magic=protocol.SPEC.rcomm.magic, spec=protocol.SPEC_HASH) -> str:
-    path = "/dev/shm" + name
-    with open(path, "wb") as f:
-        f.write(struct.pack("<III", magic, protocol.SPEC.rcomm.version, spec))
-        f.write(bytes(protocol.SPEC.rcomm.size - 12))
-    return path
-
-
-@pytest.fixture
-def shm_name():
-    name = f"/nk-rcomm-{os.getpid()}"
-    yield name
-    try:
-        os.unlink("/dev/shm" + name)
-    except OSError:
-        pass
 
 
 def test_missing_region(shm_name):
@@ -36,23 +18,23 @@ def test_missing_region(shm_name):
 
 
 def test_wrong_magic_or_spec_is_refused(shm_name):
-    _region(shm_name, magic=0x12345678)
+    rcomm_region(shm_name, magic=0x12345678)
     with pytest.raises(rcomm.RcommError, match="magic"):
         rcomm.Client(shm_name)
-    _region(shm_name, spec=protocol.SPEC_HASH ^ 1)
+    rcomm_region(shm_name, spec_hash=protocol.SPEC_HASH ^ 1)
     with pytest.raises(rcomm.RcommError, match="spec hash"):
         rcomm.Client(shm_name)
 
 
 @pytest.mark.skipif(os.geteuid() != 0, reason="needs root to make another user's region")
 def test_another_users_region_is_refused(shm_name):
-    os.chown(_region(shm_name), 65534, 65534)
+    os.chown(rcomm_region(shm_name), 65534, 65534)
     with pytest.raises(rcomm.RcommError, match="not us"):
         rcomm.Client(shm_name)
 
 
 def test_seqlock_write_and_torn_read(shm_name):
-    _region(shm_name)
+    rcomm_region(shm_name)
     with rcomm.Client(shm_name) as c:
         assert c.read_data() is None, "never written"
         c.write_cmd({"time_tag": 9, "fwd_cmd": 1, "distance": -5})
@@ -70,7 +52,7 @@ def test_seqlock_write_and_torn_read(shm_name):
 
 
 def test_still_read_is_the_seqlock_read_in_one_copy(shm_name):
-    _region(shm_name)
+    rcomm_region(shm_name)
     off = protocol.SPEC.rcomm.slots["lisp_data"]
     data = protocol.to_bytes("lisp_data", {"time_tag": 7, "distance": -123, "heading": 2700})
     with rcomm.Client(shm_name) as c, open("/dev/shm" + shm_name, "r+b") as f:
@@ -97,7 +79,7 @@ def test_heartbeats_both_ways(host_factory):
 
 
 def test_heartbeat_is_read_modify_write_of_the_shared_word(shm_name):
-    _region(shm_name)
+    rcomm_region(shm_name)
     with rcomm.Client(shm_name) as a, rcomm.Client(shm_name) as b:
         a.heartbeat()
         b.heartbeat()
@@ -111,7 +93,7 @@ def test_heartbeat_is_read_modify_write_of_the_shared_word(shm_name):
 
 
 def test_world_writable_region_is_refused(shm_name):
-    os.chmod(_region(shm_name), 0o666)
+    os.chmod(rcomm_region(shm_name), 0o666)
     with pytest.raises(rcomm.RcommError, match="world-writable"):
         rcomm.Client(shm_name)
 
@@ -127,7 +109,7 @@ def test_owner_rule():
 
 @pytest.mark.skipif(os.geteuid() != 0, reason="needs root to make another user's region")
 def test_another_users_region_shared_with_our_group_is_accepted(shm_name):
-    path = _region(shm_name)
+    path = rcomm_region(shm_name)
     os.chown(path, 65534, os.getegid())
     os.chmod(path, 0o660)
     with rcomm.Client(shm_name) as c:

@@ -13,7 +13,7 @@ import pytest
 
 from navkit import protocol, rcomm
 from navkit.paths import repo_root
-from host_helpers import Micro
+from host_helpers import Micro, rcomm_region
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -56,29 +56,6 @@ def lib():
         f = getattr(lib, name)
         f.argtypes, f.restype = args, res
     return lib
-
-
-@pytest.fixture
-def shm_name():
-    name = f"/nk-rcomm-lib-{os.getpid()}"
-    yield name
-    for path in ("/dev/shm" + name, "/dev/shm" + name + "-link"):
-        try:
-            os.unlink(path)
-        except OSError:
-            pass
-
-
-def _region(name: str) -> str:
-    """A region as the host lays it out, nothing written yet."""
-    path = "/dev/shm" + name
-    with open(path, "wb") as f:
-        f.write(bytes(R.size))
-    with open(path, "r+b") as f:
-        for word, value in (("magic", R.magic), ("version", R.version), ("spec_hash", protocol.SPEC_HASH)):
-            f.seek(R.header[word])
-            f.write(struct.pack("<I", value))
-    return path
 
 
 def _words(name: str, fields: dict):
@@ -128,7 +105,7 @@ def test_a_planner_drives_a_real_host_in_lockstep(lib, host_factory):
 
 
 def test_the_seqlock_never_returns_a_write_in_progress(lib, shm_name):
-    path = _region(shm_name)
+    path = rcomm_region(shm_name)
     r = lib.navkit_rcomm_open(shm_name.encode())
     try:
         assert lib.navkit_rcomm_error(r) == b""
@@ -163,7 +140,7 @@ def test_bad_names_links_and_layouts_are_refused_with_one_line(lib, shm_name):
     assert _refusal(lib, shm_name) == f"rcomm {shm_name}: No such file or directory"
     assert "is not a POSIX shared-memory name" in _refusal(lib, shm_name.lstrip("/"))
     assert "is not a POSIX shared-memory name" in _refusal(lib, "/../" + shm_name.lstrip("/"))
-    _region(shm_name)
+    rcomm_region(shm_name)
     os.symlink("/dev/shm" + shm_name, "/dev/shm" + shm_name + "-link")
     assert _refusal(lib, shm_name + "-link") == \
         f"rcomm {shm_name}-link: /dev/shm{shm_name}-link is a symbolic link: refused"
@@ -175,7 +152,7 @@ def test_bad_names_links_and_layouts_are_refused_with_one_line(lib, shm_name):
 
 
 def test_a_region_cut_short_is_closed_never_a_sigbus(lib, shm_name):
-    path = _region(shm_name)
+    path = rcomm_region(shm_name)
     r = lib.navkit_rcomm_open(shm_name.encode())
     try:
         assert lib.navkit_rcomm_error(r) == b""
