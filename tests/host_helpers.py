@@ -25,13 +25,19 @@ from navkit.hostconfig import host_binary
 from navkit.paths import repo_root
 from spec_helpers import bit
 
-__all__ = ["host_binary", "require_host", "rcomm_region", "Micro", "Host", "RawHost", "FRAME_US"]
+__all__ = ["host_binary", "require_host", "run_host", "rcomm_region", "Micro", "Host", "RawHost", "FRAME_US"]
 
 FRAME_US = 100_000          # simulated frame period, us
 _TICK = struct.Struct("<IIQII")
 _DONE = struct.Struct("<IIII")
 _OK_BITS = {f"micro_cfg_{c}": bit("micro_status", f"cfg_{c}_ok") for c in ("geometry", "motion", "io")}
 _REJECT_RANGE = bit("reject", "range")
+
+
+def run_host(args, **kw) -> subprocess.CompletedProcess:
+    """The host binary run once with `args` (text output captured, at most 20 s); `kw` go
+    to subprocess.run (stdin, env, ...)."""
+    return subprocess.run([str(require_host()), *args], capture_output=True, text=True, timeout=20, **kw)
 
 
 def rcomm_region(name: str, magic: int = protocol.SPEC.rcomm.magic, spec_hash: int = protocol.SPEC_HASH) -> str:

@@ -13,23 +13,18 @@ import tty
 import pytest
 
 from navkit import plot
-from host_helpers import Micro, require_host
+from host_helpers import Micro, require_host, run_host
 from spec_helpers import FWD_CMD, TURN_CMD
 
 pytestmark = pytest.mark.timeout(60)
 
 
-def _run(args, **kw):
-    return subprocess.run([str(require_host()), *args], capture_output=True, text=True,
-                          timeout=20, **kw)
-
-
 def test_help_and_unknown_options():
-    r = _run(["--help"])
+    r = run_host(["--help"])
     assert r.returncode == 0 and "--clock real|lockstep" in r.stdout
-    r = _run(["--frobnicate"])
+    r = run_host(["--frobnicate"])
     assert r.returncode == 2 and "--frobnicate: unknown option" in r.stderr
-    r = _run(["--clock", "sometimes"])
+    r = run_host(["--clock", "sometimes"])
     assert r.returncode == 2 and "real or lockstep" in r.stderr
 
 
@@ -47,7 +42,7 @@ def test_config_errors_name_file_line_and_key(tmp_path, text, where):
 
     (tmp_path / "sensors.ini").write_text((repo_root() / "config/sensors.ini").read_text())
     (tmp_path / "NavAndControl.ini").write_text("; comment\n" + text)
-    r = _run(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", f"/nk-cfg-{os.getpid()}"])
+    r = run_host(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", f"/nk-cfg-{os.getpid()}"])
     assert r.returncode == 1
     assert f"{tmp_path}/NavAndControl.ini:" in r.stderr and where in r.stderr, r.stderr
     line = r.stderr.split("NavAndControl.ini:")[1].split(":")[0]
@@ -55,7 +50,7 @@ def test_config_errors_name_file_line_and_key(tmp_path, text, where):
 
 
 def test_missing_config_file(tmp_path):
-    r = _run(["--config", str(tmp_path), "--shm", f"/nk-cfg-{os.getpid()}"])
+    r = run_host(["--config", str(tmp_path), "--shm", f"/nk-cfg-{os.getpid()}"])
     assert r.returncode == 1 and "NavAndControl.ini:0: file:" in r.stderr
 
 
@@ -108,7 +103,7 @@ def test_record_that_cannot_create_its_log_refuses_to_start(tmp_path):
         pytest.skip("needs root: /proc passes the --log-dir access check but takes no new file")
     log_dir = "/proc"
     shm = f"/nk-rec-{os.getpid()}"
-    r = _run(["--port", "/nonexistent", "--shm", shm, "--log-dir", log_dir, "--record"], stdin=subprocess.DEVNULL)
+    r = run_host(["--port", "/nonexistent", "--shm", shm, "--log-dir", log_dir, "--record"], stdin=subprocess.DEVNULL)
     assert r.returncode == 1, r.stdout + r.stderr
     assert "--record / [executive] record = 1: cannot record (" in r.stderr and "not starting" in r.stderr, r.stderr
     assert not os.path.exists("/dev/shm" + shm), "nothing left behind"
@@ -167,7 +162,7 @@ def test_closed_stdin_gives_no_keys(host_factory):
     (["--log-dir", "/nonexistent/dir"], "--log-dir: /nonexistent/dir: No such file or directory"),
 ])
 def test_options_without_effect_or_value_are_refused(args, said):
-    r = _run(args)
+    r = run_host(args)
     assert r.returncode == 2 and said in r.stderr, r.stderr
 
 
@@ -178,7 +173,7 @@ def test_unsupported_baud_is_a_config_error(tmp_path):
         (tmp_path / name).write_text((repo_root() / "config" / name).read_text())
     p = tmp_path / "NavAndControl.ini"
     p.write_text(p.read_text().replace("baud = 115200", "baud = 250000"))
-    r = _run(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", f"/nk-cfg-{os.getpid()}"])
+    r = run_host(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", f"/nk-cfg-{os.getpid()}"])
     assert r.returncode == 1 and "NavAndControl.ini:" in r.stderr
     assert "baud: 250000 is not a supported rate (9600, " in r.stderr, r.stderr
 
@@ -197,7 +192,7 @@ def test_the_rate_in_use_must_leave_the_watchdog_two_frames(tmp_path):
     p.write_text(p.read_text().replace("frame_rate_hz = 10\n", "frame_rate_hz = 4\n"))
     line = 1 + p.read_text().splitlines().index("watchdog_timeout = 300")
     shm = f"/nk-rate-{os.getpid()}"
-    r = _run(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", shm])
+    r = run_host(["--config", str(tmp_path), "--port", "/nonexistent", "--shm", shm])
     assert r.returncode == 1, r.stderr
     assert r.stderr.startswith(f"navkit-host: {p}:{line}: watchdog_timeout: a frame of 250 ms at 4 Hz needs "), r.stderr
     host = subprocess.Popen([str(require_host()), "--config", str(tmp_path), "--port", "/nonexistent",
@@ -212,7 +207,7 @@ def test_the_rate_in_use_must_leave_the_watchdog_two_frames(tmp_path):
 def test_a_second_host_on_the_same_region_is_refused(host_factory):
     h, m = host_factory(), Micro()
     h.configure(m)
-    r = _run(["--config", str(h.cfg), "--port", "/nonexistent", "--shm", h.shm])
+    r = run_host(["--config", str(h.cfg), "--port", "/nonexistent", "--shm", h.shm])
     assert r.returncode == 1
     assert f"rcomm {h.shm}: in use by a running navkit-host" in r.stderr and "--shm NAME" in r.stderr
     assert len(h.step(m)[0]) == 1, "the first host runs on"

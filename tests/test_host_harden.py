@@ -12,7 +12,7 @@ import subprocess
 import pytest
 
 from navkit import protocol, rcomm
-from host_helpers import Micro, require_host
+from host_helpers import Micro, require_host, run_host
 from spec_helpers import FWD_CMD, TURN_CMD
 
 pytestmark = pytest.mark.timeout(60)
@@ -87,10 +87,6 @@ def test_nothing_of_a_micro_data_of_another_spec_is_used(host_factory):
     assert "0xDEADBEEF differs" in h.output()
 
 
-def _run(args, **kw):
-    return subprocess.run([str(require_host()), *args], capture_output=True, text=True, timeout=20, **kw)
-
-
 def _config(tmp_path, nav_text=None):
     """A config folder: the shipped sensors.ini and NavAndControl.ini (or nav_text)."""
     from navkit.paths import repo_root
@@ -106,7 +102,7 @@ def test_log_dir_on_the_command_line_wins_over_the_ini(host_factory, tmp_path):
     h, m = host_factory(ini={"NavAndControl.ini": {"log_dir": "/nonexistent/dir"}}), Micro()
     h.configure(m)                                  # started: --log-dir replaced the INI's folder
     assert h.stop() == 0
-    r = _run(["--config", str(h.cfg), "--port", "/nonexistent", "--shm", h.shm + "-2"])
+    r = run_host(["--config", str(h.cfg), "--port", "/nonexistent", "--shm", h.shm + "-2"])
     assert r.returncode == 1
     assert f"{h.cfg}/NavAndControl.ini:25: log_dir: /nonexistent/dir: No such file or directory" in r.stderr
 
@@ -118,7 +114,7 @@ def test_log_dir_on_the_command_line_wins_over_the_ini(host_factory, tmp_path):
 ])
 def test_ini_nul_bytes_and_cr_only_line_ends_are_refused_at_their_line(tmp_path, text, said):
     cfg = _config(tmp_path, text)
-    r = _run(["--config", str(cfg), "--port", "/nonexistent", "--shm", f"/nk-nul-{os.getpid()}"])
+    r = run_host(["--config", str(cfg), "--port", "/nonexistent", "--shm", f"/nk-nul-{os.getpid()}"])
     assert r.returncode == 1 and said in r.stderr, r.stderr
 
 
@@ -126,7 +122,7 @@ def test_ini_linked_to_an_endless_file_is_refused_at_once(tmp_path):
     cfg = _config(tmp_path)
     (cfg / "NavAndControl.ini").unlink()
     (cfg / "NavAndControl.ini").symlink_to("/dev/zero")
-    r = _run(["--config", str(cfg), "--port", "/nonexistent", "--shm", f"/nk-zero-{os.getpid()}"])
+    r = run_host(["--config", str(cfg), "--port", "/nonexistent", "--shm", f"/nk-zero-{os.getpid()}"])
     assert r.returncode == 1
     assert f"{cfg}/NavAndControl.ini:1: line: a NUL byte at column 1 (not a text file)" in r.stderr, r.stderr
 
@@ -152,7 +148,7 @@ def test_an_ini_without_keys_runs_on_defaults_and_says_so_once(tmp_path, text):
     (["--clock", "lockstep", "--lockstep-fd", "99"], "--lockstep-fd 99: not an open file descriptor"),
 ])
 def test_usage_errors_are_said_before_anything_starts(args, said):
-    r = _run(args)
+    r = run_host(args)
     assert r.returncode == 2 and said in r.stderr and r.stdout == "", r.stdout + r.stderr
 
 
