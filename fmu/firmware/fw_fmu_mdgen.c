@@ -136,30 +136,22 @@ int main(int argc, char **argv)
 #undef BIN
     fprintf(f, "  </ModelVariables>\n");
     fprintf(f, "  <ModelStructure>\n");
+    /* an output is listed as an Output and again as an InitialUnknown */
+    static const char *const structure_tags[] = {"Output", "InitialUnknown"};
+    for (size_t k = 0; k < sizeof structure_tags / sizeof structure_tags[0]; k++) {
 #define OUT(vr, name, caus, ...)                                                                                       \
     if (strcmp(#caus, "output") == 0) {                                                                                \
-        fprintf(f, "    <Output valueReference=\"%u\"/>\n", vr);                                                       \
+        fprintf(f, "    <%s valueReference=\"%u\"/>\n", structure_tags[k], vr);                                        \
     }
-    FW_FMU_FLOAT64_VARS(OUT)
-    FW_FMU_INT32_VARS(OUT)
-    FW_FMU_BINARY_VARS(OUT)
+        FW_FMU_FLOAT64_VARS(OUT)
+        FW_FMU_INT32_VARS(OUT)
+        FW_FMU_BINARY_VARS(OUT)
 #ifdef FW_FMU_MDGEN_AVR
-    FWAVR_UINT32_VARS(OUT)
-    FWAVR_UINT64_VARS(OUT)
+        FWAVR_UINT32_VARS(OUT)
+        FWAVR_UINT64_VARS(OUT)
 #endif
 #undef OUT
-#define INIT(vr, name, caus, ...)                                                                                      \
-    if (strcmp(#caus, "output") == 0) {                                                                                \
-        fprintf(f, "    <InitialUnknown valueReference=\"%u\"/>\n", vr);                                               \
     }
-    FW_FMU_FLOAT64_VARS(INIT)
-    FW_FMU_INT32_VARS(INIT)
-    FW_FMU_BINARY_VARS(INIT)
-#ifdef FW_FMU_MDGEN_AVR
-    FWAVR_UINT32_VARS(INIT)
-    FWAVR_UINT64_VARS(INIT)
-#endif
-#undef INIT
     fprintf(f, "  </ModelStructure>\n");
     fprintf(f,
             "  <Annotations>\n"
