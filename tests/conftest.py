@@ -16,22 +16,14 @@ import pytest
 # tests that need no build run, the others skip (their own require_build / skipif).
 
 
-def _build_missing() -> list:
-    """The build products the co-simulation tests need that the build folder lacks."""
-    from navkit.paths import build_dir
-    from navkit.sim.coupler import library_path
-    from navkit.sim.harness import fmu_paths, host_path
-
-    b = build_dir()
-    return [p for p in (host_path(b), *fmu_paths(b), library_path(b)) if not p.exists()]
-
-
 def pytest_configure(config):
     """Stop the run (pytest.UsageError: exit status 4) when the build folder lacks a product
-    of _build_missing(), unless opted out or only asked for --help/--version."""
+    of sim_helpers.build_missing(), unless opted out or only asked for --help/--version."""
     if config.option.help or config.option.version or os.environ.get("NAVKIT_TEST_WITHOUT_BUILD") == "1":
         return
-    missing = _build_missing()
+    from sim_helpers import build_missing
+
+    missing = build_missing()
     if missing:
         from navkit.paths import build_dir
 

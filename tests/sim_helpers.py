@@ -15,7 +15,7 @@ from navkit.sim.harness import SimOptions, fmu_paths, host_path, run
 from navkit.sim.mission import loads
 from navkit.sim.results import load
 
-__all__ = ["STRAIGHT", "run_mission", "require_build", "can_dump", "chunk_spans", "rewrite_fmu"]
+__all__ = ["STRAIGHT", "run_mission", "build_missing", "require_build", "can_dump", "chunk_spans", "rewrite_fmu"]
 
 _CACHE = {}
 
@@ -33,14 +33,20 @@ distance = 700
 """
 
 
-def require_build():
-    """Skip unless the host, both FMUs and the coupler are built."""
+def build_missing() -> list:
+    """The build products the co-simulation tests need (host, both FMUs, coupler) that the
+    build folder lacks, as Paths."""
     from navkit.sim.coupler import library_path
 
     b = build_dir()
-    missing = [str(p) for p in (host_path(b), *fmu_paths(b), library_path(b)) if not p.exists()]
+    return [p for p in (host_path(b), *fmu_paths(b), library_path(b)) if not p.exists()]
+
+
+def require_build():
+    """Skip unless the host, both FMUs and the coupler are built."""
+    missing = build_missing()
     if missing:
-        pytest.skip("not built: " + ", ".join(missing))
+        pytest.skip("not built: " + ", ".join(map(str, missing)))
 
 
 def run_mission(tmp_path_factory, name: str, text: str, seed: int = 1, **opts):
