@@ -34,10 +34,11 @@ _OK_BITS = {f"micro_cfg_{c}": bit("micro_status", f"cfg_{c}_ok") for c in ("geom
 _REJECT_RANGE = bit("reject", "range")
 
 
-def run_host(args, **kw) -> subprocess.CompletedProcess:
-    """The host binary run once with `args` (text output captured, at most 20 s); `kw` go
-    to subprocess.run (stdin, env, ...)."""
-    return subprocess.run([str(require_host()), *args], capture_output=True, text=True, timeout=20, **kw)
+def run_host(args, timeout: float = 20, **kw) -> subprocess.CompletedProcess:
+    """The host binary run once with `args` (str or Path; text output captured, at most
+    `timeout` s); `kw` go to subprocess.run (stdin, input, env, ...)."""
+    return subprocess.run([str(require_host()), *map(str, args)], capture_output=True, text=True, timeout=timeout,
+                          **kw)
 
 
 def rcomm_region(name: str, magic: int = protocol.SPEC.rcomm.magic, spec_hash: int = protocol.SPEC_HASH) -> str:

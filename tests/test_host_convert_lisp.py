@@ -2,11 +2,11 @@
 as a filter of JSON lines, and navkit.hostconfig.convert_lisp, its client."""
 
 import json
-import subprocess
 
 import pytest
 
 from navkit import protocol
+from host_helpers import run_host
 from spec_helpers import FWD_CMD, TURN_CMD
 
 
@@ -15,9 +15,7 @@ def _micro(name):
 
 
 def _host(*args, stdin=""):
-    from navkit.hostconfig import host_binary
-
-    return subprocess.run([str(host_binary()), *args], input=stdin, capture_output=True, text=True, timeout=30)
+    return run_host(args, input=stdin, timeout=30)
 
 
 def _convert(*commands):

@@ -3,21 +3,20 @@
 "default" it came from), and navkit.hostconfig, the one Python door to it."""
 
 import json
-import subprocess
 from pathlib import Path
 
 import pytest
 
 from navkit import protocol
 from navkit.hostconfig import HostConfigError, effective_config, header_line, origin_line, value
-from navkit.paths import build_dir, repo_root
+from navkit.paths import repo_root
+from host_helpers import run_host
 
 CONFIG = repo_root() / "config"
 
 
 def _host(*args):
-    return subprocess.run([str(build_dir() / "host" / "navkit-host"), *map(str, args)],
-                          capture_output=True, text=True, timeout=20)
+    return run_host(args)
 
 
 def _print(path, *args) -> dict:
