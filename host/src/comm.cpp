@@ -197,15 +197,16 @@ void Comm::shutdown()
     }
 }
 
+bool Comm::read_slot(size_t slot, int32_t *w, size_t n) const
+{
+    bool ok = false;
+    return guarded([&] { ok = navkit_rcomm_slot_read(base_, slot, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w, n); }) && ok;
+}
+
 bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
 {
     int32_t w[NAVKIT_LISP_CMD_WORDS];
-    bool ok = false;
-    if (!guarded([&] {
-            ok = navkit_rcomm_slot_read(base_, NAVKIT_RCOMM_LISP_CMD_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
-                                        NAVKIT_LISP_CMD_WORDS);
-        }) ||
-        !ok) {
+    if (!read_slot(NAVKIT_RCOMM_LISP_CMD_OFFSET, w, NAVKIT_LISP_CMD_WORDS)) {
         return false;
     }
     navkit_lisp_cmd_unpack(w, out);
@@ -215,12 +216,7 @@ bool Comm::read_lisp_cmd(navkit_lisp_cmd_t *out) const
 bool Comm::read_emotion(navkit_emotion_t *out) const
 {
     int32_t w[NAVKIT_EMOTION_WORDS];
-    bool ok = false;
-    if (!guarded([&] {
-            ok = navkit_rcomm_slot_read(base_, NAVKIT_RCOMM_EMOTION_OFFSET, NAVKIT_RCOMM_SLOT_WORDS_OFFSET, w,
-                                        NAVKIT_EMOTION_WORDS);
-        }) ||
-        !ok) {
+    if (!read_slot(NAVKIT_RCOMM_EMOTION_OFFSET, w, NAVKIT_EMOTION_WORDS)) {
         return false;
     }
     navkit_emotion_unpack(w, out);

@@ -46,6 +46,9 @@ private:
     // Runs access() on the mapping when it is whole and returns true; false (and the
     // region let go, lost() says why) if it is shorter than the layout or shrinks meanwhile.
     template <class F> bool guarded(F access) const;
+    // Reads the n words of the seqlocked slot at byte offset `slot` into w; false if the
+    // region is lost or no consistent copy came within the slot's retries.
+    bool read_slot(size_t slot, int32_t *w, size_t n) const;
     void lose(long long size) const; // size: the region's bytes now, -1 unknown
 
     std::string name_, group_;
