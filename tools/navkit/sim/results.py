@@ -56,6 +56,33 @@ def _whole_records(data: bytes) -> tuple[int, bool]:
     return at, False
 
 
+def _messages(records, path: Path, metadata: dict | None = None):
+    """(log time ns, topic, JSON bytes) of every Message among the mcap `records` of file
+    `path`, in file order, then None at the Footer record (and no more); the Metadata
+    records' name -> value pairs go into `metadata` if given. McapError naming the file
+    for a message on a channel not announced yet."""
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, Footer, Message, Metadata
+
+    chans = {}
+    for rec in records:
+        cls = rec.__class__
+        if cls is Message:
+            topic = chans.get(rec.channel_id)
+            if topic is None:
+                raise McapError(f"{path}: a message on channel {rec.channel_id} before "
+                                f"that channel's record")
+            yield rec.log_time, topic, rec.data
+        elif cls is Channel:
+            chans[rec.id] = rec.topic
+        elif cls is Metadata:
+            if metadata is not None:
+                metadata.update(rec.metadata)
+        elif cls is Footer:
+            yield None
+            return
+
+
 def iter_mcap(path: str | Path, topics=None):
     """Messages of MCAP file `path` as (log time ns, topic, JSON bytes), in file order
     (log-time order but for a few ms in a real-time run), only the topics in `topics` (all
@@ -63,32 +90,23 @@ def iter_mcap(path: str | Path, topics=None):
     footer (a killed run, or a record that does not decode) ends at its last whole record,
     with read_mcap's warning on stderr. McapError naming the file if it is not MCAP."""
     from mcap.exceptions import EndOfFile, McapError
-    from mcap.records import Channel, Footer, Message
     from mcap.stream_reader import StreamReader
 
     path = Path(path)
     want = None if topics is None else set(topics)
-    chans, last, footer = {}, None, False
+    last, footer = None, False
     with open(path, "rb") as f:
         if f.read(len(_MAGIC)) != _MAGIC:
             raise McapError(f"{path}: not an MCAP file (it does not start with the MCAP magic)")
         f.seek(0)
         try:
-            for rec in StreamReader(f).records:
-                cls = rec.__class__
-                if cls is Message:
-                    topic = chans.get(rec.channel_id)
-                    if topic is None:
-                        raise McapError(f"{path}: a message on channel {rec.channel_id} before "
-                                        f"that channel's record")
-                    last = rec.log_time
-                    if want is None or topic in want:
-                        yield rec.log_time, topic, rec.data
-                elif cls is Channel:
-                    chans[rec.id] = rec.topic
-                elif cls is Footer:  # every record is read; whole if the closing magic follows
+            for m in _messages(StreamReader(f).records, path):
+                if m is None:   # every record is read; whole if the closing magic follows
                     footer = f.read(len(_MAGIC)) == _MAGIC
                     break
+                last = m[0]
+                if want is None or m[1] in want:
+                    yield m
         except (EndOfFile, struct.error, RuntimeError, ValueError):
             pass            # cut inside a record: what was read before it stands
         if not footer:
@@ -104,7 +122,6 @@ def read_mcap(path: str | Path, topics=None) -> McapContents:
     only with the whole chunk) and a warning goes to stderr. McapError (mcap.exceptions)
     naming the file if it is not an MCAP file or a record does not decode."""
     from mcap.exceptions import EndOfFile, McapError
-    from mcap.records import Channel, Message, Metadata
     from mcap.stream_reader import StreamReader
 
     path = Path(path)
@@ -114,21 +131,12 @@ def read_mcap(path: str | Path, topics=None) -> McapContents:
                         f"{len(data)} bytes)")
     end, whole = _whole_records(data)
     want = None if topics is None else set(topics)
-    chans, messages, metadata = {}, [], {}
+    messages, metadata = [], {}
     try:
-        for rec in StreamReader(io.BytesIO(data if whole else data[:end])).records:
-            cls = rec.__class__
-            if cls is Message:
-                topic = chans.get(rec.channel_id)
-                if topic is None:
-                    raise McapError(f"{path}: a message on channel {rec.channel_id} before "
-                                    f"that channel's record")
-                if want is None or topic in want:
-                    messages.append((rec.log_time, topic, rec.data))
-            elif cls is Channel:
-                chans[rec.id] = rec.topic
-            elif cls is Metadata:
-                metadata.update(rec.metadata)
+        for m in _messages(StreamReader(io.BytesIO(data if whole else data[:end])).records, path,
+                           metadata):
+            if m is not None and (want is None or m[1] in want):
+                messages.append(m)
     except EndOfFile:
         if whole:
             raise McapError(f"{path}: ends inside its summary section") from None
