@@ -54,8 +54,6 @@ public:
     // goes now, pre-empting a message still going out. Returns the console's words for what
     // happened: "stop sent", or why no stop went out whole.
     std::string stop_at_shutdown(uint16_t dio, bool quit_frame);
-    // The last message written (link = slcan: begun) was a stop command (fwd 5, turn 5).
-    bool stop_was_last() const { return stop_last_; }
 
     // A stop command carrying these DIO levels (the seed's Navigation Init command).
     static navkit_micro_cmd_t stop_command(uint16_t dio);
@@ -116,7 +114,7 @@ private:
     uint64_t config_sent_ = 0;   // config rounds started (a geometry message sent)
     int64_t last_probe_us_ = -1; // mismatch: frame time of the last config probe
     int64_t last_mismatch_report_us_ = -1;
-    bool stop_last_ = false;
+    bool stop_last_ = false; // the last message written (link = slcan: begun) was a stop (fwd 5, turn 5)
 };
 
 } // namespace navkit
