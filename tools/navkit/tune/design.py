@@ -81,12 +81,6 @@ class WheelGains:
         return {"kff": self.kff, "kp": self.kp, "ki": self.ki, "kd": self.kd}
 
 
-def _z(dt: float):
-    import control
-
-    return control.tf([1.0, 0.0], [1.0], dt)
-
-
 def plant_d(model, dt: float, compute_delay: int = 1):
     """The model sampled at dt (s) with a zero-order hold, times z^-(round(L/dt) + compute_delay)."""
     import control
