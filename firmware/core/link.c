@@ -403,12 +403,7 @@ void link_poll(fw_t *fw)
                     }
                 }
             }
-            /* an ISO-TP message is one frame: what the parser still holds (a message that was
-               no whole frame) belongs to no later message, so it is dropped and counted now */
-            l->parser.stats.dropped_bytes += l->parser.have;
-            l->parser.offset += l->parser.have;
-            l->parser.have = 0u;
-            l->parser.want = 0u;
+            navkit_parser_discard(&l->parser); /* a message that was no whole frame */
             if (FW_LINK_FRAMES_PER_POLL != 0u) {
                 l->more = 1u; /* one message a poll */
             }

@@ -144,6 +144,16 @@ size_t navkit_parser_feed(navkit_parser_t *p, const uint8_t *data, size_t len);
 /* 1: *frame and *len hold one whole valid frame (valid until the next feed/next call);
  * 0: more bytes are needed. Rejected bytes are counted and skipped. */
 int navkit_parser_next(navkit_parser_t *p, const uint8_t **frame, size_t *len);
+/* End of a message that carries one frame (an ISO-TP message), once next() has returned 0:
+ * the bytes p still holds belong to no later message, so they are counted in
+ * stats.dropped_bytes and cleared. */
+static inline void navkit_parser_discard(navkit_parser_t *p)
+{
+    p->stats.dropped_bytes += p->have;
+    p->offset += p->have;
+    p->have = 0u;
+    p->want = 0u;
+}
 
 #ifdef __cplusplus
 }
