@@ -541,7 +541,7 @@ static void host_watch(const navkit_micro_cmd_t *c, double seconds, watch_t *w)
 
 static void test_forever_then_modify(void)
 {
-    /* fwd 1 to 2e9 mm, then fwd 3 to 1000 mm: no overshoot (used to reach 1024), no backing */
+    /* fwd 1 to 2e9 mm, then fwd 3 to 1000 mm: no overshoot, no backing */
     navkit_micro_cmd_t c;
     navkit_micro_data_t d;
     watch_t w = {0, 0, 0, 0, 0, 0};
@@ -564,7 +564,7 @@ static void test_forever_then_modify(void)
     CHECK(w.max_dist < 1003.0);
     CHECK(w.min_ref_v >= 0.0);           /* never planned back */
     CHECK(w.max_dist - h.dist_mm < 0.5); /* nor backed up */
-    /* turn 1 to 2e9 deg*10, then turn 3 to 90 deg (used to reach 96 and come back) */
+    /* turn 1 to 2e9 deg*10, then turn 3 to 90 deg: no overshoot, no backing */
     boot();
     sim_configure(&fw, &h);
     c = cmd();

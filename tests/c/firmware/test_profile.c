@@ -127,8 +127,8 @@ static void test_stop(void)
 
 static void test_stop_never_reverses(void)
 {
-    /* the audit's case: 906 mm/s stopped at 28.6 mm/s^2 with a 2 ms tick went 2.24 mm past
-       its stop point and backed up for 280 ticks */
+    /* a gentle stop from speed: 906 mm/s stopped at 28.6 mm/s^2 with a 2 ms tick ends on
+       its stop point, never past it (togo >= 0) and never backing up */
     profile_t p;
     double pos = 0.0, stop_at;
     long k, back = 0;
@@ -183,11 +183,11 @@ static void test_forever_then_modify(void)
 {
     double maxpos, pos;
     long back;
-    /* forward: 2e9 mm, then 1000 mm (used to reach 1024 and back up) */
+    /* forward: 2e9 mm, then 1000 mm (no overshoot, no backing up) */
     pos = forever_then_modify(2e9, 3.0, 1000.0, 300.0, 300.0, 0.001, &maxpos, &back);
     CHECK_NEAR(pos, 1000.0, 1.0);
     CHECK(maxpos < 1001.0 && back == 0);
-    /* turn: 2e8 deg (turn_distance 2e9 deg*10), then 90 deg (used to reach 96 and back) */
+    /* turn: 2e8 deg (turn_distance 2e9 deg*10), then 90 deg (no overshoot, no backing up) */
     pos = forever_then_modify(2e8, 1.0, 90.0, 45.0, 90.0, 0.001, &maxpos, &back);
     CHECK_NEAR(pos, 90.0, 0.4);
     CHECK(maxpos < 90.4 && back == 0);
