@@ -369,6 +369,15 @@ static void sim_uart_out(avr_irq_t *irq, uint32_t value, void *param)
 
 /* ---------------------------------------------------------------- profile */
 
+/* One span of d cycles into a total and a worst (the worst saturates at 2^32 - 1 cycles). */
+static void sim_prof_add(uint64_t *total, uint32_t *worst, uint64_t d)
+{
+    *total += d;
+    if (d > *worst) {
+        *worst = (uint32_t)((d > 0xFFFFFFFFull) ? 0xFFFFFFFFull : d);
+    }
+}
+
 static void sim_gpior0_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 {
     board_sim_t *b = (board_sim_t *)param;
@@ -377,29 +386,16 @@ static void sim_gpior0_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *pa
     if (v == b->prof_mark) {
         return;
     }
-    if (b->prof_mark != BOARD_PROF_IDLE) {
-        uint64_t d = now - b->prof_start;
-        uint32_t d32 = (uint32_t)((d > 0xFFFFFFFFull) ? 0xFFFFFFFFull : d);
-        if (b->prof_mark == BOARD_PROF_TICK) {
-            b->prof.ticks++;
-            b->prof.tick_total_cycles += d;
-            if (d32 > b->prof.tick_worst_cycles) {
-                b->prof.tick_worst_cycles = d32;
-            }
-        } else if (b->prof_mark == BOARD_PROF_POLL) {
-            b->prof.polls++;
-            b->prof.poll_total_cycles += d;
-            if (d32 > b->prof.poll_worst_cycles) {
-                b->prof.poll_worst_cycles = d32;
-            }
-        }
+    if (b->prof_mark == BOARD_PROF_TICK) {
+        b->prof.ticks++;
+        sim_prof_add(&b->prof.tick_total_cycles, &b->prof.tick_worst_cycles, now - b->prof_start);
+    } else if (b->prof_mark == BOARD_PROF_POLL) {
+        b->prof.polls++;
+        sim_prof_add(&b->prof.poll_total_cycles, &b->prof.poll_worst_cycles, now - b->prof_start);
     }
     if (v == BOARD_PROF_TICK && b->tick_due_tail != b->tick_due_head) {
-        uint64_t late = now - b->tick_due_at[b->tick_due_tail++];
-        b->prof.tick_late_total_cycles += late;
-        if (late > b->prof.tick_late_worst_cycles) {
-            b->prof.tick_late_worst_cycles = (uint32_t)((late > 0xFFFFFFFFull) ? 0xFFFFFFFFull : late);
-        }
+        sim_prof_add(&b->prof.tick_late_total_cycles, &b->prof.tick_late_worst_cycles,
+                     now - b->tick_due_at[b->tick_due_tail++]);
     }
     b->prof_mark = v;
     b->prof_start = now;
