@@ -228,12 +228,7 @@ void MicroLink::can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *ou
             if (out) {
                 take_frames(can_rx_.buf, n, out, r);
             }
-            // an ISO-TP message is one frame: what the parser still holds (a message that was
-            // no whole frame) belongs to no later message (as the firmware's CAN link does)
-            parser_.stats.dropped_bytes += parser_.have;
-            parser_.offset += parser_.have;
-            parser_.have = 0;
-            parser_.want = 0;
+            navkit_parser_discard(&parser_); // an ISO-TP message carries one frame
         }
     }
     navkit_isotp_rx_poll(&can_rx_, can_ms());
