@@ -549,7 +549,7 @@ class _Decoder:
         self.pending = {}              # time tag -> (mission entry, lisp_cmd) not yet acked
         self.verdicts = []             # (mission entry, lisp_cmd, nav_result) acked
         self.unacknowledged = []       # (mission entry, lisp_cmd) never acked
-        self.last_truth = None         # the last truth row's JSON text
+        self.last_row = None
         self.config_downloads = 0
         idx = {name: i + 1 for i, name in enumerate(columns)}
         parts, sel = [], []
@@ -606,6 +606,13 @@ class _Decoder:
             if hit is not None:
                 write(t_ns, hit[0] % hit[1](values))
         return datalog
+
+    def _truth_text(self, row) -> bytes:
+        dio = int(row[self.dio_col]) & 0xFFF if self.dio_col else 0
+        vals = self.truth_get(row)
+        if vals[self.heading_at] >= _HEADING_ROUNDS_TO_360:
+            vals = _heading_wrapped(vals, self.heading_at)
+        return self.truth_fmt % (vals + (dio,))
 
     def handle(self, item) -> None:
         """One item of RunLog (its kind first)."""
@@ -674,7 +681,7 @@ class _Decoder:
         if whole:
             rec.reserve(t0, t1)
         pad = (0.0,)
-        text = None
+        row = None
         for row in self.row_struct.iter_unpack(raw):
             row += pad
             dio = int(row[dio_col]) & 0xFFF if dio_col else 0
@@ -684,12 +691,11 @@ class _Decoder:
             vals = get(row)
             if vals[hdg_at] >= _HEADING_ROUNDS_TO_360:
                 vals = _heading_wrapped(vals, hdg_at)
-            text = fmt % (vals + (dio,))
-            write(t_ns, text)
+            write(t_ns, fmt % (vals + (dio,)))
             if not t_ns % fox_ns:
                 fox(t_ns, *fox_get(row))
-        if text is not None:
-            self.last_truth = text
+        if row is not None:
+            self.last_row = row
 
     def _planner_command(self, item) -> None:
         _, t_ns, cmd, entry = item
@@ -833,7 +839,7 @@ class _Decoder:
                 "planner": {"commands": self.commands, "verdicts": self.verdicts,
                             "unacknowledged": self.unacknowledged},
                 "last_lisp": self.last_lisp,
-                "last_truth": json.loads(self.last_truth) if self.last_truth else None,
+                "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
                 "config_downloads": self.config_downloads,
                 "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                 "watchdog_stops": self.watchdog_stops,
