@@ -12,7 +12,7 @@ from pathlib import Path
 
 from navkit.sim.mission import Mission
 
-__all__ = ["STEP_S", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
+__all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
            "fmu_paths", "host_config", "frame_period", "check_frame", "git_revision"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
@@ -21,6 +21,11 @@ _PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
 
 class SimError(RuntimeError):
     """A run that could not be done; the text says why."""
+
+
+# The signals navkit sim turns into KeyboardInterrupt (navkit.sim.cli, Ctrl-C): held off
+# while a frame or a message to the log worker is half done, delivered between them.
+STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT})
 
 
 class SimInterrupted(Exception):

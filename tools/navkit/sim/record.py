@@ -21,6 +21,7 @@ import struct
 from pathlib import Path
 
 from navkit.sim import foxglove
+from navkit.sim.options import STOP_SIGNALS
 
 __all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "CAN_SCHEMA",
            "TOPICS", "HOST_STATES"]
@@ -893,10 +894,6 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
             pass
 
 
-# The signals the harness turns into KeyboardInterrupt (navkit.sim.cli, Ctrl-C).
-_STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT})
-
-
 def _send_whole(conn, obj) -> None:
     """conn.send(obj) with the stop signals held off until the message is written whole.
     A Connection writes one message in several writes (length, then the pickle, each
@@ -904,7 +901,7 @@ def _send_whole(conn, obj) -> None:
     worker waiting forever for the rest of a message, and the harness for its results.
     A signal that comes meanwhile is delivered when send() returns (the harness runs no
     other thread that could take it instead)."""
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         conn.send(obj)
     finally:
