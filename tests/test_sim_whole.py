@@ -171,6 +171,31 @@ def test_plot_process_hands_back_errors_and_ends_with_its_parent(tmp_path):
         pytest.fail(f"plot process {pid} outlived its parent")
 
 
+def test_plot_process_kept_busy_on_given_cpus_then_drawing_at_normal_priority(tmp_path):
+    """keep_busy pins the plot process to the CPUs given, at idle priority; a job puts it
+    back at normal priority on the CPUs it was made with, and it still draws."""
+    import os
+
+    from navkit.plot import PlotProcess
+
+    cpus = os.sched_getaffinity(0)
+    p = PlotProcess()
+    try:
+        pid = p._proc.pid
+        assert p.keep_busy({min(cpus)})
+        assert os.sched_getaffinity(pid) == {min(cpus)}
+        assert os.sched_getscheduler(pid) == os.SCHED_IDLE
+        bad = tmp_path / "bad.mcap"
+        bad.write_bytes(b"not an mcap file")
+        with pytest.raises(Exception, match=str(bad)):
+            p.plot_mcap(bad, tmp_path / "bad.png")
+        assert os.sched_getaffinity(pid) == cpus
+        assert os.sched_getscheduler(pid) == os.SCHED_OTHER
+    finally:
+        p.close()
+    assert p._proc.exitcode == 0
+
+
 def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     """bench-sim runs `python -m navkit sim` as a user does and prints its wall time and
     the parts of it, which add up to it."""

@@ -184,50 +184,89 @@ def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
     (RunSeries.raw() of the run's messages, as the log worker hands it over) when given,
     else streamed from the file: the same figure either way."""
     msgs = decoded(series) if series is not None else _read_thinned(Path(path))
+    _save(run_figure(msgs, _run_title(Path(path))), out)
+
+
+def _save(fig, out) -> None:
+    """Write run plot `fig` into `out`: a path (PNG unless its suffix names another format)
+    or a binary file (PNG)."""
     # zlib level 1, the fastest: a quick-look PNG, somewhat larger than at the default 6
-    run_figure(msgs, _run_title(Path(path))).savefig(out, dpi=110, pil_kwargs={"compress_level": 1})
+    fig.savefig(out, dpi=110, pil_kwargs={"compress_level": 1})
 
 
-# matplotlib's import in small steps, in dependency order: a held PlotProcess pauses
-# between two of them
-_IMPORT_STEPS = ("numpy", "PIL.PngImagePlugin", "matplotlib", "matplotlib.text",
-                 "matplotlib.collections", "matplotlib.axis", "matplotlib.axes",
-                 "matplotlib.projections", "matplotlib.figure", "matplotlib.backends.backend_agg")
+# What the plot process imports before its first job: the Figure, Agg and PNG writing
+# (no pyplot)
+_IMPORTS = ("numpy", "PIL.PngImagePlugin", "matplotlib", "matplotlib.figure",
+            "matplotlib.collections", "matplotlib.backends.backend_agg")
+
+
+def _warm_up() -> None:
+    """Draw a throwaway run plot of a few points into memory, as plot_mcap draws (every
+    kind of artist, upright labels, a legend, the PNG encoder): the lazy imports, fonts
+    and caches of a first draw are then done before the real one."""
+    import io
+
+    truth = [{"t": t, "x_mm": t, "y_mm": 0.0, "v_mm_s": 1.0, "heading_deg": 10.0 * t}
+             for t in range(3)]
+    micro = [{"x": t, "y": 0, "fwd_speed": 1, "heading": 100 * t} for t in range(3)]
+    msgs = {"/truth": [(t * 10**9, m) for t, m in enumerate(truth)],
+            "/micro/data": [(t * 10**9, m) for t, m in enumerate(micro)],
+            "/planner/cmd": [(10**9, {"fwd_cmd": 1, "speed": 1, "distance": 1})],
+            "/events": [(10**9, {"t": 1.0, "kind": "warm-up", "detail": {}})]}
+    _save(run_figure(msgs, "warm-up"), io.BytesIO())
 
 
 class PlotProcess:
-    """A child process that imports matplotlib at once, while its parent goes on (a run's
-    set-up), then draws the run plots the parent hands it (plot_mcap): the import, a large
-    part of plot.png's cost, leaves the parent's path. Forked: make it before the parent
-    starts threads. The child runs at idle priority until it has a plot to draw, so its
-    import takes only CPU time nothing else wants; hold(True) pauses the import (between
-    two of its steps) while the parent's work must have every CPU to itself (the lockstep
-    loop: an idle-priority process still shares a CPU with the log worker, which polls at
-    idle priority). It ends when close() is called or when the parent goes away (EOF on
-    its pipe), however the parent ends; a terminal's signals to the process group are the
-    parent's to act on."""
+    """A child process that imports matplotlib and draws a throwaway plot (_warm_up) at
+    once, while its parent goes on (a run's set-up and loop), then draws the run plots
+    the parent hands it (plot_mcap): the import and the first draw's set-up leave the
+    parent's path. Forked: make it before the parent starts threads. The child runs at
+    idle priority until it has a plot to draw, so its work takes only CPU time nothing
+    else wants. keep_busy() pins it to given CPUs, where, once warm, it polls for its job
+    instead of sleeping: a CPU it keeps from idling wakes a normal-priority process (the
+    run's log worker) at once, which an idle virtual CPU does only slowly. It ends when
+    close() is called or when the parent goes away (EOF on its pipe), however the parent
+    ends; a terminal's signals to the process group are the parent's to act on."""
 
     def __init__(self):
         import multiprocessing as mp
+        import os
 
         ctx = mp.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._hold = ctx.Value("b", 0, lock=False)
-        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._hold),
+        self._poll = ctx.Value("b", 0, lock=False)
+        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._poll),
                                  name="navkit-plot", daemon=True)
+        self._cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
         self._proc.start()
         child.close()
         self._used = False
 
-    def hold(self, on: bool) -> None:
-        """Pause (True) or go on with (False) the child's import of matplotlib."""
-        self._hold.value = 1 if on else 0
+    def keep_busy(self, cpus: set) -> bool:
+        """Pin the child to `cpus` (CPU numbers) at idle priority, polling for its job once
+        warm; False if it could not be pinned (then it sleeps as before)."""
+        import os
+
+        try:
+            os.sched_setaffinity(self._proc.pid, cpus)
+        except (AttributeError, OSError):
+            return False
+        self._poll.value = 1
+        return True
 
     def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:
-        """plot_mcap(path, out, series) in the child; its error (OSError, ValueError,
-        McapError) is raised here."""
+        """plot_mcap(path, out, series) in the child, at normal priority on the CPUs it was
+        made with; its error (OSError, ValueError, McapError) is raised here."""
+        import os
+
         self._used = True
-        self.hold(False)
+        self._poll.value = 0
+        try:    # the parent waits for this plot: the child's import, if unfinished, too
+            os.sched_setscheduler(self._proc.pid, os.SCHED_OTHER, os.sched_param(0))
+            if self._cpus:
+                os.sched_setaffinity(self._proc.pid, self._cpus)
+        except (AttributeError, OSError):
+            pass
         self._conn.send((Path(path), Path(out), series))
         try:
             err = self._conn.recv()
@@ -255,12 +294,11 @@ class PlotProcess:
             self._proc.join()
 
 
-def _plot_process(conn, parent_end, hold) -> None:
-    """PlotProcess's child: import matplotlib at idle priority (_IMPORT_STEPS, waiting
-    before a step while `hold` is set and nothing is on the pipe), then draw each job
-    (path, out, series) and answer None or the error, until None or EOF. `parent_end`,
-    the parent's end of the pipe that fork() copied here, is closed first, so a parent
-    that dies is seen as EOF."""
+def _plot_process(conn, parent_end, poll) -> None:
+    """PlotProcess's child: at idle priority import matplotlib (_IMPORTS) and _warm_up,
+    then wait for each job (path, out, series), polling while `poll` is set, draw it and
+    answer None or the error, until None or EOF. `parent_end`, the parent's end of the
+    pipe that fork() copied here, is closed first, so a parent that dies is seen as EOF."""
     import importlib
     import os
     import signal
@@ -268,31 +306,24 @@ def _plot_process(conn, parent_end, hold) -> None:
     parent_end.close()
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, signal.SIG_IGN)
-    idle = hasattr(os, "SCHED_IDLE")
     try:
-        if idle:
-            os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
-    except OSError:
-        idle = False
-    for name in _IMPORT_STEPS:
-        while hold.value and not conn.poll(0.01):   # a job, or EOF: the parent is gone
-            pass
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):
+        pass
+    for name in _IMPORTS:
         importlib.import_module(name)
         if name == "matplotlib":
             importlib.import_module(name).use("Agg")
+    _warm_up()
     while True:
+        while poll.value and not conn.poll(0):  # a job, or EOF: the parent is gone
+            pass
         try:
             job = conn.recv()
         except (EOFError, OSError):
             return
         if job is None:
             return
-        if idle:            # the parent now waits for this plot: normal priority
-            try:
-                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-                idle = False
-            except OSError:
-                pass
         try:
             plot_mcap(*job)
             err = None

@@ -39,8 +39,8 @@ def run(opts: SimOptions, stamps: dict | None = None, plotter=None) -> dict:
     (entered), "started" (set-up), "loop", "stopped" (host, log worker, FMUs closed),
     "summary" (summary.json written) and "plot" (plot.png written). plot.png is drawn by
     `plotter`, a navkit.plot.PlotProcess the caller made earlier and closes (navkit sim
-    makes it first thing), else by one made and closed here: its matplotlib import runs
-    beside the set-up and the loop."""
+    makes it first thing), else by one made and closed here: its matplotlib import and
+    warm-up run beside the set-up and the loop (navkit.sim.rig: on the log worker's CPU)."""
     def stamp(key: str) -> None:
         if stamps is not None:
             stamps[key] = time.monotonic()
@@ -64,7 +64,7 @@ def _run(opts: SimOptions, plotter, stamp) -> dict:
     import fmpy.fmi3  # noqa: F401
     import mcap.writer  # noqa: F401
 
-    rig = SimRig(opts)
+    rig = SimRig(opts, plotter)
     faults = Faults(rig)
     wall0 = time.perf_counter()
     from navkit.sim.coupler import CouplerError
@@ -74,15 +74,11 @@ def _run(opts: SimOptions, plotter, stamp) -> dict:
     try:
         rig.start()
         stamp("started")
-        if plotter is not None:     # the loop has the CPUs; the plot's import waits
-            plotter.hold(True)
         if opts.realtime:
             run_realtime(rig, faults)
         else:
             run_lockstep(rig, faults)
         stamp("loop")
-        if plotter is not None:
-            plotter.hold(False)
     except (LinkError, CouplerError) as e:
         rig.stop()
         raise SimError(f"{e} (host log: {rig.out / 'host.log'})") from e

@@ -62,11 +62,13 @@ class SimRig:
     product or a config or frame the host refuses), started by start(), ended by stop()
     (which is safe after a failed or partial start). Times in s, `t_ns` in ns."""
 
-    def __init__(self, opts: SimOptions):
+    def __init__(self, opts: SimOptions, plotter=None):
+        """`plotter`: the navkit.plot.PlotProcess that will draw plot.png, or None."""
         from navkit import protocol
         from navkit.paths import repo_root
 
         self.opts = opts
+        self.plotter = plotter
         self.m = opts.mission
         self.git_revision = git_revision()      # before the run's wall clock starts
         self.build = build_folder(opts)
@@ -204,10 +206,14 @@ class SimRig:
         """Lockstep: the harness and the host never run at the same time, so put both on
         one CPU (the host inherits the mask), where a tick or a done wakes the other side
         without a cross-CPU wake-up; the log worker gets the other CPUs. On an otherwise
-        idle machine the worker runs at idle priority and polls; when other processes
-        already keep the CPUs busy (1-minute load average >= CPU count) it keeps normal
-        priority and sleeps, since an idle-priority worker would starve and the harness
-        would wait on it (docs/cosim.md, Speed)."""
+        idle machine something keeps those CPUs from idling (wake-ups from idle are slow on
+        VMs): the plot process, if there is one, at idle priority (importing, warming up,
+        then polling for its job) beside the worker at normal priority, which sleeps until
+        its work comes and then preempts it at once; else the worker itself, at idle
+        priority, polling for its work. When other processes already keep the CPUs busy
+        (1-minute load average >= CPU count) the worker keeps normal priority and sleeps,
+        since an idle-priority worker would starve and the harness would wait on it
+        (docs/cosim.md, Speed)."""
         try:
             cpus = sorted(os.sched_getaffinity(0))
         except (AttributeError, OSError):
@@ -220,6 +226,8 @@ class SimRig:
             if self.log.pid:
                 os.sched_setaffinity(self.log.pid, set(cpus[:-1]))
                 if os.getloadavg()[0] >= len(cpus):
+                    return
+                if self.plotter is not None and self.plotter.keep_busy(set(cpus[:-1])):
                     return
                 # the worker yields at once to anything else (the kernel's pty work), and
                 # polls rather than sleeps so its CPU never idles (wake-ups are slow on VMs)
