@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import array
 import gc
-import signal
 import time
 
 from navkit.sim.faults import n_frames
-from navkit.sim.options import STEP_S, STOP_SIGNALS
+from navkit.sim.options import STEP_S
 from navkit.sim.progress import Progress
+from navkit.sim.stops import DeferredStops
 
 __all__ = ["run_lockstep"]
 
@@ -60,8 +60,8 @@ def run_lockstep(rig, faults) -> None:
     # A stop signal (Ctrl-C, SIGTERM) is held off while a frame is half done (the host's
     # bytes read but not yet on the bus, a tick sent but its done not read) and delivered
     # between frames, so the host's stop follows a whole frame.
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    try:
+    with DeferredStops() as stops:
+        stopped = stops.pending
         for k in range(frames_in_run):
             t_ns = k * frame_ns
             rig.t_ns = t_ns        # where an interrupted run stopped
@@ -140,9 +140,7 @@ def run_lockstep(rig, faults) -> None:
             log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
             if progress is not None and k & 63 == 0:
                 progress.at(t_ns / 1e9)
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)  # a pending stop signal lands here
-            signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+            if stopped:
+                stops.deliver()         # a stop signal lands here
     rig.sim_time_s = frames_in_run * rig.frame_s
     times["harness"] = pc() - loop0 - times["fmus"] - times["pty"] - times["host"]

@@ -16,12 +16,11 @@ from __future__ import annotations
 import json
 import operator
 import resource
-import signal
 import struct
 from pathlib import Path
 
 from navkit.sim import foxglove
-from navkit.sim.options import STOP_SIGNALS
+from navkit.sim.stops import DeferredStops
 
 __all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "CAN_SCHEMA",
            "TOPICS", "HOST_STATES"]
@@ -899,13 +898,10 @@ def _send_whole(conn, obj) -> None:
     A Connection writes one message in several writes (length, then the pickle, each
     retried on a partial write); a KeyboardInterrupt raised between them would leave the
     worker waiting forever for the rest of a message, and the harness for its results.
-    A signal that comes meanwhile is delivered when send() returns (the harness runs no
-    other thread that could take it instead)."""
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    try:
+    A signal that comes meanwhile is delivered when send() returns, or where the lockstep
+    loop holding them already delivers them (navkit.sim.stops)."""
+    with DeferredStops():
         conn.send(obj)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 class RunLog:
