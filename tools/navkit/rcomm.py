@@ -184,7 +184,14 @@ class Client:
     def read_data_raw(self) -> bytes | None:
         """The little-endian bytes of the host's latest lisp_data, or None before the
         host's first frame (or if every bounded retry met a write in progress)."""
-        return self._read(self._lib.navkit_rcomm_read_data, self._data)
+        # _read's steps written out: a lockstep driver reads it every host frame
+        h = self._h
+        if h is None:
+            self._handle()
+        got = self._lib.navkit_rcomm_read_data(h, self._data)
+        if got < 0:
+            raise self._failed()
+        return self._data.raw if got else None
 
     # A lockstep driver's read between a frame's done and its next tick: the library's
     # seqlock read is one call already, so it is read_data_raw.
@@ -203,7 +210,10 @@ class Client:
     def heartbeat(self) -> None:
         """Bump the planner heartbeat word (the host stops the robot when it stays
         unchanged for planner_timeout seconds)."""
-        if self._lib.navkit_rcomm_heartbeat(self._handle()) < 0:
+        h = self._h             # _handle() written out: a lockstep driver beats every frame
+        if h is None:
+            self._handle()
+        if self._lib.navkit_rcomm_heartbeat(h) < 0:
             raise self._failed()
 
     beat = heartbeat  # the co-simulation harness's name

@@ -82,15 +82,25 @@ class Faults:
         self.unplug_until = None
         self.events = timeline(rig.m)
         self.next_event = 0     # index in `events` of the first not acted out yet
+        self.due_ns = self._due()
+
+    def _due(self) -> float:
+        """The earliest t_ns (ns) at which act_due has an event to act out (inf: none left);
+        t * 1e9 - 1 is exact for any t of a run (below 2**53 ns)."""
+        i = self.next_event
+        return self.events[i][0] * 1e9 - 1 if i < len(self.events) else float("inf")
 
     def act_due(self, t_ns: int) -> None:
         """Act out, in timeline order, the mission's events not acted out yet whose t (s)
-        is at or before `t_ns` (ns of simulated time)."""
+        is at or before `t_ns` (ns of simulated time); nothing is due before `due_ns`."""
         events, i = self.events, self.next_event
-        while i < len(events) and events[i][0] * 1e9 <= t_ns + 1:
-            self.apply(t_ns, events[i][2], events[i][3])
-            i += 1
-            self.next_event = i
+        try:
+            while i < len(events) and events[i][0] * 1e9 <= t_ns + 1:
+                self.apply(t_ns, events[i][2], events[i][3])
+                i += 1
+                self.next_event = i
+        finally:
+            self.due_ns = self._due()
 
     def apply(self, t_ns: int, what: str, e) -> None:
         """Act out event `e` of kind `what` (timeline) at `t_ns` (ns of simulated time)."""
@@ -177,15 +187,19 @@ class Faults:
         sent = tx
         if self.noise is not None and rig.gateway is None:  # over CAN: the gateway's error frames
             tx = self.noise.apply(tx)
-        if micro and rig.host_state == "running" and rig.port.plugged:
+        port = rig.port
+        if rig.host_state != "running" or port.master is None:      # gone, or unplugged
+            return 0
+        if micro:
             # over CAN the chunk's bytes reach the host whole, as ISO-TP lets them go (its
             # frame may still be on the way when the chunk's lines are written)
             rig.log.received("m2h", None)
-        if not tx or rig.host_state != "running" or not rig.port.plugged:
+        if not tx:
             return 0
-        t1 = time.perf_counter()
-        n = rig.port.write(tx)
-        rig.times["pty"] += time.perf_counter() - t1
+        pc = time.perf_counter
+        t1 = pc()
+        n = port.write(tx)
+        rig.times["pty"] += pc() - t1
         if micro is None:
             rig.log.received("m2h", None if tx is sent and n == len(tx) else tx[:n])
         return n

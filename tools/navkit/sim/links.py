@@ -69,23 +69,33 @@ class Port:
     def write(self, data: bytes) -> int:
         """Write `data` toward the host without blocking; returns bytes written (the rest
         is counted in `dropped`: the host is not reading)."""
-        if not self.plugged or not data:
+        if self.master is None or not data:
             self.dropped += len(data) if data else 0
             return 0
-        done = 0
-        view = memoryview(data)
-        while done < len(data):
-            try:
-                done += os.write(self.master, view[done:])
-            except BlockingIOError:
-                _, w, _ = select.select([], [self.master], [], 0.2)
-                if not w:
-                    break
-            except OSError as e:
-                if e.errno == errno.EIO:
-                    break
+        size = len(data)
+        try:
+            done = os.write(self.master, data)     # all of it, as a rule: no view, no loop
+        except BlockingIOError:
+            done = 0
+        except OSError as e:
+            if e.errno != errno.EIO:
                 raise
-        self.dropped += len(data) - done
+            self.dropped += size
+            return 0
+        if done < size:
+            view = memoryview(data)
+            while done < size:
+                try:
+                    done += os.write(self.master, view[done:])
+                except BlockingIOError:
+                    _, w, _ = select.select([], [self.master], [], 0.2)
+                    if not w:
+                        break
+                except OSError as e:
+                    if e.errno == errno.EIO:
+                        break
+                    raise
+            self.dropped += size - done
         return done
 
     def read_exact(self, n: int, timeout_s: float = 5.0) -> bytes:
@@ -93,9 +103,19 @@ class Port:
         lockstep); LinkError after `timeout_s`."""
         if n == 0:
             return b""
-        if not self.plugged:
+        if self.master is None:
             raise LinkError(f"the host reports {n} bytes written while the port is unplugged")
-        buf = bytearray()
+        try:
+            first = os.read(self.master, n)        # all of them, as a rule: no buffer, no clock
+            if len(first) == n:
+                return first
+        except BlockingIOError:
+            first = b""
+        except OSError as e:
+            if e.errno != errno.EIO:
+                raise
+            first = b""
+        buf = bytearray(first)
         deadline = time.monotonic() + timeout_s
         while len(buf) < n:
             try:

@@ -68,7 +68,8 @@ def run_lockstep(rig, faults) -> None:
             if faults.unplug_until is not None or faults.noise is not None or \
                     faults.silent_until is not None:
                 faults.expire(t_ns)
-            faults.act_due(t_ns)
+            if t_ns >= faults.due_ns:
+                faults.act_due(t_ns)
             host_bytes, carried, carry = b"", carry, b""
             if rig.host_state == "running":
                 if faults.silent_until is None:
