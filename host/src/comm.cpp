@@ -61,7 +61,7 @@ void install_bus_guard()
 }
 } // namespace
 
-template <class F> bool Comm::guarded(F access) const
+bool Comm::begin_frame()
 {
     if (!base_) {
         return false;
@@ -71,10 +71,19 @@ template <class F> bool Comm::guarded(F access) const
         lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
         return false;
     }
+    return true;
+}
+
+template <class F> bool Comm::guarded(F access) const
+{
+    if (!base_) {
+        return false;
+    }
     if (between_) {
         between_();
     }
-    // the size may still shrink between the check and the access: the guard catches that
+    // the size may shrink after begin_frame()'s check: the guard catches an access to a
+    // page past the new end
     sigjmp_buf back;
     // 0: no signal mask saved (a sigprocmask call per access, several a frame); the jump
     // comes from on_bus with SIGBUS blocked, which was unblocked here (a blocked SIGBUS
@@ -85,6 +94,7 @@ template <class F> bool Comm::guarded(F access) const
         sigemptyset(&bus);
         sigaddset(&bus, SIGBUS);
         sigprocmask(SIG_UNBLOCK, &bus, nullptr);
+        struct stat st;
         lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
         return false;
     }

@@ -126,7 +126,7 @@ void Console::status(const std::string &line)
         std::fflush(out_);
         return;
     }
-    if (last_status_us_ >= 0 && static_cast<double>(t_us_ - last_status_us_) < status_period_s_ * 1e6) {
+    if (!status_due()) {
         return;
     }
     last_status_us_ = t_us_;

@@ -125,10 +125,10 @@ MicroReceived MicroLink::receive(long want_bytes, navkit_micro_data_t *out)
     MicroReceived r;
     uint8_t buf[4096];
     long total = 0;
-    const int64_t deadline_ms = mono_ms() + 1000; // lockstep: wait at most 1 s for rx_bytes
+    int64_t deadline_ms = -1; // lockstep: wait at most 1 s for rx_bytes (from the first wait)
     // real time: read until nothing waits, bounded so a streaming micro cannot hold the frame
     for (int reads = 0; port_.is_open() && reads < 256; reads++) {
-        const long n = port_.read_some(buf, sizeof buf);
+        const long n = port_.read_some(buf, sizeof buf, want_bytes > total);
         if (n < 0) {
             port_lost("read failed or hung up");
             break;
@@ -149,6 +149,9 @@ MicroReceived MicroLink::receive(long want_bytes, navkit_micro_data_t *out)
             break;
         }
         if (n == 0) {
+            if (deadline_ms < 0) {
+                deadline_ms = mono_ms() + 1000;
+            }
             const int64_t left = deadline_ms - mono_ms();
             if (left <= 0) {
                 short_reads_++;

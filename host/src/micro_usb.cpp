@@ -30,6 +30,7 @@ void MicroUsb::init()
 {
     last_ = stop_command(0); // the seed's Navigation Init: the current command is Stop
     last_.time_tag = 1;
+    cmd_len_ = 0;
     if (link_.open(true)) {
         port_opened();
     }
@@ -186,6 +187,7 @@ void MicroUsb::queue_command(const navkit_micro_cmd_t &cmd, bool is_new)
     const uint16_t tag = static_cast<uint16_t>(last_.time_tag + 1u);
     last_ = cmd;
     last_.time_tag = tag;
+    cmd_len_ = 0;
 }
 
 void MicroUsb::write_frame(const uint8_t *buf, size_t len)
@@ -238,9 +240,11 @@ void MicroUsb::send()
             round_done_ = true;
         }
     } else {
-        n = navkit_micro_cmd_encode(&last_, buf, sizeof buf);
+        if (!cmd_len_) {
+            cmd_len_ = navkit_micro_cmd_encode(&last_, cmd_frame_, sizeof cmd_frame_);
+        }
         const uint64_t errs = link_.tx_errors();
-        write_frame(buf, n);
+        write_frame(cmd_frame_, cmd_len_);
         stop_last_ = link_.is_open() && link_.tx_errors() == errs && last_.fwd_cmd == NAVKIT_FWD_CMD_STOP &&
                      last_.turn_cmd == NAVKIT_TURN_CMD_STOP;
         return;

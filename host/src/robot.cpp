@@ -222,7 +222,9 @@ void RobotMain(Robot &r)
     const ConsoleInput keys = handle_keys(r);
 
     // 1. face, when on: the planner's emotion, then one ramp step (micro active = online
-    // as of the last frame's data)
+    // as of the last frame's data); the region's size is checked once, before the frame's
+    // accesses (a region cut short is let go here)
+    r.comm.begin_frame();
     r.comm.read_emotion(&r.emotion);
     if (r.cfg.animation.on) {
         update_face(r, r.micro.online(now));
@@ -360,21 +362,25 @@ void RobotMain(Robot &r)
             stop_recording(r);
         }
     }
-    // 10. status line
-    const LinkCounters lc = r.micro.counters();
-    char line[320];
-    std::snprintf(
-        line, sizeof line,
-        "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
-        "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
-        r.frames, online ? "online" : "offline",
-        r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : " unconfigured"),
-        owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance), d.heading / 10.0,
-        static_cast<unsigned long long>(lc.bad_crc), static_cast<unsigned long long>(lc.unknown_type),
-        static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.schema_mismatch),
-        static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
-        static_cast<int>(ld.overruns), r.datalog.recording() ? "  REC" : "");
-    r.console.status(line);
+    // 10. status line, formatted only when the console shows one (a log: every
+    // status_period_s of frame time)
+    if (r.console.status_due()) {
+        const LinkCounters lc = r.micro.counters();
+        char line[320];
+        std::snprintf(
+            line, sizeof line,
+            "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %.1f  "
+            "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
+            r.frames, online ? "online" : "offline",
+            r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : " unconfigured"),
+            owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance),
+            d.heading / 10.0, static_cast<unsigned long long>(lc.bad_crc),
+            static_cast<unsigned long long>(lc.unknown_type), static_cast<unsigned long long>(lc.bad_length),
+            static_cast<unsigned long long>(lc.schema_mismatch), static_cast<unsigned long long>(lc.decode_failures),
+            static_cast<unsigned long long>(lc.dropped_bytes), static_cast<int>(ld.overruns),
+            r.datalog.recording() ? "  REC" : "");
+        r.console.status(line);
+    }
     r.frames++;
 }
 

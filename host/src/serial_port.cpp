@@ -154,10 +154,17 @@ void SerialPort::close()
     }
 }
 
-long SerialPort::read_some(uint8_t *buf, size_t cap)
+long SerialPort::read_some(uint8_t *buf, size_t cap, bool expect)
 {
     if (fd_ < 0) {
         return -1;
+    }
+    if (expect) {
+        const ssize_t n = ::read(fd_, buf, cap);
+        if (n > 0) {
+            return n;
+        }
+        // none: 0 (raw, VMIN 0), EAGAIN, or the other end gone; the poll below tells which
     }
     pollfd p{fd_, POLLIN, 0};
     if (poll(&p, 1, 0) < 0) {

@@ -4,8 +4,13 @@
 // The host creates the region (mode 0600, or 0660 with a group) and holds an flock() on
 // it while it runs; it refuses a region owned by another user or locked by a running
 // host, replaces a stale one of its user, and unlinks it at shutdown.
-// A region another process cut short (ftruncate) is let go at the next access, never a
-// SIGBUS: every access checks the size and runs under a SIGBUS guard (comm.cpp).
+// A region another process cut short (ftruncate) is let go, never a SIGBUS. The order:
+// begin_frame() checks the region's size once at the start of each frame, before the
+// frame's accesses; each access then runs under a SIGBUS guard (comm.cpp), so a cut that
+// takes an accessed page away lets the region go at that access. A cut after the frame's
+// check that leaves the accessed page in the file (the region fits in one page: a cut to
+// 1 byte or more) reads zeros past the new end, and writes there are lost, until the next
+// frame's check lets the region go.
 #pragma once
 
 #include <cstdint>
@@ -26,6 +31,9 @@ public:
     // Create the region (and take its lock); throws std::runtime_error saying why not.
     void init();
     void shutdown();
+    // The size check of a frame, before its accesses: false (and the region let go, lost()
+    // says why) if another process cut it shorter than the layout; false when already lost.
+    bool begin_frame();
 
     // ReadLispCmds: the planner's current lisp_cmd; false if none written yet or torn
     // (the seqlock kept changing for the whole bounded retry).
@@ -38,13 +46,13 @@ public:
     // "" while the region is usable; else why it was let go (cut short by another
     // process): every access since reads nothing and writes nothing.
     const std::string &lost() const { return lost_; }
-    // Called between each access's size check and the access (tests: another process
+    // Called before each access, after the frame's size check (tests: another process
     // cutting the region in that moment); empty by default.
     void set_between_check_and_access(std::function<void()> f) { between_ = std::move(f); }
 
 private:
-    // Runs access() on the mapping when it is whole and returns true; false (and the
-    // region let go, lost() says why) if it is shorter than the layout or shrinks meanwhile.
+    // Runs access() on the mapping and returns true; false (and the region let go, lost()
+    // says why) if the access faults on a page the region no longer has, or it was let go.
     template <class F> bool guarded(F access) const;
     // Reads the n words of the seqlocked slot at byte offset `slot` into w; false if the
     // region is lost or no consistent copy came within the slot's retries.

@@ -32,6 +32,14 @@ public:
     static constexpr int64_t kRepeatPeriodUs = 1000000;
     void set_time_us(int64_t t_us) { t_us_ = t_us; }
     void status(const std::string &line);
+    // True when status() would show a line now (a terminal: always; else when the last
+    // status line is status_period_s old, or none was shown yet): a caller formats its
+    // status line only then.
+    bool status_due() const
+    {
+        return out_tty_ || last_status_us_ < 0 ||
+               static_cast<double>(t_us_ - last_status_us_) >= status_period_s_ * 1e6;
+    }
     // The face's lines: on a terminal drawn above the status line from the next status()
     // on (only redrawn when they change); an empty list removes the face. Nothing when
     // stdout is not a terminal.

@@ -110,7 +110,11 @@ private:
     bool mismatch_ = false;
     uint32_t mismatch_hash_ = 0;
     uint16_t cfg_tag_ = 0;
-    navkit_micro_cmd_t last_{};  // the command repeated while nothing new comes
+    navkit_micro_cmd_t last_{}; // the command repeated while nothing new comes
+    // last_ encoded (a repeat goes out as these bytes again); cmd_len_ 0: not encoded yet.
+    // Every change of last_ sets cmd_len_ = 0 (init, queue_command).
+    uint8_t cmd_frame_[NAVKIT_MAX_FRAME_BYTES] = {};
+    size_t cmd_len_ = 0;
     uint64_t config_sent_ = 0;   // config rounds started (a geometry message sent)
     int64_t last_probe_us_ = -1; // mismatch: frame time of the last config probe
     int64_t last_mismatch_report_us_ = -1;

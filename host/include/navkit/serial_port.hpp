@@ -32,7 +32,10 @@ public:
     int fd() const { return fd_; }
     const std::string &path() const { return path_; }
     // >0 bytes read, 0 nothing waiting, -1 the port is gone (closed by this call).
-    long read_some(uint8_t *buf, size_t cap);
+    // expect: bytes are known to be on their way (lockstep): a read at once, the poll
+    // that tells a hang-up from nothing waiting only when it brought none (one call, not
+    // two, when they are there); same results either way.
+    long read_some(uint8_t *buf, size_t cap, bool expect = false);
     // Bytes written (all or nothing on a tty), -1 the port is gone (closed by this call).
     long write_all(const uint8_t *buf, size_t len);
     // "115200 baud 8N1": the line settings of cfg.

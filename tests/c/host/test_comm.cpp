@@ -284,9 +284,13 @@ TEST(Comm, ARegionOfAnotherUserIsNamedAsSuchToAUserWhoCannotOpenIt)
 TEST(Comm, ARegionCutShortIsLetGoNeverASigbus)
 {
     const std::string name = unique_name("cut");
-    for (const bool between : {false, true}) {
-        // cut before the access (the size check sees it) and between the size check and
-        // the access (the page is gone when it is touched: the SIGBUS guard)
+    struct Case {
+        bool after_check; // cut after the frame's size check (the guard), else before it
+        off_t to;         // the region's size after the cut, bytes
+    };
+    // before the frame's check: to 0 and to a size that keeps its page (only the size
+    // check sees that one); after it: to 0, the page gone when it is touched (the guard)
+    for (const Case k : {Case{false, 0}, Case{false, 100}, Case{true, 0}}) {
         Comm c(name, "");
         c.init();
         const int rfd = shm_open(name.c_str(), O_RDWR, 0);
@@ -294,19 +298,24 @@ TEST(Comm, ARegionCutShortIsLetGoNeverASigbus)
         navkit_lisp_cmd_t cmd;
         navkit_lisp_data_t d;
         navkit_lisp_data_defaults(&d);
+        EXPECT_TRUE(c.begin_frame());
         c.send_lisp_data(d);
         EXPECT_EQ(c.lost(), "");
-        if (between) {
-            c.set_between_check_and_access([rfd] { (void)!ftruncate(rfd, 0); });
+        if (k.after_check) {
+            EXPECT_TRUE(c.begin_frame());
+            c.set_between_check_and_access([rfd, k] { (void)!ftruncate(rfd, k.to); });
         } else {
-            ASSERT_EQ(ftruncate(rfd, 0), 0);
+            ASSERT_EQ(ftruncate(rfd, k.to), 0);
+            EXPECT_FALSE(c.begin_frame());
         }
         EXPECT_FALSE(c.read_lisp_cmd(&cmd));
-        EXPECT_EQ(c.lost(), "rcomm " + name + ": the region was cut to 0 bytes by another process (" +
-                                std::to_string(NAVKIT_RCOMM_SIZE) + " needed): refused, the planner is gone");
+        EXPECT_EQ(c.lost(), "rcomm " + name + ": the region was cut to " + std::to_string(k.to) +
+                                " bytes by another process (" + std::to_string(NAVKIT_RCOMM_SIZE) +
+                                " needed): refused, the planner is gone");
         sigset_t mask;
         ASSERT_EQ(sigprocmask(SIG_BLOCK, nullptr, &mask), 0);
         EXPECT_EQ(sigismember(&mask, SIGBUS), 0) << "the guard's jump leaves SIGBUS unblocked";
+        EXPECT_FALSE(c.begin_frame()) << "a region let go stays let go";
         c.send_lisp_data(d);
         EXPECT_EQ(c.planner_heartbeat(), 0u) << "nothing is read after";
         close(rfd);
