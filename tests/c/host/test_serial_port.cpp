@@ -36,6 +36,27 @@ TEST(SerialPort, ReadsWritesAndSeesTheOtherEndVanish)
     EXPECT_FALSE(p.is_open());
 }
 
+TEST(SerialPort, AnExpectedReadGivesTheSameResults)
+{
+    // expect = true (lockstep: bytes on their way) reads before it polls: nothing waiting,
+    // bytes, and a vanished other end come out as without it
+    int master = -1, slave = -1;
+    ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    MicroCfg cfg;
+    cfg.port = ttyname(slave);
+    SerialPort p;
+    ASSERT_EQ(p.open(cfg), "");
+    close(slave);
+    uint8_t buf[16];
+    EXPECT_EQ(p.read_some(buf, sizeof buf, true), 0) << "nothing waiting: no wait, no error";
+    ASSERT_EQ(write(master, "\x01\x02", 2), 2);
+    EXPECT_EQ(p.read_some(buf, sizeof buf, true), 2);
+    EXPECT_EQ(buf[1], 0x02);
+    close(master);
+    EXPECT_EQ(p.read_some(buf, sizeof buf, true), -1) << "hang-up: the port is gone";
+    EXPECT_FALSE(p.is_open());
+}
+
 TEST(SerialPort, MissingPathAndNotATty)
 {
     MicroCfg cfg;
