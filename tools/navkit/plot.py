@@ -201,23 +201,26 @@ _IMPORTS = ("numpy", "PIL.PngImagePlugin", "matplotlib", "matplotlib.figure",
 
 
 def _warm_up() -> None:
-    """Draw a throwaway run plot of a few points into memory, as plot_mcap draws (every
-    kind of artist, upright labels, a legend, the PNG encoder): the lazy imports, fonts
-    and caches of a first draw are then done before the real one."""
+    """Draw a throwaway 1-in figure into memory with the kinds of artist a run plot has
+    (line, upright label, line collection, legend) and encode it as PNG: the lazy imports,
+    the font and the encoder a first draw sets up are then ready for the real one, whose
+    own cost is its artists'."""
     import io
 
-    truth = [{"t": t, "x_mm": t, "y_mm": 0.0, "v_mm_s": 1.0, "heading_deg": 10.0 * t}
-             for t in range(3)]
-    micro = [{"x": t, "y": 0, "fwd_speed": 1, "heading": 100 * t} for t in range(3)]
-    msgs = {"/truth": [(t * 10**9, m) for t, m in enumerate(truth)],
-            "/micro/data": [(t * 10**9, m) for t, m in enumerate(micro)],
-            "/planner/cmd": [(10**9, {"fwd_cmd": 1, "speed": 1, "distance": 1})],
-            "/events": [(10**9, {"t": 1.0, "kind": "warm-up", "detail": {}})]}
-    _save(run_figure(msgs, "warm-up"), io.BytesIO())
+    from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(1, 1))
+    ax = fig.subplots()
+    ax.plot([0, 1], [0, 1], label="a")
+    ax.annotate("a", (0.5, 0.5), rotation=90, fontsize=_LABEL_PT)
+    ax.add_collection(LineCollection([((0, 0), (1, 1))]))
+    _legend(ax)
+    fig.savefig(io.BytesIO(), dpi=20, pil_kwargs={"compress_level": 1})
 
 
 class PlotProcess:
-    """A child process that imports matplotlib and draws a throwaway plot (_warm_up) at
+    """A child process that imports matplotlib and draws a throwaway figure (_warm_up) at
     once, while its parent goes on (a run's set-up and loop), then draws the run plots
     the parent hands it (plot_mcap): the import and the first draw's set-up leave the
     parent's path. Forked: make it before the parent starts threads. The child runs at
@@ -297,8 +300,9 @@ class PlotProcess:
 def _plot_process(conn, parent_end, poll) -> None:
     """PlotProcess's child: at idle priority import matplotlib (_IMPORTS) and _warm_up,
     then wait for each job (path, out, series), polling while `poll` is set, draw it and
-    answer None or the error, until None or EOF. `parent_end`, the parent's end of the
-    pipe that fork() copied here, is closed first, so a parent that dies is seen as EOF."""
+    answer None or the error, until None or EOF, then exit at once (os._exit).
+    `parent_end`, the parent's end of the pipe that fork() copied here, is closed first,
+    so a parent that dies is seen as EOF."""
     import importlib
     import os
     import signal
@@ -314,16 +318,17 @@ def _plot_process(conn, parent_end, poll) -> None:
         importlib.import_module(name)
         if name == "matplotlib":
             importlib.import_module(name).use("Agg")
-    _warm_up()
+    if not conn.poll(0):        # not when the parent already waits: the job warms it up
+        _warm_up()
     while True:
         while poll.value and not conn.poll(0):  # a job, or EOF: the parent is gone
             pass
         try:
             job = conn.recv()
         except (EOFError, OSError):
-            return
-        if job is None:
-            return
+            job = None
+        if job is None:     # no interpreter teardown: its files are closed, and the parent
+            os._exit(0)     # waits for this exit (PlotProcess.close)
         try:
             plot_mcap(*job)
             err = None
