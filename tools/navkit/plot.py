@@ -244,6 +244,19 @@ class PlotProcess:
         self._proc.start()
         child.close()
         self._used = False
+        # set here, not in the child: plot_mcap's later change of priority then comes after
+        self._priority(os.SCHED_IDLE if hasattr(os, "SCHED_IDLE") else None)
+
+    def _priority(self, policy) -> None:
+        """Put the child under scheduling `policy` (os.SCHED_IDLE or os.SCHED_OTHER; None:
+        leave it), where the system allows it."""
+        import os
+
+        try:
+            if policy is not None:
+                os.sched_setscheduler(self._proc.pid, policy, os.sched_param(0))
+        except (AttributeError, OSError):
+            pass
 
     def keep_busy(self, cpus: set) -> bool:
         """Pin the child to `cpus` (CPU numbers) at idle priority, polling for its job once
@@ -264,11 +277,12 @@ class PlotProcess:
 
         self._used = True
         self._poll.value = 0
-        try:    # the parent waits for this plot: the child's import, if unfinished, too
-            os.sched_setscheduler(self._proc.pid, os.SCHED_OTHER, os.sched_param(0))
+        # the parent waits for this plot: the child's import, if unfinished, too
+        self._priority(getattr(os, "SCHED_OTHER", None))
+        try:
             if self._cpus:
                 os.sched_setaffinity(self._proc.pid, self._cpus)
-        except (AttributeError, OSError):
+        except OSError:
             pass
         self._conn.send((Path(path), Path(out), series))
         try:
@@ -298,7 +312,7 @@ class PlotProcess:
 
 
 def _plot_process(conn, parent_end, poll) -> None:
-    """PlotProcess's child: at idle priority import matplotlib (_IMPORTS) and _warm_up,
+    """PlotProcess's child (its parent sets its priority): import matplotlib (_IMPORTS) and _warm_up,
     then wait for each job (path, out, series), polling while `poll` is set, draw it and
     answer None or the error, until None or EOF, then exit at once (os._exit).
     `parent_end`, the parent's end of the pipe that fork() copied here, is closed first,
@@ -310,10 +324,6 @@ def _plot_process(conn, parent_end, poll) -> None:
     parent_end.close()
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, signal.SIG_IGN)
-    try:
-        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
-    except (AttributeError, OSError):
-        pass
     for name in _IMPORTS:
         importlib.import_module(name)
         if name == "matplotlib":
