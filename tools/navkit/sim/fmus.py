@@ -81,13 +81,15 @@ class FmuPair:
 
     def __init__(self, fw_path: Path, plant_path: Path, tmp: Path, plant_params: dict,
                  mission: Mission):
-        from fmpy import extract, read_model_description
+        from fmpy import extract
         from fmpy.fmi3 import FMU3Slave
+
+        from navkit.sim.plant import model_description
 
         self.slaves = []
         self.log = []
-        self.fw_md = read_model_description(str(fw_path))
-        self.plant_md = read_model_description(str(plant_path))
+        self.fw_md = model_description(fw_path)
+        self.plant_md = model_description(plant_path)
         fw_dir = extract(str(fw_path), unzipdir=str(tmp / "fw"))
         plant_dir = extract(str(plant_path), unzipdir=str(tmp / "plant"))
         self.fw = FMU3Slave(guid=self.fw_md.guid, unzipDirectory=fw_dir,

@@ -60,9 +60,9 @@ def run(opts: SimOptions, stamps: dict | None = None, plotter=None) -> dict:
 def _run(opts: SimOptions, plotter, stamp) -> dict:
     """run(opts) with plot.png drawn by `plotter` (a navkit.plot.PlotProcess, or None for
     no plot) and each phase's end passed to `stamp`."""
-    # module imports are not part of a run's wall time
+    # module imports are not part of a run's wall time (mcap's: the log worker's own, beside
+    # the set-up)
     import fmpy.fmi3  # noqa: F401
-    import mcap.writer  # noqa: F401
 
     rig = SimRig(opts, plotter)
     faults = Faults(rig)

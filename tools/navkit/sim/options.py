@@ -13,7 +13,8 @@ from pathlib import Path
 from navkit.sim.mission import Mission
 
 __all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
-           "fmu_paths", "host_config", "frame_period", "check_frame", "git_revision"]
+           "fmu_paths", "host_config", "frame_period", "check_frame", "git_revision",
+           "git_revision_started"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
@@ -127,19 +128,47 @@ def git_revision(root: Path | None = None) -> str:
     of HEAD, with "+dirty" appended when `git status --porcelain` lists anything (modified,
     staged or untracked files), or "unknown" when `root` is not a git checkout (or git is
     missing)."""
+    return git_revision_started(root)()
+
+
+def git_revision_started(root: Path | None = None):
+    """Start git_revision(root)'s two git commands side by side and return at once a
+    function that waits for them and returns git_revision's answer (the same on every
+    call; the first call reaps both commands)."""
     from navkit.paths import repo_root
 
     git = ["git", "-C", str(root or repo_root())]
+    procs = []
     try:
-        head = subprocess.run(git + ["rev-parse", "--verify", "HEAD"], capture_output=True,
-                              text=True, timeout=5)
-        rev = head.stdout.strip()
+        for args in (["rev-parse", "--verify", "HEAD"], ["status", "--porcelain"]):
+            procs.append(subprocess.Popen(git + args, stdin=subprocess.DEVNULL,
+                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL))
+    except OSError:
+        pass
+    answer = []
+
+    def result() -> str:
+        if not answer:
+            answer.append(_git_answer(procs) if len(procs) == 2 else "unknown")
+            for p in procs:         # after a timeout or a failed start
+                if p.poll() is None:
+                    p.kill()
+                p.wait()
+        return answer[0]
+    return result
+
+
+def _git_answer(procs: list) -> str:
+    """git_revision's answer from its running (rev-parse, status) commands: HEAD's output
+    within 5 s, the status (bytes: file names in any encoding) within 30 s."""
+    head, status = procs
+    try:
+        rev = head.communicate(timeout=5)[0].decode(errors="replace").strip()
         if head.returncode != 0 or not _REVISION.fullmatch(rev):
             return "unknown"
-        status = subprocess.run(git + ["status", "--porcelain"], capture_output=True,
-                                timeout=30)     # bytes: file names in any encoding
-        if status.returncode != 0:
-            return "unknown"
-    except (OSError, subprocess.SubprocessError):
+        dirty = status.communicate(timeout=30)[0].strip()
+    except subprocess.SubprocessError:
         return "unknown"
-    return rev + ("+dirty" if status.stdout.strip() else "")
+    if status.returncode != 0:
+        return "unknown"
+    return rev + ("+dirty" if dirty else "")

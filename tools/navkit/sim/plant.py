@@ -11,9 +11,10 @@ output `walls` (Binary: the world's walls, drawn in run.mcap's /foxglove/scene).
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
-__all__ = ["PlantFmuError", "check", "contract", "FMI2_UNSUPPORTED"]
+__all__ = ["PlantFmuError", "check", "contract", "model_description", "FMI2_UNSUPPORTED"]
 
 FMI2_UNSUPPORTED = "FMI 2.0 plant FMUs are not supported by the native coupler"
 
@@ -36,13 +37,26 @@ def contract(fw_md) -> dict:
             if v.type in _LINKED_TYPES and v.causality in _OPPOSITE}
 
 
-def _read(path: Path, what: str):
+def model_description(path: Path):
+    """fmpy's model description of FMU file `path`, read (and validated) once per version
+    of the file (its size and modification time): the check and the instantiation of a
+    run, and the runs of one process, share it. Read-only to its users."""
+    st = Path(path).stat()
+    return _model_description(str(path), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=8)
+def _model_description(path: str, _size: int, _mtime_ns: int):
     from fmpy import read_model_description
 
+    return read_model_description(path)
+
+
+def _read(path: Path, what: str):
     if not path.is_file():
         raise PlantFmuError(f"{path}: no such file ({what})")
     try:
-        return read_model_description(str(path))
+        return model_description(path)
     except Exception as e:  # noqa: BLE001 - fmpy raises plain Exception for bad FMUs
         raise PlantFmuError(f"{path}: not a readable FMU: {e}") from None
 

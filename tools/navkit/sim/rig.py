@@ -23,7 +23,7 @@ from navkit.sim.faults import check_timeline
 from navkit.sim.fmus import FmuPair, check_seed
 from navkit.sim.host_console import HostConsole
 from navkit.sim.options import (STEP_S, SimError, SimOptions, build_folder, check_frame, fmu_paths,
-                                git_revision, host_config, host_path)
+                                git_revision_started, host_config, host_path)
 from navkit.sim.planner import ScriptedPlanner
 
 __all__ = ["SimRig", "datalogs"]
@@ -64,13 +64,23 @@ class SimRig:
 
     def __init__(self, opts: SimOptions, plotter=None):
         """`plotter`: the navkit.plot.PlotProcess that will draw plot.png, or None."""
-        from navkit import protocol
-        from navkit.paths import repo_root
-
         self.opts = opts
         self.plotter = plotter
         self.m = opts.mission
-        self.git_revision = git_revision()      # before the run's wall clock starts
+        # its git commands run beside the checks and the set-up; start() takes the answer
+        self._git = git_revision_started()
+        self.git_revision = None
+        try:
+            self._resolve(opts)
+        except BaseException:
+            self._git()
+            raise
+
+    def _resolve(self, opts: SimOptions) -> None:
+        """The paths and the host's configuration of `opts`, checked, and the run's state."""
+        from navkit import protocol
+        from navkit.paths import repo_root
+
         self.build = build_folder(opts)
         # absolute: the host runs in the output folder
         self.config_dir = (Path(opts.config_dir) if opts.config_dir else repo_root() / "config").resolve()
@@ -114,6 +124,7 @@ class SimRig:
 
         from navkit.sim.plant import PlantFmuError, check
 
+        self.git_revision = self._git()
         check_timeline(self.m, self.frame_s)
         fw_fmu, plant_fmu = fmu_paths(self.build, self.opts.firmware)[0], self.plant_fmu
         if self.opts.link == "can":   # the firmware's CAN build (the AVR's: the CAN image)
@@ -283,6 +294,7 @@ class SimRig:
         """End every part that was started, in order (host, with the bus played out until it
         has exited: navkit.sim.playout; planner, port, CAN log, log worker, coupler, FMUs),
         keeping what each reports; remove the temporary folder."""
+        self._git()
         if self.progress is not None:
             self.progress.close()
         gc.unfreeze()             # the lockstep loop froze the objects of the set-up
