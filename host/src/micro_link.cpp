@@ -104,7 +104,11 @@ void MicroLink::take_frames(const uint8_t *d, size_t len, navkit_micro_data_t *o
             // decodes) is used for nothing but saying so: its words may mean other things.
             navkit_micro_data_t m;
             int bad = -1;
-            const bool decoded = navkit_micro_data_decode(f, fl, &m) == NAVKIT_OK;
+            // the parser checked start, length and CRC: only the type is left to check
+            const bool decoded = navkit_frame_type(f) == NAVKIT_MSG_TYPE_MICRO_DATA;
+            if (decoded) {
+                navkit_micro_data_decode_parsed(f, &m);
+            }
             if (decoded && m.spec_hash != NAVKIT_SPEC_HASH) {
                 r->foreign_last = true;
                 r->foreign_hash = m.spec_hash;

@@ -192,7 +192,10 @@ def emit_c_header(spec: Spec) -> str:
                        f" * encode_frame() checks by default; strict=False encodes like this.) */")
             out.append(f"size_t navkit_{m.name}_encode(const navkit_{m.name}_t *m, uint8_t *buf, size_t cap);")
             out.append(f"/* Decode one whole frame (checked: start, type, length, CRC): NAVKIT_OK or the reason. */")
-            out.append(f"int navkit_{m.name}_decode(const uint8_t *frame, size_t len, navkit_{m.name}_t *m);\n")
+            out.append(f"int navkit_{m.name}_decode(const uint8_t *frame, size_t len, navkit_{m.name}_t *m);")
+            out.append(f"/* The fields of a frame navkit_parser_next() returned (it checked start, length and\n"
+                       f" * CRC) whose type is NAVKIT_MSG_TYPE_{up}: _decode() without checking again. */")
+            out.append(f"void navkit_{m.name}_decode_parsed(const uint8_t *frame, navkit_{m.name}_t *m);\n")
         else:
             out.append(f"/* To/from the message's {m.words} 32-bit words (rcomm slot contents). */")
             out.append(f"void navkit_{m.name}_pack(const navkit_{m.name}_t *m, int32_t words[NAVKIT_{up}_WORDS]);")
@@ -446,10 +449,12 @@ def _c_message(spec: Spec, m: Message) -> list[str]:
         out.append(f"    int rc = navkit_frame_check(frame, len, {dir_});")
         out.append("    if (rc != NAVKIT_OK) {\n        return rc;\n    }")
         out.append(f"    if (navkit_frame_type(frame) != NAVKIT_MSG_TYPE_{up}) {{\n        return NAVKIT_ERR_TYPE;\n    }}")
-        for f in m.fields:
-            for sfx, off in _elements(f):
-                out.append("    " + _get(f, f"m->{f.name}{sfx}", f"frame + {off}"))
+        fields = ["    " + _get(f, f"m->{f.name}{sfx}", f"frame + {off}") for f in m.fields for sfx, off in _elements(f)]
+        out += fields
         out.append("    return NAVKIT_OK;\n}\n")
+        out.append(f"void navkit_{m.name}_decode_parsed(const uint8_t *frame, {t} *m)\n{{")
+        out += fields
+        out.append("}\n")
     else:
         out.append(f"void navkit_{m.name}_pack(const {t} *m, int32_t words[NAVKIT_{up}_WORDS])\n{{")
         for f in m.fields:

@@ -3,6 +3,7 @@
  *
  * For N random payloads of every serial message:
  *  - round trip: seal random field bytes into a frame, decode, re-encode: same bytes;
+ *    _decode_parsed() of the frame gives the struct _decode() gives;
  *  - every single-bit flip of the frame is rejected, and a good frame after it is found;
  *  - every truncation is rejected (never returned as a frame);
  *  - the byte-wise CRC equals the table CRC;
@@ -65,32 +66,52 @@ static void reencode(size_t k, const uint8_t *tmp, uint8_t *f)
     size_t n = MSGS[k].bytes;
     switch (MSGS[k].type) {
     case NAVKIT_MSG_TYPE_MICRO_CMD: {
-        navkit_micro_cmd_t m;
+        navkit_micro_cmd_t m, q;
+        memset(&m, 0, sizeof m);
+        memset(&q, 0, sizeof q);
         CHECK(navkit_micro_cmd_decode(tmp, n, &m) == NAVKIT_OK, "decode");
+        navkit_micro_cmd_decode_parsed(tmp, &q);
+        CHECK(memcmp(&m, &q, sizeof m) == 0, "decode_parsed gives what decode gives");
         CHECK(navkit_micro_cmd_encode(&m, f, n) == n, "encode");
         break;
     }
     case NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY: {
-        navkit_micro_cfg_geometry_t m;
+        navkit_micro_cfg_geometry_t m, q;
+        memset(&m, 0, sizeof m);
+        memset(&q, 0, sizeof q);
         CHECK(navkit_micro_cfg_geometry_decode(tmp, n, &m) == NAVKIT_OK, "decode");
+        navkit_micro_cfg_geometry_decode_parsed(tmp, &q);
+        CHECK(memcmp(&m, &q, sizeof m) == 0, "decode_parsed gives what decode gives");
         CHECK(navkit_micro_cfg_geometry_encode(&m, f, n) == n, "encode");
         break;
     }
     case NAVKIT_MSG_TYPE_MICRO_CFG_MOTION: {
-        navkit_micro_cfg_motion_t m;
+        navkit_micro_cfg_motion_t m, q;
+        memset(&m, 0, sizeof m);
+        memset(&q, 0, sizeof q);
         CHECK(navkit_micro_cfg_motion_decode(tmp, n, &m) == NAVKIT_OK, "decode");
+        navkit_micro_cfg_motion_decode_parsed(tmp, &q);
+        CHECK(memcmp(&m, &q, sizeof m) == 0, "decode_parsed gives what decode gives");
         CHECK(navkit_micro_cfg_motion_encode(&m, f, n) == n, "encode");
         break;
     }
     case NAVKIT_MSG_TYPE_MICRO_CFG_IO: {
-        navkit_micro_cfg_io_t m;
+        navkit_micro_cfg_io_t m, q;
+        memset(&m, 0, sizeof m);
+        memset(&q, 0, sizeof q);
         CHECK(navkit_micro_cfg_io_decode(tmp, n, &m) == NAVKIT_OK, "decode");
+        navkit_micro_cfg_io_decode_parsed(tmp, &q);
+        CHECK(memcmp(&m, &q, sizeof m) == 0, "decode_parsed gives what decode gives");
         CHECK(navkit_micro_cfg_io_encode(&m, f, n) == n, "encode");
         break;
     }
     default: {
-        navkit_micro_data_t m;
+        navkit_micro_data_t m, q;
+        memset(&m, 0, sizeof m);
+        memset(&q, 0, sizeof q);
         CHECK(navkit_micro_data_decode(tmp, n, &m) == NAVKIT_OK, "decode");
+        navkit_micro_data_decode_parsed(tmp, &q);
+        CHECK(memcmp(&m, &q, sizeof m) == 0, "decode_parsed gives what decode gives");
         CHECK(navkit_micro_data_encode(&m, f, n) == n, "encode");
         break;
     }
