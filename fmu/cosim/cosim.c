@@ -215,14 +215,20 @@ static const char *fmu_name(int which)
 
 /* Appends to f->set_vr / `out` (from index k, which it advances) the links of `f` whose
  * value in `vals` differs bit for bit from the last one set, `last` (all of them when
- * !f->valid). */
-#define COSIM_CHANGED(f, vals, last, out)                                                                              \
+ * !f->valid), and makes `last` hold every value of `vals`. The bits are compared as
+ * unsigned integers of the value's width (UT), so -0 differs from +0 and a NaN from
+ * itself never hides a change. */
+#define COSIM_CHANGED(f, vals, last, out, UT)                                                                          \
     do {                                                                                                               \
         size_t j_;                                                                                                     \
         for (j_ = 0; j_ < (f)->n; j_++) {                                                                              \
-            if (!(f)->valid || memcmp(&(vals)[j_], &(last)[j_], sizeof(vals)[0]) != 0) {                               \
+            UT now_, was_;                                                                                             \
+            memcpy(&now_, &(vals)[j_], sizeof now_);                                                                   \
+            memcpy(&was_, &(last)[j_], sizeof was_);                                                                   \
+            if (now_ != was_ || !(f)->valid) {                                                                         \
                 (f)->set_vr[k] = (f)->dst[j_];                                                                         \
                 (out)[k] = (vals)[j_];                                                                                 \
+                (last)[j_] = (vals)[j_];                                                                               \
                 k++;                                                                                                   \
             }                                                                                                          \
         }                                                                                                              \
@@ -241,14 +247,14 @@ static int transfer(cosim_t *c, int src)
             return fail(c, COSIM_ERR_FMU, "getting Float64 of %s failed at t=%.3f s", fmu_name(src), cosim_time(c));
         }
         k = 0;
-        COSIM_CHANGED(f, f->f64, f->f64_last, f->set_f64);
+        COSIM_CHANGED(f, f->f64, f->f64_last, f->set_f64, uint64_t);
         if (k) {
+            f->valid = 1;
             if (d->set_f64(d->inst, f->set_vr, k, f->set_f64, k) > fmi3Warning) {
+                f->valid = 0; /* the destination may hold some of them: all go again next time */
                 return fail(c, COSIM_ERR_FMU, "setting Float64 of %s failed at t=%.3f s", fmu_name(1 - src),
                             cosim_time(c));
             }
-            memcpy(f->f64_last, f->f64, f->n * sizeof(double));
-            f->valid = 1;
         }
     }
     if (i->n) {
@@ -256,14 +262,14 @@ static int transfer(cosim_t *c, int src)
             return fail(c, COSIM_ERR_FMU, "getting Int32 of %s failed at t=%.3f s", fmu_name(src), cosim_time(c));
         }
         k = 0;
-        COSIM_CHANGED(i, i->i32, i->i32_last, i->set_i32);
+        COSIM_CHANGED(i, i->i32, i->i32_last, i->set_i32, uint32_t);
         if (k) {
+            i->valid = 1;
             if (d->set_i32(d->inst, i->set_vr, k, i->set_i32, k) > fmi3Warning) {
+                i->valid = 0;
                 return fail(c, COSIM_ERR_FMU, "setting Int32 of %s failed at t=%.3f s", fmu_name(1 - src),
                             cosim_time(c));
             }
-            memcpy(i->i32_last, i->i32, i->n * sizeof(int32_t));
-            i->valid = 1;
         }
     }
     return COSIM_OK;

@@ -205,9 +205,9 @@ static int fmil_can_set(fmil_instance_t *c, const fmil_var_t *vi, const char *fn
     return 0;
 }
 
-/* The state check and the count check of every Get/Set; a Get in InitializationMode
- * starts the model first when parameters changed. */
-static fmil_status_t fmil_access(fmil_instance_t *c, int get, size_t nvr, size_t nvals, const char *fn)
+/* The state check and the count check of every Get/Set (fmil_access): the general case.
+ * A Get in InitializationMode starts the model first when parameters changed. */
+static fmil_status_t fmil_access_checked(fmil_instance_t *c, int get, size_t nvr, size_t nvals, const char *fn)
 {
     if (fmil_allowed(c, get ? FMIL_GET : FMIL_SET)) {
         return FMIL_ERROR;
@@ -220,6 +220,17 @@ static fmil_status_t fmil_access(fmil_instance_t *c, int get, size_t nvr, size_t
         return FMIL_ERROR;
     }
     return FMIL_OK;
+}
+
+/* The state check and the count check of every Get/Set. StepMode, where the calls of
+ * every co-simulation step land, allows both Get and Set and has the model started, so
+ * there a matching count is all there is to check, inline; the rest goes the full way. */
+static inline fmil_status_t fmil_access(fmil_instance_t *c, int get, size_t nvr, size_t nvals, const char *fn)
+{
+    if (c && c->state == FMIL_ST_STEP && nvals == nvr) {
+        return FMIL_OK;
+    }
+    return fmil_access_checked(c, get, nvr, nvals, fn);
 }
 
 /* These calls run several times per 1 ms co-simulation step: per value one table check

@@ -225,6 +225,10 @@ typedef struct {
     uint64_t rng[4];            /* splitmix64 states: gyro, compass, IR, sonar */
     double spare[4];            /* cached second Box-Muller normal per stream */
     int have_spare[4];
+    double step_h;      /* s: the step size plant_step last saw (0 = none yet); for it: */
+    int step_n;         /* sub-steps per step */
+    double step_hs;     /* s: sub-step, step_h / step_n */
+    double step_sqrt_h; /* s^0.5: sqrt(step_h), the gyro bias walk's scale */
 } plant_model_t;
 
 /* Sets every variable to its start value and frees the world (values only; call

@@ -414,6 +414,22 @@ void plant_inputs_changed(plant_model_t *m)
     update_dio(m);
 }
 
+/* fmod(x, 360.0) bit for bit, without the libm call for |x| < 720 deg (most steps):
+ * fmod is exact and keeps x's sign, so below 360 it is x itself, and strictly between
+ * 360 and 720 it is x -+ 360, which is exact there (Sterbenz) and keeps the sign; at
+ * exactly +-360 (a signed zero) and beyond, and for NaN or infinities, fmod decides. */
+static double fmod360(double x)
+{
+    double a = fabs(x);
+    if (a < 360.0) {
+        return x;
+    }
+    if (a > 360.0 && a < 720.0) {
+        return x > 0.0 ? x - 360.0 : x + 360.0;
+    }
+    return fmod(x, 360.0);
+}
+
 /* Computes the sampled outputs (encoders, gyro, compass, battery, truth, DIO) from the
  * state; draws the gyro and compass noise. */
 static void update_outputs(plant_model_t *m)
@@ -423,7 +439,7 @@ static void update_outputs(plant_model_t *m)
     v->x_mm = m->xm * 1000.0;
     v->y_mm = m->ym * 1000.0;
     v->yaw_deg = m->yaw / DEG;
-    double hdg = fmod(-v->yaw_deg, 360.0);
+    double hdg = fmod360(-v->yaw_deg);
     if (hdg < 0.0) {
         hdg += 360.0;
     }
@@ -439,7 +455,7 @@ static void update_outputs(plant_model_t *m)
     double g = (v->w_deg_s + m->gyro_bias + v->gyro_noise_dps * rng_normal(m, RNG_GYRO)) * v->gyro_lsb_per_dps;
     g = floor(g + 0.5);
     v->gyro_raw = (int32_t)(g > 32767.0 ? 32767.0 : g < -32768.0 ? -32768.0 : g);
-    double bearing = fmod(v->compass_start_deg + hdg + v->compass_noise_deg * rng_normal(m, RNG_COMPASS), 360.0);
+    double bearing = fmod360(v->compass_start_deg + hdg + v->compass_noise_deg * rng_normal(m, RNG_COMPASS));
     if (bearing < 0.0) {
         bearing += 360.0;
     }
@@ -559,6 +575,7 @@ int plant_start(plant_model_t *m, double t0, char *err, size_t errlen)
 
     m->t = t0;
     v->time = t0;
+    m->step_h = 0.0; /* no step size seen: plant_step works its sub-steps out */
     m->xm = m->ym = m->yaw = 0.0;
     m->vw[0] = m->vw[1] = m->sw[0] = m->sw[1] = m->fc[0] = m->fc[1] = 0.0;
     m->charge_ah = 0.0;
@@ -676,21 +693,30 @@ static void substep(plant_model_t *m, double h)
     m->vw[1] = vn[1];
 }
 
+/* Where each servo's pulse input (us) and angle output (deg) lie in plant_values_t. */
+static const size_t servo_pulse_at[PLANT_N_SERVO] = {
+    offsetof(plant_values_t, servo_pulse_0), offsetof(plant_values_t, servo_pulse_1),
+    offsetof(plant_values_t, servo_pulse_2), offsetof(plant_values_t, servo_pulse_3),
+    offsetof(plant_values_t, servo_pulse_4), offsetof(plant_values_t, servo_pulse_5),
+    offsetof(plant_values_t, servo_pulse_6), offsetof(plant_values_t, servo_pulse_7)};
+static const size_t servo_deg_at[PLANT_N_SERVO] = {
+    offsetof(plant_values_t, servo_deg_0), offsetof(plant_values_t, servo_deg_1), offsetof(plant_values_t, servo_deg_2),
+    offsetof(plant_values_t, servo_deg_3), offsetof(plant_values_t, servo_deg_4), offsetof(plant_values_t, servo_deg_5),
+    offsetof(plant_values_t, servo_deg_6), offsetof(plant_values_t, servo_deg_7)};
+
 /* Moves every servo toward its commanded angle, at most servo_rate_dps for h seconds. */
 static void step_servos(plant_model_t *m, double h)
 {
     plant_values_t *v = &m->v;
-    const double *pulse[PLANT_N_SERVO] = {&v->servo_pulse_0, &v->servo_pulse_1, &v->servo_pulse_2, &v->servo_pulse_3,
-                                          &v->servo_pulse_4, &v->servo_pulse_5, &v->servo_pulse_6, &v->servo_pulse_7};
-    double *deg[PLANT_N_SERVO] = {&v->servo_deg_0, &v->servo_deg_1, &v->servo_deg_2, &v->servo_deg_3,
-                                  &v->servo_deg_4, &v->servo_deg_5, &v->servo_deg_6, &v->servo_deg_7};
     double maxd = v->servo_rate_dps * h;
     for (int i = 0; i < PLANT_N_SERVO; i++) {
-        if (!(*pulse[i] > 0.0)) {
+        double pulse = *(const double *)(const void *)((const char *)v + servo_pulse_at[i]);
+        double *deg = (double *)(void *)((char *)v + servo_deg_at[i]);
+        if (!(pulse > 0.0)) {
             continue; /* not driven: holds */
         }
-        double target = clampd((*pulse[i] - v->servo_center_us) / v->servo_us_per_deg, v->servo_travel_deg);
-        *deg[i] += clampd(target - *deg[i], maxd);
+        double target = clampd((pulse - v->servo_center_us) / v->servo_us_per_deg, v->servo_travel_deg);
+        *deg += clampd(target - *deg, maxd);
     }
 }
 
@@ -710,11 +736,15 @@ static bool sample_due(double *next, double t, double period)
 
 void plant_step(plant_model_t *m, double h)
 {
-    int n = (int)ceil(h / PLANT_MAX_SUBSTEP_S - 1e-9);
-    if (n < 1) {
-        n = 1;
+    if (!(h == m->step_h)) { /* the importer's step size is the same every step */
+        int sub = (int)ceil(h / PLANT_MAX_SUBSTEP_S - 1e-9);
+        m->step_n = sub < 1 ? 1 : sub;
+        m->step_hs = h / m->step_n;
+        m->step_sqrt_h = sqrt(h);
+        m->step_h = h;
     }
-    double hs = h / n;
+    int n = m->step_n;
+    double hs = m->step_hs;
     for (int i = 0; i < n; i++) {
         substep(m, hs);
         m->t += hs;
@@ -726,7 +756,7 @@ void plant_step(plant_model_t *m, double h)
         }
     }
     step_servos(m, h);
-    m->gyro_bias += m->v.gyro_bias_walk_dps_rt_s * sqrt(h) * rng_normal(m, RNG_GYRO);
+    m->gyro_bias += m->v.gyro_bias_walk_dps_rt_s * m->step_sqrt_h * rng_normal(m, RNG_GYRO);
     m->v.time = m->t;
     update_outputs(m);
 }
