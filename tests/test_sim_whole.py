@@ -196,6 +196,41 @@ def test_plot_process_kept_busy_on_given_cpus_then_drawing_at_normal_priority(tm
     assert p._proc.exitcode == 0
 
 
+def _run_msgs(cmd: dict) -> dict:
+    """A run's plot messages: 20 s of /truth and /micro/data, command `cmd` at 5 s and an
+    unplug at 8 s."""
+    truth = [{"t": t / 10, "x_mm": 10.0 * t, "y_mm": t % 7, "v_mm_s": 100.0, "heading_deg": 3.0 * t}
+             for t in range(200)]
+    micro = [{"x": 10 * t, "y": 0, "fwd_speed": 100, "heading": 30 * t} for t in range(200)]
+    return {"/truth": [(t * 100_000_000, m) for t, m in enumerate(truth)],
+            "/micro/data": [(t * 100_000_000, m) for t, m in enumerate(micro)],
+            "/planner/cmd": [(5_000_000_000, cmd)],
+            "/events": [(8_000_000_000, {"t": 8.0, "kind": "unplug", "detail": {}})]}
+
+
+@pytest.mark.parametrize("cmd, rows_meet", [
+    ({"fwd_cmd": 1, "speed": 300, "distance": 300}, False),
+    # a label longer than its panel is high reaches the heading panel's rows
+    ({"fwd_cmd": 123456, "speed": 123456, "distance": 123456789, "turn_mode": 123456,
+      "turn_distance": 123456789, "rc_param0": 1, "rc_servo_num": 123456, "dio_active": 0xFFFFFF,
+      "dio_command": 0xFFFFFF}, True)])
+def test_run_plot_drawn_by_two_processes_is_the_whole_figure(cmd, rows_meet):
+    """plot.png's pixels, the speed panel drawn by a forked helper and the others here,
+    are those of the whole figure drawn at once: when the two sides' rows are apart and,
+    by drawing it all here, when a long label makes them meet."""
+    import numpy as np
+
+    from navkit import plot
+
+    fig = plot.run_figure(_run_msgs(cmd), "t")
+    whole = plot._pixels(fig).copy()
+    helper = plot._inked_rows(plot._pixels(fig, plot._HELPER_PANELS))
+    rest = plot._inked_rows(plot._pixels(fig, [0, 2]))
+    assert bool((helper & rest).any()) == rows_meet
+    assert np.array_equal(plot._draw_run(fig), whole)
+    assert whole.shape == (1210, 990, 4)
+
+
 def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     """bench-sim runs `python -m navkit sim` as a user does and prints its wall time and
     the parts of it, which add up to it."""
