@@ -33,13 +33,6 @@ void config_reset(config_t *c)
     c->received = 0u;
 }
 
-uint8_t config_complete(const config_t *c)
-{
-    const uint16_t all = NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK | NAVKIT_MICRO_STATUS_CFG_MOTION_OK |
-                         NAVKIT_MICRO_STATUS_CFG_IO_OK;
-    return (uint8_t)((c->received & all) == all);
-}
-
 config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *m)
 {
     float track_mm = 0.1f * (float)m->track_width;

@@ -85,8 +85,14 @@ typedef struct {
 
 /* Spec defaults (control_rate at most CONFIG_RATE_MAX), nothing received. */
 void config_reset(config_t *c);
-/* 1 when all three config messages have been applied since reset. */
-uint8_t config_complete(const config_t *c);
+/* 1 when all three config messages have been applied since reset (inline: the tick asks
+ * it every time). */
+static inline uint8_t config_complete(const config_t *c)
+{
+    const uint16_t all = NAVKIT_MICRO_STATUS_CFG_GEOMETRY_OK | NAVKIT_MICRO_STATUS_CFG_MOTION_OK |
+                         NAVKIT_MICRO_STATUS_CFG_IO_OK;
+    return (uint8_t)((c->received & all) == all);
+}
 /* Apply micro_cfg_geometry (control_rate at most CONFIG_RATE_MAX). */
 config_result_t config_geometry(config_t *c, const navkit_micro_cfg_geometry_t *m);
 /* Apply micro_cfg_motion. */

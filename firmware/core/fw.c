@@ -6,6 +6,15 @@
 #define FW_DUTY_SCALE 10000.0f /* hal_motor units per duty */
 /* mm/s: wheel setpoints below this (both together) count as "commanded to stand" */
 #define FW_STILL_SP_MM_S 0.5f
+/* Before the tick's loops over its wires (ADC, sonar, servos): unrolled where the compiler
+   takes the pragma (GCC 8 and later, clang), each pass is then a hal call with constant
+   arguments instead of a loop step around one; elsewhere (avr-gcc 5, where flash counts
+   more) an ordinary loop. */
+#if defined(__clang__) || (defined(__GNUC__) && __GNUC__ >= 8)
+#define FW_UNROLL _Pragma("GCC unroll 8")
+#else
+#define FW_UNROLL
+#endif
 
 void fw_init(fw_t *fw, hal_t *hal)
 {
@@ -153,12 +162,14 @@ static void fw_sample(fw_t *fw, int32_t *enc_l, int32_t *enc_r)
     fw->gyro_raw = hal_gyro_raw(fw->hal);
     compass = hal_compass(fw->hal);
     fw->compass = (en & NAVKIT_SENSOR_ENABLE_COMPASS) ? compass : 0u;
+    FW_UNROLL
     for (i = 0u; i < FW_ADC_CHANNELS; i++) {
         uint16_t v = hal_adc(fw->hal, i);
         /* ch0-3 IR (enable bits 0-3), ch4 battery */
         uint8_t on = (i < 4u) ? (uint8_t)((en >> i) & 1u) : (uint8_t)((en & NAVKIT_SENSOR_ENABLE_BATTERY) != 0u);
         fw->adc[i] = on ? v : 0u;
     }
+    FW_UNROLL
     for (i = 0u; i < 4u; i++) {
         uint16_t v = hal_sonar_echo(fw->hal, i);
         fw->sonar[i] = ((en >> (4u + i)) & 1u) ? v : 0u;
@@ -214,12 +225,21 @@ void fw_tick(fw_t *fw)
     }
 
     /* motion, every tick: forward + turn re-planned from the measured state -> wheel
-       setpoints -> wheel loops */
-    v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM,
-                        CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
-    w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s,
-                       heading_deg(&fw->hdg), c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
-                       dt);
+       setpoints -> wheel loops; an idle axis is not measured (its tick reads nothing) */
+    if (motion_active(&fw->fwd)) {
+        v_fwd = motion_tick(&fw->fwd, motion_distance(&fw->fwd, &fw->odom, c->mm_per_count),
+                            0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S,
+                            c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
+    } else {
+        v_fwd = motion_tick_idle(&fw->fwd);
+    }
+    if (turn_ticking(&fw->turn)) {
+        w_turn = turn_tick(&fw->turn, turn_angle(&fw->turn, &fw->odom, c->odom.turn_deg_per_count),
+                           (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s, heading_deg(&fw->hdg), c->heading_kp,
+                           c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol, dt);
+    } else {
+        w_turn = motion_tick_idle(&fw->turn.ax);
+    }
     /* an excitation runs open loop: the loops idle (their duty shows the excitation's to
        the datalog); with no excitation and no motion everything is 0 (an idle excitation
        costs the one compare of excite_active) */
@@ -252,15 +272,6 @@ void fw_tick(fw_t *fw)
     fw->slow_tick = (uint8_t)((fw->slow_tick + 1u < c->odom.xy_ticks) ? fw->slow_tick + 1u : 0u);
     fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated || fw->wheel_r.saturated);
 
-    for (i = 0u; i < SERVO_COUNT; i++) {
-        servo_step(&fw->servo[i], &c->servo[i]);
-    }
-    /* one servo's pulse width per tick: each is refreshed every 8 ticks */
-    fw->servo_next = (uint8_t)((fw->servo_next + 1u) % SERVO_COUNT);
-    if (fw->servo[fw->servo_next].mode != SERVO_OFF) {
-        servo_update_pulse(&fw->servo[fw->servo_next], &c->servo[fw->servo_next]);
-    }
-
     /* uptime */
     fw->us_frac = (uint16_t)(fw->us_frac + c->tick_us_rem);
     fw->ms += c->tick_ms;
@@ -269,10 +280,21 @@ void fw_tick(fw_t *fw)
         fw->ms++;
     }
 
-    /* outputs, once each, at the end of the tick */
+    /* outputs, once each, at the end of the tick; the servos step in the same pass (each
+       one's step and pulse depend on that servo only), and one servo's pulse width is
+       refreshed per tick: each every 8 ticks */
     hal_motor(fw->hal, fw->duty_l, fw->duty_r);
+    fw->servo_next = (uint8_t)((fw->servo_next + 1u) % SERVO_COUNT);
+    FW_UNROLL
     for (i = 0u; i < SERVO_COUNT; i++) {
-        hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i]));
+        servo_t *s = &fw->servo[i];
+        if (servo_moving(s)) {
+            servo_step(s, &c->servo[i]);
+        }
+        if (i == fw->servo_next && s->mode != SERVO_OFF) {
+            servo_update_pulse(s, &c->servo[i]);
+        }
+        hal_servo_pulse(fw->hal, i, servo_pulse_us(s));
     }
     hal_dio_write(fw->hal, fw->dio.dir, fw->dio.out);
 }

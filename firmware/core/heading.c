@@ -132,11 +132,6 @@ void heading_set(heading_t *h, float deg)
     heading_wrap_q(h);
 }
 
-float heading_deg(const heading_t *h)
-{
-    return h->deg;
-}
-
 uint16_t heading_deg10(const heading_t *h)
 {
     /* the heading now (deg is 0 <= deg < 360), rounded, then 3600 -> 0 */

@@ -53,7 +53,10 @@ void heading_micro_cmd(heading_t *h, const navkit_micro_cmd_t *c);
 /* Set the heading to deg (any value; wrapped into 0..360). */
 void heading_set(heading_t *h, float deg);
 /* Heading, deg, 0 <= h < 360. */
-float heading_deg(const heading_t *h);
+static inline float heading_deg(const heading_t *h)
+{
+    return h->deg;
+}
 /* Heading, deg*10, 0..3599 (rounded). */
 uint16_t heading_deg10(const heading_t *h);
 /* deg wrapped into -180 <= result < 180 (shortest way). */

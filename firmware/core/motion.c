@@ -65,17 +65,11 @@ void motion_stop(motion_t *m, float amax, float dt)
     m->done = 0u;
 }
 
-uint8_t motion_active(const motion_t *m)
-{
-    return (uint8_t)(m->started && (m->prof.moving || !m->done));
-}
-
 float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol, float dt)
 {
     float vel, lead; /* u/s: reference velocity; u: reference - measured position */
     if (!motion_active(m)) {
-        m->limited = 0u;
-        return 0.0f;
+        return motion_tick_idle(m);
     }
     m->meas = meas;
     lead = profile_ref_pos(&m->prof, m->target) - meas;
@@ -102,15 +96,16 @@ float motion_tick(motion_t *m, float meas, float vel_meas, float window, float v
     return vel;
 }
 
+float motion_tick_idle(motion_t *m)
+{
+    m->limited = 0u;
+    return 0.0f;
+}
+
 float motion_limit(float v, float dflt, float max)
 {
     float u = (v > 0.0f) ? v : dflt;
     return (u > max) ? max : u;
-}
-
-float motion_distance(const motion_t *m, const odom_t *o, float mm_per_count)
-{
-    return odom_distance(o, m->ref_l, m->ref_r, mm_per_count);
 }
 
 motion_result_t motion_micro_cmd(motion_t *m, const navkit_micro_cmd_t *c, const odom_t *o, const config_t *cfg)

@@ -56,7 +56,10 @@ motion_result_t motion_micro_cmd(motion_t *m, const navkit_micro_cmd_t *c, const
 float motion_limit(float v, float dflt, float max);
 /* The forward axis m's measured distance (mm) from its reference: the mean of the wheels'
  * travel in o since the reference counts, mm_per_count (mm per count). */
-float motion_distance(const motion_t *m, const odom_t *o, float mm_per_count);
+static inline float motion_distance(const motion_t *m, const odom_t *o, float mm_per_count)
+{
+    return odom_distance(o, m->ref_l, m->ref_r, mm_per_count);
+}
 /* Idle, no reference yet (reference counts = the given encoder counts). */
 void motion_reset(motion_t *m, int32_t enc_l, int32_t enc_r);
 /* Start (cmd 1): reference = encoder counts enc_l/enc_r (counts); meas (u) is the
@@ -71,13 +74,21 @@ motion_result_t motion_modify(motion_t *m, float target, float vmax, float amax)
  * The stop is planned from the reference's position and speed (exact even after a far
  * target); the reference never passes the stop point nor reverses. */
 void motion_stop(motion_t *m, float amax, float dt);
-/* 1 while the axis wants the wheels driven (moving, or not yet settled on its target). */
-uint8_t motion_active(const motion_t *m);
+/* 1 while the axis wants the wheels driven (moving, or not yet settled on its target).
+ * Inline: the tick asks it of both axes before it measures them. */
+static inline uint8_t motion_active(const motion_t *m)
+{
+    return (uint8_t)(m->started && (m->prof.moving || !m->done));
+}
 /* One tick: meas (u) and vel_meas (u/s) are the measured position from the reference
  * and velocity; window (u) and vwindow (u/s) bound how far the reference may lead the
  * measurement; tol (u) and vtol (u/s) define "done"; dt (s). Returns the reference
  * velocity (u/s). */
 float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol,
                   float dt);
+/* motion_tick() of an axis that is not motion_active(), which reads none of its
+ * measurements: not limited, returns reference velocity 0 (u/s). So a caller skips
+ * measuring an idle axis. */
+float motion_tick_idle(motion_t *m);
 
 #endif /* NAVKIT_MOTION_H */

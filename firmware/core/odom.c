@@ -20,13 +20,6 @@ void odom_reset(odom_t *o)
     o->primed = 0u;
 }
 
-int32_t odom_counts_since(int32_t now, int32_t ref)
-{
-    /* modulo 2^32, then back to signed without overflow */
-    uint32_t d = (uint32_t)now - (uint32_t)ref;
-    return (d <= 0x7FFFFFFFul) ? (int32_t)d : -(int32_t)(~d) - 1;
-}
-
 /* Add step (mm) to a whole+residual coordinate, keeping the residual within +/-0.5. */
 static void odom_accumulate(int32_t *whole, float *frac, float step)
 {
@@ -91,11 +84,6 @@ void odom_count(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, f
     if ((o->xy_n > 0u || dl != 0 || dr != 0) && o->xy_n < 0xFFu) {
         o->xy_n++;
     }
-}
-
-uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g)
-{
-    return (uint8_t)(o->xy_n >= g->xy_ticks);
 }
 
 void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg)

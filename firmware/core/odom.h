@@ -51,12 +51,22 @@ void odom_reset(odom_t *o);
 void odom_count(odom_t *o, const odom_geom_t *g, int32_t raw_l, int32_t raw_r, float heading_deg);
 /* 1 when the X/Y step in progress has xy_ticks ticks or more (fw.c runs it on the next
  * tick that is not a fold's, so it waits one tick at most). */
-uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g);
+static inline uint8_t odom_xy_due(const odom_t *o, const odom_geom_t *g)
+{
+    return (uint8_t)(o->xy_n >= g->xy_ticks);
+}
 /* The X/Y half: finish the step in progress at heading_deg (deg, clockwise, 0..360). */
 void odom_xy_step(odom_t *o, const odom_geom_t *g, float heading_deg);
-/* Counts moved since the reference count ref (counts), wrap-safe. */
-int32_t odom_counts_since(int32_t now, int32_t ref);
-/* Distance (mm) moved since the reference counts ref_l/ref_r: mean of the wheels. */
+/* Counts moved since the reference count ref (counts), wrap-safe (inline: the tick
+ * measures both axes with it). */
+static inline int32_t odom_counts_since(int32_t now, int32_t ref)
+{
+    /* modulo 2^32, then back to signed without overflow */
+    uint32_t d = (uint32_t)now - (uint32_t)ref;
+    return (d <= 0x7FFFFFFFul) ? (int32_t)d : -(int32_t)(~d) - 1;
+}
+/* Distance (mm) moved since the reference counts ref_l/ref_r: mean of the wheels;
+ * mm_per_count (mm per count). */
 float odom_distance(const odom_t *o, int32_t ref_l, int32_t ref_r, float mm_per_count);
 /* Turn angle (deg, clockwise) since the reference counts; deg_per_count (deg per count
  * of left-right difference). */

@@ -64,7 +64,7 @@ void servo_hold(servo_t *s)
 void servo_step(servo_t *s, const servo_cal_t *cal)
 {
     int32_t goal;
-    if (s->mode != SERVO_GOTO && s->mode != SERVO_SCAN) {
+    if (!servo_moving(s)) {
         return;
     }
     goal = (int32_t)servo_clamp(cal, s->goal) * SERVO_Q;
@@ -93,11 +93,6 @@ void servo_update_pulse(servo_t *s, const servo_cal_t *cal)
     /* deg*10 * (0.01 us/deg) / 1000 = us */
     int32_t us = (int32_t)cal->center_us + ((int32_t)servo_pos10(s) * (int32_t)cal->us_per_deg_e2) / 1000L;
     s->pulse = (us < 0) ? 0u : (uint16_t)us;
-}
-
-uint16_t servo_pulse_us(const servo_t *s)
-{
-    return (s->mode == SERVO_OFF) ? 0u : s->pulse;
 }
 
 void servo_micro_cmd(servo_t s[SERVO_COUNT], const servo_cal_t cal[SERVO_COUNT], const navkit_micro_cmd_t *c,

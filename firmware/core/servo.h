@@ -61,13 +61,23 @@ void servo_micro_cmd(servo_t s[SERVO_COUNT], const servo_cal_t cal[SERVO_COUNT],
 void servo_retime(servo_t *s, uint16_t rate_hz);
 /* Stop where it is (watchdog); a servo not yet driven stays off. */
 void servo_hold(servo_t *s);
-/* One tick: move toward the goal (integer only). */
+/* 1 while the servo moves (GoTo or Scan): only then does servo_step() change it, so the
+ * tick asks this first (inline) and steps only moving servos. */
+static inline uint8_t servo_moving(const servo_t *s)
+{
+    return (uint8_t)(s->mode == SERVO_GOTO || s->mode == SERVO_SCAN);
+}
+/* One tick: move toward the goal (integer only); nothing unless servo_moving(). */
 void servo_step(servo_t *s, const servo_cal_t *cal);
 /* Recompute the pulse width from the position and calibration. */
 void servo_update_pulse(servo_t *s, const servo_cal_t *cal);
 /* Position, deg*10 (rounded). */
 int16_t servo_pos10(const servo_t *s);
-/* Pulse width, us, as last refreshed; 0 when not driven. */
-uint16_t servo_pulse_us(const servo_t *s);
+/* Pulse width, us, as last refreshed; 0 when not driven (inline: the tick outputs all
+ * eight every time). */
+static inline uint16_t servo_pulse_us(const servo_t *s)
+{
+    return (s->mode == SERVO_OFF) ? 0u : s->pulse;
+}
 
 #endif /* NAVKIT_SERVO_H */

@@ -77,11 +77,6 @@ float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float 
     return motion_tick(&t->ax, meas, vel_meas, window, vwindow, tol, vtol, dt);
 }
 
-float turn_angle(const turn_t *t, const odom_t *o, float deg_per_count)
-{
-    return odom_turn(o, t->ax.ref_l, t->ax.ref_r, deg_per_count);
-}
-
 motion_result_t turn_micro_cmd(turn_t *t, const navkit_micro_cmd_t *c, const odom_t *o, const heading_t *h,
                                const config_t *cfg)
 {

@@ -39,7 +39,10 @@ motion_result_t turn_micro_cmd(turn_t *t, const navkit_micro_cmd_t *c, const odo
 /* The turn axis t's measured turn angle (deg, clockwise) from its reference: the wheels'
  * travel difference in o since the reference counts, deg_per_count (deg per count of
  * left-minus-right difference). */
-float turn_angle(const turn_t *t, const odom_t *o, float deg_per_count);
+static inline float turn_angle(const turn_t *t, const odom_t *o, float deg_per_count)
+{
+    return odom_turn(o, t->ax.ref_l, t->ax.ref_r, deg_per_count);
+}
 /* Idle, no reference (reference counts = enc_l/enc_r, counts). */
 void turn_reset(turn_t *t, int32_t enc_l, int32_t enc_r);
 /* Turn 1: new reference at enc_l/enc_r (counts); meas (deg) is the turn angle from the
@@ -64,5 +67,11 @@ uint8_t turn_active(const turn_t *t);
  * Returns the reference turn rate (deg/s, clockwise). */
 float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, float window, float vwindow,
                 float tol, float vtol, float dt);
+/* 1 while turn_tick() has work (HdgSel steers, or the axis is motion_active()); otherwise
+ * turn_tick() is motion_tick_idle() of the axis and reads none of its measurements. */
+static inline uint8_t turn_ticking(const turn_t *t)
+{
+    return (uint8_t)(t->hdg || motion_active(&t->ax));
+}
 
 #endif /* NAVKIT_TURN_H */

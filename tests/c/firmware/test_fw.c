@@ -1396,6 +1396,111 @@ static void test_stop_braking_dt(void)
     }
 }
 
+/* Ticks on which the check below found the forward axis, the turn axis, a servo idle
+   (work the tick skips) or busy. */
+static long idle_seen[3], busy_seen[3];
+
+/* What fw_tick() skips must be work without effect, checked on copies before a tick: an
+   axis that is not motion_active() (the turn axis: not turn_ticking()), ticked in full
+   with NaN measurements it must not read, returns 0 and ends exactly as
+   motion_tick_idle() leaves it; a servo that is not servo_moving() is left as it is by
+   servo_step(). */
+static void check_idle_work(void)
+{
+    const config_t *c = &fw.cfg;
+    motion_t m1, m2;
+    turn_t t1, t2;
+    servo_t s1, s2;
+    uint8_t i;
+    memcpy(&m1, &fw.fwd, sizeof m1);
+    memcpy(&m2, &fw.fwd, sizeof m2);
+    if (!motion_active(&fw.fwd)) {
+        CHECK(motion_tick(&m1, NAN, NAN, CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance,
+                          CONFIG_DONE_VTOL_MM_S, c->dt) == 0.0f);
+        CHECK(motion_tick_idle(&m2) == 0.0f);
+        CHECK(memcmp(&m1, &m2, sizeof m1) == 0);
+        idle_seen[0]++;
+    } else {
+        busy_seen[0]++;
+    }
+    memcpy(&t1, &fw.turn, sizeof t1);
+    memcpy(&t2, &fw.turn, sizeof t2);
+    if (!turn_ticking(&fw.turn)) {
+        CHECK(turn_tick(&t1, NAN, NAN, NAN, c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
+                        c->dt) == 0.0f);
+        CHECK(motion_tick_idle(&t2.ax) == 0.0f);
+        CHECK(memcmp(&t1, &t2, sizeof t1) == 0);
+        idle_seen[1]++;
+    } else {
+        busy_seen[1]++;
+    }
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        memcpy(&s1, &fw.servo[i], sizeof s1);
+        memcpy(&s2, &fw.servo[i], sizeof s2);
+        if (!servo_moving(&fw.servo[i])) {
+            servo_step(&s1, &c->servo[i]);
+            CHECK(memcmp(&s1, &s2, sizeof s1) == 0);
+            idle_seen[2]++;
+        } else {
+            busy_seen[2]++;
+        }
+    }
+}
+
+/* The host repeats c every 100 ms for `seconds`; check_idle_work() before every tick. */
+static void host_run_checking_idle(const navkit_micro_cmd_t *c, double seconds)
+{
+    long frames = (long)(seconds * 10.0 + 0.5), f, k;
+    for (f = 0; f < frames; f++) {
+        sim_cmd(&fw, &h, c);
+        for (k = 0; k < (long)fw.cfg.control_rate / 10; k++) {
+            check_idle_work();
+            sim_run(&fw, &h, 1);
+        }
+    }
+}
+
+static void test_idle_work_skipped(void)
+{
+    navkit_micro_cmd_t c;
+    long k;
+    boot();
+    sim_configure(&fw, &h);
+    c = cmd(); /* forward with a servo scanning and one going to 30 deg */
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.distance = 500;
+    c.speed = 400;
+    c.rc1_param0 = 900;
+    c.rc1_param1 = 300;
+    c.rc1_param2 = -300;
+    c.rc4_param0 = 1000;
+    c.rc4_param1 = 300;
+    c.rc4_param2 = 9999;
+    host_run_checking_idle(&c, 3.0);
+    c = cmd(); /* an encoder turn, then a stop of it */
+    c.turn_cmd = NAVKIT_TURN_CMD_TURN;
+    c.turn_distance = 900;
+    host_run_checking_idle(&c, 0.5);
+    c = cmd();
+    c.turn_cmd = NAVKIT_TURN_CMD_STOP;
+    host_run_checking_idle(&c, 1.5);
+    c = cmd(); /* HdgSel with a forward move: it holds its heading after arriving */
+    c.fwd_cmd = NAVKIT_FWD_CMD_START;
+    c.distance = 300;
+    c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
+    c.turn_distance = -450;
+    host_run_checking_idle(&c, 4.0);
+    /* silence: the watchdog stops both axes and holds the servos */
+    for (k = 0; k < (long)fw.cfg.control_rate * 2; k++) {
+        check_idle_work();
+        sim_run(&fw, &h, 1);
+    }
+    CHECK(fw.watchdog_stops == 1u);
+    for (k = 0; k < 3; k++) {
+        CHECK(idle_seen[k] > 0 && busy_seen[k] > 0);
+    }
+}
+
 static const check_case_t cases[] = {
     CHECK_CASE(unconfigured),
     CHECK_CASE(forward_move),
@@ -1423,6 +1528,7 @@ static const check_case_t cases[] = {
     CHECK_CASE(pending_dropped_by_watchdog),
     CHECK_CASE(watchdog_hdg_sel),
     CHECK_CASE(stop_braking_dt),
+    CHECK_CASE(idle_work_skipped),
 };
 
 int main(int argc, char **argv)
