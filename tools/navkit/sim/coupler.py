@@ -162,6 +162,15 @@ class Coupler:
         self._tx_len_ref, self._n_rows_ref = ctypes.byref(self._tx_len), ctypes.byref(self._n_rows)
         self._tx_view = memoryview(self._tx).cast("B")
         self._rows_view = memoryview(self._rows).cast("B")
+        # run_raw's cosim_run without argtypes, whose per-call conversions cost more than
+        # the call: every argument is passed as a ctypes object of the prototype's type
+        # (lib.cosim_run above, a separate function object, keeps its argtypes)
+        self._run = lib["cosim_run"]
+        self._run.argtypes, self._run.restype = None, c_int
+        self._handle = c_void_p(self._c)
+        self._tx_cap_arg, self._row_cap_arg = c_size_t(tx_capacity), c_size_t(row_capacity)
+        self._steps_arg: dict = {}       # n_steps -> its c_uint32
+        self._no_rx = c_size_t(0)
         self._check(lib.cosim_exchange(self._c))
 
     def _check(self, rc: int) -> None:
@@ -216,8 +225,17 @@ class Coupler:
             self._rows = (c_double * (n_steps * self.width))()
             self._rows_view = memoryview(self._rows).cast("B")
             self._row_cap = n_steps
-        rc = self._lib.cosim_run(self._c, n_steps, rx or None, len(rx), self._tx, self._tx_cap,
-                                 self._tx_len_ref, self._rows, self._row_cap, self._n_rows_ref)
+            self._row_cap_arg = c_size_t(n_steps)
+        steps = self._steps_arg.get(n_steps)
+        if steps is None:
+            if not 0 <= n_steps <= 0xFFFFFFFF:
+                raise CouplerError(f"run_raw: {n_steps} steps is not a uint32")
+            steps = self._steps_arg[n_steps] = c_uint32(n_steps)
+        if self._c is None:
+            raise CouplerError("run_raw: the coupler is closed")
+        rc = self._run(self._handle, steps, rx or None, c_size_t(len(rx)) if rx else self._no_rx,
+                       self._tx, self._tx_cap_arg, self._tx_len_ref, self._rows, self._row_cap_arg,
+                       self._n_rows_ref)
         if rc:
             self._check(rc)
         return (bytes(self._tx_view[:self._tx_len.value]),

@@ -43,6 +43,7 @@ def run_lockstep(rig, faults) -> None:
     spf = rig.steps_per_frame
     split = min(spf, max(1, round(0.040 / STEP_S)))
     times = rig.times
+    gateway, lock, beat = rig.gateway, rig.lock, rig.planner.beat
     row = coupler.sample()
     log.truth(array.array("d", row).tobytes())
     # between a frame's done and the next tick the host does not run: one copy
@@ -57,91 +58,97 @@ def run_lockstep(rig, faults) -> None:
     carry = b""             # --link can: the quitting host's last frames, for the micro's next step
     quitting = False        # over CAN the host's done said it quits: it still reads the port
     loop0 = pc()
-    # A stop signal (Ctrl-C, SIGTERM) is held off while a frame is half done (the host's
-    # bytes read but not yet on the bus, a tick sent but its done not read) and delivered
-    # between frames, so the host's stop follows a whole frame.
-    with DeferredStops() as stops:
-        stopped = stops.pending
-        for k in range(frames_in_run):
-            t_ns = k * frame_ns
-            rig.t_ns = t_ns        # where an interrupted run stopped
-            if faults.unplug_until is not None or faults.noise is not None or \
-                    faults.silent_until is not None:
-                faults.expire(t_ns)
-            if t_ns >= faults.due_ns:
-                faults.act_due(t_ns)
-            host_bytes, carried, carry = b"", carry, b""
-            if rig.host_state == "running":
-                if faults.silent_until is None:
-                    rig.planner.beat()
-                t1 = pc()
-                done = rig.lock.frame(k, t_ns // 1000, rig.rx_count)
-                t2 = pc()
-                times["host"] += t2 - t1
-                if done is None:
-                    rig.host_state = "exited"
-                    rig.proc.wait()
-                    log.event(t_ns, "host_exited", {"status": rig.proc.returncode})
-                    log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, "exited")
+    t_host = t_pty = t_fmus = 0.0      # s: added to times at the end (to_host adds its own)
+    try:
+        # A stop signal (Ctrl-C, SIGTERM) is held off while a frame is half done (the host's
+        # bytes read but not yet on the bus, a tick sent but its done not read) and delivered
+        # between frames, so the host's stop follows a whole frame.
+        with DeferredStops() as stops:
+            stopped = stops.pending
+            for k in range(frames_in_run):
+                t_ns = k * frame_ns
+                rig.t_ns = t_ns        # where an interrupted run stopped
+                if faults.unplug_until is not None or faults.noise is not None or \
+                        faults.silent_until is not None:
+                    faults.expire(t_ns)
+                if t_ns >= faults.due_ns:
+                    faults.act_due(t_ns)
+                host_bytes, carried, carry = b"", carry, b""
+                if rig.host_state == "running":
+                    if faults.silent_until is None:
+                        beat()
+                    t1 = pc()
+                    done = lock.frame(k, t_ns // 1000, rig.rx_count)
+                    t2 = pc()
+                    t_host += t2 - t1
+                    if done is None:
+                        rig.host_state = "exited"
+                        rig.proc.wait()
+                        log.event(t_ns, "host_exited", {"status": rig.proc.returncode})
+                        log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, "exited")
+                        gone = True
+                    else:
+                        tx_bytes, flags = done
+                        host_bytes = port.read_exact(tx_bytes)
+                        t_pty += pc() - t2
+                        logged = host_bytes
+                        if gateway is not None:  # SLCAN lines in; the micro's frames, back
+                            back, host_bytes = gateway.from_host(host_bytes, t_ns / 1e9)
+                            can_back += back
+                            logged = gateway.h2m_serial if gateway.firmware_can else host_bytes
+                        log.frame(k, t_ns, rig.rx_count, tx_bytes, flags, logged,
+                                  lisp_raw(), "running" if faults.unplug_until is None else "unplugged")
+                        if flags & 1:   # over CAN it still reads the port, for its stop's flow control
+                            quitting = gateway is not None
+                            rig.host_state = "running" if quitting else "exited"
+                    rig.frames += 1
+                    lines = console.read()         # all the host printed in the frame
+                    if lines:
+                        log.console(t_ns, lines)
+                elif not gone:             # the first frame without the host
+                    log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, rig.host_state)
                     gone = True
-                else:
-                    tx_bytes, flags = done
-                    host_bytes = port.read_exact(tx_bytes)
-                    times["pty"] += pc() - t2
-                    logged = host_bytes
-                    if rig.gateway is not None:  # SLCAN lines in; the micro's frames, back
-                        back, host_bytes = rig.gateway.from_host(host_bytes, t_ns / 1e9)
-                        can_back += back
-                        logged = rig.gateway.h2m_serial if rig.gateway.firmware_can else host_bytes
-                    log.frame(k, t_ns, rig.rx_count, tx_bytes, flags, logged,
-                              lisp_raw(), "running" if faults.unplug_until is None else "unplugged")
-                    if flags & 1:   # over CAN it still reads the port, for its stop's flow control
-                        quitting = rig.gateway is not None
-                        rig.host_state = "running" if quitting else "exited"
-                rig.frames += 1
-                lines = console.read()         # all the host printed in the frame
-                if lines:
-                    log.console(t_ns, lines)
-            elif not gone:             # the first frame without the host
-                log.frame(k, t_ns, rig.rx_count, 0, None, b"", None, rig.host_state)
-                gone = True
-            host_bytes = faults.to_micro(host_bytes) + carried     # carried: logged by play_out
-            # The frame's FMU chunk runs in two calls: the micro answers within the first
-            # tens of ms, so its bytes go to the pty while the rest of the chunk computes
-            # and the kernel moves them meanwhile. All are written before the next tick
-            # either way, so the split changes nothing the host sees; /micro/data is
-            # stamped with the end of the call that completed each frame. Each call's truth
-            # rows are logged before its micro bytes (log-time order), so the log can close
-            # a chunk between the rows of a frame longer than a chunk's 1 s span.
-            t1 = pc()
-            tx, rows = coupler.run_raw(split, host_bytes)
-            times["fmus"] += pc() - t1
-            log.truth(rows)
-            out = faults.can_out(can_back, tx, t_ns + split * 1_000_000)
-            log.micro(t_ns + split * 1_000_000, out[-1])
-            rig.rx_count = faults.to_host(*out)
-            can_back = b""
-            if split < spf:
+                host_bytes = faults.to_micro(host_bytes) + carried     # carried: logged by play_out
+                # The frame's FMU chunk runs in two calls: the micro answers within the first
+                # tens of ms, so its bytes go to the pty while the rest of the chunk computes
+                # and the kernel moves them meanwhile. All are written before the next tick
+                # either way, so the split changes nothing the host sees; /micro/data is
+                # stamped with the end of the call that completed each frame. Each call's truth
+                # rows are logged before its micro bytes (log-time order), so the log can close
+                # a chunk between the rows of a frame longer than a chunk's 1 s span.
                 t1 = pc()
-                tx2, rows2 = coupler.run_raw(spf - split)
-                times["fmus"] += pc() - t1
-                log.truth(rows2)
-                out = faults.can_out(b"", tx2, t_ns + frame_ns)
-                log.micro(t_ns + frame_ns, out[-1])
-                rig.rx_count += faults.to_host(*out)
-            if quitting:
-                # the micro's answers of this frame reached the host, which shuts down now: over
-                # CAN its stop still needs the bus (navkit.sim.playout); the frames it sends go
-                # to the micro with the next frame's step
-                from navkit.sim.playout import play_out
+                tx, rows = coupler.run_raw(split, host_bytes)
+                t_fmus += pc() - t1
+                log.truth(rows)
+                out = faults.can_out(can_back, tx, t_ns + split * 1_000_000)
+                log.micro(t_ns + split * 1_000_000, out[-1])
+                rig.rx_count = faults.to_host(*out)
+                can_back = b""
+                if split < spf:
+                    t1 = pc()
+                    tx2, rows2 = coupler.run_raw(spf - split)
+                    t_fmus += pc() - t1
+                    log.truth(rows2)
+                    out = faults.can_out(b"", tx2, t_ns + frame_ns)
+                    log.micro(t_ns + frame_ns, out[-1])
+                    rig.rx_count += faults.to_host(*out)
+                if quitting:
+                    # the micro's answers of this frame reached the host, which shuts down now: over
+                    # CAN its stop still needs the bus (navkit.sim.playout); the frames it sends go
+                    # to the micro with the next frame's step
+                    from navkit.sim.playout import play_out
 
-                carry = play_out(rig, deliver=False)
-                rig.host_state = "exited"
-                quitting = False
-            log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
-            if progress is not None and k & 63 == 0:
-                progress.at(t_ns / 1e9)
-            if stopped:
-                stops.deliver()         # a stop signal lands here
+                    carry = play_out(rig, deliver=False)
+                    rig.host_state = "exited"
+                    quitting = False
+                log.end_frame(t_ns + 2 * frame_ns)      # the next frame ends there
+                if progress is not None and k & 63 == 0:
+                    progress.at(t_ns / 1e9)
+                if stopped:
+                    stops.deliver()         # a stop signal lands here
+    finally:
+        times["host"] += t_host
+        times["pty"] += t_pty
+        times["fmus"] += t_fmus
     rig.sim_time_s = frames_in_run * rig.frame_s
     times["harness"] = pc() - loop0 - times["fmus"] - times["pty"] - times["host"]
