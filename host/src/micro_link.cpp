@@ -20,7 +20,7 @@ static int64_t mono_ms()
 }
 
 MicroLink::MicroLink(const MicroCfg &cfg, Console &console, DeviceRoots roots)
-    : cfg_(cfg), con_(console), port_(std::move(roots))
+    : cfg_(cfg), is_slcan_(cfg.link == "slcan"), con_(console), port_(std::move(roots))
 {
     navkit_parser_init(&parser_, NAVKIT_DIR_TO_HOST);
 }

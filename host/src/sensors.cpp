@@ -6,7 +6,7 @@ namespace navkit {
 
 static const double kAdcFull = 1024.0; // 10-bit ADC: counts = V * 1024 / vref (AVR ADC transfer)
 
-double Battery::value() const
+double Battery::calc() const
 {
     return adc_ * c_.vref / kAdcFull * c_.divider + c_.offset_v;
 }
@@ -16,7 +16,7 @@ double Gp2d12::volts() const
     return adc_ * c_.vref / kAdcFull;
 }
 
-int Gp2d12::value() const
+int Gp2d12::calc() const
 {
     const double v = volts() - c_.c_v;
     if (v <= 0) {
@@ -29,7 +29,7 @@ int Gp2d12::value() const
     return static_cast<int>(std::lround(d));
 }
 
-int Srf04::value() const
+int Srf04::calc() const
 {
     if (us_ == 0) {
         return 0;
@@ -41,7 +41,7 @@ int Srf04::value() const
     return static_cast<int>(std::lround(d));
 }
 
-int RcServo::value() const
+int RcServo::calc() const
 {
     return static_cast<int>(std::lround(c_.gain * pos_ + c_.offset_deg * 10.0));
 }

@@ -113,7 +113,7 @@ private:
     // to take_frames (out == nullptr: not wanted now); can_send(): start a message (skipped,
     // counted in tx_errors, while the last is still going out); can_pump(): the frames
     // ISO-TP lets go now.
-    bool slcan() const { return cfg_.link == "slcan"; }
+    bool slcan() const { return is_slcan_; }
     void can_take(const uint8_t *buf, size_t len, navkit_micro_data_t *out, MicroReceived *r);
     bool can_send(const uint8_t *buf, size_t len);
     void can_pump();
@@ -128,6 +128,7 @@ private:
     uint32_t can_ms() const { return static_cast<uint32_t>(now_us_ / 1000); } // ISO-TP clock: frame time
 
     const MicroCfg &cfg_;
+    const bool is_slcan_; // cfg_.link == "slcan", as constructed (a MicroLink keeps its link)
     Console &con_;
     SerialPort port_;
     navkit_parser_t parser_{};
