@@ -164,3 +164,24 @@ def test_a_region_cut_short_is_closed_never_a_sigbus(lib, shm_name):
         assert lib.navkit_rcomm_heartbeat(r) == -1 and lib.navkit_rcomm_write_cmd(r, _words("lisp_cmd", {})) == -1
     finally:
         lib.navkit_rcomm_close(r)
+
+
+def test_the_clients_per_frame_calls_refuse_a_cut_region_and_a_closed_client(shm_name):
+    """navkit.rcomm.Client's beat and lisp_data read (the lockstep driver's calls every frame,
+    made without ctypes argtypes): they work on a whole region, raise RcommError with the
+    library's reason once it is cut short, and after close()."""
+    path = rcomm_region(shm_name)
+    c = rcomm.Client(shm_name)
+    before = c.planner_heartbeat()
+    c.beat()
+    assert c.planner_heartbeat() == before + 1
+    raw = c.read_data_raw_still()
+    assert raw is None or len(raw) == protocol.SPEC.messages["lisp_data"].size
+    os.truncate(path, 0)
+    for call in (c.beat, c.read_data_raw):
+        with pytest.raises(rcomm.RcommError, match="the region was cut to 0 bytes"):
+            call()
+    c.close()
+    for call in (c.beat, c.read_data_raw):
+        with pytest.raises(rcomm.RcommError, match="closed"):
+            call()

@@ -106,6 +106,14 @@ def _library():
     return lib
 
 
+def _untyped(lib, name: str):
+    """A function object of `name` of its own without argtypes (int result): its callers
+    pass ctypes objects of the prototype's types."""
+    fn = lib[name]
+    fn.argtypes, fn.restype = None, ctypes.c_int
+    return fn
+
+
 def _text(b: bytes) -> str:
     return b.decode(errors="surrogateescape")
 
@@ -148,6 +156,11 @@ class Client:
             lib.navkit_rcomm_close(h)
             raise RcommError(error)
         self._h = h
+        # the calls a lockstep driver makes every host frame, without argtypes (their
+        # per-call conversions cost more than the calls): the handle as a c_void_p, made once
+        self._h_arg = ctypes.c_void_p(h)
+        self._beat_call, self._read_data_call = (_untyped(lib, f) for f in (
+            "navkit_rcomm_heartbeat", "navkit_rcomm_read_data"))
         self._data = ctypes.create_string_buffer(_BYTES["lisp_data"])   # read_data's copy
         self._cmd = ctypes.create_string_buffer(_BYTES["lisp_cmd"])
         self._word = ctypes.c_uint32()
@@ -185,10 +198,9 @@ class Client:
         """The little-endian bytes of the host's latest lisp_data, or None before the
         host's first frame (or if every bounded retry met a write in progress)."""
         # _read's steps written out: a lockstep driver reads it every host frame
-        h = self._h
-        if h is None:
+        if self._h is None:
             self._handle()
-        got = self._lib.navkit_rcomm_read_data(h, self._data)
+        got = self._read_data_call(self._h_arg, self._data)
         if got < 0:
             raise self._failed()
         return self._data.raw if got else None
@@ -210,10 +222,9 @@ class Client:
     def heartbeat(self) -> None:
         """Bump the planner heartbeat word (the host stops the robot when it stays
         unchanged for planner_timeout seconds)."""
-        h = self._h             # _handle() written out: a lockstep driver beats every frame
-        if h is None:
+        if self._h is None:     # _handle() written out: a lockstep driver beats every frame
             self._handle()
-        if self._lib.navkit_rcomm_heartbeat(h) < 0:
+        if self._beat_call(self._h_arg) < 0:
             raise self._failed()
 
     beat = heartbeat  # the co-simulation harness's name
