@@ -60,10 +60,28 @@ void Console::shutdown()
     std::fflush(out_);
 }
 
+void Console::stamp(TextLine *t) const
+{
+    if (t_us_ >= 0 && t_us_ % 1000 == 0) {
+        const long long ms = t_us_ / 1000;
+        const long long frac = ms % 1000;
+        *t << "[";
+        t->pad(ms / 1000, 5) << "." << (frac < 100 ? "0" : "") << (frac < 10 ? "0" : "") << frac << "] ";
+        return;
+    }
+    char b[48];
+    std::snprintf(b, sizeof b, "[%9.3f] ", static_cast<double>(t_us_) / 1e6);
+    *t << b;
+}
+
 void Console::line(const char *text)
 {
     erase_block(); // the face and status line move below the new line (next status())
-    std::fprintf(out_, "[%9.3f] %s\n", static_cast<double>(t_us_) / 1e6, text);
+    TextLine t;
+    stamp(&t);
+    std::fputs(t.c_str(), out_);
+    std::fputs(text, out_);
+    std::fputc('\n', out_);
     std::fflush(out_);
 }
 
@@ -102,7 +120,7 @@ void Console::print_limited(const char *fmt, ...)
     h.held = 0;
 }
 
-void Console::status(const std::string &line)
+void Console::status(const char *line)
 {
     if (out_tty_) {
         if (face_dirty_) {
@@ -112,14 +130,14 @@ void Console::status(const std::string &line)
         // its edge instead of taking a second row, so erase_block() knows the rows used
         std::fputs("\033[?7l", out_);
         if (status_shown_) {
-            std::fprintf(out_, "\r\033[K%s", line.c_str());
+            std::fprintf(out_, "\r\033[K%s", line);
         } else {
             for (const std::string &f : face_) {
                 std::fprintf(out_, "%s\n", f.c_str());
             }
             face_shown_ = face_.size();
             face_dirty_ = false;
-            std::fputs(line.c_str(), out_);
+            std::fputs(line, out_);
         }
         std::fputs("\033[?7h", out_);
         status_shown_ = true;
@@ -130,7 +148,12 @@ void Console::status(const std::string &line)
         return;
     }
     last_status_us_ = t_us_;
-    std::fprintf(out_, "[%9.3f] status: %s\n", static_cast<double>(t_us_) / 1e6, line.c_str());
+    TextLine t;
+    stamp(&t);
+    t << "status: ";
+    std::fputs(t.c_str(), out_);
+    std::fputs(line, out_);
+    std::fputc('\n', out_);
     std::fflush(out_);
 }
 

@@ -366,22 +366,18 @@ void RobotMain(Robot &r)
     // status_period_s of frame time)
     if (r.console.status_due()) {
         const LinkCounters lc = r.micro.counters();
-        char line[320];
-        // hdg: deg x 10 as whole deg and tenths, the text "%.1f" of heading / 10.0 gives
-        // for every uint16 (integer arithmetic: no floating-point formatting)
-        std::snprintf(
-            line, sizeof line,
-            "frame %u  micro %s%s  owner %s  cmd tag %u  dist %d mm  hdg %u.%u  "
-            "link crc/type/len/spec/decode %llu/%llu/%llu/%llu/%llu dropped %llu B  overruns %d%s",
-            r.frames, online ? "online" : "offline",
-            r.micro.spec_mismatch() ? " (spec mismatch)" : (r.micro.configured() ? " configured" : " unconfigured"),
-            owner_name(r.owner), static_cast<unsigned>(r.micro.last_tag()), static_cast<int>(d.distance),
-            static_cast<unsigned>(d.heading / 10u), static_cast<unsigned>(d.heading % 10u),
-            static_cast<unsigned long long>(lc.bad_crc), static_cast<unsigned long long>(lc.unknown_type),
-            static_cast<unsigned long long>(lc.bad_length), static_cast<unsigned long long>(lc.schema_mismatch),
-            static_cast<unsigned long long>(lc.decode_failures), static_cast<unsigned long long>(lc.dropped_bytes),
-            static_cast<int>(ld.overruns), r.datalog.recording() ? "  REC" : "");
-        r.console.status(line);
+        const char *state = r.micro.spec_mismatch() ? " (spec mismatch)"
+                                                    : (r.micro.configured() ? " configured" : " unconfigured");
+        // hdg: deg x 10 as whole deg and tenths (the text of %.1f of heading / 10.0 for
+        // every uint16)
+        TextLine t;
+        t << "frame " << r.frames << "  micro " << (online ? "online" : "offline") << state << "  owner "
+          << owner_name(r.owner) << "  cmd tag " << r.micro.last_tag() << "  dist " << d.distance << " mm  hdg "
+          << d.heading / 10u << "." << d.heading % 10u << "  link crc/type/len/spec/decode " << lc.bad_crc << "/"
+          << lc.unknown_type << "/" << lc.bad_length << "/" << lc.schema_mismatch << "/" << lc.decode_failures
+          << " dropped " << lc.dropped_bytes << " B  overruns " << ld.overruns
+          << (r.datalog.recording() ? "  REC" : "");
+        r.console.status(t.c_str());
     }
     r.frames++;
 }

@@ -7,14 +7,59 @@
 // line on a terminal; scrolling lines appear above the block.
 #pragma once
 
+#include <charconv>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <string>
 #include <termios.h>
+#include <type_traits>
 #include <vector>
 
 namespace navkit {
+
+// A line of text and integers built in a fixed buffer, cut at its capacity as snprintf
+// cuts: the frame's frequent lines (the status line, the time stamps) without printf's
+// parsing of a format and its per-field cost. Integers come out as %d / %u / %llu write
+// them.
+class TextLine {
+public:
+    TextLine &operator<<(const char *s)
+    {
+        const size_t n = std::strlen(s);
+        const size_t k = n < room() ? n : room();
+        std::memcpy(buf_ + len_, s, k);
+        len_ += k;
+        buf_[len_] = '\0';
+        return *this;
+    }
+    template <class T, class = std::enable_if_t<std::is_integral_v<T>>> TextLine &operator<<(T v)
+    {
+        char d[24];
+        const std::to_chars_result r = std::to_chars(d, d + sizeof d, v);
+        *r.ptr = '\0';
+        return *this << d;
+    }
+    // v right-aligned in `width` characters (padded with spaces), as %*lld does
+    TextLine &pad(long long v, size_t width)
+    {
+        char d[24];
+        const std::to_chars_result r = std::to_chars(d, d + sizeof d, v);
+        for (size_t n = static_cast<size_t>(r.ptr - d); n < width; n++) {
+            *this << " ";
+        }
+        *r.ptr = '\0';
+        return *this << d;
+    }
+    const char *c_str() const { return buf_; }
+    size_t size() const { return len_; }
+
+private:
+    size_t room() const { return sizeof buf_ - 1 - len_; }
+    char buf_[320] = {};
+    size_t len_ = 0;
+};
 
 class Console {
 public:
@@ -31,7 +76,7 @@ public:
     void print_limited(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
     static constexpr int64_t kRepeatPeriodUs = 1000000;
     void set_time_us(int64_t t_us) { t_us_ = t_us; }
-    void status(const std::string &line);
+    void status(const char *line);
     // True when status() would show a line now (a terminal: always; else when the last
     // status line is status_period_s old, or none was shown yet): a caller formats its
     // status line only then.
@@ -53,6 +98,9 @@ public:
 private:
     void erase_block();          // terminal: cursor to the face block's first line, clear below
     void line(const char *text); // one scrolling line, stamped
+    // Appends "[%9.3f] " of the frame time (s): a time of whole ms (every lockstep frame)
+    // in integers, any other through printf (whose rounding of the last digit it keeps).
+    void stamp(TextLine *t) const;
 
     struct Held {
         int64_t said_us = -1; // frame time its last line was printed, us

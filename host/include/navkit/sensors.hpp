@@ -1,7 +1,7 @@
 // Sensors: one class per sensor kind, each with set(raw) and value() in engineering
 // units, calibrated from sensors.ini (the seed's battery, GP2D12, SRF04, RCservo). The
-// value is worked out when the raw value is set (once per micro_data) and read as often
-// as the frame needs it.
+// value is worked out when a new raw value is set (at most once per micro_data) and read
+// as often as the frame needs it.
 #pragma once
 
 #include <cstdint>
@@ -17,11 +17,13 @@ namespace navkit {
 // Battery: ADC counts (10 bit) through the board divider -> volts.
 class Battery {
 public:
-    explicit Battery(const BatteryCal &c) : c_(c) { set(0); }
+    explicit Battery(const BatteryCal &c) : c_(c), value_(calc()) {}
     void set(uint16_t adc)
     {
-        adc_ = adc;
-        value_ = calc();
+        if (adc_ != adc) { // value_ is of the raw value held
+            adc_ = adc;
+            value_ = calc();
+        }
     }
     double value() const { return value_; } // V
 private:
@@ -34,11 +36,13 @@ private:
 // Sharp GP2D12 IR ranger: ADC counts -> mm through V = a / (d + b) + c; 0 outside min..max.
 class Gp2d12 {
 public:
-    explicit Gp2d12(const Gp2d12Cal &c) : c_(c) { set(0); }
+    explicit Gp2d12(const Gp2d12Cal &c) : c_(c), value_(calc()) {}
     void set(uint16_t adc)
     {
-        adc_ = adc;
-        value_ = calc();
+        if (adc_ != adc) { // value_ is of the raw value held
+            adc_ = adc;
+            value_ = calc();
+        }
     }
     int value() const { return value_; } // mm, 0 = out of range
     double volts() const;                // V at the ADC pin
@@ -52,11 +56,13 @@ private:
 // SRF04 sonar: echo time (us) -> mm; 0 = no echo (or farther than max_mm).
 class Srf04 {
 public:
-    explicit Srf04(const Srf04Cal &c) : c_(c) { set(0); }
+    explicit Srf04(const Srf04Cal &c) : c_(c), value_(calc()) {}
     void set(uint16_t echo_us)
     {
-        us_ = echo_us;
-        value_ = calc();
+        if (us_ != echo_us) { // value_ is of the raw value held
+            us_ = echo_us;
+            value_ = calc();
+        }
     }
     int value() const { return value_; } // mm
 private:
@@ -69,11 +75,13 @@ private:
 // RC servo: reported position (deg x 10) -> calibrated position (deg x 10).
 class RcServo {
 public:
-    explicit RcServo(const ServoCal &c) : c_(c) { set(0); }
+    explicit RcServo(const ServoCal &c) : c_(c), value_(calc()) {}
     void set(int16_t pos)
     {
-        pos_ = pos;
-        value_ = calc();
+        if (pos_ != pos) { // value_ is of the raw value held
+            pos_ = pos;
+            value_ = calc();
+        }
     }
     int value() const { return value_; } // deg x 10
 private:

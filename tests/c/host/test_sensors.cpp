@@ -66,8 +66,16 @@ TEST(Sensors, RcServoCalibration)
     c.gain = 0.5;
     c.offset_deg = 2.0;
     RcServo s{c};
+    EXPECT_EQ(s.value(), 20) << "before any set(): the calibration of a raw 0";
     s.set(300);
     EXPECT_EQ(s.value(), 170); // 0.5 * 30.0 deg + 2 deg = 17.0 deg
+    s.set(300);
+    EXPECT_EQ(s.value(), 170) << "the same raw value again";
+    s.set(0);
+    EXPECT_EQ(s.value(), 20);
+    BatteryCal bc;
+    bc.offset_v = 0.5;
+    EXPECT_EQ(Battery{bc}.value(), 0.5) << "before any set(): the calibration of a raw 0";
 }
 
 TEST(Sensors, UpdateUsesTheConfiguredChannels)
