@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import operator
+import pickle
 import resource
 import struct
 from pathlib import Path
@@ -899,9 +900,12 @@ def _send_whole(conn, obj) -> None:
     retried on a partial write); a KeyboardInterrupt raised between them would leave the
     worker waiting forever for the rest of a message, and the harness for its results.
     A signal that comes meanwhile is delivered when send() returns, or where the lockstep
-    loop holding them already delivers them (navkit.sim.stops)."""
+    loop holding them already delivers them (navkit.sim.stops). The pickle is the one
+    conn.recv() loads, made by pickle.dumps: conn.send's pickler looks every object up in
+    multiprocessing's reducer table, a Python call each, for types the log never sends."""
+    data = pickle.dumps(obj, pickle.HIGHEST_PROTOCOL)
     with DeferredStops():
-        conn.send(obj)
+        conn.send_bytes(data)
 
 
 class RunLog:
