@@ -7,10 +7,11 @@ native `navkit_cosim` library), `links` (the pty port, the lockstep channel, lin
 `run(opts)`), and the rooms of a run: `options` (SimOptions, paths, the host's config),
 `rig` (set-up and tear-down of the run's parts and processes), `fmus` (the two FMU
 instances), `planner` (the scripted rcomm planner), `faults` (mission events, faults, line
-noise), `lockstep` and `realtime` (the two main loops), `progress`, `summary`;
+noise), `lockstep` and `realtime` (the two main loops), `stops` (stop signals held off
+between frames), `progress`, `summary`;
 `record` (the MCAP log and its worker process), `results` (reading a run back), `cli`
 (`navkit sim`). See docs/cosim.md.
 """
 
 __all__ = ["mission", "coupler", "links", "plant", "harness", "options", "rig", "fmus", "planner",
-           "faults", "lockstep", "realtime", "progress", "summary", "record", "results", "cli"]
+           "faults", "lockstep", "realtime", "stops", "progress", "summary", "record", "results", "cli"]
