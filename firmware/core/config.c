@@ -8,10 +8,14 @@
 /* Values that depend on both geometry and motion. */
 static void config_derive(config_t *c)
 {
-    c->turn_window = CONFIG_TRACK_WINDOW_MM * c->wheel_deg_per_mm;
-    c->turn_vwindow = CONFIG_TRACK_VWINDOW_MM_S * c->wheel_deg_per_mm;
-    c->turn_tol = c->stop_tolerance * c->wheel_deg_per_mm;
-    c->turn_vtol = CONFIG_DONE_VTOL_MM_S * c->wheel_deg_per_mm;
+    c->fwd_track.window = CONFIG_TRACK_WINDOW_MM;
+    c->fwd_track.vwindow = CONFIG_TRACK_VWINDOW_MM_S;
+    c->fwd_track.tol = c->stop_tolerance;
+    c->fwd_track.vtol = CONFIG_DONE_VTOL_MM_S;
+    c->turn_track.window = CONFIG_TRACK_WINDOW_MM * c->wheel_deg_per_mm;
+    c->turn_track.vwindow = CONFIG_TRACK_VWINDOW_MM_S * c->wheel_deg_per_mm;
+    c->turn_track.tol = c->stop_tolerance * c->wheel_deg_per_mm;
+    c->turn_track.vtol = CONFIG_DONE_VTOL_MM_S * c->wheel_deg_per_mm;
     wheel_gains_set_dt(&c->wheel, c->dt);
 }
 

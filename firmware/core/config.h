@@ -31,6 +31,14 @@
 #error "CONFIG_RATE_MAX must be within the spec's control_rate range, 100..2000 Hz"
 #endif
 
+/* One axis's re-plan window and "done" limits, in the axis's units u (mm or deg):
+ * motion_tick() reads them through one pointer. */
+typedef struct {
+    float window;  /* u: how far the reference may lead the measurement */
+    float vwindow; /* u/s: the reference's speed lead when pulled back */
+    float tol;     /* u: "done" within this of the target */
+    float vtol;    /* u/s: "done" at most this fast */
+} config_track_t;
 /* Result of config_*(). */
 typedef enum {
     CONFIG_OK = 0,       /* applied */
@@ -68,11 +76,10 @@ typedef struct {
     float watchdog_decel;     /* mm/s^2 */
     float stop_tolerance;     /* mm */
     wheel_gains_t wheel;      /* wheel-speed loop gains */
-    /* the turn axis's window, tolerance and "stopped" speed, from geometry and motion */
-    float turn_window;            /* deg */
-    float turn_vwindow;           /* deg/s */
-    float turn_tol;               /* deg */
-    float turn_vtol;              /* deg/s */
+    /* each axis's window, tolerance and "stopped" speed: forward (mm, mm/s), from motion;
+       turn (deg, deg/s), the same at the wheel, from geometry and motion */
+    config_track_t fwd_track;
+    config_track_t turn_track;
     uint16_t watchdog_timeout_ms; /* ms */
     /* io */
     uint16_t dio_direction;  /* bitmask, 1 = output */

@@ -228,15 +228,14 @@ void fw_tick(fw_t *fw)
        setpoints -> wheel loops; an idle axis is not measured (its tick reads nothing) */
     if (motion_active(&fw->fwd)) {
         v_fwd = motion_tick(&fw->fwd, motion_distance(&fw->fwd, &fw->odom, c->mm_per_count),
-                            0.5f * (fw->odom.v_l + fw->odom.v_r), CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S,
-                            c->stop_tolerance, CONFIG_DONE_VTOL_MM_S, dt);
+                            0.5f * (fw->odom.v_l + fw->odom.v_r), &c->fwd_track, dt);
     } else {
         v_fwd = motion_tick_idle(&fw->fwd);
     }
     if (turn_ticking(&fw->turn)) {
         w_turn = turn_tick(&fw->turn, turn_angle(&fw->turn, &fw->odom, c->odom.turn_deg_per_count),
                            (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s, heading_deg(&fw->hdg), c->heading_kp,
-                           c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol, dt);
+                           &c->turn_track, dt);
     } else {
         w_turn = motion_tick_idle(&fw->turn.ax);
     }
@@ -270,7 +269,20 @@ void fw_tick(fw_t *fw)
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
     fw->slow_tick = (uint8_t)((fw->slow_tick + 1u < c->odom.xy_ticks) ? fw->slow_tick + 1u : 0u);
-    fw->limited = (uint8_t)(fw->fwd.limited || fw->turn.ax.limited || fw->wheel_l.saturated || fw->wheel_r.saturated);
+    fw->limited = (uint8_t)((fw->fwd.limited | fw->turn.ax.limited | fw->wheel_l.saturated | fw->wheel_r.saturated) != 0u);
+
+    /* the moving servos step (servo_step() leaves the others as they are); one servo's
+       pulse width is refreshed per tick: each every 8 ticks */
+    FW_UNROLL
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        if (servo_moving(&fw->servo[i])) {
+            servo_step(&fw->servo[i], &c->servo[i]);
+        }
+    }
+    fw->servo_next = (uint8_t)((fw->servo_next + 1u) % SERVO_COUNT);
+    if (fw->servo[fw->servo_next].mode != SERVO_OFF) {
+        servo_update_pulse(&fw->servo[fw->servo_next], &c->servo[fw->servo_next]);
+    }
 
     /* uptime */
     fw->us_frac = (uint16_t)(fw->us_frac + c->tick_us_rem);
@@ -280,21 +292,11 @@ void fw_tick(fw_t *fw)
         fw->ms++;
     }
 
-    /* outputs, once each, at the end of the tick; the servos step in the same pass (each
-       one's step and pulse depend on that servo only), and one servo's pulse width is
-       refreshed per tick: each every 8 ticks */
+    /* outputs, once each, at the end of the tick */
     hal_motor(fw->hal, fw->duty_l, fw->duty_r);
-    fw->servo_next = (uint8_t)((fw->servo_next + 1u) % SERVO_COUNT);
     FW_UNROLL
     for (i = 0u; i < SERVO_COUNT; i++) {
-        servo_t *s = &fw->servo[i];
-        if (servo_moving(s)) {
-            servo_step(s, &c->servo[i]);
-        }
-        if (i == fw->servo_next && s->mode != SERVO_OFF) {
-            servo_update_pulse(s, &c->servo[i]);
-        }
-        hal_servo_pulse(fw->hal, i, servo_pulse_us(s));
+        hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i]));
     }
     hal_dio_write(fw->hal, fw->dio.dir, fw->dio.out);
 }

@@ -65,7 +65,7 @@ void motion_stop(motion_t *m, float amax, float dt)
     m->done = 0u;
 }
 
-float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol, float dt)
+float motion_tick(motion_t *m, float meas, float vel_meas, const config_track_t *k, float dt)
 {
     float vel, lead; /* u/s: reference velocity; u: reference - measured position */
     if (!motion_active(m)) {
@@ -78,8 +78,8 @@ float motion_tick(motion_t *m, float meas, float vel_meas, float window, float v
            would leave the reference too little room to stop and make it turn back */
         lead = 0.0f;
     }
-    m->limited = profile_track(&m->prof, lead, vel_meas, window, vwindow);
-    if (!m->prof.moving && fabsf(m->target - meas) > tol && fabsf(vel_meas) <= vtol) {
+    m->limited = profile_track(&m->prof, lead, vel_meas, k->window, k->vwindow);
+    if (!m->prof.moving && fabsf(m->target - meas) > k->tol && fabsf(vel_meas) <= k->vtol) {
         if (m->latched) {
             /* a stop ends where the robot came to rest: never back to the stop point */
             m->target = meas;
@@ -90,7 +90,7 @@ float motion_tick(motion_t *m, float meas, float vel_meas, float window, float v
         }
     }
     vel = profile_step(&m->prof, dt);
-    if (!m->prof.moving && fabsf(m->target - meas) <= tol && fabsf(vel_meas) <= vtol) {
+    if (!m->prof.moving && fabsf(m->target - meas) <= k->tol && fabsf(vel_meas) <= k->vtol) {
         m->done = 1u;
     }
     return vel;

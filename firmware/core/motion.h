@@ -81,11 +81,10 @@ static inline uint8_t motion_active(const motion_t *m)
     return (uint8_t)(m->started && (m->prof.moving || !m->done));
 }
 /* One tick: meas (u) and vel_meas (u/s) are the measured position from the reference
- * and velocity; window (u) and vwindow (u/s) bound how far the reference may lead the
- * measurement; tol (u) and vtol (u/s) define "done"; dt (s). Returns the reference
+ * and velocity; k's window (u) and vwindow (u/s) bound how far the reference may lead the
+ * measurement, its tol (u) and vtol (u/s) define "done"; dt (s). Returns the reference
  * velocity (u/s). */
-float motion_tick(motion_t *m, float meas, float vel_meas, float window, float vwindow, float tol, float vtol,
-                  float dt);
+float motion_tick(motion_t *m, float meas, float vel_meas, const config_track_t *k, float dt);
 /* motion_tick() of an axis that is not motion_active(), which reads none of its
  * measurements: not limited, returns reference velocity 0 (u/s). So a caller skips
  * measuring an idle axis. */

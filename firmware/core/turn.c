@@ -54,8 +54,8 @@ uint8_t turn_active(const turn_t *t)
     return (uint8_t)(t->hdg ? !(t->hdg_reached && !t->ax.prof.moving) : motion_active(&t->ax));
 }
 
-float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, float window, float vwindow,
-                float tol, float vtol, float dt)
+float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, const config_track_t *k,
+                float dt)
 {
     if (t->hdg) {
         /* re-aim the axis at the gyro heading every tick: target = here + heading error
@@ -72,9 +72,9 @@ float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float 
         profile_retarget(&t->ax.prof, target - t->ax.target, vmax, t->ax.prof.amax);
         t->ax.target = target;
         t->ax.done = 0u;
-        t->hdg_reached = (uint8_t)(fabsf(err) <= tol && fabsf(vel_meas) <= vtol);
+        t->hdg_reached = (uint8_t)(fabsf(err) <= k->tol && fabsf(vel_meas) <= k->vtol);
     }
-    return motion_tick(&t->ax, meas, vel_meas, window, vwindow, tol, vtol, dt);
+    return motion_tick(&t->ax, meas, vel_meas, k, dt);
 }
 
 motion_result_t turn_micro_cmd(turn_t *t, const navkit_micro_cmd_t *c, const odom_t *o, const heading_t *h,

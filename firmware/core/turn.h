@@ -62,11 +62,11 @@ void turn_hdg_select(turn_t *t, int32_t enc_l, int32_t enc_r, float meas, float 
 /* 1 while the turn wants the wheels driven (HdgSel: while off its heading or moving). */
 uint8_t turn_active(const turn_t *t);
 /* One tick: meas (deg) turn angle from the reference, vel_meas (deg/s) measured turn
- * rate, heading_now (deg) gyro heading, kp ((deg/s)/deg) HdgSel gain, window (deg) and
- * vwindow (deg/s) re-plan window, tol (deg) and vtol (deg/s) "done" limits, dt (s).
+ * rate, heading_now (deg) gyro heading, kp ((deg/s)/deg) HdgSel gain, k the re-plan window
+ * and "done" limits (deg, deg/s; HdgSel is reached within k->tol and k->vtol), dt (s).
  * Returns the reference turn rate (deg/s, clockwise). */
-float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, float window, float vwindow,
-                float tol, float vtol, float dt);
+float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, const config_track_t *k,
+                float dt);
 /* 1 while turn_tick() has work (HdgSel steers, or the axis is motion_active()); otherwise
  * turn_tick() is motion_tick_idle() of the axis and reads none of its measurements. */
 static inline uint8_t turn_ticking(const turn_t *t)

@@ -1415,8 +1415,7 @@ static void check_idle_work(void)
     memcpy(&m1, &fw.fwd, sizeof m1);
     memcpy(&m2, &fw.fwd, sizeof m2);
     if (!motion_active(&fw.fwd)) {
-        CHECK(motion_tick(&m1, NAN, NAN, CONFIG_TRACK_WINDOW_MM, CONFIG_TRACK_VWINDOW_MM_S, c->stop_tolerance,
-                          CONFIG_DONE_VTOL_MM_S, c->dt) == 0.0f);
+        CHECK(motion_tick(&m1, NAN, NAN, &c->fwd_track, c->dt) == 0.0f);
         CHECK(motion_tick_idle(&m2) == 0.0f);
         CHECK(memcmp(&m1, &m2, sizeof m1) == 0);
         idle_seen[0]++;
@@ -1426,8 +1425,7 @@ static void check_idle_work(void)
     memcpy(&t1, &fw.turn, sizeof t1);
     memcpy(&t2, &fw.turn, sizeof t2);
     if (!turn_ticking(&fw.turn)) {
-        CHECK(turn_tick(&t1, NAN, NAN, NAN, c->heading_kp, c->turn_window, c->turn_vwindow, c->turn_tol, c->turn_vtol,
-                        c->dt) == 0.0f);
+        CHECK(turn_tick(&t1, NAN, NAN, NAN, c->heading_kp, &c->turn_track, c->dt) == 0.0f);
         CHECK(motion_tick_idle(&t2.ax) == 0.0f);
         CHECK(memcmp(&t1, &t2, sizeof t1) == 0);
         idle_seen[1]++;

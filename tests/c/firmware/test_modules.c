@@ -403,6 +403,8 @@ static void test_watchdog(void)
 
 static void test_motion_rules(void)
 {
+    /* mm, mm/s: window 25, speed window 50, done within 1 mm at 10 mm/s or less */
+    const config_track_t track = {25.0f, 50.0f, 1.0f, 10.0f};
     motion_t m;
     float pos = 0.0f;
     int i;
@@ -410,7 +412,7 @@ static void test_motion_rules(void)
     CHECK(motion_modify(&m, 100.0f, 100.0f, 100.0f) == MOTION_NOT_STARTED);
     motion_start(&m, 0, 0, 0.0f, 100.0f, 100.0f, 300.0f);
     for (i = 0; i < 5000; i++) {
-        pos += motion_tick(&m, pos, 0.0f, 25.0f, 50.0f, 1.0f, 10.0f, 0.001f) * 0.001f;
+        pos += motion_tick(&m, pos, 0.0f, &track, 0.001f) * 0.001f;
     }
     CHECK(m.done);
     CHECK_NEAR(pos, 100.0, 0.01);
@@ -418,7 +420,7 @@ static void test_motion_rules(void)
     CHECK(motion_modify(&m, 150.0f, 100.0f, 300.0f) == MOTION_OK);
     CHECK(!m.done && motion_active(&m));
     for (i = 0; i < 5000; i++) {
-        pos += motion_tick(&m, pos, 0.0f, 25.0f, 50.0f, 1.0f, 10.0f, 0.001f) * 0.001f;
+        pos += motion_tick(&m, pos, 0.0f, &track, 0.001f) * 0.001f;
     }
     CHECK_NEAR(pos, 150.0, 0.01);
     /* stop latches: modify is ignored until a new start */

@@ -153,6 +153,8 @@ static void test_stop_never_reverses(void)
 static double forever_then_modify(double forever, double cruise_s, double near, double vmax, double amax, double dt,
                                   double *maxpos, long *back)
 {
+    /* u, u/s: window 25, speed window 50, done within 1 at 10 u/s or less */
+    const config_track_t track = {25.0f, 50.0f, 1.0f, 10.0f};
     motion_t m;
     double pos = 0.0, vel = 0.0;
     long k;
@@ -161,13 +163,13 @@ static double forever_then_modify(double forever, double cruise_s, double near, 
     motion_reset(&m, 0, 0);
     motion_start(&m, 0, 0, 0.0f, (float)forever, (float)vmax, (float)amax);
     for (k = 0; k < (long)(cruise_s / dt); k++) {
-        double sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, 1.0f, 10.0f, (float)dt);
+        double sp = motion_tick(&m, (float)pos, (float)vel, &track, (float)dt);
         vel += (sp - vel) * dt / (0.03 + dt);
         pos += vel * dt;
     }
     CHECK(motion_modify(&m, (float)near, (float)vmax, (float)amax) == MOTION_OK);
     for (k = 0; k < (long)(20.0 / dt) && !m.done; k++) {
-        double sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, 1.0f, 10.0f, (float)dt);
+        double sp = motion_tick(&m, (float)pos, (float)vel, &track, (float)dt);
         *back += (sp < 0.0);
         vel += (sp - vel) * dt / (0.03 + dt);
         pos += vel * dt;
@@ -393,6 +395,8 @@ static int prop_tracked_case(unsigned long idx)
 {
     static const double dts[] = {0.001, 0.002, 0.004};
     const double tol = 5.0;
+    /* u, u/s: window 25, speed window 50, done within tol at 10 u/s or less */
+    const config_track_t track = {25.0f, 50.0f, (float)tol, 10.0f};
     motion_t m;
     double dt = dts[rng_next() % 3u];
     double amax = rng_uniform(50.0, 2000.0);
@@ -447,7 +451,7 @@ static int prop_tracked_case(unsigned long idx)
                     (long)((fabs(target - pos) / vc + 2.0 * vmax / amax + 10.0 * tau + fabs(vel) / amax + 2.0) / dt);
         }
         ref_prev = m.prof.vel;
-        sp = motion_tick(&m, (float)pos, (float)vel, 25.0f, 50.0f, (float)tol, 10.0f, (float)dt);
+        sp = motion_tick(&m, (float)pos, (float)vel, &track, (float)dt);
         if (sp != sp) {
             bad |= 1;
             break;
