@@ -338,16 +338,17 @@ class PlotProcess:
         except (AttributeError, OSError):
             pass
 
-    def keep_busy(self, cpus: set) -> bool:
-        """Pin the child to `cpus` (CPU numbers) at idle priority, polling for its job once
-        warm; False if it could not be pinned (then it sleeps as before)."""
+    def keep_busy(self, cpus: set, poll: bool = True) -> bool:
+        """Pin the child to `cpus` (CPU numbers) at idle priority and, with `poll`, let it
+        poll for its job once warm; False if it could not be pinned (then it sleeps until
+        its job wherever it runs)."""
         import os
 
         try:
             os.sched_setaffinity(self._proc.pid, cpus)
         except (AttributeError, OSError):
             return False
-        self._poll.value = 1
+        self._poll.value = 1 if poll else 0
         return True
 
     def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:

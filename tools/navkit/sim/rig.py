@@ -216,15 +216,15 @@ class SimRig:
     def _pin(self) -> None:
         """Lockstep: the harness and the host never run at the same time, so put both on
         one CPU (the host inherits the mask), where a tick or a done wakes the other side
-        without a cross-CPU wake-up; the log worker gets the other CPUs. On an otherwise
-        idle machine something keeps those CPUs from idling (wake-ups from idle are slow on
-        VMs): the plot process, if there is one, at idle priority (importing, warming up,
-        then polling for its job) beside the worker at normal priority, which sleeps until
-        its work comes and then preempts it at once; else the worker itself, at idle
-        priority, polling for its work. When other processes already keep the CPUs busy
-        (1-minute load average >= CPU count) the worker keeps normal priority and sleeps,
-        since an idle-priority worker would starve and the harness would wait on it
-        (docs/cosim.md, Speed)."""
+        without a cross-CPU wake-up; the log worker and the plot process (importing and
+        warming up at idle priority) get the other CPUs. On an otherwise idle machine
+        something keeps those CPUs from idling (wake-ups from idle are slow on VMs): the
+        plot process, if there is one, polling for its job once warm, beside the worker at
+        normal priority, which sleeps until its work comes and then preempts it at once;
+        else the worker itself, at idle priority, polling for its work. When other
+        processes already keep the CPUs busy (1-minute load average >= CPU count) the
+        worker keeps normal priority and sleeps, since an idle-priority worker would
+        starve and the harness would wait on it, and nothing polls (docs/cosim.md, Speed)."""
         try:
             cpus = sorted(os.sched_getaffinity(0))
         except (AttributeError, OSError):
@@ -236,9 +236,10 @@ class SimRig:
             os.sched_setaffinity(0, {cpus[-1]})
             if self.log.pid:
                 os.sched_setaffinity(self.log.pid, set(cpus[:-1]))
-                if os.getloadavg()[0] >= len(cpus):
-                    return
-                if self.plotter is not None and self.plotter.keep_busy(set(cpus[:-1])):
+                busy = os.getloadavg()[0] >= len(cpus)
+                polled = self.plotter is not None and self.plotter.keep_busy(set(cpus[:-1]),
+                                                                             poll=not busy)
+                if busy or polled:
                     return
                 # the worker yields at once to anything else (the kernel's pty work), and
                 # polls rather than sleeps so its CPU never idles (wake-ups are slow on VMs)
