@@ -269,7 +269,8 @@ void fw_tick(fw_t *fw)
         odom_xy_step(&fw->odom, &c->odom, heading_deg(&fw->hdg));
     }
     fw->slow_tick = (uint8_t)((fw->slow_tick + 1u < c->odom.xy_ticks) ? fw->slow_tick + 1u : 0u);
-    fw->limited = (uint8_t)((fw->fwd.limited | fw->turn.ax.limited | fw->wheel_l.saturated | fw->wheel_r.saturated) != 0u);
+    /* each flag is 0 or 1 */
+    fw->limited = (uint8_t)(fw->fwd.limited | fw->turn.ax.limited | fw->wheel_l.saturated | fw->wheel_r.saturated);
 
     /* the moving servos step (servo_step() leaves the others as they are); one servo's
        pulse width is refreshed per tick: each every 8 ticks */

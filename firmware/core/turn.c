@@ -54,8 +54,7 @@ uint8_t turn_active(const turn_t *t)
     return (uint8_t)(t->hdg ? !(t->hdg_reached && !t->ax.prof.moving) : motion_active(&t->ax));
 }
 
-float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, const config_track_t *k,
-                float dt)
+float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, const config_track_t *k, float dt)
 {
     if (t->hdg) {
         /* re-aim the axis at the gyro heading every tick: target = here + heading error

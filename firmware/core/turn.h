@@ -65,8 +65,7 @@ uint8_t turn_active(const turn_t *t);
  * rate, heading_now (deg) gyro heading, kp ((deg/s)/deg) HdgSel gain, k the re-plan window
  * and "done" limits (deg, deg/s; HdgSel is reached within k->tol and k->vtol), dt (s).
  * Returns the reference turn rate (deg/s, clockwise). */
-float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, const config_track_t *k,
-                float dt);
+float turn_tick(turn_t *t, float meas, float vel_meas, float heading_now, float kp, const config_track_t *k, float dt);
 /* 1 while turn_tick() has work (HdgSel steers, or the axis is motion_active()); otherwise
  * turn_tick() is motion_tick_idle() of the axis and reads none of its measurements. */
 static inline uint8_t turn_ticking(const turn_t *t)
