@@ -414,20 +414,26 @@ void plant_inputs_changed(plant_model_t *m)
     update_dio(m);
 }
 
-/* fmod(x, 360.0) bit for bit, without the libm call for |x| < 720 deg (most steps):
- * fmod is exact and keeps x's sign, so below 360 it is x itself, and strictly between
- * 360 and 720 it is x -+ 360, which is exact there (Sterbenz) and keeps the sign; at
- * exactly +-360 (a signed zero) and beyond, and for NaN or infinities, fmod decides. */
+/* fmod(x, 360.0) bit for bit, without the libm call for |x| < 16 turns (every step but
+ * after a very long spin): fmod is exact, |x| - n 360 with the sign of x (a zero result
+ * too), so below 360 it is x itself. Taking 2880, 1440, 720 and 360 deg off |x| where
+ * they fit gives that n: each subtraction is exact (a in [y, 2y), Sterbenz) and leaves a
+ * below y. NaN and larger values go to fmod. */
 static double fmod360(double x)
 {
     double a = fabs(x);
     if (a < 360.0) {
-        return x;
+        return x; /* most steps */
     }
-    if (a > 360.0 && a < 720.0) {
-        return x > 0.0 ? x - 360.0 : x + 360.0;
+    if (!(a < 16.0 * 360.0)) {
+        return fmod(x, 360.0);
     }
-    return fmod(x, 360.0);
+    for (double y = 8.0 * 360.0; y >= 360.0; y *= 0.5) {
+        if (a >= y) {
+            a -= y;
+        }
+    }
+    return copysign(a, x);
 }
 
 /* Computes the sampled outputs (encoders, gyro, compass, battery, truth, DIO) from the
