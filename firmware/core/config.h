@@ -81,6 +81,7 @@ typedef struct {
     config_track_t fwd_track;
     config_track_t turn_track;
     uint16_t watchdog_timeout_ms; /* ms */
+    uint32_t watchdog_timeout_us; /* us: the same */
     /* io */
     uint16_t dio_direction;  /* bitmask, 1 = output */
     uint16_t dio_safe_state; /* bitmask */

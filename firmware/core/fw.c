@@ -220,7 +220,7 @@ void fw_tick(fw_t *fw)
     }
 
     /* link silence */
-    if (config_complete(c) && watchdog_tick(&fw->wd, c->tick_us, c->watchdog_timeout_ms)) {
+    if (config_complete(c) && watchdog_tick(&fw->wd, c->tick_us, c->watchdog_timeout_us)) {
         fw_watchdog_stop(fw);
     }
 

@@ -90,8 +90,12 @@ int16_t servo_pos10(const servo_t *s)
 
 void servo_update_pulse(servo_t *s, const servo_cal_t *cal)
 {
+    int32_t us;
+    if (s->mode == SERVO_OFF) {
+        return; /* pulse stays 0 (servo_pulse_us()) */
+    }
     /* deg*10 * (0.01 us/deg) / 1000 = us */
-    int32_t us = (int32_t)cal->center_us + ((int32_t)servo_pos10(s) * (int32_t)cal->us_per_deg_e2) / 1000L;
+    us = (int32_t)cal->center_us + ((int32_t)servo_pos10(s) * (int32_t)cal->us_per_deg_e2) / 1000L;
     s->pulse = (us < 0) ? 0u : (uint16_t)us;
 }
 

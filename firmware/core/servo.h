@@ -42,7 +42,7 @@ typedef struct {
     int16_t right;  /* deg*10: scan right limit (param1) */
     int16_t left;   /* deg*10: scan left limit (param2) */
     uint16_t rate;  /* deg*10/s: commanded rate */
-    uint16_t pulse; /* us: pulse width as last refreshed */
+    uint16_t pulse; /* us: pulse width as last refreshed, 0 while not driven (mode SERVO_OFF) */
     uint8_t mode;   /* servo_mode_t */
 } servo_t;
 
@@ -69,7 +69,8 @@ static inline uint8_t servo_moving(const servo_t *s)
 }
 /* One tick: move toward the goal (integer only); nothing unless servo_moving(). */
 void servo_step(servo_t *s, const servo_cal_t *cal);
-/* Recompute the pulse width from the position and calibration. */
+/* Recompute the pulse width from the position and calibration; a servo not driven keeps
+ * pulse 0. */
 void servo_update_pulse(servo_t *s, const servo_cal_t *cal);
 /* Position, deg*10 (rounded). */
 int16_t servo_pos10(const servo_t *s);
@@ -77,7 +78,7 @@ int16_t servo_pos10(const servo_t *s);
  * eight every time). */
 static inline uint16_t servo_pulse_us(const servo_t *s)
 {
-    return (s->mode == SERVO_OFF) ? 0u : s->pulse;
+    return s->pulse; /* 0 while mode is SERVO_OFF: servo_reset() and servo_update_pulse() keep it so */
 }
 
 #endif /* NAVKIT_SERVO_H */

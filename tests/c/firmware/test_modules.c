@@ -275,7 +275,9 @@ static void test_servo_goto(void)
     servo_t s;
     int i;
     servo_reset(&s);
-    CHECK(servo_pulse_us(&s) == 0u);              /* not driven before a command */
+    CHECK(servo_pulse_us(&s) == 0u); /* not driven before a command */
+    servo_update_pulse(&s, &cal);    /* a refresh does not drive it (1500 us at 0 deg) */
+    CHECK(servo_pulse_us(&s) == 0u);
     servo_command(&s, &cal, 0, 300, 9999, 1000u); /* param0 = 0: no command */
     CHECK(s.mode == SERVO_OFF && s.goal == 0);
     /* seed example: servo 2 to 30 deg at 100 deg/s */
@@ -384,19 +386,19 @@ static void test_watchdog(void)
     int i, trips = 0;
     watchdog_reset(&w);
     for (i = 0; i < 299; i++) {
-        trips += watchdog_tick(&w, 1000u, 300u);
+        trips += watchdog_tick(&w, 1000u, 300000u);
     }
     CHECK(trips == 0);
-    trips += watchdog_tick(&w, 1000u, 300u);
+    trips += watchdog_tick(&w, 1000u, 300000u);
     CHECK(trips == 1 && w.tripped);
     for (i = 0; i < 1000; i++) {
-        trips += watchdog_tick(&w, 1000u, 300u);
+        trips += watchdog_tick(&w, 1000u, 300000u);
     }
     CHECK(trips == 1); /* once per silence */
     watchdog_feed(&w);
     CHECK(!w.tripped);
     for (i = 0; i < 299; i++) {
-        trips += watchdog_tick(&w, 1000u, 300u);
+        trips += watchdog_tick(&w, 1000u, 300000u);
     }
     CHECK(trips == 1);
 }
