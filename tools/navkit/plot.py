@@ -352,8 +352,13 @@ class PlotProcess:
         return True
 
     def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:
-        """plot_mcap(path, out, series) in the child, at normal priority on the CPUs it was
-        made with; its error (OSError, ValueError, McapError) is raised here."""
+        """plot_mcap(path, out, series) in the child: start() then wait()."""
+        self.start(path, out, series)
+        self.wait()
+
+    def start(self, path: Path, out: Path, series: dict | None = None) -> None:
+        """Hand the child plot_mcap(path, out, series) to do, at normal priority on the CPUs
+        it was made with, and return at once (raising nothing); wait() waits for it."""
         import os
 
         self._used = True
@@ -365,11 +370,19 @@ class PlotProcess:
                 os.sched_setaffinity(self._proc.pid, self._cpus)
         except OSError:
             pass
-        self._conn.send((Path(path), Path(out), series))
+        self._out = Path(out)
+        try:
+            self._conn.send((Path(path), Path(out), series))
+        except OSError:     # the child is gone: wait() says so
+            pass
+
+    def wait(self) -> None:
+        """Wait for the plot start() handed over; its error (OSError, ValueError,
+        McapError) is raised here."""
         try:
             err = self._conn.recv()
         except (EOFError, OSError):
-            raise OSError(f"{out}: the plot process ended before it drew the plot") from None
+            raise OSError(f"{self._out}: the plot process ended before it drew the plot") from None
         if err is not None:
             raise err
 

@@ -104,7 +104,17 @@ def _run(opts: SimOptions, plotter, stamp) -> dict:
             for s, h in held.items():
                 signal.signal(s, h)
         raise SimInterrupted(summary, interrupted)
-    rig.stop()
+    # plot.png from the messages the log worker kept while writing run.mcap (read back from
+    # the file only if the worker gave no results: it died), drawn while the coupler and
+    # the FMUs end and summary.json is written
+    plotting = []
+
+    def plot(results: dict) -> None:
+        plotter.start(mcap_path, png, results.get("plot"))
+        plotting.append(True)
+    rig.stop(None if plotter is None else plot)
+    if plotter is not None and not plotting:
+        plot(rig.results)
     stamp("stopped")
     wall = time.perf_counter() - wall0
     summary = run_summary(rig, faults, wall)
@@ -115,8 +125,6 @@ def _run(opts: SimOptions, plotter, stamp) -> dict:
         print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
               f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
     if plotter is not None:
-        # from the messages the log worker kept while writing run.mcap; read back from the
-        # file only if the worker gave no results (it died)
-        plotter.plot_mcap(mcap_path, png, rig.results.get("plot"))
+        plotter.wait()
         stamp("plot")
     return summary

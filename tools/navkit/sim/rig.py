@@ -291,10 +291,12 @@ class SimRig:
             tail = (self.out / "host.log").read_bytes()[-2000:].decode(errors="replace")
             raise SimError(f"navkit-host exited with status {self.proc.returncode}:\n{tail}")
 
-    def stop(self) -> None:
+    def stop(self, on_results=None) -> None:
         """End every part that was started, in order (host, with the bus played out until it
         has exited: navkit.sim.playout; planner, port, CAN log, log worker, coupler, FMUs),
-        keeping what each reports; remove the temporary folder."""
+        keeping what each reports; remove the temporary folder. `on_results`, when given,
+        is called with the log's results as soon as the log worker has given them (and
+        run.mcap is closed), before the coupler and the FMUs are ended."""
         self._git()
         if self.progress is not None:
             self.progress.close()
@@ -345,6 +347,8 @@ class SimRig:
         if self.log is not None:
             self.results = self.log.close()
             self.log = None
+            if on_results is not None:
+                on_results(self.results)
         if self.coupler is not None:
             if self.opts.timing:
                 self.fmu_split = self.coupler.fmu_seconds()
