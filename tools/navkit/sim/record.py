@@ -222,6 +222,11 @@ class _ChunkMessages:
         self._index = _message_index_class()
         self._lo = self._hi = None      # earliest / latest log time (ns) of the chunks so far
         self._channels: list = []      # channel ids in the order of their first message
+        # The open chunk's messages since the last spill(), as bytes to join, and where the
+        # next one starts in the chunk's buffer (bytes): a list append a part instead of a
+        # buffer write, and no tell() a message
+        self._parts: list = []
+        self._at = [builder.record_writer._buffer.tell()]
 
     @classmethod
     def make(cls, writer):
@@ -240,35 +245,46 @@ class _ChunkMessages:
             return None
         return cls(writer, builder, stats, size)
 
-    def writer(self, chan: int, n: list):
+    def writer(self, chan: int, n: list, keep=None):
         """fn(t_ns, data): one message on channel `chan` at log (= publish) time t_ns (ns),
-        its sequence number n[0] + 1 (stored back in n[0])."""
+        its sequence number n[0] + 1 (stored back in n[0]); `keep`, if given, is called
+        with (t_ns, data) after it."""
         from mcap.opcode import Opcode
 
         pack, index, size = _MESSAGE_HEAD.pack, self._index, self._size
-        rw, indices, op = self._cb.record_writer, self._cb.message_indices, int(Opcode.MESSAGE)
-        flush, first = self.flush, self._channels.append
+        indices, op = self._cb.message_indices, int(Opcode.MESSAGE)
+        flush, first, put, next_at = self.flush, self._channels.append, self._parts.append, self._at
 
         def write(t_ns: int, data: bytes) -> None:
             n[0] = seq = n[0] + 1
-            if seq == 1:
-                first(chan)
             idx = indices.get(chan)
-            if idx is None:
+            if idx is None:             # the channel's first message in this chunk
+                if seq == 1:
+                    first(chan)
                 idx = indices[chan] = index(channel_id=chan, records=[])
-            buf = rw._buffer
-            at = buf.tell()
+            at = next_at[0]
+            end = next_at[0] = at + 31 + len(data)
             idx.records.append((t_ns, at))
-            buf.write(pack(op, 22 + len(data), chan, seq, t_ns, t_ns))
-            buf.write(data)
-            if at + 31 + len(data) > size:       # as add_message: a chunk past chunk_size ends
+            put(pack(op, 22 + len(data), chan, seq, t_ns, t_ns))
+            put(data)
+            if end > size:              # as add_message: a chunk past chunk_size ends
                 flush()
+            if keep is not None:
+                keep(t_ns, data)
         return write
 
+    def spill(self) -> None:
+        """The messages written since the last spill into the open chunk's buffer."""
+        if self._parts:
+            self._cb.record_writer._buffer.write(b"".join(self._parts))
+            self._parts.clear()
+
     def flush(self) -> None:
-        """End the open chunk: fold(), then the Writer's flush."""
+        """End the open chunk: spill(), fold(), then the Writer's flush."""
+        self.spill()
         self.fold()
         self._w.flush()
+        self._at[0] = self._cb.record_writer._buffer.tell()
 
     def fold(self) -> None:
         """The open chunk's message count and time span (ns) from its message indexes,
@@ -288,6 +304,7 @@ class _ChunkMessages:
         """The file's message statistics as add_message keeps them (channels in the order
         of their first message), the open chunk folded first; `counts`: messages per
         channel id. Call once, just before Writer.finish."""
+        self.spill()
         self.fold()
         st = self._stats
         for chan in self._channels:
@@ -365,13 +382,12 @@ class Recorder:
         chan, n = self._chan[topic], self._n[topic]
         keep = self.plot_series.sink(topic)
         if self._chunk is not None:
-            write = self._chunk.writer(chan, n)
-        else:
-            add = self._w.add_message
+            return self._chunk.writer(chan, n, keep)
+        add = self._w.add_message
 
-            def write(t_ns: int, data: bytes) -> None:
-                n[0] = seq = n[0] + 1
-                add(chan, t_ns, data, t_ns, seq)
+        def write(t_ns: int, data: bytes) -> None:
+            n[0] = seq = n[0] + 1
+            add(chan, t_ns, data, t_ns, seq)
         if keep is None:
             return write
 
