@@ -136,6 +136,17 @@ def test_the_log_writer_keeps_what_navkit_plot_reads_from_the_file(tmp_path):
     assert plot.decoded(kept) == plot._read_thinned(path)
 
 
+def test_decoded_series_parse_each_message_as_one_json_value():
+    """decoded(): each message its own JSON value in log-time order (file order among
+    equal times); a message holding two values is an error, not two messages."""
+    from navkit import plot
+
+    raw = {"/truth": [(2, b'{"t": 2}'), (1, b"[1, 2]"), (1, b'"a,b"')], "/events": []}
+    assert plot.decoded(raw) == {"/truth": [(1, [1, 2]), (1, "a,b"), (2, {"t": 2})], "/events": []}
+    with pytest.raises(ValueError):
+        plot.decoded({"/truth": [(1, b"1, 2")]})
+
+
 def test_plot_process_hands_back_errors_and_ends_with_its_parent(tmp_path):
     """PlotProcess: the child's error (a file that is not MCAP) is raised in the parent
     with the file's name; close() ends the child; a parent that dies without closing it

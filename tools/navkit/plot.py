@@ -120,11 +120,18 @@ class RunSeries:
 
 def decoded(raw: dict) -> dict:
     """RunSeries.raw() decoded: {topic: [(log_time_ns, decoded JSON), ...]}, each list in
-    log-time order (file order among equal times)."""
-    loads = json.loads
+    log-time order (file order among equal times). A topic's messages are parsed as one
+    JSON array (one call instead of one a message); a message that is not one JSON value
+    is then parsed alone, which names its error."""
     out = {}
     for topic, msgs in raw.items():
-        out[topic] = sorted(((t_ns, loads(data)) for t_ns, data in msgs), key=lambda m: m[0])
+        try:
+            objs = json.loads(b"[" + b",".join(data for _, data in msgs) + b"]")
+        except ValueError:
+            objs = []
+        if len(objs) != len(msgs):
+            objs = [json.loads(data) for _, data in msgs]
+        out[topic] = sorted(zip((t_ns for t_ns, _ in msgs), objs), key=lambda m: m[0])
     return out
 
 
