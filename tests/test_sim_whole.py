@@ -147,6 +147,24 @@ def test_decoded_series_parse_each_message_as_one_json_value():
         plot.decoded({"/truth": [(1, b"1, 2")]})
 
 
+def test_run_plot_png_holds_the_pixels(tmp_path):
+    """The PNG the run plot is written as (rows stored as differences from the row above)
+    decodes with Pillow to the very pixels given, RGBA, at 110 dpi."""
+    import numpy as np
+    from PIL import Image
+
+    from navkit import plot
+
+    rng = np.random.default_rng(1)
+    pixels = rng.integers(0, 256, size=(37, 23, 4), dtype=np.uint8)
+    pixels[5:9] = 255                                      # rows alike, as in a plot
+    plot._write_png(pixels, tmp_path / "p.png")
+    with Image.open(tmp_path / "p.png") as im:
+        assert im.mode == "RGBA" and im.size == (23, 37)
+        assert [round(d) for d in im.info["dpi"]] == [110, 110]
+        assert np.array_equal(np.asarray(im), pixels)
+
+
 def test_plot_process_hands_back_errors_and_ends_with_its_parent(tmp_path):
     """PlotProcess: the child's error (a file that is not MCAP) is raised in the parent
     with the file's name; close() ends the child; a parent that dies without closing it

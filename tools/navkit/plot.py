@@ -273,18 +273,43 @@ def _draw_run(fig):
 
 
 def _write_png(rgba, out) -> None:
-    """Write RGBA pixels `rgba` (top row first) as PNG into `out`, a path or a binary file,
-    marked _DPI dots per inch, with matplotlib's metadata."""
-    from matplotlib.image import imsave
+    """Write RGBA pixels `rgba` (a (height, width, 4) uint8 array, top row first) as PNG
+    into `out`, a path or a binary file, marked _DPI dots per inch. Each row but the first
+    is stored as its difference from the row above (PNG filter "Up": a plot's rows are
+    mostly alike, so the differences are mostly zeros), all at zlib level 1, the fastest:
+    smaller than matplotlib's PNG at that level, in a third of its time."""
+    import struct
+    import zlib
 
-    # zlib level 1, the fastest: a quick-look PNG, somewhat larger than at the default 6
-    imsave(out, rgba, format="png", origin="upper", dpi=_DPI, pil_kwargs={"compress_level": 1})
+    import numpy as np
+
+    h, w = rgba.shape[0], rgba.shape[1]
+    rows = rgba.reshape(h, w * 4)
+    data = np.empty((h, 1 + w * 4), dtype=np.uint8)
+    data[:, 0] = 2                      # filter type of each row: Up
+    data[0, 0] = 0                      # the first has no row above: None
+    data[0, 1:] = rows[0]
+    np.subtract(rows[1:], rows[:-1], out=data[1:, 1:])     # modulo 256, as PNG wants
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    per_m = round(_DPI / 0.0254)        # pixels per metre, pHYs's unit
+    png = b"".join((b"\x89PNG\r\n\x1a\n",
+                    chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)),  # 8-bit RGBA
+                    chunk(b"pHYs", struct.pack(">IIB", per_m, per_m, 1)),
+                    chunk(b"IDAT", zlib.compress(data.tobytes(), 1)),
+                    chunk(b"IEND", b"")))
+    if hasattr(out, "write"):
+        out.write(png)
+    else:
+        with open(out, "wb") as f:
+            f.write(png)
 
 
-# What the plot process imports before its first job: the Figure, Agg and PNG writing
-# (no pyplot)
-_IMPORTS = ("numpy", "PIL.PngImagePlugin", "matplotlib", "matplotlib.figure",
-            "matplotlib.collections", "matplotlib.backends.backend_agg")
+# What the plot process imports before its first job: the Figure and Agg (no pyplot)
+_IMPORTS = ("numpy", "zlib", "matplotlib", "matplotlib.figure", "matplotlib.collections",
+            "matplotlib.backends.backend_agg")
 
 
 def _warm_up() -> None:
