@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <unistd.h>
 
 #include "navkit/console.hpp"
 
@@ -92,5 +93,41 @@ TEST(Console, StatusLineDueEveryPeriodInALog)
         c.status("c");
         EXPECT_EQ(contents(f), "[    0.000] status: a\n[    1.000] status: c\n");
     }
+    std::fclose(f);
+}
+
+TEST(Console, KeysFromAPipeWithoutBlockingThenItsEof)
+{
+    int p[2];
+    ASSERT_EQ(pipe(p), 0);
+    {
+        Console c(stdout, p[0], 1.0);
+        c.init();
+        EXPECT_EQ(c.keys(), "") << "nothing waiting: no wait";
+        const std::string flood(100, 'w');
+        ASSERT_EQ(write(p[1], flood.data(), flood.size()), 100);
+        EXPECT_EQ(c.keys(), std::string(Console::kMaxKeyBytes, 'w')) << "at most kMaxKeyBytes a call";
+        EXPECT_EQ(c.keys(), std::string(100 - Console::kMaxKeyBytes, 'w'));
+        EXPECT_EQ(c.keys(), "");
+        ASSERT_EQ(write(p[1], "q", 1), 1);
+        close(p[1]);
+        EXPECT_EQ(c.keys(), "q") << "what came before the EOF";
+        EXPECT_EQ(c.keys(), "");
+    }
+    close(p[0]);
+}
+
+TEST(Console, KeysFromAFile)
+{
+    std::FILE *f = std::tmpfile();
+    ASSERT_NE(f, nullptr);
+    std::fputs("wasd", f);
+    std::fflush(f);
+    std::rewind(f);
+    Console c(stdout, fileno(f), 1.0);
+    c.init();
+    EXPECT_EQ(c.keys(), "wasd");
+    EXPECT_EQ(c.keys(), "") << "EOF";
+    c.shutdown();
     std::fclose(f);
 }
