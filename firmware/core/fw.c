@@ -53,6 +53,12 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->wd_stop = 0u;
     fw->limited = 0u;
     fw->servo_next = 0u;
+    fw->held = 0u; /* the first tick writes every output */
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        fw->servo_held[i] = 0u;
+    }
+    fw->dio_dir_held = 0u;
+    fw->dio_out_held = 0u;
     fw->slow_tick = 0u;
 }
 
@@ -293,11 +299,21 @@ void fw_tick(fw_t *fw)
         fw->ms++;
     }
 
-    /* outputs, once each, at the end of the tick */
+    /* outputs, at the end of the tick: the motors every tick, a servo pulse and the DIO
+       when they change (the target holds each output; hal.h, ordering contract 2) */
     hal_motor(fw->hal, fw->duty_l, fw->duty_r);
     FW_UNROLL
     for (i = 0u; i < SERVO_COUNT; i++) {
-        hal_servo_pulse(fw->hal, i, servo_pulse_us(&fw->servo[i]));
+        uint16_t us = servo_pulse_us(&fw->servo[i]);
+        if (!fw->held || us != fw->servo_held[i]) {
+            fw->servo_held[i] = us;
+            hal_servo_pulse(fw->hal, i, us);
+        }
     }
-    hal_dio_write(fw->hal, fw->dio.dir, fw->dio.out);
+    if (!fw->held || fw->dio.dir != fw->dio_dir_held || fw->dio.out != fw->dio_out_held) {
+        fw->dio_dir_held = fw->dio.dir;
+        fw->dio_out_held = fw->dio.out;
+        hal_dio_write(fw->hal, fw->dio.dir, fw->dio.out);
+    }
+    fw->held = 1u;
 }

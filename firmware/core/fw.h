@@ -62,7 +62,11 @@ typedef struct fw {
     uint8_t reset_cause;           /* NAVKIT_RESET_CAUSE_*: why the board last started (hal_reset_cause()) */
     uint8_t limited;               /* 1 if the plant lagged or the output saturated on the last tick */
     uint8_t servo_next;            /* servo whose pulse width is refreshed next */
-    uint8_t slow_tick;             /* tick within the slow period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
+    uint16_t servo_held[SERVO_COUNT]; /* us: the pulse width each servo output holds (its last hal_servo_pulse()) */
+    uint16_t dio_dir_held;            /* the DIO directions and levels the outputs hold (last hal_dio_write()) */
+    uint16_t dio_out_held;
+    uint8_t held;      /* 1 once a tick has written every output: then only changes are written */
+    uint8_t slow_tick; /* tick within the slow period, 0..odom.xy_ticks-1: the heading fold runs on tick 0,
                             the X/Y step on another (fw.c) */
 } fw_t;
 

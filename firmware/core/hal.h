@@ -26,10 +26,12 @@
  *      docs/avr.md, tick lateness).
  *   2. The target calls fw_tick() once per control period (fw_tick_period_us()).
  *      fw_tick() calls every input wire (hal_enc_*, hal_gyro_raw, hal_compass,
- *      hal_adc, hal_sonar_echo, hal_dio_in) at its start, exactly once each, and
- *      every output wire (hal_motor, hal_servo_pulse, hal_dio_write) at its end,
- *      exactly once each. Inputs are therefore one consistent sample per tick and
- *      outputs change only at tick boundaries.
+ *      hal_adc, hal_sonar_echo, hal_dio_in) at its start, exactly once each, and the
+ *      output wires at its end, at most once each: hal_motor every tick;
+ *      hal_servo_pulse(i) and hal_dio_write on the first tick after fw_init() and then
+ *      on each tick whose value differs from the one they last got, so the target holds
+ *      the last value of each (an output is a level, not an event). Inputs are therefore
+ *      one consistent sample per tick and outputs change only at tick boundaries.
  *   3. Every function returns at once (no waiting) and is called with the `hal`
  *      pointer given to fw_init().
  */
@@ -66,7 +68,8 @@ uint16_t hal_dio_in(hal_t *hal);
  * watchdog, brown-out, unknown), reported in micro_data.reset_cause. */
 uint8_t hal_reset_cause(hal_t *hal);
 
-/* ---- output wires: written at the end of each tick ---- */
+/* ---- output wires: written at the end of a tick (servo pulses and DIO only when they
+ * change: the target holds each; ordering contract 2) ---- */
 
 /* Motor PWM duty, units of 1e-4 (-10000..10000), + drives the wheel forward after the
  * motor sign from config has been applied by the core. */

@@ -58,11 +58,13 @@ void hal_motor(hal_t *h, int16_t l, int16_t r)
 void hal_servo_pulse(hal_t *h, uint8_t i, uint16_t us)
 {
     h->servo_us[i] = us;
+    h->servo_writes++;
 }
 void hal_dio_write(hal_t *h, uint16_t dir, uint16_t out)
 {
     h->dio_dir = dir;
     h->dio_out = out;
+    h->dio_writes++;
 }
 size_t hal_uart_read(hal_t *h, uint8_t *buf, size_t cap)
 {

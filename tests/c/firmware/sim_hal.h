@@ -25,6 +25,7 @@ struct hal {
     int16_t duty_l, duty_r; /* e4 */
     uint16_t servo_us[8];
     uint16_t dio_dir, dio_out;
+    long servo_writes, dio_writes; /* hal_servo_pulse() and hal_dio_write() calls */
     /* UART: rx from the test to the firmware, tx from the firmware */
     uint8_t rx[SIM_UART_CAP];
     size_t rx_len, rx_pos;

@@ -1499,6 +1499,55 @@ static void test_idle_work_skipped(void)
     }
 }
 
+/* The target holds what it got (hal.h, ordering contract 2): after every tick each servo
+   output and the DIO hold exactly what the firmware outputs, though the firmware writes
+   them on its first tick and then only when they change. */
+static void check_outputs_held(void)
+{
+    uint8_t i;
+    for (i = 0u; i < SERVO_COUNT; i++) {
+        CHECK(h.servo_us[i] == servo_pulse_us(&fw.servo[i]));
+    }
+    CHECK(h.dio_dir == fw.dio.dir && h.dio_out == fw.dio.out);
+}
+
+static void test_outputs_written_when_changed(void)
+{
+    navkit_micro_cmd_t c;
+    long k, f, writes;
+    boot(); /* 1100 ticks: the first wrote every output, no other one wrote any */
+    CHECK(h.servo_writes == (long)SERVO_COUNT && h.dio_writes == 1);
+    sim_configure(&fw, &h); /* the IO config makes the DIO outputs safe: one write */
+    sim_run(&fw, &h, 10);
+    CHECK(h.dio_writes == 2 && h.dio_dir == 0x00FFu);
+    c = cmd(); /* servo 2 to 30 deg at 100 deg/s, servo 6 scanning, DIO outputs set */
+    c.rc2_param0 = 1000;
+    c.rc2_param1 = 300;
+    c.rc2_param2 = 9999;
+    c.rc6_param0 = 2000;
+    c.rc6_param1 = 200;
+    c.rc6_param2 = -200;
+    c.dio_command = 0x0015;
+    writes = h.servo_writes;
+    for (f = 0; f < 10; f++) {
+        sim_cmd(&fw, &h, &c);
+        for (k = 0; k < 100; k++) {
+            sim_run(&fw, &h, 1);
+            check_outputs_held();
+        }
+    }
+    CHECK(h.servo_us[2] == 1800u && h.dio_out == 0x0015u && h.dio_writes == 3);
+    /* only the two driven servos were written: each refresh is one tick in 8 */
+    CHECK(h.servo_writes - writes <= 2 * 1000 / 8 && h.servo_writes - writes > 10);
+    /* a reset (the target's outputs not cleared) writes every output again on its first tick */
+    h.servo_us[2] = 1234u;
+    h.dio_out = 0x0FFFu;
+    fw_init(&fw, &h);
+    sim_run(&fw, &h, 1);
+    check_outputs_held();
+    CHECK(h.servo_us[2] == 0u && h.dio_out == 0u);
+}
+
 static const check_case_t cases[] = {
     CHECK_CASE(unconfigured),
     CHECK_CASE(forward_move),
@@ -1527,6 +1576,7 @@ static const check_case_t cases[] = {
     CHECK_CASE(watchdog_hdg_sel),
     CHECK_CASE(stop_braking_dt),
     CHECK_CASE(idle_work_skipped),
+    CHECK_CASE(outputs_written_when_changed),
 };
 
 int main(int argc, char **argv)
