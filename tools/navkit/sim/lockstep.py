@@ -43,12 +43,13 @@ def run_lockstep(rig, faults) -> None:
     spf = rig.steps_per_frame
     split = min(spf, max(1, round(0.040 / STEP_S)))
     times = rig.times
-    gateway, lock, beat = rig.gateway, rig.lock, rig.planner.beat
+    gateway, lock = rig.gateway, rig.lock
     row = coupler.sample()
     log.truth(array.array("d", row).tobytes())
     # between a frame's done and the next tick the host does not run: one copy
     client = rig.planner.client
     lisp_raw = (lambda: None) if client is None else client.read_data_raw_still
+    beat = (lambda: None) if client is None else client.heartbeat     # ScriptedPlanner.beat's
     # The objects made so far (modules, FMU descriptions) never become garbage: keep
     # the collector from walking them again at every full collection of the loop.
     gc.freeze()
