@@ -220,15 +220,22 @@ static const char *fmu_name(int which)
  * itself never hides a change. */
 #define COSIM_CHANGED(f, vals, last, out, UT)                                                                          \
     do {                                                                                                               \
+        const size_t n_ = (f)->n;                                                                                      \
         size_t j_;                                                                                                     \
-        for (j_ = 0; j_ < (f)->n; j_++) {                                                                              \
+        if (!(f)->valid) {                                                                                             \
+            for (j_ = 0; j_ < n_; j_++) {                                                                              \
+                (f)->set_vr[k] = (f)->dst[j_];                                                                         \
+                (out)[k++] = (last)[j_] = (vals)[j_];                                                                  \
+            }                                                                                                          \
+            break;                                                                                                     \
+        }                                                                                                              \
+        for (j_ = 0; j_ < n_; j_++) {                                                                                  \
             UT now_, was_;                                                                                             \
             memcpy(&now_, &(vals)[j_], sizeof now_);                                                                   \
             memcpy(&was_, &(last)[j_], sizeof was_);                                                                   \
-            if (now_ != was_ || !(f)->valid) {                                                                         \
+            if (now_ != was_) {                                                                                        \
                 (f)->set_vr[k] = (f)->dst[j_];                                                                         \
-                (out)[k] = (vals)[j_];                                                                                 \
-                (last)[j_] = (vals)[j_];                                                                               \
+                (out)[k] = (last)[j_] = (vals)[j_];                                                                    \
                 k++;                                                                                                   \
             }                                                                                                          \
         }                                                                                                              \

@@ -64,6 +64,12 @@ struct fmil_instance {
     void (*callback)(void); /* the importer's logger (cast to the version's type) */
     char resources[1024];   /* the FMU's resources folder, a path ("" when unknown) */
     double time;            /* s: the next communication point */
+    /* For the get/set of every step, per scalar type (FMIL_F64 .. FMIL_U64, index type - 1)
+     * and value reference: 1 + the value's offset in model where a Get (get_at) or a Set
+     * (set_at: inputs only) needs no other check, else 0 (the full check decides and
+     * logs). Filled from fmil_model_vars by fmil_new. */
+    uint32_t get_at[FMIL_U64][FMIL_NUM_VRS];
+    uint32_t set_at[FMIL_U64][FMIL_NUM_VRS];
     fmil_model_t model;
 };
 

@@ -41,6 +41,21 @@ void fmil_log(const fmil_instance_t *c, fmil_status_t st, const char *fmt, ...)
     c->log(c, st, st == FMIL_ERROR ? "logStatusError" : "logEvents", buf);
 }
 
+/* Fills c->get_at and c->set_at from the variable table (see fmil.h). */
+static void fmil_index(fmil_instance_t *c)
+{
+    uint32_t vr;
+    for (vr = 0; vr < FMIL_NUM_VRS; vr++) {
+        const fmil_var_t *vi = &fmil_model_vars[vr];
+        if (vi->type >= FMIL_F64 && vi->type <= FMIL_U64) {
+            c->get_at[vi->type - 1][vr] = (uint32_t)vi->offset + 1u;
+            if (vi->causality == FMIL_INPUT) {
+                c->set_at[vi->type - 1][vr] = (uint32_t)vi->offset + 1u;
+            }
+        }
+    }
+}
+
 fmil_instance_t *fmil_new(const char *name, const char *resources, int logging, const char *api, fmil_log_fn log,
                           void *env, void (*callback)(void))
 {
@@ -48,6 +63,7 @@ fmil_instance_t *fmil_new(const char *name, const char *resources, int logging, 
     if (!c) {
         return NULL;
     }
+    fmil_index(c);
     snprintf(c->name, sizeof c->name, "%s", name ? name : "");
     snprintf(c->resources, sizeof c->resources, "%s", resources ? resources : "");
     c->log_events = logging ? 1 : 0;
@@ -233,23 +249,32 @@ static inline fmil_status_t fmil_access(fmil_instance_t *c, int get, size_t nvr,
     return fmil_access_checked(c, get, nvr, nvals, fn);
 }
 
-/* These calls run several times per 1 ms co-simulation step: per value one table check
- * and one copy of a size known at compile time (a loop per type). On an error the values
- * before the bad reference were copied. */
+/* 1 + the offset in c->model of variable vr of type for a Get (get != 0) or Set that
+ * c->get_at / c->set_at refused: a parameter set before StepMode; else 0, the refusal
+ * logged. */
+static uint32_t fmil_checked_at(fmil_instance_t *c, uint32_t vr, fmil_type_t type, int get, const char *fn)
+{
+    const fmil_var_t *vi = fmil_lookup(c, vr, type, fn);
+    if (!vi || (!get && !fmil_can_set(c, vi, fn))) {
+        return 0u;
+    }
+    return (uint32_t)vi->offset + 1u;
+}
+
+/* These calls run several times per 1 ms co-simulation step: per value one lookup in the
+ * instance's table of its type and one copy of a size known at compile time (a loop per
+ * type). On an error the values before the bad reference were copied. */
 #define FMIL_COPY_LOOP(CT, LT, GET)                                                                                    \
     for (i = 0; i < nvr; i++) {                                                                                        \
         const uint32_t r = vr[i];                                                                                      \
-        if (r >= FMIL_NUM_VRS || fmil_model_vars[r].type != (LT)) {                                                    \
-            (void)fmil_lookup(c, r, LT, fn); /* logs why */                                                            \
+        uint32_t at = (r < FMIL_NUM_VRS) ? (GET ? c->get_at : c->set_at)[(LT) - 1][r] : 0u;                            \
+        if (at == 0u && (at = fmil_checked_at(c, r, LT, GET, fn)) == 0u) {                                             \
             return FMIL_ERROR;                                                                                         \
         }                                                                                                              \
         if (GET) {                                                                                                     \
-            ((CT *)values)[i] = *(const CT *)(const void *)(base + fmil_model_vars[r].offset);                         \
+            ((CT *)values)[i] = *(const CT *)(const void *)(base + (at - 1u));                                         \
         } else {                                                                                                       \
-            if (fmil_model_vars[r].causality != FMIL_INPUT && !fmil_can_set(c, &fmil_model_vars[r], fn)) {             \
-                return FMIL_ERROR;                                                                                     \
-            }                                                                                                          \
-            *(CT *)(void *)(base + fmil_model_vars[r].offset) = ((const CT *)values)[i];                               \
+            *(CT *)(void *)(base + (at - 1u)) = ((const CT *)values)[i];                                               \
         }                                                                                                              \
     }
 
