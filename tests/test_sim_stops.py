@@ -97,3 +97,13 @@ def test_another_thread_installs_nothing(harness_handlers):
     t.start()
     t.join()
     assert seen == [(_interrupt, [])]
+
+
+def test_a_stop_recorded_while_an_error_unwinds_still_lands(harness_handlers):
+    with pytest.raises(KeyboardInterrupt) as e:
+        with DeferredStops():
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):
+                pass
+            raise RuntimeError("the host broke the lockstep contract")
+    assert isinstance(e.value.__context__, RuntimeError)

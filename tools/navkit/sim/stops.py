@@ -67,9 +67,8 @@ class DeferredStops:
                 signal.signal(signum, before)
             DeferredStops._holding = None
 
-    def __exit__(self, exc_type, _exc, _tb) -> bool:
+    def __exit__(self, _exc_type, _exc, _tb) -> bool:
         if DeferredStops._holding is self:
             self._restore()
-            if exc_type is None:
-                self.deliver()
+            self.deliver()      # even while an error unwinds: a stop asked for is not lost
         return False
