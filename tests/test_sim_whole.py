@@ -74,7 +74,9 @@ def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_pat
     assert len(whole) == 1 and len(parts) == 1 and "outputs" in parts[0] and "plot.png" in parts[0], text
     st = json.loads(stamps.read_text())
     keys = ["cli", "run", "started", "loop", "stopped", "summary", "plot", "end"]
+    ready = st.pop("plot_ready", None)     # only when the plot process was warm before its job
     assert list(st) == keys and [st[k] for k in keys] == sorted(st.values()), st
+    assert ready is None or st["cli"] < ready < st["plot"], (ready, st)
     assert _png_size(out / "plot.png") == (990, 1210)
     assert main(["plot", str(out / "run.mcap"), "-o", str(tmp_path / "replot.png")]) == 0
     assert (out / "plot.png").read_bytes() == (tmp_path / "replot.png").read_bytes()
@@ -278,6 +280,7 @@ def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     secs = [float(ln.rsplit(" s ", 1)[0].split()[-1]) for ln in parts]
     total = float(lines[head[0]].split(" in ")[1].split(" s wall")[0])
     assert all(s >= 0 for s in secs) and abs(sum(secs) - total) < 0.01 + 0.001 * len(secs), (secs, total)
+    assert "plot process ready to draw before the loop ended in " in lines[head[0] + 1 + len(parts)], out
 
 
 def test_a_sim_that_fails_leaves_no_plot_process(tmp_path, capsys):

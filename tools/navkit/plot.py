@@ -350,7 +350,10 @@ class PlotProcess:
         ctx = mp.get_context("fork")
         self._conn, child = ctx.Pipe()
         self._poll = ctx.Value("b", 0, lock=False)
-        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._poll),
+        self._ready = ctx.Value("b", 0, lock=False)     # set by the child once warm
+        self._job = None                                # a job start() left to wait()
+        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._poll,
+                                                             self._ready),
                                  name="navkit-plot", daemon=True)
         self._cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
         self._proc.start()
@@ -390,7 +393,8 @@ class PlotProcess:
 
     def start(self, path: Path, out: Path, series: dict | None = None) -> None:
         """Hand the child plot_mcap(path, out, series) to do, at normal priority on the CPUs
-        it was made with, and return at once (raising nothing); wait() waits for it."""
+        it was made with, and return at once (raising nothing); wait() waits for it. A
+        child still importing takes the job in wait() (its pipe would block this call)."""
         import os
 
         self._used = True
@@ -403,20 +407,31 @@ class PlotProcess:
         except OSError:
             pass
         self._out = Path(out)
-        try:
-            self._conn.send((Path(path), Path(out), series))
-        except OSError:     # the child is gone: wait() says so
-            pass
+        self._job = (Path(path), Path(out), series)
+        if self._ready.value:
+            self._send_job()
 
-    def wait(self) -> None:
+    def _send_job(self) -> None:
+        """Send the job start() was given, if not sent yet."""
+        job, self._job = self._job, None
+        if job is not None:
+            try:
+                self._conn.send(job)
+            except OSError:     # the child is gone: wait() says so
+                pass
+
+    def wait(self) -> float | None:
         """Wait for the plot start() handed over; its error (OSError, ValueError,
-        McapError) is raised here."""
+        McapError) is raised here. Returns the time.monotonic() (s) at which the child was
+        ready to draw (imported and warmed up) before a job came, None if a job came first."""
+        self._send_job()
         try:
-            err = self._conn.recv()
+            err, ready = self._conn.recv()
         except (EOFError, OSError):
             raise OSError(f"{self._out}: the plot process ended before it drew the plot") from None
         if err is not None:
             raise err
+        return ready
 
     def close(self) -> None:
         """End the child and wait for it: once it has drawn what it was given; at once
@@ -437,15 +452,18 @@ class PlotProcess:
             self._proc.join()
 
 
-def _plot_process(conn, parent_end, poll) -> None:
-    """PlotProcess's child (its parent sets its priority): import matplotlib (_IMPORTS) and _warm_up,
-    then wait for each job (path, out, series), polling while `poll` is set, draw it and
-    answer None or the error, until None or EOF, then exit at once (os._exit).
+def _plot_process(conn, parent_end, poll, ready_flag) -> None:
+    """PlotProcess's child (its parent sets its priority): import matplotlib (_IMPORTS) and
+    _warm_up, then wait for each job (path, out, series), polling while `poll` is set, draw
+    it and answer (None or the error, the time.monotonic() at which it was warm before any
+    job, or None), until None or EOF, then exit at once (os._exit). `ready_flag` is set
+    once it is warm.
     `parent_end`, the parent's end of the pipe that fork() copied here, is closed first,
     so a parent that dies is seen as EOF."""
     import importlib
     import os
     import signal
+    import time
 
     parent_end.close()
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
@@ -454,8 +472,11 @@ def _plot_process(conn, parent_end, poll) -> None:
         importlib.import_module(name)
         if name == "matplotlib":
             importlib.import_module(name).use("Agg")
+    ready = None
     if not conn.poll(0):        # not when the parent already waits: the job warms it up
         _warm_up()
+        ready = time.monotonic()
+    ready_flag.value = 1
     while True:
         while poll.value and not conn.poll(0):  # a job, or EOF: the parent is gone
             pass
@@ -471,11 +492,11 @@ def _plot_process(conn, parent_end, poll) -> None:
         except Exception as e:  # noqa: BLE001 - handed to the parent, which raises it
             err = e
         try:
-            conn.send(err)
+            conn.send((err, ready))
         except (OSError, EOFError):         # the parent is gone
             return
         except Exception:  # noqa: BLE001 - an error that does not pickle: its text
-            conn.send(ValueError(f"{job[1]}: {err}"))
+            conn.send((ValueError(f"{job[1]}: {err}"), ready))
 
 
 def _run_title(path: Path) -> str:

@@ -37,13 +37,14 @@ def run(opts: SimOptions, stamps: dict | None = None, plotter=None) -> dict:
     part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant).
     `stamps`, when given, gets the time.monotonic() (s) at which each phase ended: "run"
     (entered), "started" (set-up), "loop", "stopped" (host, log worker, FMUs closed),
-    "summary" (summary.json written) and "plot" (plot.png written). plot.png is drawn by
+    "summary" (summary.json written) and "plot" (plot.png written); and "plot_ready" when
+    the plot process was ready to draw (imported and warmed up) before its job came. plot.png is drawn by
     `plotter`, a navkit.plot.PlotProcess the caller made earlier and closes (navkit sim
     makes it first thing), else by one made and closed here: its matplotlib import and
     warm-up run beside the set-up and the loop (navkit.sim.rig: on the log worker's CPU)."""
-    def stamp(key: str) -> None:
+    def stamp(key: str, at: float | None = None) -> None:
         if stamps is not None:
-            stamps[key] = time.monotonic()
+            stamps[key] = time.monotonic() if at is None else at
 
     stamp("run")
     if plotter is not None or not opts.plot:
@@ -125,6 +126,8 @@ def _run(opts: SimOptions, plotter, stamp) -> dict:
         print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
               f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
     if plotter is not None:
-        plotter.wait()
+        ready = plotter.wait()
         stamp("plot")
+        if ready is not None:
+            stamp("plot_ready", ready)
     return summary
