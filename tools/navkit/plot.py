@@ -246,7 +246,12 @@ def _draw_run(fig):
         return _pixels(fig)
     shared = mmap.mmap(-1, h + h * w * 4)    # the helper's inked rows (bool each), its pixels
     ready_r, ready_w = os.pipe()
-    pid = os.fork()
+    try:
+        pid = os.fork()
+    except OSError:                             # no process to spare
+        os.close(ready_r)
+        os.close(ready_w)
+        return _pixels(fig)
     if pid == 0:        # the helper: draw, hand over, exit at once (no interpreter teardown)
         try:
             os.close(ready_r)
@@ -351,9 +356,10 @@ class PlotProcess:
         self._conn, child = ctx.Pipe()
         self._poll = ctx.Value("b", 0, lock=False)
         self._ready = ctx.Value("b", 0, lock=False)     # set by the child once warm
+        self._wanted = ctx.Value("b", 0, lock=False)    # set by start(): no warm-up then
         self._job = None                                # a job start() left to wait()
         self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._poll,
-                                                             self._ready),
+                                                             self._ready, self._wanted),
                                  name="navkit-plot", daemon=True)
         self._cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
         self._proc.start()
@@ -398,6 +404,7 @@ class PlotProcess:
         import os
 
         self._used = True
+        self._wanted.value = 1
         self._poll.value = 0
         # the parent waits for this plot: the child's import, if unfinished, too
         self._priority(getattr(os, "SCHED_OTHER", None))
@@ -452,12 +459,13 @@ class PlotProcess:
             self._proc.join()
 
 
-def _plot_process(conn, parent_end, poll, ready_flag) -> None:
+def _plot_process(conn, parent_end, poll, ready_flag, wanted) -> None:
     """PlotProcess's child (its parent sets its priority): import matplotlib (_IMPORTS) and
     _warm_up, then wait for each job (path, out, series), polling while `poll` is set, draw
     it and answer (None or the error, the time.monotonic() at which it was warm before any
-    job, or None), until None or EOF, then exit at once (os._exit). `ready_flag` is set
-    once it is warm.
+    job, or None), until None or EOF, then exit at once (os._exit). It sets `ready_flag`
+    once warm; it skips the warm-up when `wanted` is set (a job is on its way: it warms up
+    the drawing itself).
     `parent_end`, the parent's end of the pipe that fork() copied here, is closed first,
     so a parent that dies is seen as EOF."""
     import importlib
@@ -473,7 +481,7 @@ def _plot_process(conn, parent_end, poll, ready_flag) -> None:
         if name == "matplotlib":
             importlib.import_module(name).use("Agg")
     ready = None
-    if not conn.poll(0):        # not when the parent already waits: the job warms it up
+    if not wanted.value and not conn.poll(0):
         _warm_up()
         ready = time.monotonic()
     ready_flag.value = 1
