@@ -4,7 +4,6 @@ before it would; a blocking call it interrupts carries on; the handlers come bac
 block; in a thread other than the main one nothing is installed. The harness's use of it:
 test_can_stop's and test_sim_harden's SIGTERM cases."""
 
-import os
 import signal
 import socket
 import threading
@@ -30,7 +29,7 @@ def harness_handlers():
 
 def test_a_stop_signal_waits_for_deliver(harness_handlers):
     with DeferredStops() as stops:
-        os.kill(os.getpid(), signal.SIGTERM)
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
         for _ in range(1000):       # bytecodes: the Python handler has run by now
             pass
         assert stops.pending == [signal.SIGTERM]
@@ -44,7 +43,7 @@ def test_a_stop_signal_waits_for_deliver(harness_handlers):
 def test_the_block_end_delivers_and_restores(harness_handlers):
     with pytest.raises(KeyboardInterrupt):
         with DeferredStops():
-            os.kill(os.getpid(), signal.SIGTERM)
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
             for _ in range(1000):
                 pass
     assert signal.getsignal(signal.SIGTERM) is _interrupt
@@ -54,7 +53,7 @@ def test_the_block_end_delivers_and_restores(harness_handlers):
 def test_an_ignored_signal_stays_ignored(harness_handlers):
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     with DeferredStops() as stops:
-        os.kill(os.getpid(), signal.SIGHUP)
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGHUP)
         for _ in range(1000):
             pass
         assert stops.pending == [signal.SIGHUP]
@@ -80,7 +79,7 @@ def test_a_blocking_read_carries_on_through_a_stop(harness_handlers):
 def test_nested_blocks_leave_it_to_the_outer(harness_handlers):
     with DeferredStops() as outer:
         with DeferredStops() as inner:
-            os.kill(os.getpid(), signal.SIGTERM)
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
             for _ in range(1000):
                 pass
         assert inner.pending == [] and outer.pending == [signal.SIGTERM]
@@ -102,7 +101,7 @@ def test_another_thread_installs_nothing(harness_handlers):
 def test_a_stop_recorded_while_an_error_unwinds_still_lands(harness_handlers):
     with pytest.raises(KeyboardInterrupt) as e:
         with DeferredStops():
-            os.kill(os.getpid(), signal.SIGTERM)
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
             for _ in range(1000):
                 pass
             raise RuntimeError("the host broke the lockstep contract")
