@@ -910,6 +910,30 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
             pass
 
 
+# The harness's send buffer towards the log worker (bytes; the kernel caps it at
+# net.core.wmem_max): a worker that falls behind for a while (its CPU shared with other
+# work) holds up the loop only once this much is waiting, instead of the default's
+# ~200 KiB (under 20 batches); it catches up later, close() waiting for it anyway.
+_SEND_BUFFER_BYTES = 4 << 20
+
+
+def _deep_send_buffer(conn) -> None:
+    """Give the socket of `conn` (a multiprocessing Connection over a socketpair) a send
+    buffer of _SEND_BUFFER_BYTES; nothing if it is not a socket."""
+    import socket
+
+    try:
+        s = socket.socket(fileno=conn.fileno())
+    except OSError:
+        return
+    try:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, _SEND_BUFFER_BYTES)
+    except OSError:
+        pass
+    finally:
+        s.detach()
+
+
 def _send_whole(conn, obj) -> None:
     """conn.send(obj) with the stop signals held off until the message is written whole.
     A Connection writes one message in several writes (length, then the pickle, each
@@ -966,6 +990,7 @@ class RunLog:
 
             ctx = mp.get_context("fork")
             self._conn, child = ctx.Pipe()
+            _deep_send_buffer(self._conn)
             self._spin = ctx.Value("b", 0, lock=False)
             self._proc = ctx.Process(target=_worker, args=(child, path, metadata, columns, width,
                                                           self._spin, self._conn, can, build),
