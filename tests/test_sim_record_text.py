@@ -66,3 +66,26 @@ def test_truth_bytes_template_formats_as_str(tmp_path):
         assert text in dec._truth_text(row)
     dec.handle((record.TRUTH_ROWS, struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
     assert dec.finish()["counts"]["/truth"] == 1
+
+
+def test_the_log_worker_socket_holds_megabytes_before_the_loop_waits(tmp_path):
+    """RunLog's connection to its worker has a send buffer of _SEND_BUFFER_BYTES (or the
+    kernel's cap, net.core.wmem_max), not the default ~200 KiB: a worker that falls behind
+    holds up the loop only after that much."""
+    import socket
+    from pathlib import Path
+
+    from sim_helpers import require_build
+
+    require_build()
+    cap = int(Path("/proc/sys/net/core/wmem_max").read_text())
+    log = record.RunLog(tmp_path / "run.mcap", {"seed": 1}, ["x_mm"], 2)
+    try:
+        s = socket.socket(fileno=log._conn.fileno())
+        try:
+            got = s.getsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF)   # the kernel doubles it
+        finally:
+            s.detach()
+        assert got >= min(record._SEND_BUFFER_BYTES, cap)
+    finally:
+        assert log.close()["counts"]["/truth"] == 0
