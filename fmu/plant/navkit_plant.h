@@ -198,6 +198,8 @@ typedef struct {
 typedef struct {
     double r[2];                           /* m, true wheel radius left/right */
     double g[2];                           /* rad/m, motor shaft angle per metre of wheel travel */
+    double kt[2], ke[2];                   /* N/A, V/(m/s): motor constants at the wheel */
+    double damp_emf[2];                    /* N.s/m: back-EMF damping (kt ke / R) + viscous friction */
     double track;                          /* m */
     double mass[2][2];                     /* kg, mass matrix in wheel-speed coordinates (body + rotors) */
     double counts_per_m[2];                /* counts per metre of wheel travel */
@@ -229,6 +231,10 @@ typedef struct {
     int step_n;         /* sub-steps per step */
     double step_hs;     /* s: sub-step, step_h / step_n */
     double step_sqrt_h; /* s^0.5: sqrt(step_h), the gyro bias walk's scale */
+    /* the drive train's W = h (M + h D)^-1 (s/kg) of the last sub-step and the h (s) and
+     * damping D (N.s/m) it was computed for (w_valid = 0: none yet) */
+    double w_h, w_damp[2], w00, w01, w11;
+    int w_valid;
 } plant_model_t;
 
 /* Sets every variable to its start value and frees the world (values only; call

@@ -552,6 +552,9 @@ int plant_start(plant_model_t *m, double t0, char *err, size_t errlen)
         k->r[i] = 0.5e-3 * v->wheel_diameter_mm * scale[i];
         k->g[i] = v->gear_ratio / k->r[i];
         k->counts_per_m[i] = v->encoder_counts_per_rev / (2.0 * PI * k->r[i]);
+        k->kt[i] = v->motor_kt_nm_a * k->g[i];
+        k->ke[i] = v->motor_ke_v_s_rad * k->g[i];
+        k->damp_emf[i] = k->kt[i] * k->ke[i] / v->motor_r_ohm + v->friction_viscous_n_s_m;
     }
     k->mass[0][0] = p / det + v->motor_rotor_inertia_kg_m2 * k->g[0] * k->g[0];
     k->mass[1][1] = p / det + v->motor_rotor_inertia_kg_m2 * k->g[1] * k->g[1];
@@ -582,6 +585,7 @@ int plant_start(plant_model_t *m, double t0, char *err, size_t errlen)
     m->t = t0;
     v->time = t0;
     m->step_h = 0.0; /* no step size seen: plant_step works its sub-steps out */
+    m->w_valid = 0;
     m->xm = m->ym = m->yaw = 0.0;
     m->vw[0] = m->vw[1] = m->sw[0] = m->sw[1] = m->fc[0] = m->fc[1] = 0.0;
     m->charge_ah = 0.0;
@@ -624,7 +628,7 @@ static void substep(plant_model_t *m, double h)
     double duty[2] = {clampd(v->motor_left_duty, 1.0), clampd(v->motor_right_duty, 1.0)};
     double f0[2], damp[2];
     for (int i = 0; i < 2; i++) {
-        double kt = v->motor_kt_nm_a * k->g[i], ke = v->motor_ke_v_s_rad * k->g[i]; /* N/A, V/(m/s) */
+        double kt = k->kt[i], ke = k->ke[i]; /* N/A, V/(m/s) */
         double va = duty[i] * m->vbat;
         double amps = (va - ke * m->vw[i]) / v->motor_r_ohm;
         if (fabs(amps) > v->motor_i_max_a) { /* current limit: constant force */
@@ -632,13 +636,23 @@ static void substep(plant_model_t *m, double h)
             damp[i] = v->friction_viscous_n_s_m;
         } else { /* back-EMF damping taken implicitly */
             f0[i] = kt * va / v->motor_r_ohm;
-            damp[i] = kt * ke / v->motor_r_ohm + v->friction_viscous_n_s_m;
+            damp[i] = k->damp_emf[i];
         }
     }
-    /* (M + h D) v' = M v + h (F0 - Fc);  W = h (M + h D)^-1 */
-    double a00 = k->mass[0][0] + h * damp[0], a11 = k->mass[1][1] + h * damp[1], a01 = k->mass[0][1];
-    double det = a00 * a11 - a01 * a01;
-    double w00 = h * a11 / det, w11 = h * a00 / det, w01 = -h * a01 / det;
+    /* (M + h D) v' = M v + h (F0 - Fc);  W = h (M + h D)^-1, a function of h and D alone:
+     * computed again only when their bits change (a motor entering or leaving its current
+     * limit), else the same values come from the last sub-step */
+    if (!m->w_valid || memcmp(&h, &m->w_h, sizeof h) != 0 || memcmp(damp, m->w_damp, sizeof damp) != 0) {
+        double a00 = k->mass[0][0] + h * damp[0], a11 = k->mass[1][1] + h * damp[1], a01 = k->mass[0][1];
+        double det = a00 * a11 - a01 * a01;
+        m->w00 = h * a11 / det;
+        m->w11 = h * a00 / det;
+        m->w01 = -h * a01 / det;
+        m->w_h = h;
+        memcpy(m->w_damp, damp, sizeof damp);
+        m->w_valid = 1;
+    }
+    double w00 = m->w00, w11 = m->w11, w01 = m->w01;
     double r0 = (k->mass[0][0] * m->vw[0] + k->mass[0][1] * m->vw[1]) / h + f0[0];
     double r1 = (k->mass[1][0] * m->vw[0] + k->mass[1][1] * m->vw[1]) / h + f0[1];
     double vf0 = w00 * r0 + w01 * r1, vf1 = w01 * r0 + w11 * r1; /* speeds without Coulomb */
@@ -667,8 +681,7 @@ static void substep(plant_model_t *m, double h)
     /* battery: the H-bridge draws duty * motor current */
     double ibat = v->battery_idle_a;
     for (int i = 0; i < 2; i++) {
-        double ke = v->motor_ke_v_s_rad * k->g[i];
-        double amps = clampd((duty[i] * m->vbat - ke * vn[i]) / v->motor_r_ohm, v->motor_i_max_a);
+        double amps = clampd((duty[i] * m->vbat - k->ke[i] * vn[i]) / v->motor_r_ohm, v->motor_i_max_a);
         ibat += duty[i] * amps;
     }
     m->charge_ah += ibat * h / 3600.0;
