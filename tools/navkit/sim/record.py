@@ -885,6 +885,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     cpu0 = time.process_time()
     spun = 0.0                  # CPU s spent polling for work (spin), not working
     dec = _Decoder(path, metadata, columns, width, can, build)
+    handlers = dec.handlers     # dec.handle's table, looked up here: an item is a call
     try:
         while True:
             try:
@@ -899,7 +900,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
             if batch is None:
                 break
             for item in batch:
-                dec.handle(item)
+                handlers[item[0]](item)
     finally:
         res = dec.finish()
         res["cpu_s"] = round(time.process_time() - cpu0 - spun, 3)
