@@ -389,12 +389,15 @@ static int get_tx(cosim_t *c, uint8_t *tx, size_t cap, size_t *len)
 int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len, uint8_t *tx, size_t tx_cap,
               size_t *tx_len, double *rows, size_t rows_cap, size_t *n_rows)
 {
-    uint32_t k;
+    uint32_t k, to_row;
     int rc = COSIM_OK, full = 0;
     size_t width;
     if (!c || !tx_len || !n_rows || (rx_len && !rx) || (tx_cap && !tx) || (rows_cap && !rows)) {
         return COSIM_ERR_ARG;
     }
+    /* steps until the next truth row, which falls where steps % every == 0: counted down
+       instead of a division every step */
+    to_row = c->every - (uint32_t)(c->steps % c->every);
     *tx_len = 0;
     *n_rows = 0;
     width = cosim_row_width(c);
@@ -448,13 +451,14 @@ int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len, ui
         if (timed) {
             c->ns[COSIM_PLANT] += (now_ns() - t0) * COSIM_TIMING_EVERY;
         }
-        if (width > 1 && c->steps % c->every == 0) {
-            if (*n_rows < rows_cap) {
+        if (--to_row == 0u) {
+            to_row = c->every;
+            if (width > 1 && *n_rows < rows_cap) {
                 if ((rc = cosim_sample(c, rows + *n_rows * width)) != COSIM_OK) {
                     return rc;
                 }
                 (*n_rows)++;
-            } else {
+            } else if (width > 1) {
                 c->dropped++;
                 full = 1;
             }
