@@ -30,7 +30,8 @@ def add_arguments(parser) -> None:
     """Arguments of `navkit plot`."""
     parser.add_argument("file", type=Path, help="run.mcap of `navkit sim`, or a datalog .txt")
     parser.add_argument("--out", "-o", type=Path, default=None,
-                        help="PNG to write (default: FILE with .png)")
+                        help="image to write, its format by its suffix: .png (default: FILE with "
+                        ".png), or another matplotlib writes (.svg, .pdf, ...)")
 
 
 def run(args) -> int:
@@ -46,7 +47,7 @@ def run(args) -> int:
             plot_datalog(path, out)
     except (OSError, ValueError, McapError) as e:
         text = str(e)
-        print(f"navkit plot: {text if text.startswith(str(path)) else f'{path}: {text}'}",
+        print(f"navkit plot: {text if text.startswith((str(path), str(out))) else f'{path}: {text}'}",
               file=sys.stderr)
         return 1
     print(out)
@@ -187,11 +188,34 @@ def _wrapped(t, h):
 
 
 def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
-    """Plot run `path` (run.mcap) into PNG `out` (run_figure, drawn by _draw_run), from
-    `series` (RunSeries.raw() of the run's messages, as the log worker hands it over) when
-    given, else streamed from the file: the same figure either way."""
+    """Plot run `path` (run.mcap) into image `out` (its format by _format: PNG drawn by
+    _draw_run, others by matplotlib's savefig), from `series` (RunSeries.raw() of the run's
+    messages, as the log worker hands it over) when given, else streamed from the file:
+    the same figure either way."""
+    fmt = _format(out)
     msgs = decoded(series) if series is not None else _read_thinned(Path(path))
-    _write_png(_draw_run(run_figure(msgs, _run_title(Path(path)))), out)
+    fig = run_figure(msgs, _run_title(Path(path)))
+    if fmt == "png":
+        _write_png(_draw_run(fig), out)
+    else:
+        fig.savefig(out, dpi=_DPI, format=fmt)
+
+
+def _format(out) -> str:
+    """The image format of output `out` by its suffix: "png" for .png, no suffix or a binary
+    file; else a format matplotlib writes (svg, pdf, ...). ValueError naming `out` and
+    the formats there are for any other suffix (never a file whose bytes are not its name's
+    format)."""
+    suffix = Path(out).suffix.lower() if isinstance(out, (str, Path)) else ""
+    if suffix in ("", ".png"):
+        return "png"
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if suffix[1:] not in formats:
+        raise ValueError(f"{out}: cannot write a {suffix} image (the output's suffix names its "
+                         f"format: {', '.join(f'.{f}' for f in sorted(formats))})")
+    return suffix[1:]
 
 
 # Resolution of a run plot (dots per inch): its 9 x 11 in are 990 x 1210 pixels.
@@ -662,8 +686,8 @@ def read_datalog(path: Path) -> tuple[list, list]:
 
 
 def plot_datalog(path: Path, out: Path) -> None:
-    """Plot datalog `path` into PNG `out`, one panel per parameter against row number
-    (or against the first column when it is a time)."""
+    """Plot datalog `path` into image `out` (its format by _format), one panel per parameter
+    against row number (or against the first column when it is a time)."""
     params, rows = read_datalog(path)
     first = params[0][0].lower()
     timed = first in ("t", "time", "time_s", "time_ms", "timetag", "time_tag") or first.startswith("time")
@@ -681,4 +705,4 @@ def plot_datalog(path: Path, out: Path) -> None:
     axes[0].set_title(Path(path).name)
     axes[-1].set_xlabel(params[0][0] if timed else "frame")
     fig.tight_layout()
-    fig.savefig(out, dpi=100)
+    fig.savefig(out, dpi=100, format=_format(out))
