@@ -10,6 +10,7 @@ and carries `path` and `line` (None when the file cannot be read).
 
 from __future__ import annotations
 
+import bisect
 import hashlib
 import json
 import re
@@ -305,11 +306,23 @@ class Spec:
         return [m for m in self.messages.values() if not m.framed]
 
 
+# `name = "..."` anywhere in a line (every start, overlapping), what _Lines.name_line indexes
+_NAMED = re.compile(r'(?=name\s*=\s*"([^"]*)")')
+
+
 class _Lines:
-    """Finds the source line of spec items (tomllib keeps no positions)."""
+    """Finds the source line of spec items (tomllib keeps no positions). The lookups a
+    valid spec makes for each field and table (name_line, header_line, block_span) use
+    indexes of the lines built on first use, one pass each; `find` compiles its regex,
+    which only the error paths and a few fixed patterns need. Lines are 1-based where
+    returned (0: none), 0-based in spans and starts."""
 
     def __init__(self, text: str):
         self.lines = text.splitlines()
+        self._named = None       # name -> 0-based lines holding name = "name", ascending
+        self._brackets = None    # "[...]" -> 0-based lines starting with it, ascending
+        self._headers = None     # 0-based lines starting with "[", ascending
+        self._exact = {}         # stripped line -> 0-based lines equal to it, ascending
 
     def find(self, pattern: str, start: int = 0, stop: int | None = None) -> int:
         """1-based line of the first match of regex `pattern` in lines [start, stop)."""
@@ -319,6 +332,41 @@ class _Lines:
             if rx.search(self.lines[i]):
                 return i + 1
         return 0
+
+    def _first(self, at: list, start: int, stop: int | None) -> int:
+        """1-based line of the first of ascending 0-based lines `at` in [start, stop), or 0."""
+        stop = len(self.lines) if stop is None else stop
+        i = bisect.bisect_left(at, start)
+        return at[i] + 1 if i < len(at) and at[i] < stop else 0
+
+    def name_line(self, name: str, start: int = 0, stop: int | None = None) -> int:
+        """find(rf'name\\s*=\\s*"{re.escape(name)}"', start, stop): the first line in [start,
+        stop) holding `name = "<name>"`."""
+        if '"' in name or start < 0:
+            return self.find(rf'name\s*=\s*"{re.escape(name)}"', start, stop)
+        if self._named is None:
+            self._named = {}
+            for i, line in enumerate(self.lines):
+                if "name" in line:
+                    for m in _NAMED.finditer(line):
+                        at = self._named.setdefault(m.group(1), [])
+                        if not at or at[-1] != i:
+                            at.append(i)
+        return self._first(self._named.get(name, []), start, stop)
+
+    def header_line(self, header: str) -> int:
+        """find(rf"^{re.escape(header)}"): the first line starting with `header`, a table
+        header "[...]"."""
+        if not (header.startswith("[") and header.find("]") == len(header) - 1):
+            return self.find(rf"^{re.escape(header)}")
+        if self._brackets is None:
+            self._brackets = {}
+            for i, line in enumerate(self.lines):
+                end = line.find("]") if line.startswith("[") else -1
+                if end > 0:
+                    self._brackets.setdefault(line[:end + 1], []).append(i)
+        at = self._brackets.get(header)
+        return at[0] + 1 if at else 0
 
     def entry_line(self, start: int, k: int, stop: int | None = None) -> int:
         """1-based line of entry k (0-based) of the array that opens at line `start`
@@ -337,12 +385,16 @@ class _Lines:
     def block_span(self, header: str, k: int) -> tuple[int, int]:
         """0-based [start, stop) line span of the k-th (0-based) table `header`, e.g.
         '[[seed_slip]]', up to the next table header."""
-        starts = [i for i, ln in enumerate(self.lines) if ln.strip() == header]
+        starts = self._exact.get(header)
+        if starts is None:
+            starts = self._exact[header] = [i for i, ln in enumerate(self.lines) if ln.strip() == header]
         if k >= len(starts):
             return 0, len(self.lines)
         s = starts[k]
-        nxt = [i for i in range(s + 1, len(self.lines)) if self.lines[i].startswith("[")]
-        return s, nxt[0] if nxt else len(self.lines)
+        if self._headers is None:
+            self._headers = [i for i, ln in enumerate(self.lines) if ln.startswith("[")]
+        nxt = bisect.bisect_right(self._headers, s)
+        return s, self._headers[nxt] if nxt < len(self._headers) else len(self.lines)
 
 
 def load(path: str | Path) -> Spec:
@@ -390,7 +442,7 @@ class _Builder:
     def child_line(self, parent: str, name: str) -> int:
         """Line of `[parent.name]`, or of `name = ...` under it (an inline entry)."""
         esc = re.escape(name)
-        return (self.lines.find(rf"^\[{re.escape(parent)}\.{esc}\]")
+        return (self.lines.header_line(f"[{parent}.{name}]")
                 or self.lines.find(rf"^\s*{esc}\s*=", max(self.lines.find(rf"^\[{re.escape(parent)}\]") - 1, 0))
                 or self.lines.find(rf"^{re.escape(parent)}\s*=") or 1)
 
@@ -782,9 +834,9 @@ class _Builder:
         if not isinstance(fname, str):
             self.fail(self.lines.entry_line(fline, i, span[1]), f"{mname}.field {i + 1}",
                       f"field name must be a snake_case string, not {fname!r}")
-        line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', *span) or span[0] + 1
+        line = self.lines.name_line(fname, *span) or span[0] + 1
         if fname in seen:  # the second definition's line
-            line = self.lines.find(rf'name\s*=\s*"{re.escape(fname)}"', seen[fname], span[1]) or line
+            line = self.lines.name_line(fname, seen[fname], span[1]) or line
         what = f"{mname}.{fname}"
         self.unknown(f, _FIELD_KEYS, what, (line - 1, line))
         if not isinstance(fname, str) or not _NAME_RE.match(fname):
