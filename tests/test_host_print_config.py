@@ -214,3 +214,28 @@ def test_the_micro_cfg_sections_are_the_specs_config_fields(tmp_path):
     r = _host("--config", tmp_path, "--print-config")
     assert (r.returncode, r.stderr) == (1, f"navkit-host: {tmp_path}/NavAndControl.ini:3: motor_right_sign: '0' is "
                                            "not 1 or -1 (the micro refuses any other sign)\n")
+
+
+def test_an_early_ask_is_the_answer_of_the_files_then(tmp_path):
+    """ask_config starts the host at once (navkit sim: beside the mission's loading);
+    effective_config takes its answer when the files are unchanged, asks again when they
+    changed, and a refusal asked early is the same refusal; forget_asks ends the rest."""
+    from navkit import hostconfig
+
+    p, line = _copy(tmp_path, "wheel_kp = 400", "wheel_kp = 401")
+    hostconfig.ask_config(tmp_path, frame_ms=50)
+    cfg = effective_config(tmp_path, frame_ms=50)
+    assert value(cfg, "micro_cfg_motion", "wheel_kp") == 401
+    assert value(cfg, "executive", "frame_rate_hz") == 20
+    assert effective_config(tmp_path, frame_ms=50) is cfg
+    hostconfig.ask_config(tmp_path)
+    p.write_text(p.read_text().replace("wheel_kp = 401", "wheel_kp = 402"))   # after the ask
+    assert value(effective_config(tmp_path), "micro_cfg_motion", "wheel_kp") == 402
+    p.write_text(p.read_text().replace("wheel_kp = 402", "wheel_kp = 4x2"))
+    hostconfig.ask_config(tmp_path)
+    with pytest.raises(HostConfigError) as e:
+        effective_config(tmp_path)
+    assert e.value.status == 1 and str(e.value) == f"{p}:{line}: wheel_kp: '4x2' is not a decimal integer"
+    hostconfig.ask_config(tmp_path, frame_ms=30)    # never taken
+    hostconfig.forget_asks()
+    assert not hostconfig._asking

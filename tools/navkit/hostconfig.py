@@ -28,12 +28,15 @@ import subprocess
 from pathlib import Path
 
 __all__ = ["HostConfigError", "effective_config", "value", "origin_line", "header_line", "INI_FILES",
-           "host_binary", "convert_lisp"]
+           "host_binary", "convert_lisp", "ask_config", "forget_asks"]
 
 # The files a config folder holds, read by the host in this order.
 INI_FILES = ("NavAndControl.ini", "sensors.ini")
 
 _cache: dict = {}
+# ask_config's questions being answered: (config path, arguments, host) -> (the files'
+# _stamp then, the answer's function from _asked)
+_asking: dict = {}
 
 
 class HostConfigError(ValueError):
@@ -70,18 +73,56 @@ def _ask(host: Path, args: list, what: str, stdin: str | None = None) -> str:
     """The stdout of `host args` (`what` names the question in errors), fed `stdin`.
     Raises HostConfigError: the host's first stderr line and exit status, or status 0 when
     it is not built or could not be run."""
+    return _asked(host, args, what, stdin)()
+
+
+def _asked(host: Path, args: list, what: str, stdin: str | None = None):
+    """Start `host args` fed `stdin` and return at once a function that waits for it and
+    returns _ask's answer or raises its HostConfigError (the same on every call)."""
+    proc = error = None
     if not host.is_file():
-        raise HostConfigError(f"{host}: not built (cmake --build {host.parent.parent}); "
-                              f"navkit-host {what}", 0)
+        error = HostConfigError(f"{host}: not built (cmake --build {host.parent.parent}); "
+                                f"navkit-host {what}", 0)
+    else:
+        try:
+            proc = subprocess.Popen([str(host), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                    stdin=subprocess.PIPE if stdin is not None else subprocess.DEVNULL,
+                                    text=True, errors="replace")
+        except (OSError, subprocess.SubprocessError) as e:
+            error = HostConfigError(f"{host}: {e}", 0)
+    answer = []
+
+    def result() -> str:
+        if not answer:
+            answer.append(error if proc is None else _answer(proc, host, stdin))
+        if isinstance(answer[0], HostConfigError):
+            raise answer[0]
+        return answer[0]
+    return result
+
+
+def _answer(proc: subprocess.Popen, host: Path, stdin: str | None):
+    """The stdout of host process `proc` (fed `stdin`, within 30 s), else the
+    HostConfigError it makes (returned, not raised)."""
     try:
-        r = subprocess.run([str(host), *args], capture_output=True, text=True, errors="replace",
-                           timeout=30, input=stdin, stdin=None if stdin is not None else subprocess.DEVNULL)
+        out, err = proc.communicate(stdin, timeout=30)
     except (OSError, subprocess.SubprocessError) as e:
-        raise HostConfigError(f"{host}: {e}", 0) from None
-    if r.returncode != 0:
-        said = r.stderr.splitlines()[0] if r.stderr.strip() else f"exit status {r.returncode}"
-        raise HostConfigError(said.removeprefix("navkit-host: "), r.returncode)
-    return r.stdout
+        proc.kill()
+        proc.wait()
+        return HostConfigError(f"{host}: {e}", 0)
+    if proc.returncode != 0:
+        said = err.splitlines()[0] if err.strip() else f"exit status {proc.returncode}"
+        return HostConfigError(said.removeprefix("navkit-host: "), proc.returncode)
+    return out
+
+
+def _config_question(path: Path, build: Path | None, frame_ms: float | None, options: tuple):
+    """(config path, the host's arguments after --print-config, host binary) of an
+    effective_config call."""
+    args = list(options)
+    if frame_ms is not None:
+        args += ["--frame-ms", f"{frame_ms:.12g}"]
+    return Path(path), args, host_binary(build)
 
 
 def effective_config(path: Path, *, build: Path | None = None, frame_ms: float | None = None,
@@ -90,16 +131,20 @@ def effective_config(path: Path, *, build: Path | None = None, frame_ms: float |
     `navkit-host --print-config`, see above). `frame_ms` (ms) is the frame the caller
     runs (--frame-ms; None: the INI's frame_rate_hz), judged against the watchdog by the
     host; `options` more host options ("--port", "x", ...). `build`: the build folder of
-    navkit-host (default: navkit.paths.build_dir()). Raises HostConfigError."""
-    path = Path(path)
-    host = host_binary(build)
-    args = list(options)
-    if frame_ms is not None:
-        args += ["--frame-ms", f"{frame_ms:.12g}"]
-    key = (str(path.resolve()), _stamp(path), tuple(args), str(host))
+    navkit-host (default: navkit.paths.build_dir()). Raises HostConfigError. The answer
+    of an ask_config with the same arguments is taken when the files are unchanged since."""
+    path, args, host = _config_question(path, build, frame_ms, options)
+    asked = (str(path.resolve()), tuple(args), str(host))
+    stamp = _stamp(path)
+    key = (asked[0], stamp, asked[1], asked[2])
     if key in _cache:
         return _cache[key]
-    out = _ask(host, ["--config", str(path), "--print-config", *args], "reads the config")
+    early = _asking.pop(asked, None)
+    if early is not None and early[0] == stamp:
+        out = early[1]()
+    else:
+        _forget(early)
+        out = _ask(host, ["--config", str(path), "--print-config", *args], "reads the config")
     try:
         config = json.loads(out)
         config["sections"], config["headers"]
@@ -107,6 +152,36 @@ def effective_config(path: Path, *, build: Path | None = None, frame_ms: float |
         raise HostConfigError(f"{host} --print-config: not its JSON ({e})", 0) from None
     _cache[key] = config
     return config
+
+
+def ask_config(path: Path, *, build: Path | None = None, frame_ms: float | None = None,
+               options: tuple = ()) -> None:
+    """Start the host reading config `path` for effective_config (same arguments) and
+    return at once, so the host answers while the caller does other work; nothing is
+    started for an answer already cached. forget_asks() ends the ones not taken."""
+    path, args, host = _config_question(path, build, frame_ms, options)
+    asked = (str(path.resolve()), tuple(args), str(host))
+    stamp = _stamp(path)
+    if (asked[0], stamp, asked[1], asked[2]) in _cache or asked in _asking:
+        return
+    _asking[asked] = (stamp, _asked(host, ["--config", str(path), "--print-config", *args],
+                                    "reads the config"))
+
+
+def forget_asks() -> None:
+    """Wait for the hosts of ask_config calls that no effective_config took, and drop them."""
+    while _asking:
+        _forget(_asking.popitem()[1])
+
+
+def _forget(early) -> None:
+    """Wait for an ask_config's host (`early`: its (stamp, answer), or None), ignoring what
+    it says."""
+    if early is not None:
+        try:
+            early[1]()
+        except HostConfigError:
+            pass
 
 
 def convert_lisp(commands: list, *, build: Path | None = None) -> list:

@@ -101,6 +101,27 @@ def run(args) -> int:
 
 def _run(args, stamps: dict, plotter) -> int:
     """run(args) with the plot drawn by `plotter` (None: --no-plot)."""
+    from navkit.hostconfig import forget_asks
+    from navkit.paths import build_dir
+    from navkit.sim.options import ask_host_config, config_folder, git_revision_started
+
+    if args.frame_ms is not None and not (math.isfinite(args.frame_ms) and args.frame_ms > 0):
+        print(f"navkit sim: --frame-ms {args.frame_ms:g}: not a positive number of ms", file=sys.stderr)
+        return 2
+    # the run's questions to git and to the host about its config, answered while the
+    # mission loads and the FMU library imports (the run takes the answers)
+    git = git_revision_started()
+    frame_s = args.frame_ms / 1000 if args.frame_ms is not None else None
+    ask_host_config(config_folder(args.config), args.build or build_dir(), frame_s)
+    try:
+        return _run_asked(args, stamps, plotter, git, frame_s)
+    finally:
+        git()
+        forget_asks()
+
+
+def _run_asked(args, stamps: dict, plotter, git, frame_s: float | None) -> int:
+    """_run once git (git_revision_started()) and the host's config have been asked."""
     import signal
     import time
 
@@ -109,9 +130,6 @@ def _run(args, stamps: dict, plotter) -> int:
     from navkit.sim.harness import run as run_sim
     from navkit.sim.mission import MissionError, load
 
-    if args.frame_ms is not None and not (math.isfinite(args.frame_ms) and args.frame_ms > 0):
-        print(f"navkit sim: --frame-ms {args.frame_ms:g}: not a positive number of ms", file=sys.stderr)
-        return 2
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     try:
         mission = load(mission_path, build=args.build)
@@ -129,14 +147,14 @@ def _run(args, stamps: dict, plotter) -> int:
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
                       config_dir=args.config, build=build, plant_fmu=args.plant,
                       firmware=args.firmware, link=args.link,
-                      frame_s=args.frame_ms / 1000 if args.frame_ms is not None else None,
+                      frame_s=frame_s,
                       plot=not args.no_plot, progress=not args.no_progress)
     from navkit.sim.harness import SimInterrupted
 
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, _interrupt)
     try:
-        s = run_sim(opts, stamps, plotter)
+        s = run_sim(opts, stamps, plotter, git)
     except (MissionError, SimError) as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
@@ -184,8 +202,10 @@ def _process_wall_s() -> float | None:
     import os
 
     try:
-        start = int(open("/proc/self/stat").read().rsplit(")", 1)[1].split()[19])
-        uptime = float(open("/proc/uptime").read().split()[0])
+        with open("/proc/self/stat") as f:
+            start = int(f.read().rsplit(")", 1)[1].split()[19])
+        with open("/proc/uptime") as f:
+            uptime = float(f.read().split()[0])
         return uptime - start / os.sysconf("SC_CLK_TCK")
     except (OSError, ValueError, IndexError):
         return None

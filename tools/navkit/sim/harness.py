@@ -31,7 +31,7 @@ __all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_
            "frame_period", "check_frame", "git_revision", "STEP_S"]
 
 
-def run(opts: SimOptions, stamps: dict | None = None, plotter=None) -> dict:
+def run(opts: SimOptions, stamps: dict | None = None, plotter=None, git=None) -> dict:
     """Do one run; write run.mcap, summary.json (and plot.png) into opts.out; return the
     summary. Raises MissionError for a mission that does not fit the FMUs, SimError if a
     part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant).
@@ -41,31 +41,33 @@ def run(opts: SimOptions, stamps: dict | None = None, plotter=None) -> dict:
     the plot process was ready to draw (imported and warmed up) before its job came. plot.png is drawn by
     `plotter`, a navkit.plot.PlotProcess the caller made earlier and closes (navkit sim
     makes it first thing), else by one made and closed here: its matplotlib import and
-    warm-up run beside the set-up and the loop (navkit.sim.rig: on the log worker's CPU)."""
+    warm-up run beside the set-up and the loop (navkit.sim.rig: on the log worker's CPU).
+    `git`: the run's git_revision_started() when the caller started it earlier, else None."""
     def stamp(key: str, at: float | None = None) -> None:
         if stamps is not None:
             stamps[key] = time.monotonic() if at is None else at
 
     stamp("run")
     if plotter is not None or not opts.plot:
-        return _run(opts, plotter if opts.plot else None, stamp)
+        return _run(opts, plotter if opts.plot else None, stamp, git)
     from navkit.plot import PlotProcess
 
     plotter = PlotProcess()
     try:
-        return _run(opts, plotter, stamp)
+        return _run(opts, plotter, stamp, git)
     finally:
         plotter.close()
 
 
-def _run(opts: SimOptions, plotter, stamp) -> dict:
+def _run(opts: SimOptions, plotter, stamp, git=None) -> dict:
     """run(opts) with plot.png drawn by `plotter` (a navkit.plot.PlotProcess, or None for
-    no plot) and each phase's end passed to `stamp`."""
+    no plot), each phase's end passed to `stamp` and the git revision from `git` (None:
+    started here)."""
     # module imports are not part of a run's wall time (mcap's: the log worker's own, beside
     # the set-up)
     import fmpy.fmi3  # noqa: F401
 
-    rig = SimRig(opts, plotter)
+    rig = SimRig(opts, plotter, git)
     faults = Faults(rig)
     wall0 = time.perf_counter()
     from navkit.sim.coupler import CouplerError

@@ -14,7 +14,7 @@ from navkit.sim.mission import Mission
 
 __all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
            "fmu_paths", "host_config", "frame_period", "check_frame", "git_revision",
-           "git_revision_started"]
+           "git_revision_started", "config_folder", "ask_host_config"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
@@ -87,6 +87,28 @@ def fmu_paths(build: Path, firmware: str = "fmu") -> tuple[Path, Path]:
     return firmware_fmu(build, firmware), build / "fmus" / f"{_PLANT_NAME}.fmu"
 
 
+def config_folder(config_dir: Path | None) -> Path:
+    """The host's config folder of a run, absolute (the host runs in the output folder):
+    `config_dir`, else the repository's config/."""
+    from navkit.paths import repo_root
+
+    return (Path(config_dir) if config_dir else repo_root() / "config").resolve()
+
+
+def _frame_ms(frame_s: float | None) -> float | None:
+    """The frame (ms) a run's host_config asks the host about: `frame_s` (s), else None."""
+    return frame_s * 1000 if frame_s else None
+
+
+def ask_host_config(config_dir: Path, build: Path | None = None, frame_s: float | None = None) -> None:
+    """Start the host reading `config_dir` for host_config (same arguments), which takes
+    its answer; returns at once (navkit.hostconfig.ask_config: forget_asks ends it if no
+    host_config comes)."""
+    from navkit.hostconfig import ask_config
+
+    ask_config(config_dir, build=build, frame_ms=_frame_ms(frame_s))
+
+
 def host_config(config_dir: Path, build: Path | None = None, frame_s: float | None = None) -> dict:
     """The host's effective configuration of `config_dir` (navkit.hostconfig: navkit-host
     reads the INI files, the one reader) and its verdict on the frame: `frame_s` (s, the
@@ -96,7 +118,7 @@ def host_config(config_dir: Path, build: Path | None = None, frame_s: float | No
     from navkit.hostconfig import HostConfigError, effective_config
 
     try:
-        return effective_config(config_dir, build=build, frame_ms=frame_s * 1000 if frame_s else None)
+        return effective_config(config_dir, build=build, frame_ms=_frame_ms(frame_s))
     except HostConfigError as e:
         raise SimError(str(e)) from None
 

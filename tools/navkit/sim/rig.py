@@ -22,8 +22,8 @@ from pathlib import Path
 from navkit.sim.faults import check_timeline
 from navkit.sim.fmus import FmuPair, check_seed
 from navkit.sim.host_console import HostConsole
-from navkit.sim.options import (STEP_S, SimError, SimOptions, build_folder, check_frame, fmu_paths,
-                                git_revision_started, host_config, host_path)
+from navkit.sim.options import (STEP_S, SimError, SimOptions, build_folder, check_frame, config_folder,
+                                fmu_paths, git_revision_started, host_config, host_path)
 from navkit.sim.planner import ScriptedPlanner
 
 __all__ = ["SimRig", "datalogs"]
@@ -62,13 +62,14 @@ class SimRig:
     product or a config or frame the host refuses), started by start(), ended by stop()
     (which is safe after a failed or partial start). Times in s, `t_ns` in ns."""
 
-    def __init__(self, opts: SimOptions, plotter=None):
-        """`plotter`: the navkit.plot.PlotProcess that will draw plot.png, or None."""
+    def __init__(self, opts: SimOptions, plotter=None, git=None):
+        """`plotter`: the navkit.plot.PlotProcess that will draw plot.png, or None. `git`:
+        the run's git_revision_started() when the caller started it earlier, else None."""
         self.opts = opts
         self.plotter = plotter
         self.m = opts.mission
         # its git commands run beside the checks and the set-up; start() takes the answer
-        self._git = git_revision_started()
+        self._git = git or git_revision_started()
         self.git_revision = None
         try:
             self._resolve(opts)
@@ -79,11 +80,9 @@ class SimRig:
     def _resolve(self, opts: SimOptions) -> None:
         """The paths and the host's configuration of `opts`, checked, and the run's state."""
         from navkit import protocol
-        from navkit.paths import repo_root
 
         self.build = build_folder(opts)
-        # absolute: the host runs in the output folder
-        self.config_dir = (Path(opts.config_dir) if opts.config_dir else repo_root() / "config").resolve()
+        self.config_dir = config_folder(opts.config_dir)
         self.out = Path(opts.out)
         self.plant_fmu = Path(opts.plant_fmu) if opts.plant_fmu else fmu_paths(self.build)[1]
         self._check_built()
