@@ -84,9 +84,16 @@ def run(args) -> int:
     """Run the mission; 0 on success; 1 (a bad mission, config or run) or 2 (a bad option)
     with one line on stderr; 128 + the signal's number (130 for Ctrl-C) when a signal
     stopped it: the outputs are closed and summary.json says `interrupted`."""
+    import os
     import time
 
     stamps = {"cli": time.monotonic()}
+    # numpy (fmpy's, matplotlib's) with one BLAS thread, as a run does no linear algebra:
+    # a pool's threads would start and spin on the other CPUs at numpy's import (beside
+    # the log worker and the plot process), and the processes forked after that import
+    # (the log worker, the plot's helper) would be forked from a threaded process. A
+    # value the user set is kept.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     if args.no_plot:
         return _run(args, stamps, None)
     # plot.png's matplotlib import starts now, beside the mission's loading and the run
