@@ -72,8 +72,26 @@ def fraction(text: str) -> float:
     return v
 
 
+def _exit_at_once(status: int) -> None:
+    """End the process with `status` once stdout and stderr are flushed (a closed pipe
+    there is ignored, as at a normal exit), skipping atexit handlers and teardown."""
+    import os
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(status)
+
+
 def main(argv=None) -> int:
-    """Parse `argv` (default: sys.argv[1:]) and run the chosen subcommand."""
+    """Parse `argv` (default: sys.argv[1:]) and run the chosen subcommand. Without `argv` the
+    caller is the navkit command itself (the console script, `python -m navkit`): a
+    subcommand module with EXIT_AT_ONCE = True (its run() has ended every child and
+    closed every file it made) then ends the process as soon as it returns, its output
+    flushed, without the interpreter's teardown of every module and object (os._exit)."""
+    own_process = argv is None
     argv = sys.argv[1:] if argv is None else argv
     parser = argparse.ArgumentParser(prog="navkit", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -91,7 +109,10 @@ def main(argv=None) -> int:
         sub_parser = argparse.ArgumentParser(prog=f"navkit {name}", description=SUBCOMMANDS[name][1])
         module.add_arguments(sub_parser)
         args = sub_parser.parse_args(argv[1:])
-        return int(module.run(args) or 0)
+        status = int(module.run(args) or 0)
+        if own_process and getattr(module, "EXIT_AT_ONCE", False):
+            _exit_at_once(status)
+        return status
     except SpecError as e:  # a broken spec (navkit.protocol loads it at import): file:line, no traceback
         print(f"navkit {name}: {e}", file=sys.stderr)
         return 1

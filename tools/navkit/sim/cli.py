@@ -15,9 +15,14 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "DEFAULT_MISSION"]
+__all__ = ["add_arguments", "run", "DEFAULT_MISSION", "EXIT_AT_ONCE"]
 
 DEFAULT_MISSION = "config/missions/demo.toml"
+
+# run() returns with every child ended (host, log worker, plot process) and every file it
+# wrote closed, however it ends: the navkit command exits at once (navkit.cli.main),
+# without tearing the harness's modules (numpy, fmpy) and objects down one by one
+EXIT_AT_ONCE = True
 
 
 def add_arguments(parser) -> None:

@@ -1,0 +1,40 @@
+"""The navkit command's `sim` ends at once when the run has returned (navkit.cli.main,
+EXIT_AT_ONCE): what it printed is all there (flushed before os._exit), its outputs are
+whole, its exit status is the run's, and in-process callers of main() get the status
+back instead of an exit."""
+
+import json
+import subprocess
+import sys
+
+from navkit.cli import main
+from sim_helpers import require_build
+
+MISSION = 'duration_s = 1.0\n[[key]]\nt = 0.2\nkey = "R"\n[[key]]\nt = 0.8\nkey = "S"\n'
+
+
+def test_navkit_sim_exits_at_once_with_everything_written(tmp_path):
+    require_build()
+    (tmp_path / "m.toml").write_text(MISSION)
+    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "m.toml"),
+                        "--out", str(tmp_path / "out"), "--no-plot", "--stamps", str(tmp_path / "st.json")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("mission ") and any(ln.startswith("speed ") for ln in lines), r.stdout
+    assert lines[-1].strip().startswith("of it: start-up"), "the last line, flushed before the exit"
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["frames"] == 10
+    assert json.loads((tmp_path / "st.json").read_text())["end"] > 0
+    assert list((tmp_path / "out").glob("Data *.txt")), "the host's datalog, closed by the host"
+    # a refusal: the same exit at once, its one line on stderr
+    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "none.toml"),
+                        "--out", str(tmp_path / "out2"), "--no-plot"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 1 and r.stderr == f"navkit sim: {tmp_path / 'none.toml'}: cannot read: No such file or directory\n"
+
+
+def test_main_with_arguments_returns_the_status(tmp_path, capsys):
+    assert main(["sim", "--mission", str(tmp_path / "none.toml"), "--out", str(tmp_path / "o"),
+                 "--no-plot"]) == 1
+    assert "cannot read" in capsys.readouterr().err
