@@ -38,3 +38,22 @@ def test_main_with_arguments_returns_the_status(tmp_path, capsys):
     assert main(["sim", "--mission", str(tmp_path / "none.toml"), "--out", str(tmp_path / "o"),
                  "--no-plot"]) == 1
     assert "cannot read" in capsys.readouterr().err
+
+
+def test_a_closed_stdout_is_one_line_not_a_traceback(tmp_path):
+    """stdout's reader gone before the run prints (`navkit sim | head` that ended): status 1
+    and one line saying so, the run's outputs whole."""
+    import os
+
+    require_build()
+    (tmp_path / "m.toml").write_text(MISSION)
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "m.toml"),
+                            "--out", str(tmp_path / "out"), "--no-plot"], stdout=write_end,
+                           stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write_end)
+    assert r.returncode == 1 and r.stderr == "navkit sim: stdout: its reader closed it (output cut short)\n", r.stderr
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["frames"] == 10

@@ -85,6 +85,25 @@ def _exit_at_once(status: int) -> None:
     os._exit(status)
 
 
+def _stdout_gone() -> bool:
+    """Whether stdout's reader has closed it (a pipe to `head`: poll says POLLERR); then
+    stdout is pointed at /dev/null, so what is left in its buffer goes nowhere at exit
+    instead of failing again."""
+    import os
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+        poll = select.poll()
+        poll.register(fd, select.POLLOUT)
+        gone = any(ev & select.POLLERR for _, ev in poll.poll(0))
+    except (OSError, ValueError, AttributeError):
+        return False
+    if gone:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+    return gone
+
+
 def main(argv=None) -> int:
     """Parse `argv` (default: sys.argv[1:]) and run the chosen subcommand. Without `argv` the
     caller is the navkit command itself (the console script, `python -m navkit`): a
@@ -115,4 +134,9 @@ def main(argv=None) -> int:
         return status
     except SpecError as e:  # a broken spec (navkit.protocol loads it at import): file:line, no traceback
         print(f"navkit {name}: {e}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:
+        if not (own_process and _stdout_gone()):
+            raise
+        print(f"navkit {name}: stdout: its reader closed it (output cut short)", file=sys.stderr)
         return 1
