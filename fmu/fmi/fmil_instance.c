@@ -267,7 +267,7 @@ static uint32_t fmil_checked_at(fmil_instance_t *c, uint32_t vr, fmil_type_t typ
 #define FMIL_COPY_LOOP(CT, LT, GET)                                                                                    \
     for (i = 0; i < nvr; i++) {                                                                                        \
         const uint32_t r = vr[i];                                                                                      \
-        uint32_t at = (r < FMIL_NUM_VRS) ? (GET ? c->get_at : c->set_at)[(LT) - 1][r] : 0u;                            \
+        uint32_t at = (r < FMIL_NUM_VRS) ? (GET ? c->get_at : c->set_at)[(LT)-1][r] : 0u;                              \
         if (at == 0u && (at = fmil_checked_at(c, r, LT, GET, fn)) == 0u) {                                             \
             return FMIL_ERROR;                                                                                         \
         }                                                                                                              \
