@@ -197,7 +197,7 @@ def _run_asked(args, stamps: dict, plotter, git, frame_s: float | None) -> int:
         run_s = stamps["stopped"] - stamps["run"]
         out_s = stamps["end"] - stamps["stopped"]
         print(f"          the whole command: {whole:.2f} s wall = {s['sim_time_s'] / whole:.1f}x real time "
-              f"(with Python's start-up, the outputs and plot.png)")
+              f"(with Python's start-up and the outputs" + (", plot.png)" if opts.plot else ")"))
         print(f"          of it: start-up {max(0.0, whole - run_s - out_s):.2f} s, run {run_s:.2f} s "
               f"(set-up, loop, shutdown), outputs {out_s:.2f} s (summary.json"
               + (", plot.png)" if opts.plot else ")"))
