@@ -85,21 +85,19 @@ class Faults:
         self.due_ns = self._due()
 
     def _due(self) -> float:
-        """The earliest t_ns (ns) at which act_due has an event to act out (inf: none left);
-        t * 1e9 - 1 is exact for any t of a run (below 2**53 ns)."""
+        """The earliest t_ns (ns) at which act_due has an event to act out (inf: none left):
+        the next event's t (s) in ns, less 1 ns of rounding slack; t * 1e9 - 1 is exact for
+        any t of a run (below 2**53 ns)."""
         i = self.next_event
         return self.events[i][0] * 1e9 - 1 if i < len(self.events) else float("inf")
 
     def act_due(self, t_ns: int) -> None:
-        """Act out, in timeline order, the mission's events not acted out yet whose t (s)
-        is at or before `t_ns` (ns of simulated time); nothing is due before `due_ns`."""
-        events, i = self.events, self.next_event
-        try:
-            while i < len(events) and events[i][0] * 1e9 <= t_ns + 1:
-                self.apply(t_ns, events[i][2], events[i][3])
-                i += 1
-                self.next_event = i
-        finally:
+        """Act out, in timeline order, the mission's events not acted out yet that are due
+        at `t_ns` (ns of simulated time): those whose t (s) is at or before it (`due_ns`)."""
+        while t_ns >= self.due_ns:
+            e = self.events[self.next_event]
+            self.apply(t_ns, e[2], e[3])
+            self.next_event += 1
             self.due_ns = self._due()
 
     def apply(self, t_ns: int, what: str, e) -> None:
