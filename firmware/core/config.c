@@ -95,7 +95,6 @@ config_result_t config_motion(config_t *c, const navkit_micro_cfg_motion_t *m)
     c->wheel.i_limit = 1e-3f * (float)m->wheel_i_limit;
     c->wheel.pwm_limit = 1e-3f * (float)m->pwm_limit;
     c->heading_kp = 0.01f * (float)m->heading_kp;
-    c->watchdog_timeout_ms = m->watchdog_timeout;
     c->watchdog_timeout_us = (uint32_t)m->watchdog_timeout * 1000ul;
     c->watchdog_decel = (float)m->watchdog_decel;
     c->stop_tolerance = (float)m->stop_tolerance;

@@ -80,8 +80,7 @@ typedef struct {
        turn (deg, deg/s), the same at the wheel, from geometry and motion */
     config_track_t fwd_track;
     config_track_t turn_track;
-    uint16_t watchdog_timeout_ms; /* ms */
-    uint32_t watchdog_timeout_us; /* us: the same */
+    uint32_t watchdog_timeout_us; /* us: micro_cfg_motion's watchdog_timeout */
     /* io */
     uint16_t dio_direction;  /* bitmask, 1 = output */
     uint16_t dio_safe_state; /* bitmask */

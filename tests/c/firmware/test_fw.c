@@ -1334,7 +1334,7 @@ static void stop_braking(const float *vel, double decel, const navkit_micro_cmd_
         sim_cmd(&fw, &h, stop);
         sim_run(&fw, &h, 1);
     } else {
-        limit = (long)fw.cfg.watchdog_timeout_ms * fw.cfg.control_rate / 1000 + per_frame;
+        limit = (long)(fw.cfg.watchdog_timeout_us / 1000u) * fw.cfg.control_rate / 1000 + per_frame;
         for (n = 0; n < limit && !(fw_status(&fw) & NAVKIT_MICRO_STATUS_WATCHDOG_STOP); n++) {
             v0 = *vel;
             sim_run(&fw, &h, 1);
