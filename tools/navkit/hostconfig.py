@@ -117,12 +117,15 @@ def _answer(proc: subprocess.Popen, host: Path, stdin: str | None):
 
 
 def _config_question(path: Path, build: Path | None, frame_ms: float | None, options: tuple):
-    """(config path, the host's arguments after --print-config, host binary) of an
-    effective_config call."""
+    """What an effective_config call asks: (host binary, its arguments, the question's key
+    in _asking, the files' _stamp now); _cache keeps the answer under (key, stamp)."""
+    path = Path(path)
+    host = host_binary(build)
     args = list(options)
     if frame_ms is not None:
         args += ["--frame-ms", f"{frame_ms:.12g}"]
-    return Path(path), args, host_binary(build)
+    asked = (str(path.resolve()), tuple(args), str(host))
+    return host, ["--config", str(path), "--print-config", *args], asked, _stamp(path)
 
 
 def effective_config(path: Path, *, build: Path | None = None, frame_ms: float | None = None,
@@ -133,10 +136,8 @@ def effective_config(path: Path, *, build: Path | None = None, frame_ms: float |
     host; `options` more host options ("--port", "x", ...). `build`: the build folder of
     navkit-host (default: navkit.paths.build_dir()). Raises HostConfigError. The answer
     of an ask_config with the same arguments is taken when the files are unchanged since."""
-    path, args, host = _config_question(path, build, frame_ms, options)
-    asked = (str(path.resolve()), tuple(args), str(host))
-    stamp = _stamp(path)
-    key = (asked[0], stamp, asked[1], asked[2])
+    host, argv, asked, stamp = _config_question(path, build, frame_ms, options)
+    key = (asked, stamp)
     if key in _cache:
         return _cache[key]
     early = _asking.pop(asked, None)
@@ -144,7 +145,7 @@ def effective_config(path: Path, *, build: Path | None = None, frame_ms: float |
         out = early[1]()
     else:
         _forget(early)
-        out = _ask(host, ["--config", str(path), "--print-config", *args], "reads the config")
+        out = _ask(host, argv, "reads the config")
     try:
         config = json.loads(out)
         config["sections"], config["headers"]
@@ -159,13 +160,10 @@ def ask_config(path: Path, *, build: Path | None = None, frame_ms: float | None 
     """Start the host reading config `path` for effective_config (same arguments) and
     return at once, so the host answers while the caller does other work; nothing is
     started for an answer already cached. forget_asks() ends the ones not taken."""
-    path, args, host = _config_question(path, build, frame_ms, options)
-    asked = (str(path.resolve()), tuple(args), str(host))
-    stamp = _stamp(path)
-    if (asked[0], stamp, asked[1], asked[2]) in _cache or asked in _asking:
+    host, argv, asked, stamp = _config_question(path, build, frame_ms, options)
+    if (asked, stamp) in _cache or asked in _asking:
         return
-    _asking[asked] = (stamp, _asked(host, ["--config", str(path), "--print-config", *args],
-                                    "reads the config"))
+    _asking[asked] = (stamp, _asked(host, argv, "reads the config"))
 
 
 def forget_asks() -> None:
