@@ -74,7 +74,7 @@ void servo_step(servo_t *s, const servo_cal_t *cal);
 void servo_update_pulse(servo_t *s, const servo_cal_t *cal);
 /* Position, deg*10 (rounded). */
 int16_t servo_pos10(const servo_t *s);
-/* Pulse width, us, as last refreshed; 0 when not driven (inline: the tick outputs all
+/* Pulse width, us, as last refreshed; 0 when not driven (inline: the tick reads all
  * eight every time). */
 static inline uint16_t servo_pulse_us(const servo_t *s)
 {

@@ -395,8 +395,8 @@ int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len, ui
     if (!c || !tx_len || !n_rows || (rx_len && !rx) || (tx_cap && !tx) || (rows_cap && !rows)) {
         return COSIM_ERR_ARG;
     }
-    /* steps until the next truth row, which falls where steps % every == 0: counted down
-       instead of a division every step */
+    /* steps until the next truth row, which falls where steps % every == 0: counted down,
+       so the step loop has no division */
     to_row = c->every - (uint32_t)(c->steps % c->every);
     *tx_len = 0;
     *n_rows = 0;
