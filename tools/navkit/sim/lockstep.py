@@ -49,7 +49,7 @@ def run_lockstep(rig, faults) -> None:
     # between a frame's done and the next tick the host does not run: one copy
     client = rig.planner.client
     lisp_raw = (lambda: None) if client is None else client.read_data_raw_still
-    beat = (lambda: None) if client is None else client.heartbeat     # ScriptedPlanner.beat's
+    beat = (lambda: None) if client is None else client.heartbeat     # rig.planner.beat, bound once
     # The objects made so far (modules, FMU descriptions) never become garbage: keep
     # the collector from walking them again at every full collection of the loop.
     gc.freeze()

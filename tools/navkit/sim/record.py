@@ -222,9 +222,9 @@ class _ChunkMessages:
         self._index = _message_index_class()
         self._lo = self._hi = None      # earliest / latest log time (ns) of the chunks so far
         self._channels: list = []      # channel ids in the order of their first message
-        # The open chunk's messages since the last spill(), as bytes to join, and where the
-        # next one starts in the chunk's buffer (bytes): a list append a part instead of a
-        # buffer write, and no tell() a message
+        # The open chunk's messages since the last spill(), as parts spill() joins into the
+        # chunk's buffer at once, and where the next one starts in that buffer (bytes),
+        # counted here: a message costs list appends, no call on the buffer
         self._parts: list = []
         self._at = [builder.record_writer._buffer.tell()]
 
