@@ -75,13 +75,8 @@ class Port:
         size = len(data)
         try:
             done = os.write(self.master, data)     # all of it, as a rule: no view, no loop
-        except BlockingIOError:
-            done = 0
-        except OSError as e:
-            if e.errno != errno.EIO:
-                raise
-            self.dropped += size
-            return 0
+        except OSError:
+            done = 0            # the loop below writes again and judges the error
         if done < size:
             view = memoryview(data)
             while done < size:
@@ -107,14 +102,10 @@ class Port:
             raise LinkError(f"the host reports {n} bytes written while the port is unplugged")
         try:
             first = os.read(self.master, n)        # all of them, as a rule: no buffer, no clock
-            if len(first) == n:
-                return first
-        except BlockingIOError:
-            first = b""
-        except OSError as e:
-            if e.errno != errno.EIO:
-                raise
-            first = b""
+        except OSError:
+            first = b""         # the loop below reads again and judges the error
+        if len(first) == n:
+            return first
         buf = bytearray(first)
         deadline = time.monotonic() + timeout_s
         while len(buf) < n:
