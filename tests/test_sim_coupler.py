@@ -1,6 +1,7 @@
 """The native coupler (fmu/cosim) with the real FMUs, without the host: connections by
 name, 1 kHz stepping, serial bytes both ways, truth rows, a firmware reset."""
 
+import array
 from pathlib import Path
 
 import pytest
@@ -67,6 +68,16 @@ def test_steps_serial_and_truth_rows(coupled):
     for _ in range(30):      # the host repeats its command every 100 ms (the watchdog)
         tx, rows = c.run(100, cmd)
     assert rows[-1][1] == pytest.approx(300, abs=15), "x_mm at the end of the move"
+
+
+def test_run_raw_after_run_grew_the_row_buffer(coupled):
+    """run() past the truth row buffer's capacity (4096 rows) grows it for run_raw() too:
+    run_raw's rows are the ones of the steps it just did, none refused."""
+    _, c = coupled
+    c.run(4100)
+    _, raw = c.run_raw(100)
+    t = array.array("d", raw)[::c.width]
+    assert list(t) == pytest.approx([4.12, 4.14, 4.16, 4.18, 4.2])
 
 
 def test_firmware_reset_unconfigures_and_keeps_the_plant(coupled):

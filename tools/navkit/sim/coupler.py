@@ -155,20 +155,18 @@ class Coupler:
         self.width = lib.cosim_row_width(self._c)
         self._tx = (c_uint8 * tx_capacity)()
         self._tx_cap = tx_capacity
-        self._rows = (c_double * (row_capacity * self.width))()
-        self._row_cap = row_capacity
+        self._grow_rows(row_capacity)
         self._tx_len, self._n_rows = c_size_t(), c_size_t()
         # made once: run_raw() is called twice per host frame
         self._tx_len_ref, self._n_rows_ref = ctypes.byref(self._tx_len), ctypes.byref(self._n_rows)
         self._tx_view = memoryview(self._tx).cast("B")
-        self._rows_view = memoryview(self._rows).cast("B")
         # run_raw's cosim_run without argtypes, whose per-call conversions cost more than
         # the call: every argument is passed as a ctypes object of the prototype's type
         # (lib.cosim_run above, a separate function object, keeps its argtypes)
         self._run = lib["cosim_run"]
         self._run.argtypes, self._run.restype = None, c_int
         self._handle = c_void_p(self._c)
-        self._tx_cap_arg, self._row_cap_arg = c_size_t(tx_capacity), c_size_t(row_capacity)
+        self._tx_cap_arg = c_size_t(tx_capacity)
         self._steps_arg: dict = {}       # n_steps -> its c_uint32
         self._no_rx = c_size_t(0)
         self._check(lib.cosim_exchange(self._c))
@@ -205,10 +203,8 @@ class Coupler:
     def run(self, n_steps: int, rx: bytes = b"") -> tuple[bytes, list]:
         """Do `n_steps` steps, `rx` arriving at the firmware's serial port with the first.
         Returns (bytes the firmware sent, truth rows as lists [t_s, columns...])."""
-        cap_rows = max(self._row_cap, n_steps)  # enough even with record_every = 1
-        if cap_rows > self._row_cap:
-            self._rows = (c_double * (cap_rows * self.width))()
-            self._row_cap = cap_rows
+        if n_steps > self._row_cap:     # enough even with record_every = 1
+            self._grow_rows(n_steps)
         rc = self._lib.cosim_run(self._c, n_steps, rx or None, len(rx), self._tx, self._tx_cap,
                                  ctypes.byref(self._tx_len), self._rows, self._row_cap,
                                  ctypes.byref(self._n_rows))
@@ -218,14 +214,18 @@ class Coupler:
         flat = self._rows[:n * w]
         return tx, [flat[i * w:(i + 1) * w] for i in range(n)]
 
+    def _grow_rows(self, n_rows: int) -> None:
+        """Make the truth row buffer hold `n_rows` rows (its view and capacity argument with it)."""
+        self._rows = (c_double * (n_rows * self.width))()
+        self._rows_view = memoryview(self._rows).cast("B")
+        self._row_cap = n_rows
+        self._row_cap_arg = c_size_t(n_rows)
+
     def run_raw(self, n_steps: int, rx: bytes = b"") -> tuple[bytes, bytes]:
         """As run(), but the truth rows come back as the raw bytes of their doubles
         (native byte order, `width` doubles per row)."""
         if n_steps > self._row_cap:
-            self._rows = (c_double * (n_steps * self.width))()
-            self._rows_view = memoryview(self._rows).cast("B")
-            self._row_cap = n_steps
-            self._row_cap_arg = c_size_t(n_steps)
+            self._grow_rows(n_steps)
         steps = self._steps_arg.get(n_steps)
         if steps is None:
             if not 0 <= n_steps <= 0xFFFFFFFF:
