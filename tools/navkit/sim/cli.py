@@ -114,7 +114,6 @@ def run(args) -> int:
 def _run(args, stamps: dict, plotter) -> int:
     """run(args) with the plot drawn by `plotter` (None: --no-plot)."""
     from navkit.hostconfig import forget_asks
-    from navkit.paths import build_dir
     from navkit.sim.options import ask_host_config, config_folder, git_revision_started
 
     if args.frame_ms is not None and not (math.isfinite(args.frame_ms) and args.frame_ms > 0):
@@ -124,7 +123,7 @@ def _run(args, stamps: dict, plotter) -> int:
     # mission loads and the FMU library imports (the run takes the answers)
     git = git_revision_started()
     frame_s = args.frame_ms / 1000 if args.frame_ms is not None else None
-    ask_host_config(config_folder(args.config), args.build or build_dir(), frame_s)
+    ask_host_config(config_folder(args.config), args.build, frame_s)   # None: build_dir()
     try:
         return _run_asked(args, stamps, plotter, git, frame_s)
     finally:
