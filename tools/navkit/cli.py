@@ -100,7 +100,9 @@ def _stdout_gone() -> bool:
     except (OSError, ValueError, AttributeError):
         return False
     if gone:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, fd)
+        os.close(null)
     return gone
 
 
