@@ -389,7 +389,7 @@ class PlotProcess:
         self._proc.start()
         child.close()
         self._used = False
-        # set here, not in the child: plot_mcap's later change of priority then comes after
+        # set here, not in the child: start()'s change back to normal priority then comes after
         self._priority(os.SCHED_IDLE if hasattr(os, "SCHED_IDLE") else None)
 
     def _priority(self, policy) -> None:
