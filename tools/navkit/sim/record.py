@@ -913,8 +913,8 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
 
 # The harness's send buffer towards the log worker (bytes; the kernel caps it at
 # net.core.wmem_max): a worker that falls behind for a while (its CPU shared with other
-# work) holds up the loop only once this much is waiting, instead of the default's
-# ~200 KiB (under 20 batches); it catches up later, close() waiting for it anyway.
+# work) holds up the loop only once this much is waiting, not once the kernel's default
+# (some hundreds of KiB) is; it catches up later, close() waiting for it anyway.
 _SEND_BUFFER_BYTES = 4 << 20
 
 
