@@ -180,7 +180,7 @@ def _print_whole(runs: list, sim_s: float) -> None:
     print(f"  plot process ready to draw before the loop ended in {len(warm)} of {len(runs)} runs"
           + (f" (by {min(warm):.2f}..{max(warm):.2f} s)" if warm else "")
           + ("" if len(warm) == len(runs) else ": else its import or warm-up was left for after "
-             "the loop (a busy machine starves its idle priority)"))
+             "the loop (at idle priority it gets only the CPU the log worker and others leave)"))
 
 
 def _print_loop(s: dict, link: str) -> None:
