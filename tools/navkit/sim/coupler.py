@@ -203,13 +203,7 @@ class Coupler:
     def run(self, n_steps: int, rx: bytes = b"") -> tuple[bytes, list]:
         """Do `n_steps` steps, `rx` arriving at the firmware's serial port with the first.
         Returns (bytes the firmware sent, truth rows as lists [t_s, columns...])."""
-        if n_steps > self._row_cap:     # enough even with record_every = 1
-            self._grow_rows(n_steps)
-        rc = self._lib.cosim_run(self._c, n_steps, rx or None, len(rx), self._tx, self._tx_cap,
-                                 ctypes.byref(self._tx_len), self._rows, self._row_cap,
-                                 ctypes.byref(self._n_rows))
-        self._check(rc)
-        tx = ctypes.string_at(self._tx, self._tx_len.value)
+        tx, _ = self.run_raw(n_steps, rx)
         n, w = self._n_rows.value, self.width
         flat = self._rows[:n * w]
         return tx, [flat[i * w:(i + 1) * w] for i in range(n)]
@@ -224,7 +218,7 @@ class Coupler:
     def run_raw(self, n_steps: int, rx: bytes = b"") -> tuple[bytes, bytes]:
         """As run(), but the truth rows come back as the raw bytes of their doubles
         (native byte order, `width` doubles per row)."""
-        if n_steps > self._row_cap:
+        if n_steps > self._row_cap:     # enough even with record_every = 1
             self._grow_rows(n_steps)
         steps = self._steps_arg.get(n_steps)
         if steps is None:
