@@ -94,8 +94,9 @@ def run(args) -> int:
     with tempfile.TemporaryDirectory(prefix="navkit-bench-") as tmp:
         out = args.out or Path(tmp) / "out"
         mission_file = Path(tmp) / "bench.toml"
-        mission_file.write_text(bench_mission(args.minutes))
-        mission = loads(mission_file.read_text(), mission_file, build=args.build)
+        text = bench_mission(args.minutes)
+        mission_file.write_text(text)       # the whole command's --mission
+        mission = loads(text, mission_file, build=args.build)
         opts = SimOptions(mission=mission, out=out, seed=args.seed, build=args.build,
                           plot=False, timing=True, link=args.link)
         s = run_or_report(opts, "bench-sim")
