@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from navkit import flash as fl
+from navkit.hostconfig import host_binary
 from navkit.paths import build_dir
 from navkit.protocol import SPEC, SPEC_HASH, encode_frame, defaults
 from navkit.simboard import SimBoard, program
@@ -421,7 +422,7 @@ def test_flash_reads_the_hosts_listing(tmp_path):
     _usb_tty(tmp_path, "ttyACM0", "2341", "0042", "Arduino Mega 2560",
              by_id="usb-Arduino__www.arduino.cc__0042_85735-if00")
     _usb_tty(tmp_path, "ttyACM1", "16d0", "117e", "CANable")
-    r = subprocess.run([str(build_dir() / "host" / "navkit-host"), "--list-ports", "--link", "slcan",
+    r = subprocess.run([str(host_binary()), "--list-ports", "--link", "slcan",
                         "--dev-root", str(tmp_path)], capture_output=True, text=True, timeout=30)
     assert r.returncode == 0, r.stderr
     found = json.loads(r.stdout)

@@ -237,9 +237,9 @@ def _host_ports(root: Path) -> dict:
     """The host's port discovery of the serial link's kinds (`navkit-host --list-ports --link
     serial`, its JSON: "ports" of that kind, "others"), under `root` (--dev-root). The host
     holds the one table of which USB ids are what (host/src/port_discovery.cpp)."""
-    from navkit.paths import build_dir
+    from navkit.hostconfig import host_binary
 
-    host = build_dir() / "host" / "navkit-host"
+    host = host_binary()
     if not host.is_file():
         raise FlashError(f"{host}: not built (it finds the board: run make), or give --port PATH")
     cmd = [str(host), "--list-ports", "--link", "serial"]
