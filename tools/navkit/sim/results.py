@@ -83,6 +83,15 @@ def _messages(records, path: Path, metadata: dict | None = None):
             return
 
 
+def _warn_truncated(path: Path, last_ns: int | None, read: str = "") -> None:
+    """The warning on stderr for MCAP file `path` cut before its footer: its whole records
+    were read (`read`: which bytes, if said), the last message at log time `last_ns` (ns;
+    None: no message)."""
+    upto = f"messages up to log time {last_ns / 1e9:.3f} s" if last_ns is not None else "no messages"
+    print(f"warning: {path}: truncated (no summary or footer: the run did not finish); "
+          f"read its whole records{read}: {upto}", file=sys.stderr)
+
+
 def iter_mcap(path: str | Path, topics=None):
     """Messages of MCAP file `path` as (log time ns, topic, JSON bytes), in file order
     (log-time order but for a few ms in a real-time run), only the topics in `topics` (all
@@ -110,9 +119,7 @@ def iter_mcap(path: str | Path, topics=None):
         except (EndOfFile, struct.error, RuntimeError, ValueError):
             pass            # cut inside a record: what was read before it stands
         if not footer:
-            upto = f"messages up to log time {last / 1e9:.3f} s" if last is not None else "no messages"
-            print(f"warning: {path}: truncated (no summary or footer: the run did not finish); "
-                  f"read its whole records: {upto}", file=sys.stderr)
+            _warn_truncated(path, last)
 
 
 def read_mcap(path: str | Path, topics=None) -> McapContents:
@@ -145,11 +152,10 @@ def read_mcap(path: str | Path, topics=None) -> McapContents:
     messages.sort(key=operator.itemgetter(0))       # stable: file order among equal times
     truncated = None
     if not whole:
-        last = messages[-1][0] / 1e9 if messages else None
-        truncated = {"size": len(data), "read_bytes": end, "last_log_time_s": last}
-        upto = f"messages up to log time {last:.3f} s" if last is not None else "no messages"
-        print(f"warning: {path}: truncated (no summary or footer: the run did not finish); "
-              f"read its whole records, bytes 0..{end} of {len(data)}: {upto}", file=sys.stderr)
+        last_ns = messages[-1][0] if messages else None
+        truncated = {"size": len(data), "read_bytes": end,
+                     "last_log_time_s": last_ns / 1e9 if last_ns is not None else None}
+        _warn_truncated(path, last_ns, f", bytes 0..{end} of {len(data)}")
     return McapContents(messages, metadata, truncated)
 
 
