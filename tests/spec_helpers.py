@@ -10,7 +10,7 @@ from pathlib import Path
 from navkit.paths import spec_path
 from navkit.protocol import SPEC
 
-__all__ = ["edited_spec", "line_of", "FWD_CMD", "TURN_CMD", "NAV_RESULT", "MSG_TYPE", "bit"]
+__all__ = ["edited_spec", "line_of", "FWD_CMD", "TURN_CMD", "NAV_RESULT", "MSG_TYPE", "bit", "micro_cmd_field"]
 
 FWD_CMD = SPEC.enums["fwd_cmd"].values          # fwd_cmd code by name
 TURN_CMD = SPEC.enums["turn_cmd"].values        # turn_cmd code by name
@@ -22,6 +22,11 @@ def bit(flags: str, name: str) -> int:
     """The mask of flag `name` of the spec's flag set `flags` (micro_status, host_status,
     ...): bit values are never hard-coded in tests."""
     return 1 << SPEC.enums[flags].values[name]
+
+
+def micro_cmd_field(name: str):
+    """The spec's Field `name` of micro_cmd (its type, range min..max, ...)."""
+    return SPEC.messages["micro_cmd"].field(name)
 
 
 def edited_spec(tmp_path: Path, old: str, new: str, first: bool = False) -> Path:

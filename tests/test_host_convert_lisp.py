@@ -7,11 +7,7 @@ import pytest
 
 from navkit import protocol
 from host_helpers import run_host
-from spec_helpers import FWD_CMD, TURN_CMD
-
-
-def _micro(name):
-    return protocol.SPEC.messages["micro_cmd"].field(name)
+from spec_helpers import FWD_CMD, TURN_CMD, micro_cmd_field
 
 
 def _host(*args, stdin=""):
@@ -47,7 +43,7 @@ def test_converted_commands_give_the_micro_cmd_the_host_sends(host_converts):
 
 
 def test_each_refusal_says_why(host_converts):
-    speed, rc_rate = _micro("speed"), _micro("rc2_param0")
+    speed, rc_rate = micro_cmd_field("speed"), micro_cmd_field("rc2_param0")
     rng, servo, sel, hold, lisp = _convert(
         {"fwd_cmd": 3, "speed": speed.max + 1},
         {"rc_servo_num": 2, "rc_param0": -1},

@@ -7,6 +7,7 @@ import pytest
 
 from navkit.paths import repo_root
 from navkit.sim.mission import MissionError, load, loads
+from spec_helpers import micro_cmd_field
 
 GOOD = """
 duration_s = 5.0
@@ -226,18 +227,12 @@ def test_events_take_effect_at_the_first_frame_at_or_after_t(tmp_path: Path):
 
 # ---- values the host could not convert to a micro_cmd (host/src/navigation.cpp)
 
-def _micro(name):
-    from navkit import protocol
-
-    return protocol.SPEC.messages["micro_cmd"].field(name)
-
-
 def _host_refused_cases():
     """(lisp_cmd fields, key): each value one step outside the micro_cmd range the host
     copies it to, from the spec (int16 words, a servo rate >= 0, a heading 0..3600)."""
-    speed, accel = _micro("speed"), _micro("accel")
-    rate, t_accel = _micro("turn_rate"), _micro("turn_accel")
-    p0, p1, p2 = _micro("rc5_param0"), _micro("rc5_param1"), _micro("rc5_param2")
+    speed, accel = micro_cmd_field("speed"), micro_cmd_field("accel")
+    rate, t_accel = micro_cmd_field("turn_rate"), micro_cmd_field("turn_accel")
+    p0, p1, p2 = micro_cmd_field("rc5_param0"), micro_cmd_field("rc5_param1"), micro_cmd_field("rc5_param2")
     return [
         ({"fwd_cmd": 1, "speed": 99999999, "distance": 1000}, "speed"),
         ({"fwd_cmd": 1, "speed": speed.max + 1}, "speed"),
@@ -258,8 +253,8 @@ def _host_taken_cases():
     """lisp_cmd fields at the edge of what the host converts, or values it never converts
     (a forward value without a low-level fwd_cmd, a turn angle copied int32 to int32, a
     heading hold's offset, a servo number the micro lacks or a rate of 0)."""
-    speed, accel = _micro("speed"), _micro("accel")
-    rate, t_accel, p1 = _micro("turn_rate"), _micro("turn_accel"), _micro("rc0_param1")
+    speed, accel = micro_cmd_field("speed"), micro_cmd_field("accel")
+    rate, t_accel, p1 = micro_cmd_field("turn_rate"), micro_cmd_field("turn_accel"), micro_cmd_field("rc0_param1")
     return [
         {"fwd_cmd": 1, "speed": speed.max, "accel": accel.min, "distance": 2000000000},
         {"fwd_cmd": 0, "speed": 99999999},
@@ -295,7 +290,7 @@ def test_value_the_host_cannot_convert_names_file_entry_key_and_range(host_conve
         assert "outside 0..3600 (deg x 0.1)" in msg and "turn_mode 10 (heading_select)" in msg
     else:
         micro = f"rc5_{key[3:]}" if key.startswith("rc_") else key
-        f = _micro(micro)
+        f = micro_cmd_field(micro)
         assert f"outside {f.min}..{f.max} (" in msg and f"micro_cmd.{micro} " in msg, msg
 
 
@@ -370,7 +365,7 @@ def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
     verdict = {d["ack_time_tag"]: d["nav_result"] for _, d in r.messages("/planner/data")}
     codes = protocol.SPEC.enums["nav_result"].values
     high_level = [c for k, c in protocol.SPEC.enums["fwd_cmd"].values.items()
-                  if c > _micro("fwd_cmd").max]
+                  if c > micro_cmd_field("fwd_cmd").max]
     want = [codes["not_implemented" if f.get("fwd_cmd") in high_level else "ok"] for f in taken]
     want += [codes["rejected"]] * len(refused)
     assert [verdict.get(tag) for tag in tags] == want
