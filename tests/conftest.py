@@ -56,10 +56,9 @@ def prop_count(request) -> int:
 def host_converts():
     """Skip unless navkit-host is built: loading a mission with [[command]] entries asks it
     (`navkit-host --convert-lisp`) what it makes of them (navkit.sim.mission)."""
-    from navkit.hostconfig import host_binary
+    from host_helpers import require_host
 
-    if not host_binary().is_file():
-        pytest.skip(f"not built: {host_binary()} (mission commands are judged by the host)")
+    require_host()
 
 
 # ---------------------------------------------------------------- the host binary
