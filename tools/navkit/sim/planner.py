@@ -1,6 +1,6 @@
 """The mission's planner: a scripted client of the host's rcomm region (navkit.rcomm)
-that writes the mission's [[command]]s as whole lisp_cmds, bumps the heartbeat and reads
-lisp_data."""
+that writes the mission's [[command]]s as whole lisp_cmds and bumps the heartbeat; the
+loops read lisp_data through its `client`."""
 
 from __future__ import annotations
 
@@ -12,27 +12,23 @@ __all__ = ["ScriptedPlanner"]
 
 
 class ScriptedPlanner:
-    """The mission's planner on rcomm through the planner client navkit.rcomm: writes
-    whole lisp_cmds, bumps the heartbeat, reads lisp_data."""
+    """The mission's planner on rcomm through the planner client navkit.rcomm (`client`,
+    None before attach()): writes whole lisp_cmds, bumps the heartbeat."""
 
     def __init__(self, shm_name: str):
         self.shm_name = shm_name
         self.client = None
         self.time_tag = 0
 
-    def _open(self):
-        """A client of the region (navkit.rcomm.RcommError, a ConnectionError, if absent)."""
-        from navkit import rcomm
-
-        return rcomm.Client(self.shm_name)
-
     def attach(self, timeout_s: float, alive=lambda: True) -> bool:
         """Open the host's region, waiting up to `timeout_s` (s) for it to appear while
         `alive()` says the host still runs."""
+        from navkit import rcomm
+
         deadline = time.monotonic() + timeout_s
         while True:
             try:
-                self.client = self._open()
+                self.client = rcomm.Client(self.shm_name)
                 return True
             except ConnectionError:          # navkit.rcomm.RcommError: not there (yet)
                 if time.monotonic() >= deadline or not alive():
@@ -52,10 +48,6 @@ class ScriptedPlanner:
         """Bump the planner's heartbeat (nothing before the region is attached)."""
         if self.client is not None:
             self.client.heartbeat()
-
-    def read(self) -> dict | None:
-        """The host's last lisp_data (fields by name), None before the region is attached."""
-        return self.client.read_data() if self.client is not None else None
 
     def close(self) -> None:
         """Detach from the region (the host removes it)."""
