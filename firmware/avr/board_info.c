@@ -1,12 +1,12 @@
 /* board_info.c: the image-info block (board_info.h), in flash (.progmem). */
 #include "board.h"
 #include "board_info.h"
+#include "link.h"
 #include "navkit/navkit_proto.h"
 
 typedef char board_info_size_check[(sizeof(board_info_t) == 37u) ? 1 : -1];
 
-/* FW_LINK_CAN: given by the CAN image's build (firmware/avr/CMakeLists.txt), else 0 */
-#if defined(FW_LINK_CAN) && FW_LINK_CAN
+#if FW_LINK_CAN
 #define BOARD_INFO_LINK BOARD_INFO_LINK_CAN
 #else
 #define BOARD_INFO_LINK BOARD_INFO_LINK_SERIAL
