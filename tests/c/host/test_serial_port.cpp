@@ -13,15 +13,23 @@
 
 using namespace navkit;
 
-TEST(SerialPort, ReadsWritesAndSeesTheOtherEndVanish)
+// Opens p on a fresh pty's slave end (default MicroCfg) and closes the slave, so the
+// port holds the only descriptor of it; *master: the other end.
+static void open_on_pty(SerialPort &p, int *master)
 {
-    int master = -1, slave = -1;
-    ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    int slave = -1;
+    ASSERT_EQ(openpty(master, &slave, nullptr, nullptr, nullptr), 0);
     MicroCfg cfg;
     cfg.port = ttyname(slave);
-    SerialPort p;
     ASSERT_EQ(p.open(cfg), "");
-    close(slave); // the port keeps its own descriptor
+    close(slave);
+}
+
+TEST(SerialPort, ReadsWritesAndSeesTheOtherEndVanish)
+{
+    int master = -1;
+    SerialPort p;
+    ASSERT_NO_FATAL_FAILURE(open_on_pty(p, &master));
     uint8_t buf[16];
     EXPECT_EQ(p.read_some(buf, sizeof buf), 0) << "nothing waiting: no wait, no error";
     ASSERT_EQ(write(master, "\xa5\xff\x01", 3), 3);
@@ -40,13 +48,9 @@ TEST(SerialPort, AnExpectedReadGivesTheSameResults)
 {
     // expect = true (lockstep: bytes on their way) reads before it polls: nothing waiting,
     // bytes, and a vanished other end come out as without it
-    int master = -1, slave = -1;
-    ASSERT_EQ(openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
-    MicroCfg cfg;
-    cfg.port = ttyname(slave);
+    int master = -1;
     SerialPort p;
-    ASSERT_EQ(p.open(cfg), "");
-    close(slave);
+    ASSERT_NO_FATAL_FAILURE(open_on_pty(p, &master));
     uint8_t buf[16];
     EXPECT_EQ(p.read_some(buf, sizeof buf, true), 0) << "nothing waiting: no wait, no error";
     ASSERT_EQ(write(master, "\x01\x02", 2), 2);
