@@ -570,8 +570,8 @@ class _Decoder:
         self.config_downloads = 0
         idx = {name: i + 1 for i, name in enumerate(columns)}
         parts, sel = [], []
-        # fixed decimals: 1 us of time, 0.1 um / 0.0001 deg of truth (and twice as fast
-        # to format as the shortest repr)
+        # fixed decimals: 1 us of time, 0.1 um / 0.0001 deg of truth (and faster to
+        # format than the shortest repr)
         keys = ("t", "x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s")
         for k in keys:
             parts.append(f'"{k}":%.6f' if k == "t" else f'"{k}":%.4f')
@@ -1003,8 +1003,8 @@ class RunLog:
 
     def spin(self, on: bool) -> None:
         """Let the worker poll for work instead of sleeping (it should then run at idle
-        priority on its own CPU). On a VM an idle virtual CPU takes tens of microseconds
-        to wake, which the kernel's pty work and the host would otherwise pay every frame."""
+        priority on its own CPU). On a VM an idle virtual CPU is slow to wake, a delay
+        the kernel's pty work and the host would otherwise pay every frame."""
         if self._proc is not None:
             self._spin.value = 1 if on else 0
 
