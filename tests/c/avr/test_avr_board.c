@@ -155,14 +155,41 @@ static void host_drain(host_t *h, board_sim_t *b)
     }
 }
 
-static void send_geometry(board_sim_t *b, uint16_t tag, uint16_t rate_hz)
+/* Config k of the three, defaults but for: 0 geometry (control_rate rate_hz), 1 motion
+ * (pwm_limit in 1e-3 duty), 2 io; time tag k + 1. Encoded into buf (NAVKIT_MAX_FRAME_BYTES):
+ * its length in bytes, *msg_type its message type. The serial and the CAN host send these. */
+static size_t config_frame(int k, uint16_t rate_hz, uint16_t pwm_limit, uint8_t *buf, uint16_t *msg_type)
 {
     navkit_micro_cfg_geometry_t g;
+    navkit_micro_cfg_motion_t m;
+    navkit_micro_cfg_io_t io;
+    switch (k) {
+    case 0:
+        navkit_micro_cfg_geometry_defaults(&g);
+        g.time_tag = 1u;
+        g.control_rate = rate_hz;
+        *msg_type = NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY;
+        return navkit_micro_cfg_geometry_encode(&g, buf, NAVKIT_MAX_FRAME_BYTES);
+    case 1:
+        navkit_micro_cfg_motion_defaults(&m);
+        m.time_tag = 2u;
+        m.pwm_limit = pwm_limit;
+        *msg_type = NAVKIT_MSG_TYPE_MICRO_CFG_MOTION;
+        return navkit_micro_cfg_motion_encode(&m, buf, NAVKIT_MAX_FRAME_BYTES);
+    default:
+        navkit_micro_cfg_io_defaults(&io);
+        io.time_tag = 3u;
+        *msg_type = NAVKIT_MSG_TYPE_MICRO_CFG_IO;
+        return navkit_micro_cfg_io_encode(&io, buf, NAVKIT_MAX_FRAME_BYTES);
+    }
+}
+
+/* Config k (config_frame) through UART0. */
+static void send_config(board_sim_t *b, int k, uint16_t rate_hz, uint16_t pwm_limit)
+{
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
-    navkit_micro_cfg_geometry_defaults(&g);
-    g.time_tag = tag;
-    g.control_rate = rate_hz;
-    board_sim_uart_write(b, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf));
+    uint16_t msg_type;
+    board_sim_uart_write(b, buf, config_frame(k, rate_hz, pwm_limit, buf, &msg_type));
     frames_sent++;
 }
 
@@ -201,20 +228,10 @@ static void ping(board_sim_t *b, host_t *h, uint16_t tag)
  * board reports itself configured (at most 1 s). */
 static void configure(board_sim_t *b, host_t *h, uint16_t rate_hz, uint16_t pwm_limit)
 {
-    navkit_micro_cfg_motion_t m;
-    navkit_micro_cfg_io_t io;
-    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
     int i;
-    send_geometry(b, 1u, rate_hz);
-    navkit_micro_cfg_motion_defaults(&m);
-    m.time_tag = 2u;
-    m.pwm_limit = pwm_limit;
-    board_sim_uart_write(b, buf, navkit_micro_cfg_motion_encode(&m, buf, sizeof buf));
-    frames_sent++;
-    navkit_micro_cfg_io_defaults(&io);
-    io.time_tag = 3u;
-    board_sim_uart_write(b, buf, navkit_micro_cfg_io_encode(&io, buf, sizeof buf));
-    frames_sent++;
+    for (i = 0; i < 3; i++) {
+        send_config(b, i, rate_hz, pwm_limit);
+    }
     /* a reply that does not fit the TX ring is skipped (hal.h): ask until one says so */
     run_for(b, MS(50));
     for (i = 0; i < 20; i++) {
@@ -519,7 +536,7 @@ static uint16_t reset_cause_now(board_sim_t *b)
     int i;
     host_init(&h);
     run_for(b, MS(20));
-    send_geometry(b, 1u, 400u);
+    send_config(b, 0, 400u, 1000u);
     for (i = 0; i < 40 && h.frames == 0u; i++) {
         run_for(b, MS(5));
         host_drain(&h, b);
@@ -819,21 +836,13 @@ static void can_ping(can_host_t *h, board_sim_t *b, uint16_t tag)
 /* The three configs at rate_hz over CAN, then pings until a micro_data says configured. */
 static void can_configure(can_host_t *h, board_sim_t *b, uint16_t rate_hz)
 {
-    navkit_micro_cfg_geometry_t g;
-    navkit_micro_cfg_motion_t m;
-    navkit_micro_cfg_io_t io;
     uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
-    navkit_micro_cfg_geometry_defaults(&g);
-    g.time_tag = 1u;
-    g.control_rate = rate_hz;
-    can_send(h, b, buf, navkit_micro_cfg_geometry_encode(&g, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CFG_GEOMETRY);
-    navkit_micro_cfg_motion_defaults(&m);
-    m.time_tag = 2u;
-    m.pwm_limit = 1000u;
-    can_send(h, b, buf, navkit_micro_cfg_motion_encode(&m, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CFG_MOTION);
-    navkit_micro_cfg_io_defaults(&io);
-    io.time_tag = 3u;
-    can_send(h, b, buf, navkit_micro_cfg_io_encode(&io, buf, sizeof buf), NAVKIT_MSG_TYPE_MICRO_CFG_IO);
+    uint16_t msg_type;
+    int k;
+    for (k = 0; k < 3; k++) {
+        size_t len = config_frame(k, rate_hz, 1000u, buf, &msg_type);
+        can_send(h, b, buf, len, msg_type);
+    }
     can_ping(h, b, 60000u);
     check(h->frames > 0u && (h->last.status & NAVKIT_MICRO_STATUS_CONFIGURED),
           "the CAN image did not report configured (%u micro_data over CAN)", h->frames);
