@@ -15,7 +15,8 @@ from navkit.sim.harness import SimOptions, fmu_paths, host_path, run
 from navkit.sim.mission import loads
 from navkit.sim.results import load
 
-__all__ = ["STRAIGHT", "run_mission", "build_missing", "require_build", "can_dump", "chunk_spans", "rewrite_fmu"]
+__all__ = ["STRAIGHT", "run_mission", "build_missing", "require_build", "navkit_sim", "can_dump", "chunk_spans",
+           "rewrite_fmu"]
 
 _CACHE = {}
 
@@ -60,6 +61,16 @@ def run_mission(tmp_path_factory, name: str, text: str, seed: int = 1, **opts):
         run(SimOptions(mission=mission, out=out, seed=seed, **opts))
         _CACHE[key] = load(out)
     return _CACHE[key]
+
+
+def navkit_sim(args, timeout: float = 60, **kw) -> subprocess.CompletedProcess:
+    """`navkit sim ARGS` as a user runs it (`args` str or Path each), at most `timeout` s: its
+    exit status and its stdout and stderr as text (captured unless `kw` points them
+    elsewhere); `kw` go to subprocess.run (env, stdout, ...)."""
+    kw.setdefault("stdout", subprocess.PIPE)
+    kw.setdefault("stderr", subprocess.PIPE)
+    return subprocess.run([sys.executable, "-m", "navkit", "sim", *map(str, args)], text=True, timeout=timeout,
+                          **kw)
 
 
 def can_dump(log: Path) -> subprocess.CompletedProcess:

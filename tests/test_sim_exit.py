@@ -4,11 +4,9 @@ whole, its exit status is the run's, and in-process callers of main() get the st
 back instead of an exit."""
 
 import json
-import subprocess
-import sys
 
 from navkit.cli import main
-from sim_helpers import require_build
+from sim_helpers import navkit_sim, require_build
 
 MISSION = 'duration_s = 1.0\n[[key]]\nt = 0.2\nkey = "R"\n[[key]]\nt = 0.8\nkey = "S"\n'
 
@@ -16,9 +14,8 @@ MISSION = 'duration_s = 1.0\n[[key]]\nt = 0.2\nkey = "R"\n[[key]]\nt = 0.8\nkey 
 def test_navkit_sim_exits_at_once_with_everything_written(tmp_path):
     require_build()
     (tmp_path / "m.toml").write_text(MISSION)
-    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "m.toml"),
-                        "--out", str(tmp_path / "out"), "--no-plot", "--stamps", str(tmp_path / "st.json")],
-                       capture_output=True, text=True, timeout=120)
+    r = navkit_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out", "--no-plot",
+                    "--stamps", tmp_path / "st.json"], timeout=120)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     assert lines[0].startswith("mission ") and any(ln.startswith("speed ") for ln in lines), r.stdout
@@ -28,9 +25,7 @@ def test_navkit_sim_exits_at_once_with_everything_written(tmp_path):
     assert json.loads((tmp_path / "st.json").read_text())["end"] > 0
     assert list((tmp_path / "out").glob("Data *.txt")), "the host's datalog, closed by the host"
     # a refusal: the same exit at once, its one line on stderr
-    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "none.toml"),
-                        "--out", str(tmp_path / "out2"), "--no-plot"], capture_output=True, text=True,
-                       timeout=120)
+    r = navkit_sim(["--mission", tmp_path / "none.toml", "--out", tmp_path / "out2", "--no-plot"], timeout=120)
     assert r.returncode == 1 and r.stderr == f"navkit sim: {tmp_path / 'none.toml'}: cannot read: No such file or directory\n"
 
 
@@ -50,9 +45,8 @@ def test_a_closed_stdout_is_one_line_not_a_traceback(tmp_path):
     read_end, write_end = os.pipe()
     os.close(read_end)
     try:
-        r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(tmp_path / "m.toml"),
-                            "--out", str(tmp_path / "out"), "--no-plot"], stdout=write_end,
-                           stderr=subprocess.PIPE, text=True, timeout=120)
+        r = navkit_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out", "--no-plot"],
+                       timeout=120, stdout=write_end)
     finally:
         os.close(write_end)
     assert r.returncode == 1 and r.stderr == "navkit sim: stdout: its reader closed it (output cut short)\n", r.stderr

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from navkit.sim.mission import loads
-from sim_helpers import require_build
+from sim_helpers import navkit_sim, require_build
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -27,11 +27,6 @@ fwd_cmd = 1
 speed = 200
 distance = 100000
 """
-
-
-def _sim(args, **kw):
-    return subprocess.run([sys.executable, "-m", "navkit", "sim", *map(str, args)], capture_output=True,
-                          text=True, timeout=60, **kw)
 
 
 def _one_line_error(r, *said):
@@ -58,20 +53,20 @@ def _one_line_error(r, *said):
 def test_a_bad_mission_is_one_line_naming_the_file(tmp_path, text, said):
     (tmp_path / "folder").mkdir()
     (tmp_path / "m.toml").write_bytes(text)
-    r = _sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out"])
+    r = navkit_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out"])
     _one_line_error(r, str(tmp_path / "m.toml"), said)
 
 
 def test_a_mission_linked_to_an_endless_file_is_refused(tmp_path):
     (tmp_path / "m.toml").symlink_to("/dev/zero")
-    _one_line_error(_sim(["--mission", tmp_path / "m.toml"]), "longer than 1048576 bytes: not a mission file")
+    _one_line_error(navkit_sim(["--mission", tmp_path / "m.toml"]), "longer than 1048576 bytes: not a mission file")
 
 
 def test_an_out_that_is_a_file_or_cannot_be_made_is_one_line(tmp_path):
     (tmp_path / "m.toml").write_text("duration_s = 1.0\n")
     (tmp_path / "f").write_text("")
-    _one_line_error(_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "f"]), f"--out {tmp_path / 'f'}: not a folder")
-    _one_line_error(_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "f" / "x"]),
+    _one_line_error(navkit_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "f"]), f"--out {tmp_path / 'f'}: not a folder")
+    _one_line_error(navkit_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "f" / "x"]),
                     f"--out {tmp_path / 'f' / 'x'}: cannot create it: {tmp_path / 'f'} is not a folder")
 
 
@@ -298,7 +293,7 @@ def test_the_speed_line_gives_the_loop_and_the_whole_command(tmp_path):
 
     require_build()
     (tmp_path / "m.toml").write_text("duration_s = 2.0\n")
-    r = _sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out", "--no-plot"])
+    r = navkit_sim(["--mission", tmp_path / "m.toml", "--out", tmp_path / "out", "--no-plot"])
     assert r.returncode == 0, r.stderr
     loop = re.search(r"^speed +2\.0 s simulated in ([0-9.]+) s wall = [0-9.]+x real time", r.stdout, re.M)
     whole = re.search(r"^ +the whole command: ([0-9.]+) s wall = [0-9.]+x real time \(with Python's start-up "

@@ -309,14 +309,13 @@ def test_commands_are_judged_by_the_built_host_or_the_load_says_it_cannot(tmp_pa
 
 def test_sim_cli_without_a_built_host_is_one_line(tmp_path: Path):
     import os
-    import subprocess
-    import sys
+
+    from sim_helpers import navkit_sim
 
     p = tmp_path / "m.toml"
     p.write_text("duration_s = 2\n[[command]]\nt = 1\nfwd_cmd = 1\n")
     env = {**os.environ, "NAVKIT_BUILD_DIR": str(tmp_path)}
-    r = subprocess.run([sys.executable, "-m", "navkit", "sim", "--mission", str(p), "--out", str(tmp_path / "o")],
-                       capture_output=True, text=True, timeout=60, env=env)
+    r = navkit_sim(["--mission", p, "--out", tmp_path / "o"], env=env)
     assert r.returncode == 1
     assert r.stderr == (f"navkit sim: {p}: [[command]] #1: the host judges the commands and cannot: "
                         f"{tmp_path}/host/navkit-host: not built (cmake --build {tmp_path}); navkit-host "
