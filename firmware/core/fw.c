@@ -77,16 +77,6 @@ uint8_t fw_link_pending(const fw_t *fw)
     return link_pending(fw);
 }
 
-float fw_fwd_distance(const fw_t *fw)
-{
-    return motion_distance(&fw->fwd, &fw->odom, fw->cfg.mm_per_count);
-}
-
-float fw_turn_angle(const fw_t *fw)
-{
-    return turn_angle(&fw->turn, &fw->odom, fw->cfg.odom.turn_deg_per_count);
-}
-
 uint16_t fw_status(const fw_t *fw)
 {
     uint16_t s = fw->cfg.received;
@@ -233,15 +223,13 @@ void fw_tick(fw_t *fw)
     /* motion, every tick: forward + turn re-planned from the measured state -> wheel
        setpoints -> wheel loops; an idle axis is not measured (its tick reads nothing) */
     if (motion_active(&fw->fwd)) {
-        v_fwd = motion_tick(&fw->fwd, motion_distance(&fw->fwd, &fw->odom, c->mm_per_count),
-                            0.5f * (fw->odom.v_l + fw->odom.v_r), &c->fwd_track, dt);
+        v_fwd = motion_tick(&fw->fwd, fw_fwd_distance(fw), 0.5f * (fw->odom.v_l + fw->odom.v_r), &c->fwd_track, dt);
     } else {
         v_fwd = motion_tick_idle(&fw->fwd);
     }
     if (turn_ticking(&fw->turn)) {
-        w_turn = turn_tick(&fw->turn, turn_angle(&fw->turn, &fw->odom, c->odom.turn_deg_per_count),
-                           (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s, heading_deg(&fw->hdg), c->heading_kp,
-                           &c->turn_track, dt);
+        w_turn = turn_tick(&fw->turn, fw_turn_angle(fw), (fw->odom.v_l - fw->odom.v_r) * c->turn_rate_per_mm_s,
+                           heading_deg(&fw->hdg), c->heading_kp, &c->turn_track, dt);
     } else {
         w_turn = motion_tick_idle(&fw->turn.ax);
     }

@@ -92,9 +92,17 @@ void fw_config_applied(fw_t *fw, uint16_t msg_type);
 uint16_t fw_status(const fw_t *fw);
 /* Watchdog stop now: decelerate to rest, servos hold, DIO outputs safe, latch. */
 void fw_watchdog_stop(fw_t *fw);
-/* Measured distance (mm) from the forward reference. */
-float fw_fwd_distance(const fw_t *fw);
-/* Measured turn angle (deg, clockwise) from the turn reference. */
-float fw_turn_angle(const fw_t *fw);
+/* Measured distance (mm) from the forward reference (inline: the tick measures the axis
+ * with it). */
+static inline float fw_fwd_distance(const fw_t *fw)
+{
+    return motion_distance(&fw->fwd, &fw->odom, fw->cfg.mm_per_count);
+}
+/* Measured turn angle (deg, clockwise) from the turn reference (inline: the tick measures
+ * the axis with it). */
+static inline float fw_turn_angle(const fw_t *fw)
+{
+    return turn_angle(&fw->turn, &fw->odom, fw->cfg.odom.turn_deg_per_count);
+}
 
 #endif /* NAVKIT_FW_H */
