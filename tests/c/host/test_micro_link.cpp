@@ -6,6 +6,7 @@
 // the stop back: it is abandoned, and the micro's receiver restarts on the stop.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <poll.h>
@@ -17,56 +18,52 @@
 
 #include "navkit/console.hpp"
 #include "navkit/micro_link.hpp"
+#include "navkit/slcan.hpp"
 
 using namespace navkit;
 
 namespace {
 
-// The pty's adapter side: the host's lines as it wrote them, the micro's receiver.
+// The pty's adapter side: the host's frames as it wrote them, the micro's receiver.
 struct Adapter {
     int master = -1;
-    std::string pending;                      // bytes of a line not yet ended
+    Slcan slcan;                              // the host's lines, read as an adapter reads them
     std::vector<navkit_isotp_frame_t> frames; // every frame the host sent
     navkit_isotp_rx_t rx{};
     std::vector<std::vector<uint8_t>> messages; // messages the micro's receiver completed
 
     Adapter() { navkit_isotp_rx_init(&rx, NAVKIT_DIR_TO_MICRO); }
 
-    // Reads what the host wrote within wait_ms (ms); each frame line through the micro's
-    // receiver. answer: its flow controls go back to the host.
+    // Reads what the host wrote within wait_ms (ms); each frame through the micro's
+    // receiver (the adapter's set-up commands are no frames). answer: its flow controls
+    // go back to the host.
     void pump(int wait_ms, bool answer)
     {
         pollfd p{master, POLLIN, 0};
         while (poll(&p, 1, wait_ms) > 0) {
-            char buf[512];
+            uint8_t buf[512];
             const ssize_t n = read(master, buf, sizeof buf);
             if (n <= 0) {
                 return;
             }
-            pending.append(buf, static_cast<size_t>(n));
-            size_t cr;
-            while ((cr = pending.find('\r')) != std::string::npos) {
-                line(pending.substr(0, cr), answer);
-                pending.erase(0, cr + 1);
+            std::vector<SlcanFrame> got;
+            slcan.feed(buf, static_cast<size_t>(n), &got);
+            for (const SlcanFrame &sf : got) {
+                frame(sf, answer);
             }
             wait_ms = 20; // then only what follows at once
         }
     }
 
-    void line(const std::string &l, bool answer)
+    void frame(const SlcanFrame &sf, bool answer)
     {
-        if (l.size() != 21 || l[0] != 't') {
-            return; // the adapter's set-up commands
-        }
         navkit_isotp_frame_t f;
-        f.id = static_cast<uint16_t>(std::stoul(l.substr(1, 3), nullptr, 16));
-        for (int i = 0; i < 8; i++) {
-            f.data[i] = static_cast<uint8_t>(std::stoul(l.substr(5 + 2 * i, 2), nullptr, 16));
-        }
+        f.id = static_cast<uint16_t>(sf.id);
+        std::copy(sf.data, sf.data + 8, f.data);
         frames.push_back(f);
         navkit_isotp_frame_t fc;
         uint8_t fc_out = 0;
-        const uint16_t n = navkit_isotp_rx_frame(&rx, f.id, f.data, 8, 0, &fc, &fc_out);
+        const uint16_t n = navkit_isotp_rx_frame(&rx, f.id, f.data, sf.dlc, 0, &fc, &fc_out);
         if (n) {
             messages.emplace_back(rx.buf, rx.buf + n);
         }
