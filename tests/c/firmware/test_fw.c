@@ -17,14 +17,25 @@ static void boot(void)
 }
 
 /* The host: repeat command c (same time tag) every 100 ms (control_rate / 10 ticks) for
-   `seconds`. */
-static void host_run(const navkit_micro_cmd_t *c, double seconds)
+   `seconds`; before_tick, unless NULL, is called before every tick. */
+static void host_run_each(const navkit_micro_cmd_t *c, double seconds, void (*before_tick)(void))
 {
-    long frames = (long)(seconds * 10.0 + 0.5), f;
+    long frames = (long)(seconds * 10.0 + 0.5), f, k;
     for (f = 0; f < frames; f++) {
         sim_cmd(&fw, &h, c);
-        sim_run(&fw, &h, (long)fw.cfg.control_rate / 10);
+        for (k = 0; k < (long)fw.cfg.control_rate / 10; k++) {
+            if (before_tick != NULL) {
+                before_tick();
+            }
+            sim_run(&fw, &h, 1);
+        }
     }
+}
+
+/* host_run_each() with nothing before the ticks. */
+static void host_run(const navkit_micro_cmd_t *c, double seconds)
+{
+    host_run_each(c, seconds, NULL);
 }
 
 static navkit_micro_data_t data(void)
@@ -1445,19 +1456,6 @@ static void check_idle_work(void)
     }
 }
 
-/* The host repeats c every 100 ms for `seconds`; check_idle_work() before every tick. */
-static void host_run_checking_idle(const navkit_micro_cmd_t *c, double seconds)
-{
-    long frames = (long)(seconds * 10.0 + 0.5), f, k;
-    for (f = 0; f < frames; f++) {
-        sim_cmd(&fw, &h, c);
-        for (k = 0; k < (long)fw.cfg.control_rate / 10; k++) {
-            check_idle_work();
-            sim_run(&fw, &h, 1);
-        }
-    }
-}
-
 static void test_idle_work_skipped(void)
 {
     navkit_micro_cmd_t c;
@@ -1474,20 +1472,20 @@ static void test_idle_work_skipped(void)
     c.rc4_param0 = 1000;
     c.rc4_param1 = 300;
     c.rc4_param2 = 9999;
-    host_run_checking_idle(&c, 3.0);
+    host_run_each(&c, 3.0, check_idle_work);
     c = cmd(); /* an encoder turn, then a stop of it */
     c.turn_cmd = NAVKIT_TURN_CMD_TURN;
     c.turn_distance = 900;
-    host_run_checking_idle(&c, 0.5);
+    host_run_each(&c, 0.5, check_idle_work);
     c = cmd();
     c.turn_cmd = NAVKIT_TURN_CMD_STOP;
-    host_run_checking_idle(&c, 1.5);
+    host_run_each(&c, 1.5, check_idle_work);
     c = cmd(); /* HdgSel with a forward move: it holds its heading after arriving */
     c.fwd_cmd = NAVKIT_FWD_CMD_START;
     c.distance = 300;
     c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
     c.turn_distance = -450;
-    host_run_checking_idle(&c, 4.0);
+    host_run_each(&c, 4.0, check_idle_work);
     /* silence: the watchdog stops both axes and holds the servos */
     for (k = 0; k < (long)fw.cfg.control_rate * 2; k++) {
         check_idle_work();
