@@ -848,11 +848,6 @@ int board_sim_can_read(board_sim_t *b, board_sim_can_frame_t *out)
     return sim_can_read(b->can, out);
 }
 
-void board_sim_can_set_bitrate(board_sim_t *b, uint32_t bps)
-{
-    sim_can_set_bitrate(b->can, bps);
-}
-
 void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out)
 {
     sim_can_stats(b->can, out);

@@ -127,8 +127,8 @@ uint32_t board_sim_uart_dropped(const board_sim_t *b);
 /* ---- CAN: an MCP2515 module on the SPI (board.h, CAN; board_sim_can.h has the model)
  * and the bus between it and the host's end (a USB-CAN adapter). Only the image built with
  * the CAN link (navkit-mega2560-can) drives the part; the serial image leaves it in reset.
- * Ordering: frames written go on the bus in the order written, one at a time at the bus's
- * bit rate (47 + 8 x DLC bits a frame, no stuff bits), each once the part acknowledges it
+ * Ordering: frames written go on the bus in the order written, one at a time at the spec's
+ * bit rate (NAVKIT_CAN_BITRATE; 47 + 8 x DLC bits a frame, no stuff bits), each once the part acknowledges it
  * (normal mode, bit timing at the bus rate: until then they wait, as an adapter repeats an
  * unacknowledged frame); between a host frame and the part's, the lower identifier goes
  * first. The part's frames come out in the order they left it. ---- */
@@ -159,8 +159,7 @@ typedef struct {
 void board_sim_can_write(board_sim_t *b, uint16_t id, const uint8_t *data, uint8_t dlc);
 /* The oldest frame the part has sent: 1 and *out, or 0 if none. */
 int board_sim_can_read(board_sim_t *b, board_sim_can_frame_t *out);
-/* The bus's bit rate, bit/s (default 500 000, the spec's [can] bitrate). */
-void board_sim_can_set_bitrate(board_sim_t *b, uint32_t bps);
+/* The part's and the bus's counts so far into *out. */
 void board_sim_can_stats(const board_sim_t *b, board_sim_can_stats_t *out);
 /* held 1: the part's INT pin reads high at the AVR whatever the part asks, as for a driver
  * whose poll is held off (interrupts off too long): its receive buffers fill, then

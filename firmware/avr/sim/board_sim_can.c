@@ -10,6 +10,8 @@
 #include <sim_io.h>
 #include <sim_irq.h>
 
+#include "navkit/navkit_proto.h"
+
 #include "board_sim_regs.h"
 
 #include "board.h"
@@ -59,8 +61,7 @@ struct sim_can {
     uint8_t out_next; /* the byte the part shifts out during the next transfer */
     int int_level;    /* the INT pin: 1 high (idle), 0 low */
     int int_held;     /* 1: the AVR sees INT high whatever the part asks (sim_can_hold_int) */
-    /* the bus */
-    uint32_t bus_bps;
+    /* the bus, at the spec's bit rate (NAVKIT_CAN_BITRATE) */
     int busy;
     int src; /* the frame on the bus: SRC_HOST, a TXB, or SRC_NONE (cut off) */
     can_frame_t cur;
@@ -93,7 +94,7 @@ static uint32_t can_part_bps(const sim_can_t *c)
 /* 1 if the part takes part on the bus: normal mode at the bus's bit rate */
 static int can_on_bus(const sim_can_t *c)
 {
-    return can_mode(c) == MODE_NORMAL && can_part_bps(c) == c->bus_bps;
+    return can_mode(c) == MODE_NORMAL && can_part_bps(c) == NAVKIT_CAN_BITRATE;
 }
 
 /* The INT pin's level into PINK (simavr 1.6 overwrites an input pin's PIN bit with its
@@ -500,7 +501,7 @@ static void can_bus_kick(sim_can_t *c)
     c->src = best;
     c->busy = 1;
     bits = 47u + 8u * c->cur.dlc;
-    avr_cycle_timer_register(c->avr, (avr_cycle_count_t)bits * c->avr->frequency / c->bus_bps, can_bus_done, c);
+    avr_cycle_timer_register(c->avr, (avr_cycle_count_t)bits * c->avr->frequency / NAVKIT_CAN_BITRATE, can_bus_done, c);
 }
 
 /* ---------------------------------------------------------------- API */
@@ -519,7 +520,6 @@ sim_can_t *sim_can_new(avr_t *avr)
         return NULL;
     }
     c->avr = avr;
-    c->bus_bps = 500000u;
     c->src = SRC_NONE;
     c->int_level = -1;
     for (port = avr->io_port; port != NULL; port = port->next) {
@@ -585,12 +585,6 @@ int sim_can_read(sim_can_t *c, board_sim_can_frame_t *out)
     }
     *out = c->out_q[c->out_tail++ & (CAN_QUEUE - 1u)];
     return 1;
-}
-
-void sim_can_set_bitrate(sim_can_t *c, uint32_t bps)
-{
-    c->bus_bps = (bps == 0u) ? 1u : bps;
-    can_bus_kick(c);
 }
 
 void sim_can_stats(const sim_can_t *c, board_sim_can_stats_t *out)

@@ -29,7 +29,7 @@
 typedef struct sim_can sim_can_t;
 
 /* The part (after its power-on reset) wired to avr's SPI, CS and INT pins; the bus at
- * 500 kbit/s. NULL if out of memory or avr has no SPI. */
+ * the spec's bit rate (NAVKIT_CAN_BITRATE). NULL if out of memory or avr has no SPI. */
 sim_can_t *sim_can_new(avr_t *avr);
 /* Free it (NULL is fine). */
 void sim_can_free(sim_can_t *c);
@@ -40,7 +40,6 @@ void sim_can_after_avr_reset(sim_can_t *c);
 /* board_sim.h's board_sim_can_* (the same contracts). */
 void sim_can_write(sim_can_t *c, uint16_t id, const uint8_t *data, uint8_t dlc);
 int sim_can_read(sim_can_t *c, board_sim_can_frame_t *out);
-void sim_can_set_bitrate(sim_can_t *c, uint32_t bps);
 void sim_can_stats(const sim_can_t *c, board_sim_can_stats_t *out);
 void sim_can_hold_int(sim_can_t *c, int held);
 
