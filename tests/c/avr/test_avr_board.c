@@ -1033,8 +1033,8 @@ static void test_can_rx_lost(void)
  * a micro_data back for each) for 2 s, a new command every 100 ms, encoders turning, every
  * sensor read. No tick may start more than one period late (hal.h: a poll applies one
  * reassembled message at most, builds one reply at most), every command arrives and is
- * answered. 25 Hz is 2.5 times the host's shipped rate; at 50 Hz the 16 MHz AVR at 400 Hz
- * runs out of CPU (docs/avr.md, CAN). */
+ * answered. 25 Hz is 2.5 times the host's shipped rate, within the CPU the 16 MHz AVR has
+ * left at 400 Hz (docs/avr.md, CAN, has the budget). */
 #define CAN_LATE_CMD_MS 40u
 static void test_can_late(void)
 {
@@ -1114,9 +1114,9 @@ static void test_can_late(void)
  * come in pairs, back to back (8 data bytes: 111 bits, 3552 cycles apart), a pair every
  * CAN_ENC_GAP_CYCLES: ten INT poll periods and 13 cycles, so that the second frame's end
  * sweeps across the phases of the poll that serves the first, also just after its last
- * status read (where the driver once read the new frame over the SPI with interrupts off,
- * longer than the edge period: both encoders lost counts). ~1000 frames/s, all of which
- * the link takes under this load (none lost). */
+ * status read (a driver that read that frame over the SPI with interrupts off would hold
+ * the encoders longer than their edge period: both would lose counts). ~1000 frames/s, all
+ * of which the link takes under this load (none lost). */
 #define CAN_ENC_GAP_CYCLES ((uint64_t)10u * BOARD_CAN_POLL_US * (F_CPU_HZ / 1000000u) + 13u)
 static void test_can_encoders(void)
 {
