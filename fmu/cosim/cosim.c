@@ -453,14 +453,16 @@ int cosim_run(cosim_t *c, uint32_t n_steps, const uint8_t *rx, size_t rx_len, ui
         }
         if (--to_row == 0u) {
             to_row = c->every;
-            if (width > 1 && *n_rows < rows_cap) {
-                if ((rc = cosim_sample(c, rows + *n_rows * width)) != COSIM_OK) {
-                    return rc;
+            if (width > 1) { /* a row only when some column is recorded */
+                if (*n_rows < rows_cap) {
+                    if ((rc = cosim_sample(c, rows + *n_rows * width)) != COSIM_OK) {
+                        return rc;
+                    }
+                    (*n_rows)++;
+                } else {
+                    c->dropped++;
+                    full = 1;
                 }
-                (*n_rows)++;
-            } else if (width > 1) {
-                c->dropped++;
-                full = 1;
             }
         }
     }
