@@ -152,7 +152,7 @@ void hal_can_write(hal_t *h, uint16_t id, const uint8_t data[8])
     }
     fw_fmu_can_record_put(&h->can_txb[h->can_txb_len++ * FW_FMU_CAN_RECORD_BYTES], id, 8u, data);
 }
-/* can_rx records dropped for a full RX queue (fw_fmu_doStep), frames */
+/* can_rx records dropped for a full RX queue (fmil_model_step), frames */
 uint16_t hal_can_rx_lost(hal_t *h)
 {
     return (uint16_t)h->can_rx_dropped;
