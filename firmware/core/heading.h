@@ -62,8 +62,8 @@ uint16_t heading_deg10(const heading_t *h);
 /* deg wrapped into -180 <= result < 180 (shortest way). */
 float heading_wrap180(float deg);
 /* deg with -540 <= deg < 540 (as between two headings of 0..360, or one plus half that)
- * wrapped into -180 <= result < 180 by one whole turn at most: two compares, no floor (~1/3
- * of heading_wrap180() on an AVR), for the every-tick users. */
+ * wrapped into -180 <= result < 180 by one whole turn at most: two compares, no floor
+ * (cheaper than heading_wrap180() on an AVR, which has no FPU), for the every-tick users. */
 float heading_wrap180_near(float deg);
 
 #endif /* NAVKIT_HEADING_H */

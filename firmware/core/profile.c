@@ -27,7 +27,8 @@ static float profile_brake_speed(const profile_t *p, float d)
     x = s - p->k_half_dvp * m * m1;
     /* the square root is rounded: m may be one off either way (0 < r <= dv says it is
        right). Checked before the division and corrected by the difference of the sums,
-       dv*m, so a tick pays one division (~500 AVR cycles) however m comes out */
+       dv*m, so a tick pays one division however m comes out (a float division is costly on
+       the AVR, which has no FPU) */
     if (x > dv * m) {
         x -= dv * m;
         m1 = m;

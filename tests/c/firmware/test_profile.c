@@ -496,7 +496,7 @@ static int prop_tracked_case(unsigned long idx)
     return bad;
 }
 
-#define PROP_COUNT_MAX 1000000000ul /* moves per run at most (2 million take ~90 s) */
+#define PROP_COUNT_MAX 1000000000ul /* moves per run at most */
 
 /* An unsigned integer option value (decimal, 0x hex or 0 octal), the whole text, starting
  * with a digit (no sign, no blank), within lo..hi; else a message naming the option and
