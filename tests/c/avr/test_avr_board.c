@@ -101,6 +101,21 @@ static void read_size(const char *name, image_size_t *z)
     check(z->text > 0u, "%s: no .text size", path);
 }
 
+/* The profile of a span, from snapshot p0 to p, `span` cycles long: "what: " then fw_tick's
+ * and fw_link_poll()'s counts, worst (since the start) and mean cycles and CPU share. */
+static void print_span(const char *what, const board_sim_profile_t *p0, const board_sim_profile_t *p, double span)
+{
+    uint32_t ticks = p->ticks - p0->ticks, polls = p->polls - p0->polls;
+    printf("%s: fw_tick %lu ticks, worst %lu mean %lu cycles, CPU %.1f %%; fw_link_poll %lu polls, worst %lu mean %lu "
+           "cycles, CPU %.1f %%\n",
+           what, (unsigned long)ticks, (unsigned long)p->tick_worst_cycles,
+           (unsigned long)((p->tick_total_cycles - p0->tick_total_cycles) / (ticks ? ticks : 1u)),
+           100.0 * (double)(p->tick_total_cycles - p0->tick_total_cycles) / span, (unsigned long)polls,
+           (unsigned long)p->poll_worst_cycles,
+           (unsigned long)((p->poll_total_cycles - p0->poll_total_cycles) / (polls ? polls : 1u)),
+           100.0 * (double)(p->poll_total_cycles - p0->poll_total_cycles) / span);
+}
+
 /* The sensors of the busy runs: gyro 1310 raw (10 deg/s), compass 90.0 deg, IR/ADC inputs
  * 1000-2500 mV, sonar echoes 2000-5000 us. */
 static void set_busy_sensors(board_sim_t *b)
@@ -640,15 +655,7 @@ static void test_footprint(void)
            "deepest stack %u B; RAM in use %lu B\n",
            z.text + z.data, z.text, z.data, z.data + z.bss + z.noinit, z.data, z.bss, z.noinit, p.stack_max_bytes,
            z.data + z.bss + z.noinit + p.stack_max_bytes);
-    printf("busy 3 s: fw_tick %lu ticks, worst %lu mean %lu cycles (of 40000 at 400 Hz), CPU %.1f %%; "
-           "fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
-           (unsigned long)(p.ticks - p0.ticks), (unsigned long)p.tick_worst_cycles,
-           (unsigned long)((p.tick_total_cycles - p0.tick_total_cycles) / (p.ticks - p0.ticks)),
-           100.0 * (double)(p.tick_total_cycles - p0.tick_total_cycles) / busy, (unsigned long)(p.polls - p0.polls),
-           (unsigned long)p.poll_worst_cycles,
-           (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) /
-                           ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
-           100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
+    print_span("busy 3 s (a tick: 40000 cycles at 400 Hz)", &p0, &p, busy);
     printf("tick lateness (timer request to fw_tick start): worst %lu mean %lu cycles (%.2f / %.2f tick periods)\n",
            (unsigned long)p.tick_late_worst_cycles,
            (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
@@ -1082,18 +1089,10 @@ static void test_can_late(void)
     printf("CAN image: flash %lu B (text %lu + data %lu); static RAM %lu B (data %lu + bss %lu + noinit %lu); deepest "
            "stack %u B\n",
            z.text + z.data, z.text, z.data, z.data + z.bss + z.noinit, z.data, z.bss, z.noinit, p.stack_max_bytes);
-    printf(
-        "CAN traffic 2 s at 400 Hz: %lu ticks, lateness worst %lu mean %lu cycles (bound %u); fw_tick worst %lu mean "
-        "%lu cycles, CPU %.1f %%; fw_link_poll %lu polls, worst %lu mean %lu cycles, CPU %.1f %%\n",
-        (unsigned long)(p.ticks - p0.ticks), (unsigned long)p.tick_late_worst_cycles,
-        (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
-        TICK_LATE_MAX_CYCLES, (unsigned long)p.tick_worst_cycles,
-        (unsigned long)((p.tick_total_cycles - p0.tick_total_cycles) / (p.ticks - p0.ticks)),
-        100.0 * (double)(p.tick_total_cycles - p0.tick_total_cycles) / busy, (unsigned long)(p.polls - p0.polls),
-        (unsigned long)p.poll_worst_cycles,
-        (unsigned long)((p.poll_total_cycles - p0.poll_total_cycles) /
-                        ((p.polls > p0.polls) ? p.polls - p0.polls : 1u)),
-        100.0 * (double)(p.poll_total_cycles - p0.poll_total_cycles) / busy);
+    print_span("CAN traffic 2 s at 400 Hz", &p0, &p, busy);
+    printf("tick lateness: worst %lu mean %lu cycles (bound %u)\n", (unsigned long)p.tick_late_worst_cycles,
+           (unsigned long)((p.tick_late_total_cycles - p0.tick_late_total_cycles) / (p.ticks - p0.ticks)),
+           TICK_LATE_MAX_CYCLES);
     printf("bus: %lu frames to the part (%lu overflowed), %lu from it; %u micro_data for %u messages\n",
            (unsigned long)st.to_part, (unsigned long)st.overflowed, (unsigned long)st.from_part, h.frames, h.messages);
     check(p.tick_late_worst_cycles <= TICK_LATE_MAX_CYCLES, "a tick started %lu cycles after it fell due (bound %u)",
