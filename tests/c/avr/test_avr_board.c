@@ -129,6 +129,19 @@ static void set_busy_sensors(board_sim_t *b)
     }
 }
 
+/* The busy runs' micro_cmd before each run's own move and scan limit (param2): defaults,
+ * speed 300 mm/s, turn rate 90.0 deg/s, servo 0 at 30.0 deg/s from 30.0 deg, the heading
+ * datalog. */
+static void busy_cmd_init(navkit_micro_cmd_t *c)
+{
+    navkit_micro_cmd_defaults(c);
+    c->speed = 300;
+    c->turn_rate = 900;
+    c->rc0_param0 = 300;
+    c->rc0_param1 = 300;
+    c->mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+}
+
 /* ---------------------------------------------------------------- the link */
 
 typedef struct {
@@ -628,17 +641,12 @@ static void test_footprint(void)
     run_for(b, MS(20));
     configure(b, &h, 400u, 1000u);
     set_busy_sensors(b);
-    navkit_micro_cmd_defaults(&c);
+    busy_cmd_init(&c);
     c.fwd_cmd = NAVKIT_FWD_CMD_START;
-    c.speed = 300;
     c.distance = 2000;
     c.turn_cmd = NAVKIT_TURN_CMD_HDG_SEL;
-    c.turn_rate = 900;
     c.turn_distance = 900;
-    c.rc0_param0 = 300;
-    c.rc0_param1 = 300;
     c.rc0_param2 = -300;
-    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
     board_sim_profile(b, &p0);
     c0 = board_sim_cycles(b);
     for (i = 0; i < 300; i++) { /* 3 s: a move with heading select, servo scan, encoders turning */
@@ -689,12 +697,7 @@ static void test_tick_late(void)
     set_busy_sensors(b);
     run_for(b, MS(20));
     configure(b, &h, 400u, 1000u);
-    navkit_micro_cmd_defaults(&c);
-    c.speed = 300;
-    c.turn_rate = 900;
-    c.rc0_param0 = 300;
-    c.rc0_param1 = 300;
-    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    busy_cmd_init(&c);
     for (i = 0; i < 200; i++) {
         if (i % 10 == 0) { /* a new command every 100 ms */
             c.time_tag = tag++;
@@ -1061,12 +1064,7 @@ static void test_can_late(void)
     set_busy_sensors(b);
     run_for(b, MS(20));
     can_configure(&h, b, 400u);
-    navkit_micro_cmd_defaults(&c);
-    c.speed = 300;
-    c.turn_rate = 900;
-    c.rc0_param0 = 300;
-    c.rc0_param1 = 300;
-    c.mc_datalog_cmd = NAVKIT_MC_DATALOG_HEADING;
+    busy_cmd_init(&c);
     board_sim_profile(b, &p0);
     c0 = board_sim_cycles(b);
     for (i = 0; i < (int)(2000u / CAN_LATE_CMD_MS); i++) {
