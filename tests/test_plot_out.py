@@ -1,6 +1,7 @@
 """`navkit plot -o FILE`: the image's format is its suffix's. A run plot and a datalog
-plot to .png (navkit's own PNG writer for the run plot), to .svg (matplotlib), and a suffix
-no writer has is refused in one line naming the file, with nothing written."""
+plot to .png (the run plot drawn by navkit.figure_png, without matplotlib), to .svg
+(matplotlib, the run plot's lines in their colours), and a suffix no writer has is
+refused in one line naming the file, with nothing written."""
 
 from pathlib import Path
 
@@ -26,6 +27,8 @@ def test_plot_writes_the_format_its_suffix_names(tmp_path_factory, tmp_path, cap
         assert main(["plot", str(src), "-o", str(svg)]) == 0
         head = svg.read_bytes()[:400]
         assert head.startswith(b"<?xml") and b"<svg" in head, head[:80]
+        if src == mcap:     # the truth's and the micro's lines
+            assert b"stroke: #1f77b4" in svg.read_bytes() and b"stroke: #ff7f0e" in svg.read_bytes()
         # no suffix: the name as given, PNG bytes (matplotlib would append ".png")
         bare = tmp_path / f"{src.stem}-bare"
         assert main(["plot", str(src), "-o", str(bare)]) == 0

@@ -1,14 +1,11 @@
-"""`navkit sim` fast end to end: plot.png is drawn from the messages the log worker kept
-while it wrote run.mcap (no read-back), the same figure `navkit plot` draws from the
-file; matplotlib runs in a process of its own (navkit.plot.PlotProcess) that ends with
-its parent; the command's speed lines and --stamps; bench-sim's whole-command figures."""
+"""`navkit sim` fast end to end: plot.png is drawn in the harness (Pillow, no matplotlib)
+from the messages the log worker kept while it wrote run.mcap (no read-back), the same
+figure `navkit plot` draws from the file; the command's speed lines and --stamps;
+bench-sim's whole-command figures."""
 
 import argparse
 import json
 import struct
-import subprocess
-import sys
-import time
 
 import pytest
 
@@ -48,10 +45,9 @@ def _png_size(path) -> tuple:
 
 def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_path, monkeypatch, capsys):
     """plot.png comes from the series the log worker handed over (reading run.mcap fails
-    here, in the harness and in the plot process forked from it), is a 990 x 1210 PNG
-    (9 x 11 in at 110 dpi) and is byte for byte what `navkit plot run.mcap` draws. The
-    speed lines give the loop and the whole command with its parts; --stamps has the
-    phases in order."""
+    here), is a 990 x 1210 PNG (9 x 11 in at 110 dpi) and is byte for byte what `navkit
+    plot run.mcap` draws. The speed lines give the loop and the whole command with its
+    parts; --stamps has the phases in order."""
     from navkit import plot
     from navkit.cli import main
     from navkit.sim import results
@@ -74,9 +70,7 @@ def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_pat
     assert len(whole) == 1 and len(parts) == 1 and "outputs" in parts[0] and "plot.png" in parts[0], text
     st = json.loads(stamps.read_text())
     keys = ["cli", "run", "started", "loop", "stopped", "summary", "plot", "end"]
-    ready = st.pop("plot_ready", None)     # only when the plot process was warm before its job
     assert list(st) == keys and [st[k] for k in keys] == sorted(st.values()), st
-    assert ready is None or st["cli"] < ready < st["plot"], (ready, st)
     assert _png_size(out / "plot.png") == (990, 1210)
     assert main(["plot", str(out / "run.mcap"), "-o", str(tmp_path / "replot.png")]) == 0
     assert (out / "plot.png").read_bytes() == (tmp_path / "replot.png").read_bytes()
@@ -149,119 +143,6 @@ def test_decoded_series_parse_each_message_as_one_json_value():
         plot.decoded({"/truth": [(1, b"1, 2")]})
 
 
-def test_run_plot_png_holds_the_pixels(tmp_path):
-    """The PNG the run plot is written as (rows stored as differences from the row above)
-    decodes with Pillow to the very pixels given, RGBA, at 110 dpi."""
-    import numpy as np
-    from PIL import Image
-
-    from navkit import plot
-
-    rng = np.random.default_rng(1)
-    pixels = rng.integers(0, 256, size=(37, 23, 4), dtype=np.uint8)
-    pixels[5:9] = 255                                      # rows alike, as in a plot
-    plot._write_png(pixels, tmp_path / "p.png")
-    with Image.open(tmp_path / "p.png") as im:
-        assert im.mode == "RGBA" and im.size == (23, 37)
-        assert [round(d) for d in im.info["dpi"]] == [110, 110]
-        assert np.array_equal(np.asarray(im), pixels)
-
-
-def test_plot_process_hands_back_errors_and_ends_with_its_parent(tmp_path):
-    """PlotProcess: the child's error (a file that is not MCAP) is raised in the parent
-    with the file's name; close() ends the child; a parent that dies without closing it
-    (os._exit, as after SIGKILL) leaves no plot process behind."""
-    from mcap.exceptions import McapError
-
-    from navkit.plot import PlotProcess
-
-    bad = tmp_path / "bad.mcap"
-    bad.write_bytes(b"not an mcap file")
-    p = PlotProcess()
-    try:
-        with pytest.raises(McapError, match=str(bad)):
-            p.plot_mcap(bad, tmp_path / "bad.png")
-        assert not (tmp_path / "bad.png").exists()
-    finally:
-        p.close()
-    assert p._proc.exitcode == 0
-    code = ("import os, sys\nfrom navkit.plot import PlotProcess\np = PlotProcess()\n"
-            "print(p._proc.pid, flush=True)\nos._exit(0)\n")
-    pid = int(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                             check=True).stdout)
-    deadline = time.monotonic() + 10
-    while time.monotonic() < deadline:
-        try:
-            with open(f"/proc/{pid}/stat") as f:
-                if f.read().rsplit(")", 1)[1].split()[0] == "Z":
-                    break
-        except FileNotFoundError:
-            break
-        time.sleep(0.05)
-    else:
-        pytest.fail(f"plot process {pid} outlived its parent")
-
-
-def test_plot_process_kept_busy_on_given_cpus_then_drawing_at_normal_priority(tmp_path):
-    """keep_busy pins the plot process to the CPUs given, at idle priority; a job puts it
-    back at normal priority on the CPUs it was made with, and it still draws."""
-    import os
-
-    from navkit.plot import PlotProcess
-
-    cpus = os.sched_getaffinity(0)
-    p = PlotProcess()
-    try:
-        pid = p._proc.pid
-        assert p.keep_busy({min(cpus)})
-        assert os.sched_getaffinity(pid) == {min(cpus)}
-        assert os.sched_getscheduler(pid) == os.SCHED_IDLE
-        bad = tmp_path / "bad.mcap"
-        bad.write_bytes(b"not an mcap file")
-        with pytest.raises(Exception, match=str(bad)):
-            p.plot_mcap(bad, tmp_path / "bad.png")
-        assert os.sched_getaffinity(pid) == cpus
-        assert os.sched_getscheduler(pid) == os.SCHED_OTHER
-    finally:
-        p.close()
-    assert p._proc.exitcode == 0
-
-
-def _run_msgs(cmd: dict) -> dict:
-    """A run's plot messages: 20 s of /truth and /micro/data, command `cmd` at 5 s and an
-    unplug at 8 s."""
-    truth = [{"t": t / 10, "x_mm": 10.0 * t, "y_mm": t % 7, "v_mm_s": 100.0, "heading_deg": 3.0 * t}
-             for t in range(200)]
-    micro = [{"x": 10 * t, "y": 0, "fwd_speed": 100, "heading": 30 * t} for t in range(200)]
-    return {"/truth": [(t * 100_000_000, m) for t, m in enumerate(truth)],
-            "/micro/data": [(t * 100_000_000, m) for t, m in enumerate(micro)],
-            "/planner/cmd": [(5_000_000_000, cmd)],
-            "/events": [(8_000_000_000, {"t": 8.0, "kind": "unplug", "detail": {}})]}
-
-
-@pytest.mark.parametrize("cmd, rows_meet", [
-    ({"fwd_cmd": 1, "speed": 300, "distance": 300}, False),
-    # a label longer than its panel is high reaches the heading panel's rows
-    ({"fwd_cmd": 123456, "speed": 123456, "distance": 123456789, "turn_mode": 123456,
-      "turn_distance": 123456789, "rc_param0": 1, "rc_servo_num": 123456, "dio_active": 0xFFFFFF,
-      "dio_command": 0xFFFFFF}, True)])
-def test_run_plot_drawn_by_two_processes_is_the_whole_figure(cmd, rows_meet):
-    """plot.png's pixels, the speed panel drawn by a forked helper and the others here,
-    are those of the whole figure drawn at once: when the two sides' rows are apart and,
-    by drawing it all here, when a long label makes them meet."""
-    import numpy as np
-
-    from navkit import plot
-
-    fig = plot.run_figure(_run_msgs(cmd), "t")
-    whole = plot._pixels(fig).copy()
-    helper = plot._inked_rows(plot._pixels(fig, plot._HELPER_PANELS))
-    rest = plot._inked_rows(plot._pixels(fig, [0, 2]))
-    assert bool((helper & rest).any()) == rows_meet
-    assert np.array_equal(plot._draw_run(fig), whole)
-    assert whole.shape == (1210, 990, 4)
-
-
 def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     """bench-sim runs `python -m navkit sim` as a user does and prints its wall time and
     the parts of it, which add up to it."""
@@ -280,16 +161,3 @@ def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     secs = [float(ln.rsplit(" s ", 1)[0].split()[-1]) for ln in parts]
     total = float(lines[head[0]].split(" in ")[1].split(" s wall")[0])
     assert all(s >= 0 for s in secs) and abs(sum(secs) - total) < 0.01 + 0.001 * len(secs), (secs, total)
-    assert "plot process ready to draw before the loop ended in " in lines[head[0] + 1 + len(parts)], out
-
-
-def test_a_sim_that_fails_leaves_no_plot_process(tmp_path, capsys):
-    """navkit sim forks its plot process first thing; a mission that does not load ends
-    it (killed: it was given nothing to draw) before the command returns."""
-    import multiprocessing
-
-    from navkit.cli import main
-
-    assert main(["sim", "--mission", str(tmp_path / "none.toml"), "--out", str(tmp_path / "out")]) == 1
-    assert "none.toml" in capsys.readouterr().err
-    assert multiprocessing.active_children() == []

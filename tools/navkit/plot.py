@@ -18,8 +18,8 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "run_figure", "RunSeries",
-           "PlotProcess", "decoded", "plot_datalog", "read_datalog", "read_mcap", "PLOT_POINTS"]
+__all__ = ["add_arguments", "run", "plot_mcap", "prepare", "mcap_figure", "run_figure", "RunSeries",
+           "decoded", "fields", "plot_datalog", "read_datalog", "read_mcap", "PLOT_POINTS"]
 
 # Messages a line of a run plot keeps at most, evenly spaced (the figure is ~1000 pixels
 # wide): between PLOT_POINTS and 2 * PLOT_POINTS of a topic with more messages than that.
@@ -136,30 +136,63 @@ def decoded(raw: dict) -> dict:
     return out
 
 
-def _read_thinned(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE,
-                  cap: int = PLOT_POINTS) -> dict:
-    """{topic: [(log_time_ns, decoded JSON), ...]} of run `path`, streamed
-    (navkit.sim.results.iter_mcap) through a RunSeries: the topics in `thin` thinned to
-    about `cap` messages each, those in `whole` every message; each list in log-time order."""
+def _read_series(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE,
+                 cap: int = PLOT_POINTS) -> dict:
+    """RunSeries.raw() of run `path`, streamed (navkit.sim.results.iter_mcap) through a
+    RunSeries: the topics in `thin` thinned to about `cap` messages each, those in `whole`
+    every message, as their JSON bytes."""
     from navkit.sim.results import iter_mcap
 
     series = RunSeries(cap, thin, whole)
     sinks = {t: series.sink(t) for t in series.topics}
     for t_ns, topic, data in iter_mcap(path, series.topics):
         sinks[topic](t_ns, data)
-    return decoded(series.raw())
+    return series.raw()
 
 
-def _figure(rows: int, height: float):
-    """A Figure of `rows` panels, 9 in wide and `height` in high, drawn by Agg (no
-    pyplot: its import and figure manager are not needed to write a PNG)."""
-    import matplotlib
+def _read_thinned(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE,
+                  cap: int = PLOT_POINTS) -> dict:
+    """{topic: [(log_time_ns, decoded JSON), ...]} of run `path` (_read_series decoded),
+    each list in log-time order."""
+    return decoded(_read_series(path, thin, whole, cap))
 
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(9, height))
-    return fig, fig.subplots(rows, 1)
+def fields(topic: str, msgs: list, keys: tuple) -> tuple:
+    """The numeric top-level fields `keys` of messages `msgs` [(log_time_ns, JSON bytes),
+    ...] of `topic`, in log-time order (file order among equal times): (log times in s,
+    {key: values}), numpy float arrays. Each key's values are found by its text `"key":`
+    in the messages, without decoding them whole (most of a /micro/data message is
+    fields a plot does not draw); where that does not give one number per message (a key
+    missing, nested, or a value that is not a plain number), the messages are decoded
+    whole. ValueError naming the topic and key if a message lacks one."""
+    import re
+
+    import numpy as np
+
+    t_ns = np.array([t for t, _ in msgs], dtype=np.int64)
+    blob = b"\n".join(data for _, data in msgs)
+    out = {}
+    for key in keys:
+        found = re.findall(b'"' + re.escape(key.encode()) + rb'":(-?[0-9][0-9.eE+-]*)', blob)
+        try:
+            if len(found) != len(msgs):
+                raise ValueError(key)
+            out[key] = np.fromiter(map(float, found), float, len(found))
+        except ValueError:
+            out = None
+            break
+    if out is None:
+        objs = [obj for _, obj in decoded({topic: msgs})[topic]]
+        t_ns = np.sort(t_ns, kind="stable")
+        try:
+            return t_ns / 1e9, {k: np.array([float(m[k]) for m in objs]) for k in keys}
+        except (KeyError, TypeError, ValueError) as e:
+            raise ValueError(f"{topic}: a message without a number in {e}") from None
+    if t_ns.size > 1 and (np.diff(t_ns) < 0).any():
+        order = np.argsort(t_ns, kind="stable")
+        t_ns = t_ns[order]
+        out = {k: v[order] for k, v in out.items()}
+    return t_ns / 1e9, out
 
 
 def _command_label(cmd: dict) -> str:
@@ -176,29 +209,41 @@ def _command_label(cmd: dict) -> str:
 
 
 def _wrapped(t, h):
-    """Break a 0..360 heading line where it wraps (NaN between the two sides)."""
-    ts, hs = [], []
-    for i, (a, b) in enumerate(zip(t, h)):
-        if i and abs(b - hs[-1]) > 180:
-            ts.append(a)
-            hs.append(float("nan"))
-        ts.append(a)
-        hs.append(b)
-    return ts, hs
+    """A 0..360 heading line (numpy arrays `t`, `h`) broken where it wraps: a NaN inserted
+    between two points more than 180 apart."""
+    import numpy as np
+
+    at = np.flatnonzero(np.abs(np.diff(h)) > 180) + 1
+    return np.insert(t, at, t[at]), np.insert(h, at, np.nan)
 
 
 def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
     """Plot run `path` (run.mcap) into image `out` (its format by _format: PNG drawn by
-    _draw_run, others by matplotlib's savefig), from `series` (RunSeries.raw() of the run's
+    navkit.figure_png, others by matplotlib), from `series` (RunSeries.raw() of the run's
     messages, as the log worker hands it over) when given, else streamed from the file:
     the same figure either way."""
     fmt = _format(out)
-    msgs = decoded(series) if series is not None else _read_thinned(Path(path))
-    fig = run_figure(msgs, _run_title(Path(path)))
+    fig = run_figure(series if series is not None else _read_series(Path(path)),
+                     _run_title(Path(path)))
     if fmt == "png":
-        _write_png(_draw_run(fig), out)
+        from navkit.figure_png import write_png
+
+        write_png(fig, out)
     else:
-        fig.savefig(out, dpi=_DPI, format=fmt)
+        from navkit.figure_mpl import save
+
+        save(fig, out, fmt)
+
+
+def prepare() -> None:
+    """Load what drawing a run plot's PNG needs (Pillow, the fonts at its sizes), so the
+    drawing itself does not wait for it; an error is left for the drawing to raise."""
+    try:
+        from navkit.figure_png import prepare as load
+
+        load(_DPI, (_LABEL_PT,))
+    except Exception:  # noqa: BLE001 - plot_mcap raises it where it is reported
+        pass
 
 
 def _format(out) -> str:
@@ -218,317 +263,12 @@ def _format(out) -> str:
     return suffix[1:]
 
 
-# Resolution of a run plot (dots per inch): its 9 x 11 in are 990 x 1210 pixels.
+# Size of a run plot: 9 x 11 in at 110 dots per inch, 990 x 1210 pixels.
+_SIZE_IN = (9.0, 11.0)
 _DPI = 110
 
-# The panel (index in Figure.axes) a helper process draws beside the others: the speed
-# panel, with most of the command labels, about half of the drawing's work.
-_HELPER_PANELS = (1,)
-
-
-def _pixels(fig, panels=None, dpi: float = _DPI):
-    """`fig` drawn by Agg at `dpi`, only the axes whose indices are in `panels` (None: all):
-    its RGBA pixels, a (height, width, 4) uint8 array, top row first (a view of the
-    canvas's buffer)."""
-    import numpy as np
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    if panels is not None:
-        for i, ax in enumerate(fig.axes):
-            ax.set_visible(i in panels)
-    fig.set_dpi(dpi)
-    canvas = FigureCanvasAgg(fig)
-    canvas.draw()
-    return np.asarray(canvas.buffer_rgba())
-
-
-def _inked_rows(rgba):
-    """The rows of RGBA pixels `rgba` holding anything but opaque white: bool per row."""
-    return (rgba != 255).any(axis=(1, 2))
-
-
-def _draw_run(fig):
-    """The pixels of run plot `fig` (_pixels): the panels of _HELPER_PANELS drawn by a
-    process forked here, the others by this one, at the same time. Each side starts from
-    the white figure and draws only its own panels. Where no row holds ink of both sides,
-    the helper's inked rows laid over this side's picture are the whole figure drawn at
-    once, pixel for pixel: every pixel was painted by one side only (a panel paints white
-    only inside its own frame, whose rows its spines ink). Where rows of both meet (labels
-    longer than their panel is high), without fork(), on one CPU or when the helper fails,
-    this process draws the whole figure."""
-    import mmap
-    import os
-
-    import numpy as np
-
-    h, w = round(fig.get_figheight() * _DPI), round(fig.get_figwidth() * _DPI)
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cpus = os.cpu_count() or 1
-    if cpus < 2 or not hasattr(os, "fork"):
-        return _pixels(fig)
-    shared = mmap.mmap(-1, h + h * w * 4)    # the helper's inked rows (bool each), its pixels
-    ready_r, ready_w = os.pipe()
-    try:
-        pid = os.fork()
-    except OSError:                             # no process to spare
-        os.close(ready_r)
-        os.close(ready_w)
-        return _pixels(fig)
-    if pid == 0:        # the helper: draw, hand over, exit at once (no interpreter teardown)
-        try:
-            os.close(ready_r)
-            side = _pixels(fig, _HELPER_PANELS)
-            if side.shape == (h, w, 4):
-                shared[:h] = _inked_rows(side).tobytes()
-                shared[h:] = side.tobytes()
-                os.write(ready_w, b"1")
-        finally:
-            os._exit(0)
-    os.close(ready_w)
-    try:
-        main = _pixels(fig, [i for i in range(len(fig.axes)) if i not in _HELPER_PANELS])
-        if os.read(ready_r, 1) == b"1" and main.shape == (h, w, 4):
-            rows = np.frombuffer(shared, dtype=bool, count=h)
-            if not (rows & _inked_rows(main)).any():
-                out = main.copy()
-                out[rows] = np.frombuffer(shared, dtype=np.uint8, offset=h).reshape(h, w, 4)[rows]
-                return out
-    finally:
-        os.close(ready_r)
-        os.waitpid(pid, 0)
-    return _pixels(fig, range(len(fig.axes)))
-
-
-def _write_png(rgba, out) -> None:
-    """Write RGBA pixels `rgba` (a (height, width, 4) uint8 array, top row first) as PNG
-    into `out`, a path or a binary file, marked _DPI dots per inch. Each row but the first
-    is stored as its difference from the row above (PNG filter "Up": a plot's rows are
-    mostly alike, so the differences are mostly zeros, which pack small even at zlib's
-    fastest level), all at zlib level 1."""
-    import struct
-    import zlib
-
-    import numpy as np
-
-    h, w = rgba.shape[0], rgba.shape[1]
-    rows = rgba.reshape(h, w * 4)
-    data = np.empty((h, 1 + w * 4), dtype=np.uint8)
-    data[:, 0] = 2                      # filter type of each row: Up
-    data[0, 0] = 0                      # the first has no row above: None
-    data[0, 1:] = rows[0]
-    np.subtract(rows[1:], rows[:-1], out=data[1:, 1:])     # modulo 256, as PNG wants
-
-    def chunk(kind: bytes, body: bytes) -> bytes:
-        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
-
-    per_m = round(_DPI / 0.0254)        # pixels per metre, pHYs's unit
-    png = b"".join((b"\x89PNG\r\n\x1a\n",
-                    chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)),  # 8-bit RGBA
-                    chunk(b"pHYs", struct.pack(">IIB", per_m, per_m, 1)),
-                    chunk(b"IDAT", zlib.compress(data.tobytes(), 1)),
-                    chunk(b"IEND", b"")))
-    if hasattr(out, "write"):
-        out.write(png)
-    else:
-        with open(out, "wb") as f:
-            f.write(png)
-
-
-# What the plot process imports before its first job: the Figure and Agg (no pyplot)
-_IMPORTS = ("numpy", "zlib", "matplotlib", "matplotlib.figure", "matplotlib.collections",
-            "matplotlib.backends.backend_agg")
-
-
-def _warm_up() -> None:
-    """Draw a throwaway 1-in figure into memory with the kinds of artist a run plot has
-    (line, upright label, line collection, legend) and encode it as PNG: the lazy imports,
-    the font and the encoder a first draw sets up are then ready for the real one, whose
-    own cost is its artists'."""
-    import io
-
-    from matplotlib.collections import LineCollection
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(1, 1))
-    ax = fig.subplots()
-    ax.plot([0, 1], [0, 1], label="a")
-    ax.annotate("a", (0.5, 0.5), rotation=90, fontsize=_LABEL_PT)
-    ax.add_collection(LineCollection([((0, 0), (1, 1))]))
-    _legend(ax)
-    _write_png(_pixels(fig, dpi=20), io.BytesIO())
-
-
-class PlotProcess:
-    """A child process that imports matplotlib and draws a throwaway figure (_warm_up) at
-    once, while its parent goes on (a run's set-up and loop), then draws the run plots
-    the parent hands it (plot_mcap): the import and the first draw's set-up leave the
-    parent's path. Forked: make it before the parent starts threads. The child runs at
-    idle priority until it has a plot to draw, so its work takes only CPU time nothing
-    else wants. keep_busy() pins it to given CPUs, where, once warm, it polls for its job
-    instead of sleeping: a CPU it keeps from idling wakes a normal-priority process (the
-    run's log worker) at once, which an idle virtual CPU does only slowly. It ends when
-    close() is called or when the parent goes away (EOF on its pipe), however the parent
-    ends; a terminal's signals to the process group are the parent's to act on."""
-
-    def __init__(self):
-        import multiprocessing as mp
-        import os
-
-        ctx = mp.get_context("fork")
-        self._conn, child = ctx.Pipe()
-        self._poll = ctx.Value("b", 0, lock=False)
-        self._ready = ctx.Value("b", 0, lock=False)     # set by the child once warm
-        self._wanted = ctx.Value("b", 0, lock=False)    # set by start(): no warm-up then
-        self._job = None                                # a job start() left to wait()
-        self._proc = ctx.Process(target=_plot_process, args=(child, self._conn, self._poll,
-                                                             self._ready, self._wanted),
-                                 name="navkit-plot", daemon=True)
-        self._cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
-        self._proc.start()
-        child.close()
-        self._used = False
-        # set here, not in the child: start()'s change back to normal priority then comes after
-        self._priority(os.SCHED_IDLE if hasattr(os, "SCHED_IDLE") else None)
-
-    def _priority(self, policy) -> None:
-        """Put the child under scheduling `policy` (os.SCHED_IDLE or os.SCHED_OTHER; None:
-        leave it), where the system allows it."""
-        import os
-
-        try:
-            if policy is not None:
-                os.sched_setscheduler(self._proc.pid, policy, os.sched_param(0))
-        except (AttributeError, OSError):
-            pass
-
-    def keep_busy(self, cpus: set, poll: bool = True) -> bool:
-        """Pin the child to `cpus` (CPU numbers) at idle priority and, with `poll`, let it
-        poll for its job once warm; False if it could not be pinned (then it sleeps until
-        its job wherever it runs)."""
-        import os
-
-        try:
-            os.sched_setaffinity(self._proc.pid, cpus)
-        except (AttributeError, OSError):
-            return False
-        self._poll.value = 1 if poll else 0
-        return True
-
-    def plot_mcap(self, path: Path, out: Path, series: dict | None = None) -> None:
-        """plot_mcap(path, out, series) in the child: start() then wait()."""
-        self.start(path, out, series)
-        self.wait()
-
-    def start(self, path: Path, out: Path, series: dict | None = None) -> None:
-        """Hand the child plot_mcap(path, out, series) to do, at normal priority on the CPUs
-        it was made with, and return at once (raising nothing); wait() waits for it. A
-        child still importing takes the job in wait() (its pipe would block this call)."""
-        import os
-
-        self._used = True
-        self._wanted.value = 1
-        self._poll.value = 0
-        # the parent waits for this plot: the child's import, if unfinished, too
-        self._priority(getattr(os, "SCHED_OTHER", None))
-        try:
-            if self._cpus:
-                os.sched_setaffinity(self._proc.pid, self._cpus)
-        except OSError:
-            pass
-        self._out = Path(out)
-        self._job = (Path(path), Path(out), series)
-        if self._ready.value:
-            self._send_job()
-
-    def _send_job(self) -> None:
-        """Send the job start() was given, if not sent yet."""
-        job, self._job = self._job, None
-        if job is not None:
-            try:
-                self._conn.send(job)
-            except OSError:     # the child is gone: wait() says so
-                pass
-
-    def wait(self) -> float | None:
-        """Wait for the plot start() handed over; its error (OSError, ValueError,
-        McapError) is raised here. Returns the time.monotonic() (s) at which the child was
-        ready to draw (imported and warmed up) before a job came, None if a job came first."""
-        self._send_job()
-        try:
-            err, ready = self._conn.recv()
-        except (EOFError, OSError):
-            raise OSError(f"{self._out}: the plot process ended before it drew the plot") from None
-        if err is not None:
-            raise err
-        return ready
-
-    def close(self) -> None:
-        """End the child and wait for it: once it has drawn what it was given; at once
-        (SIGKILL, it holds no file) if it was given nothing, as after a failed run."""
-        if self._conn is None:
-            return
-        if not self._used:
-            self._proc.kill()
-        try:
-            self._conn.send(None)
-        except OSError:
-            pass
-        self._conn.close()
-        self._conn = None
-        self._proc.join(5)
-        if self._proc.exitcode is None:
-            self._proc.kill()
-            self._proc.join()
-
-
-def _plot_process(conn, parent_end, poll, ready_flag, wanted) -> None:
-    """PlotProcess's child (its parent sets its priority): import matplotlib (_IMPORTS) and
-    _warm_up, then wait for each job (path, out, series), polling while `poll` is set, draw
-    it and answer (None or the error, the time.monotonic() at which it was warm before any
-    job, or None), until None or EOF, then exit at once (os._exit). It sets `ready_flag`
-    once warm; it skips the warm-up when `wanted` is set (a job is on its way: it warms up
-    the drawing itself).
-    `parent_end`, the parent's end of the pipe that fork() copied here, is closed first,
-    so a parent that dies is seen as EOF."""
-    import importlib
-    import os
-    import signal
-    import time
-
-    parent_end.close()
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
-        signal.signal(sig, signal.SIG_IGN)
-    for name in _IMPORTS:
-        importlib.import_module(name)
-        if name == "matplotlib":
-            importlib.import_module(name).use("Agg")
-    ready = None
-    if not wanted.value and not conn.poll(0):
-        _warm_up()
-        ready = time.monotonic()
-    ready_flag.value = 1
-    while True:
-        while poll.value and not conn.poll(0):  # a job, or EOF: the parent is gone
-            pass
-        try:
-            job = conn.recv()
-        except (EOFError, OSError):
-            job = None
-        if job is None:     # no interpreter teardown: its files are closed, and the parent
-            os._exit(0)     # waits for this exit (PlotProcess.close)
-        try:
-            plot_mcap(*job)
-            err = None
-        except Exception as e:  # noqa: BLE001 - handed to the parent, which raises it
-            err = e
-        try:
-            conn.send((err, ready))
-        except (OSError, EOFError):         # the parent is gone
-            return
-        except Exception:  # noqa: BLE001 - an error that does not pickle: its text
-            conn.send((ValueError(f"{job[1]}: {err}"), ready))
+# tab10 colours: the truth, the micro's view, commands, events
+_TRUTH, _MICRO, _COMMAND, _EVENT = "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728"
 
 
 def _run_title(path: Path) -> str:
@@ -536,100 +276,82 @@ def _run_title(path: Path) -> str:
 
 
 def mcap_figure(path: Path):
-    """The plot of run `path` (run.mcap) as a matplotlib Figure (run_figure)."""
-    return run_figure(_read_thinned(Path(path)), _run_title(Path(path)))
+    """The plot of run `path` (run.mcap) as a matplotlib Figure (run_figure drawn by
+    navkit.figure_mpl; close it with matplotlib.pyplot.close if pyplot is in use)."""
+    from navkit.figure_mpl import to_matplotlib
+
+    return to_matplotlib(run_figure(_read_series(Path(path)), _run_title(Path(path))))
 
 
-def _legend(ax) -> None:
-    """The panel's legend above its top right corner, outside the data (a fixed place: no
-    search for the emptiest corner, which costs a pass over every point)."""
-    ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2, fontsize="small",
-              frameon=False, borderaxespad=0.2)
+def _panels(rows: int, left: float = 0.1, right: float = 0.97, bottom: float = 0.05,
+            top: float = 0.96, gap: float = 0.22) -> list:
+    """Rects (left, bottom, width, height; figure fractions) of `rows` panels stacked top
+    to bottom between the margins, `gap` times a panel's height between two."""
+    h = (top - bottom) / (rows + gap * (rows - 1))
+    return [(left, top - i * h * (1 + gap) - h, right - left, h) for i in range(rows)]
 
 
-def run_figure(msgs: dict, title: str):
-    """The plot of a run's messages `msgs` ({topic: [(log_time_ns, decoded JSON), ...]},
-    _read_thinned or decoded(RunSeries.raw())) as a matplotlib Figure (close it with
-    matplotlib.pyplot.close if pyplot is in use): three panels, the path (truth y_mm
-    across, x_mm up, mm) titled `title`, the speed (mm/s) and the heading (deg, clockwise
-    0..360) against simulated time (s); on the speed and heading panels one vertical line
-    per /planner/cmd message (gid "command") and per /events message (gid "event") at its
-    log time, in one LineCollection per gid and panel. Fixed margins for its 9 x 11 in (no
-    tight_layout pass)."""
-    truth = [m for _, m in msgs.get("/truth", [])]
-    if not truth:
+def run_figure(series: dict, title: str):
+    """The plot of a run's messages `series` (RunSeries.raw(): {topic: [(log_time_ns, JSON
+    bytes), ...]}) as a finished navkit.figure.Figure, 9 x 11 in: three panels, the path
+    (truth y_mm across, growing to the left, x_mm up, mm, equal aspect) titled `title`,
+    the speed (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s);
+    on the speed and heading panels a vertical mark per /planner/cmd message (gid
+    "command") and per /events message (gid "event") at its log time, labelled where
+    labels stand apart (_apart). ValueError without /truth."""
+    import numpy as np
+
+    from navkit.figure import Figure, Line, Marks, Panel, Upright
+
+    if not series.get("/truth"):
         raise ValueError("no /truth messages")
-    cmds = msgs.get("/planner/cmd", [])
-    events = msgs.get("/events", [])
-    micro = msgs.get("/micro/data", [])
-    t = [m["t"] for m in truth]
-    fig, (ax_xy, ax_v, ax_h) = _figure(3, 11)
-    fig.subplots_adjust(left=0.1, right=0.97, bottom=0.05, top=0.96, hspace=0.22)
-    ax_xy.plot([m["y_mm"] for m in truth], [m["x_mm"] for m in truth], label="truth")
-    if micro:
+    _, truth = fields("/truth", series["/truth"], ("t", "x_mm", "y_mm", "v_mm_s", "heading_deg"))
+    micro_t, micro = fields("/micro/data", series.get("/micro/data", []),
+                            ("x", "y", "fwd_speed", "heading"))
+    marks = decoded({k: series.get(k, []) for k in ("/planner/cmd", "/events")})
+    cmds, events = marks["/planner/cmd"], marks["/events"]
+    r_xy, r_v, r_h = _panels(3)
+    xy = Panel(r_xy, xlabel="y (left), mm", ylabel="x (forward), mm", title=title, invert_x=True,
+               equal=True)
+    xy.lines.append(Line(truth["y_mm"], truth["x_mm"], _TRUTH, label="truth"))
+    v = Panel(r_v, ylabel="speed, mm/s")
+    v.lines.append(Line(truth["t"], truth["v_mm_s"], _TRUTH, label="truth v"))
+    h = Panel(r_h, ylabel="heading, deg (cw)", xlabel="simulated time, s", ylim=(-5.0, 365.0))
+    h.lines.append(Line(truth["t"], truth["heading_deg"] % 360, _TRUTH, width=2.0, style="points",
+                        label="truth heading"))
+    if micro_t.size:
         # the micro's odometry uses the truth's axes (x forward, y left)
-        ax_xy.plot([m["y"] for _, m in micro], [m["x"] for _, m in micro], "--", lw=0.8,
-                   label="micro odometry")
-    ax_xy.set_xlabel("y (left), mm")
-    ax_xy.set_ylabel("x (forward), mm")
-    ax_xy.invert_xaxis()
-    ax_xy.set_aspect("equal", adjustable="datalim")
-    ax_xy.set_title(title, loc="left")
-    _legend(ax_xy)
-    ax_v.plot(t, [m["v_mm_s"] for m in truth], label="truth v")
-    if micro:
-        ax_v.plot([ns / 1e9 for ns, _ in micro], [m["fwd_speed"] for _, m in micro], lw=0.8,
-                  label="micro fwd_speed")
-    ax_v.set_ylabel("speed, mm/s")
-    _legend(ax_v)
-    ax_h.plot(t, [m["heading_deg"] % 360 for m in truth], ".", ms=2, label="truth heading")
-    if micro:
-        ax_h.plot(*_wrapped([ns / 1e9 for ns, _ in micro], [m["heading"] / 10 for _, m in micro]),
-                  lw=0.8, label="micro heading")
-    ax_h.set_ylabel("heading, deg (cw)")
-    ax_h.set_xlabel("simulated time, s")
-    ax_h.set_ylim(-5, 365)
-    _legend(ax_h)
-    for ax in (ax_v, ax_h):
-        _marks(ax, cmds, "command", color="tab:green", lw=0.8, alpha=0.7)
-        _marks(ax, events, "event", color="tab:red", lw=0.8, ls=":")
-    for ns, cmd in _apart(ax_v, cmds):
-        ax_v.annotate(_command_label(cmd), (ns / 1e9, 1.0), xycoords=("data", "axes fraction"),
-                      rotation=90, va="top", ha="right", fontsize=_LABEL_PT, color="tab:green")
-    for ns, ev in _apart(ax_h, events):
-        ax_h.annotate(ev["kind"], (ns / 1e9, 0.0), xycoords=("data", "axes fraction"),
-                      rotation=90, va="bottom", ha="right", fontsize=_LABEL_PT, color="tab:red")
+        xy.lines.append(Line(micro["y"], micro["x"], _MICRO, 0.8, "dashed", "micro odometry"))
+        v.lines.append(Line(micro_t, micro["fwd_speed"], _MICRO, 0.8, label="micro fwd_speed"))
+        h.lines.append(Line(*_wrapped(micro_t, micro["heading"] / 10), _MICRO, 0.8,
+                            label="micro heading"))
+    for p in (v, h):
+        if cmds:
+            p.marks.append(Marks(np.array([ns for ns, _ in cmds]) / 1e9, _COMMAND, 0.8, alpha=0.7,
+                                 gid="command"))
+        if events:
+            p.marks.append(Marks(np.array([ns for ns, _ in events]) / 1e9, _EVENT, 0.8, "dotted",
+                                 gid="event"))
+    fig = Figure(*_SIZE_IN, _DPI, [xy, v, h]).finish()
+    v.labels = [Upright(ns / 1e9, _command_label(cmd), _COMMAND, _LABEL_PT, "top")
+                for ns, cmd in _apart(fig, v, cmds)]
+    h.labels = [Upright(ns / 1e9, ev["kind"], _EVENT, _LABEL_PT, "bottom")
+                for ns, ev in _apart(fig, h, events)]
     return fig
-
-
-def _marks(ax, marks: list, gid: str, **style) -> None:
-    """One vertical line across `ax` at the log time (s) of each mark [(log_time_ns,
-    msg), ...], all in one LineCollection with gid `gid` (one artist: a line per mark
-    costs a Line2D and a data-limits update each); the axes' limits are left alone."""
-    from matplotlib.collections import LineCollection
-
-    if marks:
-        segs = [((ns / 1e9, 0.0), (ns / 1e9, 1.0)) for ns, _ in marks]
-        ax.add_collection(LineCollection(segs, transform=ax.get_xaxis_transform(), gid=gid,
-                                         linestyles=style.pop("ls", "solid"),
-                                         colors=style.pop("color"), linewidths=style.pop("lw"),
-                                         **style), autolim=False)
 
 
 # Font size (pt) of a command's or event's label, written upright beside its line.
 _LABEL_PT = 6
 
 
-def _apart(ax, marks: list) -> list:
-    """The marks [(log_time_ns, msg), ...] (in time order) whose upright labels on `ax`
-    stand apart: a mark is labelled when it lies at least two labels' heights
-    (2 * _LABEL_PT) to the right of the last labelled one, in points of the figure at any
-    dpi, so each label has a gap of its own height beside it. Every mark keeps its line;
-    labels packed closer could not be read, and their glyphs are the largest part of the
-    drawing's time."""
-    x0, x1 = ax.get_xlim()
-    width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72
-    per_s = width_pt / (x1 - x0) if x1 > x0 else 0.0
+def _apart(fig, panel, marks: list) -> list:
+    """The marks [(log_time_ns, msg), ...] (in time order) whose upright labels on finished
+    `panel` of `fig` stand apart: a mark is labelled when it lies at least two labels'
+    heights (2 * _LABEL_PT, pt) to the right of the last labelled one, so each label has
+    a gap of its own height beside it. Every mark keeps its line; labels packed closer
+    could not be read."""
+    x0, x1 = panel.xlim
+    per_s = panel.size_pt(fig)[0] / abs(x1 - x0) if x1 != x0 else 0.0
     out, last = [], None
     for ns, msg in marks:
         x = ns / 1e9 * per_s
@@ -694,9 +416,13 @@ def plot_datalog(path: Path, out: Path) -> None:
     x = [r[0] for r in rows] if timed else list(range(len(rows)))
     shown = params[1:] if timed else params
     off = 1 if timed else 0
-    fig, axes = _figure(max(1, len(shown)), 1.6 * max(1, len(shown)) + 1)
-    if len(shown) == 1:
-        axes = [axes]
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(9, 1.6 * max(1, len(shown)) + 1))
+    axes = fig.subplots(max(1, len(shown)), 1, squeeze=False)[:, 0]
     for i, (ax, (name, lo, hi)) in enumerate(zip(axes, shown)):
         ax.plot(x, [r[i + off] for r in rows], lw=0.9)
         ax.set_ylabel(name, fontsize="small", rotation=0, ha="right")

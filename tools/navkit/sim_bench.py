@@ -131,10 +131,8 @@ PHASES = (
 
 def whole_command(mission: Path, out: Path, seed: int, build: Path | None, link: str) -> dict | None:
     """Run `python -m navkit sim` on `mission` into `out` with every output, as a user
-    does, and time it: {phase key: wall s} (PHASES), "total" (s, from spawning the
-    process to its exit) and "plot_ready" (s before the loop's end at which the plot
-    process had imported matplotlib and warmed up; None if its job came first); None after
-    one line on stderr if the command failed."""
+    does, and time it: {phase key: wall s} (PHASES) and "total" (s, from spawning the
+    process to its exit); None after one line on stderr if the command failed."""
     stamps_file = out.with_suffix(".stamps.json")
     cmd = [sys.executable, "-m", "navkit", "sim", "--mission", str(mission), "--out", str(out),
            "--seed", str(seed), "--link", link, "--no-progress", "--stamps", str(stamps_file)]
@@ -156,9 +154,6 @@ def whole_command(mission: Path, out: Path, seed: int, build: Path | None, link:
         parts[key] = at - last
         last = at
     parts["total"] = t1 - t0
-    # how long before the loop's end the plot process was ready to draw (None: only after)
-    ready = stamps.get("plot_ready")
-    parts["plot_ready"] = stamps["loop"] - ready if ready is not None and "loop" in stamps else None
     return parts
 
 
@@ -176,12 +171,6 @@ def _print_whole(runs: list, sim_s: float) -> None:
         totals = [p["total"] for p in runs]
         print(f"  {len(runs)} runs: best {totals[0]:.2f} s ({sim_s / totals[0]:.0f}x), median "
               f"{statistics.median(totals):.2f} s, worst {totals[-1]:.2f} s ({sim_s / totals[-1]:.0f}x)")
-    ready = [p["plot_ready"] for p in runs]
-    warm = [r for r in ready if r is not None and r >= 0]
-    print(f"  plot process ready to draw before the loop ended in {len(warm)} of {len(runs)} runs"
-          + (f" (by {min(warm):.2f}..{max(warm):.2f} s)" if warm else "")
-          + ("" if len(warm) == len(runs) else ": else its import or warm-up was left for after "
-             "the loop (at idle priority it gets only the CPU the log worker and others leave)"))
 
 
 def _print_loop(s: dict, link: str) -> None:

@@ -19,7 +19,7 @@ __all__ = ["add_arguments", "run", "DEFAULT_MISSION", "EXIT_AT_ONCE"]
 
 DEFAULT_MISSION = "config/missions/demo.toml"
 
-# run() returns with every child ended (host, log worker, plot process) and every file it
+# run() returns with every child ended (host, log worker) and every file it
 # wrote closed, however it ends: the navkit command exits at once (navkit.cli.main),
 # without tearing the harness's modules (numpy, fmpy) and objects down one by one
 EXIT_AT_ONCE = True
@@ -93,26 +93,16 @@ def run(args) -> int:
     import time
 
     stamps = {"cli": time.monotonic()}
-    # numpy (fmpy's, matplotlib's) with one BLAS thread, as a run does no linear algebra:
-    # a pool's threads would start and spin on the other CPUs at numpy's import (beside
-    # the log worker and the plot process), and the processes forked after that import
-    # (the log worker, the plot's helper) would be forked from a threaded process. A
-    # value the user set is kept.
+    # numpy (fmpy's) with one BLAS thread, as a run does no linear algebra: a pool's
+    # threads would start and spin on the other CPUs at numpy's import (beside the log
+    # worker), and the log worker, forked after that import, would be forked from a
+    # threaded process. A value the user set is kept.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    if args.no_plot:
-        return _run(args, stamps, None)
-    # plot.png's matplotlib import starts now, beside the mission's loading and the run
-    from navkit.plot import PlotProcess
-
-    plotter = PlotProcess()
-    try:
-        return _run(args, stamps, plotter)
-    finally:
-        plotter.close()
+    return _run(args, stamps)
 
 
-def _run(args, stamps: dict, plotter) -> int:
-    """run(args) with the plot drawn by `plotter` (None: --no-plot)."""
+def _run(args, stamps: dict) -> int:
+    """run(args) once the environment is set."""
     from navkit.hostconfig import forget_asks
     from navkit.sim.options import ask_host_config, config_folder, git_revision_started
 
@@ -125,13 +115,13 @@ def _run(args, stamps: dict, plotter) -> int:
     frame_s = args.frame_ms / 1000 if args.frame_ms is not None else None
     ask_host_config(config_folder(args.config), args.build, frame_s)   # None: build_dir()
     try:
-        return _run_asked(args, stamps, plotter, git, frame_s)
+        return _run_asked(args, stamps, git, frame_s)
     finally:
         git()
         forget_asks()
 
 
-def _run_asked(args, stamps: dict, plotter, git, frame_s: float | None) -> int:
+def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
     """_run once git (git_revision_started()) and the host's config have been asked."""
     import signal
     import time
@@ -165,7 +155,7 @@ def _run_asked(args, stamps: dict, plotter, git, frame_s: float | None) -> int:
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, _interrupt)
     try:
-        s = run_sim(opts, stamps, plotter, git)
+        s = run_sim(opts, stamps, git)
     except (MissionError, SimError) as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1

@@ -19,6 +19,7 @@ import sys
 import time
 from pathlib import Path
 
+from navkit.plot import plot_mcap
 from navkit.sim.faults import Faults
 from navkit.sim.lockstep import run_lockstep
 from navkit.sim.options import (STEP_S, SimError, SimInterrupted, SimOptions, check_frame, fmu_paths,
@@ -31,43 +32,32 @@ __all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_
            "frame_period", "check_frame", "git_revision", "STEP_S"]
 
 
-def run(opts: SimOptions, stamps: dict | None = None, plotter=None, git=None) -> dict:
+def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
     """Do one run; write run.mcap, summary.json (and plot.png) into opts.out; return the
     summary. Raises MissionError for a mission that does not fit the FMUs, SimError if a
     part is missing or fails or the plant FMU does not fit the coupler (navkit.sim.plant).
     `stamps`, when given, gets the time.monotonic() (s) at which each phase ended: "run"
     (entered), "started" (set-up), "loop", "stopped" (host, log worker, FMUs closed),
-    "summary" (summary.json written) and "plot" (plot.png written); and "plot_ready" when
-    the plot process was ready to draw (imported and warmed up) before its job came. plot.png is drawn by
-    `plotter`, a navkit.plot.PlotProcess the caller made earlier and closes (navkit sim
-    makes it first thing), else by one made and closed here: its matplotlib import and
-    warm-up run beside the set-up and the loop (navkit.sim.rig: on the log worker's CPU).
-    `git`: the run's git_revision_started() when the caller started it earlier, else None."""
-    def stamp(key: str, at: float | None = None) -> None:
+    "summary" (summary.json written) and "plot" (plot.png written). plot.png is drawn
+    here (navkit.plot.plot_mcap: Pillow, no matplotlib) from the messages the log worker
+    kept as it wrote run.mcap. `git`: the run's git_revision_started() when the caller
+    started it earlier, else None."""
+    def stamp(key: str) -> None:
         if stamps is not None:
-            stamps[key] = time.monotonic() if at is None else at
+            stamps[key] = time.monotonic()
 
     stamp("run")
-    if plotter is not None or not opts.plot:
-        return _run(opts, plotter if opts.plot else None, stamp, git)
-    from navkit.plot import PlotProcess
-
-    plotter = PlotProcess()
-    try:
-        return _run(opts, plotter, stamp, git)
-    finally:
-        plotter.close()
+    return _run(opts, stamp, git)
 
 
-def _run(opts: SimOptions, plotter, stamp, git=None) -> dict:
-    """run(opts) with plot.png drawn by `plotter` (a navkit.plot.PlotProcess, or None for
-    no plot), each phase's end passed to `stamp` and the git revision from `git` (None:
-    started here)."""
+def _run(opts: SimOptions, stamp, git=None) -> dict:
+    """run(opts) with each phase's end passed to `stamp` and the git revision from `git`
+    (None: started here)."""
     # module imports are not part of a run's wall time (mcap's: the log worker's own, beside
     # the set-up)
     import fmpy.fmi3  # noqa: F401
 
-    rig = SimRig(opts, plotter, git)
+    rig = SimRig(opts, git=git)
     faults = Faults(rig)
     wall0 = time.perf_counter()
     from navkit.sim.coupler import CouplerError
@@ -101,23 +91,15 @@ def _run(opts: SimOptions, plotter, stamp, git=None) -> dict:
                                       "at_s": round(rig.t_ns / 1e9, 6)}
             if Path(opts.out).is_dir():
                 (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-            if plotter is not None and mcap_path.exists():
-                plotter.plot_mcap(mcap_path, png, rig.results.get("plot"))
+            if opts.plot and mcap_path.exists():
+                plot_mcap(mcap_path, png, rig.results.get("plot"))
         finally:
             for s, h in held.items():
                 signal.signal(s, h)
         raise SimInterrupted(summary, interrupted)
-    # plot.png from the messages the log worker kept while writing run.mcap (read back from
-    # the file only if the worker gave no results: it died), drawn while the coupler and
-    # the FMUs end and summary.json is written
-    plotting = []
-
-    def plot(results: dict) -> None:
-        plotter.start(mcap_path, png, results.get("plot"))
-        plotting.append(True)
-    rig.stop(None if plotter is None else plot)
-    if plotter is not None and not plotting:
-        plot(rig.results)
+    # the plot's imports and fonts load while the host and the log worker end
+    fonts = _load_fonts() if opts.plot else None
+    rig.stop()
     stamp("stopped")
     wall = time.perf_counter() - wall0
     summary = run_summary(rig, faults, wall)
@@ -127,9 +109,23 @@ def _run(opts: SimOptions, plotter, stamp, git=None) -> dict:
         verdict = ref["nav_result"].replace("_", " ")
         print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
               f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
-    if plotter is not None:
-        ready = plotter.wait()
+    if opts.plot:
+        # from the messages the log worker kept while writing run.mcap (read back from the
+        # file only if the worker gave no results: it died)
+        fonts.join()
+        plot_mcap(mcap_path, png, rig.results.get("plot"))
         stamp("plot")
-        if ready is not None:
-            stamp("plot_ready", ready)
     return summary
+
+
+def _load_fonts():
+    """A started thread loading what plot.png's drawing needs (navkit.plot.prepare), for
+    the harness to join before it draws: the loading overlaps the waits for the host's
+    and the log worker's ends."""
+    import threading
+
+    from navkit.plot import prepare
+
+    thread = threading.Thread(target=prepare, name="navkit-plot-fonts", daemon=True)
+    thread.start()
+    return thread
