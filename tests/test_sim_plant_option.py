@@ -87,9 +87,13 @@ def test_missing_and_mistyped_variables_are_named(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("case", ["fmi2", "no_binary", "not_a_zip", "no_file"])
+@pytest.mark.parametrize("case", ["fmi2", "no_binary", "not_a_zip", "no_file", "schema"])
 def test_unusable_plant_fmus_are_refused(tmp_path, case):
-    if case == "fmi2":
+    if case == "schema":        # a user's plant is checked against the FMI schemas
+        fmu = rewrite_fmu(_plant(), tmp_path / "schema.fmu", lambda xml: xml.replace(
+            "<fmiModelDescription", '<fmiModelDescription colour="red"', 1))
+        want = "attribute 'colour': The attribute 'colour' is not allowed"
+    elif case == "fmi2":
         fmu = build_dir() / "fmus" / "navkit_plant_fmi2.fmu"
         if not fmu.exists():
             pytest.skip(f"{fmu} not built")

@@ -37,34 +37,39 @@ def contract(fw_md) -> dict:
             if v.type in _LINKED_TYPES and v.causality in _OPPOSITE}
 
 
-def model_description(path: Path):
-    """fmpy's model description of FMU file `path`, read (and validated) once per version
-    of the file (its size and modification time): the check and the instantiation of a
-    run, and the runs of one process, share it. Read-only to its users."""
+def model_description(path: Path, validate: bool = True):
+    """fmpy's model description of FMU file `path`, read once per version of the file (its
+    size and modification time) and `validate` (its XML checked against the FMI schemas,
+    which the first check in a process loads: several ms): the check and the
+    instantiation of a run, and the runs of one process, share it. Read-only to its users."""
     st = Path(path).stat()
-    return _model_description(str(path), st.st_size, st.st_mtime_ns)
+    return _model_description(str(path), st.st_size, st.st_mtime_ns, validate)
 
 
 @functools.lru_cache(maxsize=8)
-def _model_description(path: str, _size: int, _mtime_ns: int):
+def _model_description(path: str, _size: int, _mtime_ns: int, validate: bool):
     from fmpy import read_model_description
 
-    return read_model_description(path)
+    return read_model_description(path, validate=validate)
 
 
-def _read(path: Path, what: str):
+def _read(path: Path, what: str, validate: bool = True):
     if not path.is_file():
         raise PlantFmuError(f"{path}: no such file ({what})")
     try:
-        return model_description(path)
+        return model_description(path, validate)
     except Exception as e:  # noqa: BLE001 - fmpy raises plain Exception for bad FMUs
         raise PlantFmuError(f"{path}: not a readable FMU: {e}") from None
 
 
-def check(plant_fmu: str | Path, fw_fmu: str | Path):
+def check(plant_fmu: str | Path, fw_fmu: str | Path, validate: bool = True):
     """Check the plant FMU file `plant_fmu` against the firmware FMU file `fw_fmu`; return
     the plant's fmpy model description. Raises PlantFmuError naming `plant_fmu` and, for a
-    variable mismatch, each missing or mistyped variable."""
+    variable mismatch, each missing or mistyped variable. `validate`: check the plant's
+    XML against the FMI schemas (a plant of the user's). The build's own FMUs are
+    validated by their tests (test_plant_fmu, test_firmware_fmu, test_pil_fmu), so the
+    firmware FMU, always the build's, is read without, as is the build's plant
+    (`validate` False)."""
     import zipfile
 
     from fmpy import platform_tuple, sharedLibraryExtension
@@ -72,7 +77,7 @@ def check(plant_fmu: str | Path, fw_fmu: str | Path):
     from navkit.sim.coupler import TRUTH_PLANT
 
     plant_fmu, fw_fmu = Path(plant_fmu), Path(fw_fmu)
-    md = _read(plant_fmu, "the plant FMU")
+    md = _read(plant_fmu, "the plant FMU", validate)
     if md.fmiVersion.startswith("2."):
         raise PlantFmuError(f"{plant_fmu}: {FMI2_UNSUPPORTED} (it calls the fmi3 functions): "
                             f"export the plant as an FMI 3.0 co-simulation FMU")
@@ -88,7 +93,7 @@ def check(plant_fmu: str | Path, fw_fmu: str | Path):
         if binary not in z.namelist():
             raise PlantFmuError(f"{plant_fmu}: no binary for this platform ({binary})")
     have = {v.name: v for v in md.modelVariables}
-    wanted = contract(_read(fw_fmu, "the firmware FMU"))
+    wanted = contract(_read(fw_fmu, "the firmware FMU", validate=False))
     optional = dict(_OPTIONAL, **{n: ("Float64", "output") for n in TRUTH_PLANT})
     problems = []
     for name, (typ, caus) in list(wanted.items()) + list(optional.items()):

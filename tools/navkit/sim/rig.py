@@ -130,8 +130,11 @@ class SimRig:
             fw_fmu = fw_fmu.with_name(f"{fw_fmu.stem}_can.fmu")
         self.fw_fmu = fw_fmu
         self._firmware_rate(fw_fmu)
+        # a plant of the user's is checked against the FMI schemas; the build's own FMUs
+        # are by their tests (navkit.sim.plant.check)
+        validate = self.opts.plant_fmu is not None
         try:
-            plant_md = check(plant_fmu, fw_fmu)     # FMI 3.0 co-simulation, the contract
+            plant_md = check(plant_fmu, fw_fmu, validate)   # FMI 3.0 co-simulation, the contract
         except PlantFmuError as e:
             raise SimError(str(e)) from None
         check_seed(self.opts.seed, plant_md, plant_fmu)
@@ -140,7 +143,7 @@ class SimRig:
             plant_params["world_file"] = str(self.m.world)
         plant_params.update(self.m.plant)
         self.fmus = FmuPair(fw_fmu, plant_fmu, self.tmp, self._known_plant(plant_md, plant_params),
-                            self.m)
+                            self.m, validate)
         every = max(1, round(1.0 / (self.opts.truth_hz * STEP_S)))
         self.coupler = Coupler(self.fmus.fw, self.fmus.fw_md, self.fmus.plant,
                                self.fmus.plant_md, step_s=STEP_S, record_every=every,
