@@ -21,7 +21,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from navkit.figure import TICK_PT
 
-__all__ = ["render", "write_png", "png_bytes", "prepare", "SCALE", "font_path", "panel_box", "to_pixels"]
+__all__ = ["render", "write_png", "png_bytes", "SCALE", "font_path", "panel_box", "to_pixels"]
 
 # How many times larger than the page a panel's lines are drawn before being shrunk to it.
 SCALE = 3
@@ -44,7 +44,7 @@ _DOT = (1.0, 1.65)              # "dotted": on, off, times the line's width
 
 # Most dashes a dashed line is drawn with (one drawing call each): a longer one, a path
 # tangled over itself, is drawn solid, so its time stays bounded.
-_MAX_DASHES = 5000
+_MAX_DASHES = 3000
 
 _WHITE = (255, 255, 255)
 _BLACK = (0, 0, 0)
@@ -78,14 +78,6 @@ def _font(size_px: float):
     return font, -top, bottom
 
 
-def prepare(dpi: float, sizes_pt=()) -> None:
-    """Load the fonts a figure at `dpi` draws its frame with (ticks, title, legend) and
-    those of `sizes_pt` (pt): Pillow's imports and the font files are then ready for the
-    drawing (a caller may do this in a thread while it waits for something else)."""
-    for pt in (TICK_PT, _TITLE_PT, _LEGEND_PT, *sizes_pt):
-        _font(pt * dpi / 72.0)
-
-
 def _rgb(color: str, alpha: float = 1.0) -> tuple:
     """"#rrggbb" as (r, g, b), blended with opacity `alpha` over white."""
     c = color.lstrip("#")
@@ -117,8 +109,9 @@ def to_pixels(fig, panel, x, y) -> tuple:
 def render(fig, scale: int = SCALE) -> Image.Image:
     """Finished Figure `fig` drawn as an RGB image of fig.pixels."""
     img = Image.new("RGB", fig.pixels, _WHITE)
+    canvas = None
     for p in fig.panels:
-        _draw_data(img, fig, p, scale)
+        canvas = _draw_data(img, fig, p, scale, canvas)
     draw = ImageDraw.Draw(img)
     for p in fig.panels:
         _draw_frame(img, draw, fig, p)
@@ -161,15 +154,20 @@ def png_bytes(pixels, dpi: float) -> bytes:
     return b"".join((b"\x89PNG\r\n\x1a\n",
                      chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color, 0, 0, 0)),
                      chunk(b"pHYs", struct.pack(">IIB", per_m, per_m, 1)),
-                     chunk(b"IDAT", zlib.compress(data.tobytes(), 1)),
+                     chunk(b"IDAT", zlib.compress(data, 1)),
                      chunk(b"IEND", b"")))
 
 
-def _draw_data(img, fig, p, scale: int) -> None:
-    """Panel `p`'s marks, then its lines, drawn `scale` times larger and shrunk onto `img`."""
+def _draw_data(img, fig, p, scale: int, canvas=None):
+    """Panel `p`'s marks, then its lines, drawn `scale` times larger and shrunk onto `img`;
+    on `canvas` (cleared) when it is the right size, as the panels of one figure usually
+    are (a new image of that size costs more than clearing one). Returns the canvas."""
     x0, y0, x1, y1 = panel_box(fig, p)
     w, h = x1 - x0 + 1, y1 - y0 + 1
-    canvas = Image.new("RGB", (w * scale, h * scale), _WHITE)
+    if canvas is not None and canvas.size == (w * scale, h * scale):
+        canvas.paste(_WHITE, (0, 0, w * scale, h * scale))
+    else:
+        canvas = Image.new("RGB", (w * scale, h * scale), _WHITE)
     draw = ImageDraw.Draw(canvas)
     px_per_pt = fig.dpi / 72.0 * scale
     for m in p.marks:
@@ -181,6 +179,7 @@ def _draw_data(img, fig, p, scale: int) -> None:
         _draw_line(canvas, draw, (px - x0) * scale, (py - y0) * scale, ln.width * px_per_pt,
                    ln.style, _rgb(ln.color), scale)
     img.paste(canvas.reduce(scale) if scale > 1 else canvas, (x0, y0))
+    return canvas
 
 
 def _draw_marks(canvas, draw, xs, width: float, style: str, rgb: tuple, scale: int) -> None:

@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "plot_mcap", "prepare", "mcap_figure", "run_figure", "RunSeries",
+__all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "run_figure", "RunSeries",
            "decoded", "fields", "plot_datalog", "read_datalog", "read_mcap", "PLOT_POINTS"]
 
 # Messages a line of a run plot keeps at most, evenly spaced (the figure is ~1000 pixels
@@ -233,17 +233,6 @@ def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
         from navkit.figure_mpl import save
 
         save(fig, out, fmt)
-
-
-def prepare() -> None:
-    """Load what drawing a run plot's PNG needs (Pillow, the fonts at its sizes), so the
-    drawing itself does not wait for it; an error is left for the drawing to raise."""
-    try:
-        from navkit.figure_png import prepare as load
-
-        load(_DPI, (_LABEL_PT,))
-    except Exception:  # noqa: BLE001 - plot_mcap raises it where it is reported
-        pass
 
 
 def _format(out) -> str:

@@ -97,8 +97,6 @@ def _run(opts: SimOptions, stamp, git=None) -> dict:
             for s, h in held.items():
                 signal.signal(s, h)
         raise SimInterrupted(summary, interrupted)
-    # the plot's imports and fonts load while the host and the log worker end
-    fonts = _load_fonts() if opts.plot else None
     rig.stop()
     stamp("stopped")
     wall = time.perf_counter() - wall0
@@ -112,20 +110,6 @@ def _run(opts: SimOptions, stamp, git=None) -> dict:
     if opts.plot:
         # from the messages the log worker kept while writing run.mcap (read back from the
         # file only if the worker gave no results: it died)
-        fonts.join()
         plot_mcap(mcap_path, png, rig.results.get("plot"))
         stamp("plot")
     return summary
-
-
-def _load_fonts():
-    """A started thread loading what plot.png's drawing needs (navkit.plot.prepare), for
-    the harness to join before it draws: the loading overlaps the waits for the host's
-    and the log worker's ends."""
-    import threading
-
-    from navkit.plot import prepare
-
-    thread = threading.Thread(target=prepare, name="navkit-plot-fonts", daemon=True)
-    thread.start()
-    return thread
