@@ -62,11 +62,10 @@ class SimRig:
     product or a config or frame the host refuses), started by start(), ended by stop()
     (which is safe after a failed or partial start). Times in s, `t_ns` in ns."""
 
-    def __init__(self, opts: SimOptions, plotter=None, git=None):
-        """`plotter`: the navkit.plot.PlotProcess that will draw plot.png, or None. `git`:
-        the run's git_revision_started() when the caller started it earlier, else None."""
+    def __init__(self, opts: SimOptions, git=None):
+        """`git`: the run's git_revision_started() when the caller started it earlier, else
+        None."""
         self.opts = opts
-        self.plotter = plotter
         self.m = opts.mission
         # its git commands run beside the checks and the set-up; start() takes the answer
         self._git = git or git_revision_started()
@@ -218,15 +217,12 @@ class SimRig:
     def _pin(self) -> None:
         """Lockstep: the harness and the host never run at the same time, so put both on
         one CPU (the host inherits the mask), where a tick or a done wakes the other side
-        without a cross-CPU wake-up; the log worker and the plot process (importing and
-        warming up at idle priority) get the other CPUs. On an otherwise idle machine
-        something keeps those CPUs from idling (wake-ups from idle are slow on VMs): the
-        plot process, if there is one, polling for its job once warm, beside the worker at
-        normal priority, which sleeps until its work comes and then preempts it at once;
-        else the worker itself, at idle priority, polling for its work. When other
-        processes already keep the CPUs busy (1-minute load average >= CPU count) the
-        worker keeps normal priority and sleeps, since an idle-priority worker would
-        starve and the harness would wait on it, and nothing polls (docs/cosim.md, Speed)."""
+        without a cross-CPU wake-up; the log worker gets the other CPUs. On an otherwise
+        idle machine the worker keeps its CPU from idling (wake-ups from idle are slow on
+        VMs): at idle priority, it polls for its work. When other processes already keep
+        the CPUs busy (1-minute load average >= CPU count) the worker keeps normal priority
+        and sleeps, since an idle-priority worker would starve and the harness would wait
+        on it (docs/cosim.md, Speed)."""
         try:
             cpus = sorted(os.sched_getaffinity(0))
         except (AttributeError, OSError):
@@ -238,10 +234,7 @@ class SimRig:
             os.sched_setaffinity(0, {cpus[-1]})
             if self.log.pid:
                 os.sched_setaffinity(self.log.pid, set(cpus[:-1]))
-                busy = os.getloadavg()[0] >= len(cpus)
-                polled = self.plotter is not None and self.plotter.keep_busy(set(cpus[:-1]),
-                                                                             poll=not busy)
-                if busy or polled:
+                if os.getloadavg()[0] >= len(cpus):
                     return
                 # the worker yields at once to anything else (the kernel's pty work), and
                 # polls rather than sleeps so its CPU never idles (wake-ups are slow on VMs)
@@ -293,12 +286,10 @@ class SimRig:
             tail = (self.out / "host.log").read_bytes()[-2000:].decode(errors="replace")
             raise SimError(f"navkit-host exited with status {self.proc.returncode}:\n{tail}")
 
-    def stop(self, on_results=None) -> None:
+    def stop(self) -> None:
         """End every part that was started, in order (host, with the bus played out until it
         has exited: navkit.sim.playout; planner, port, CAN log, log worker, coupler, FMUs),
-        keeping what each reports; remove the temporary folder. `on_results`, when given,
-        is called with the log's results as soon as the log worker has given them (and
-        run.mcap is closed), before the coupler and the FMUs are ended."""
+        keeping what each reports; remove the temporary folder."""
         self._git()
         if self.progress is not None:
             self.progress.close()
@@ -349,8 +340,6 @@ class SimRig:
         if self.log is not None:
             self.results = self.log.close()
             self.log = None
-            if on_results is not None:
-                on_results(self.results)
         if self.coupler is not None:
             if self.opts.timing:
                 self.fmu_split = self.coupler.fmu_seconds()
