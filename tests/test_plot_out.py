@@ -45,3 +45,20 @@ def test_plot_refuses_a_suffix_without_a_writer(tmp_path_factory, tmp_path, caps
         assert err.count("\n") == 1 and err.startswith(f"navkit plot: {bad}: cannot write a .xyz image"), err
         assert ".png" in err and ".svg" in err and "Traceback" not in err
         assert not bad.exists()
+
+
+def test_plot_repeat_times_the_drawing(tmp_path_factory, tmp_path, capsys):
+    """--repeat N: a run drawn N times from its messages read once, the times printed, the
+    PNG written; 0 is refused as a bad option."""
+    import pytest
+
+    mcap, _ = _outputs(tmp_path_factory)
+    png = tmp_path / "r.png"
+    assert main(["plot", str(mcap), "-o", str(png), "--repeat", "2"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("drawn 2 times from the messages read once: first ") and "median" in out, out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(SystemExit) as e:
+        main(["plot", str(mcap), "--repeat", "0"])
+    assert e.value.code == 2
+
