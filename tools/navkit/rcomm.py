@@ -229,6 +229,18 @@ class Client:
 
     beat = heartbeat  # the co-simulation harness's name
 
+    def native(self) -> tuple:
+        """For native code that beats and reads every frame itself (the harness's
+        navkit_cosim lockstep frames): (the open handle, the addresses of
+        navkit_rcomm_heartbeat and navkit_rcomm_read_data, lisp_data's size in bytes, a
+        function giving the RcommError to raise when one of them returned -1). They stay
+        valid until close()."""
+        def addr(fn) -> int:
+            return ctypes.cast(fn, ctypes.c_void_p).value
+
+        return (self._handle(), addr(self._beat_call), addr(self._read_data_call),
+                _BYTES["lisp_data"], self._failed)
+
     def _get(self, fn) -> int:
         if fn(self._handle(), ctypes.byref(self._word)) < 0:
             raise self._failed()

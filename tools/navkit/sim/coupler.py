@@ -13,8 +13,8 @@ import ctypes
 from ctypes import POINTER, c_double, c_int, c_size_t, c_uint8, c_uint32, c_uint64, c_void_p
 from pathlib import Path
 
-__all__ = ["CouplerError", "Coupler", "library_path", "TRUTH_PLANT", "TRUTH_FIRMWARE",
-           "FIRMWARE", "PLANT"]
+__all__ = ["CouplerError", "Coupler", "NativeFrames", "library_path", "TRUTH_PLANT",
+           "TRUTH_FIRMWARE", "FIRMWARE", "PLANT"]
 
 FIRMWARE, PLANT = 0, 1
 _FLOAT64, _INT32 = 0, 1
@@ -78,6 +78,13 @@ def _lib(build: Path | None = None):
         lib.cosim_timing.argtypes = [c_void_p, c_int]
         lib.cosim_error.restype = ctypes.c_char_p
         lib.cosim_error.argtypes = [c_void_p]
+        lib.lockstep_new.restype = c_void_p
+        lib.lockstep_new.argtypes = [c_void_p, c_int, c_uint32, c_uint32, c_int, c_uint64, c_uint32,
+                                     c_uint32, c_void_p, c_size_t, c_void_p, c_size_t, c_size_t,
+                                     c_void_p, c_size_t, c_void_p]
+        lib.lockstep_rcomm.argtypes = [c_void_p, c_void_p, c_void_p, c_void_p, c_void_p]
+        lib.lockstep_port.argtypes = [c_void_p, c_int]
+        lib.lockstep_free.argtypes = [c_void_p]
         _LIB = lib
     return _LIB
 
@@ -252,3 +259,146 @@ class Coupler:
         estimate from one step in 17 (cosim.h COSIM_TIMING_EVERY)."""
         return (self._lib.cosim_fmu_ns(self._c, FIRMWARE) / 1e9,
                 self._lib.cosim_fmu_ns(self._c, PLANT) / 1e9)
+
+
+# lockstep.h's results and output indexes
+_LS_OK, _LS_GONE, _LS_BIG = 0, 1, 2
+_LS_TIMEOUT, _LS_MAGIC, _LS_FRAME, _LS_SHORT, _LS_OS, _LS_RCOMM, _LS_COSIM = range(-1, -8, -1)
+(_TX_BYTES, _FLAGS, _LISP, _TX1, _ROWS1, _WROTE1, _TX2, _ROWS2, _WROTE2, _NS_HOST, _NS_PTY,
+ _NS_FMUS, _DETAIL, _ERRNO, _WAITS, _SLEEPS, _OUT_N) = range(17)
+
+
+class NativeFrames:
+    """Lockstep host frames in native code (fmu/cosim/lockstep.h) for `coupler`: the tick
+    and done on `lock` (navkit.sim.links.Lockstep, whose timeouts it sets to `timeout_s`),
+    the host's and the firmware's bytes on the pty master `pty`, the planner's heartbeat
+    and lisp_data through `rcomm` (navkit.rcomm.Client.native(), or None: neither), and
+    each frame's `steps` FMU steps in chunks of `split` and the rest, as
+    navkit.sim.lockstep's loop does them. host() and micro() return what the Python path's
+    calls return; times_s() the wall time (s) in the host (tick -> done), the pty and the
+    FMUs so far."""
+
+    # the host's bytes a frame: more than a pty holds (its buffers: 64 KiB and 4 KiB)
+    HOST_CAP = 1 << 17
+
+    def __init__(self, coupler: Coupler, lock, pty: int, steps: int, split: int, rcomm=None,
+                 timeout_s: float = 10.0):
+        from navkit.sim.links import DONE_MAGIC, TICK_MAGIC
+
+        self._l = None
+        lib = coupler._lib
+        self._lib, self._coupler, self._lock = lib, coupler, lock
+        lock.set_timeout(timeout_s)
+        self._host = (c_uint8 * self.HOST_CAP)()
+        self._tx = (c_uint8 * (2 * coupler._tx_cap))()      # a chunk's room is run_raw's
+        self._rows = (c_double * (max(steps, 1) * coupler.width))()   # record_every >= 1
+        self._out = (c_uint64 * _OUT_N)()
+        self._host_view = memoryview(self._host).cast("B")
+        self._tx_view = memoryview(self._tx).cast("B")
+        self._rows_view = memoryview(self._rows).cast("B")
+        self._out_view = memoryview(self._out).cast("B").cast("Q")
+        self._row_bytes = coupler.width * 8
+        self.pty = pty
+        self._l = lib.lockstep_new(coupler._c, lock.sock.fileno(), TICK_MAGIC, DONE_MAGIC, pty,
+                                   steps * 1000, steps, split, self._host, self.HOST_CAP, self._tx,
+                                   len(self._tx), coupler._tx_cap, self._rows, max(steps, 1),
+                                   self._out)
+        if not self._l:
+            raise CouplerError("lockstep_new failed (bad arguments or no memory)")
+        if rcomm is not None:
+            handle, beat, read_data, lisp_bytes, _failed = rcomm
+            self._lisp = (ctypes.c_int32 * ((lisp_bytes + 3) // 4))()
+            self._lisp_view = memoryview(self._lisp).cast("B")[:lisp_bytes]
+            lib.lockstep_rcomm(self._l, handle, beat, read_data, self._lisp)
+        self._rcomm = rcomm
+        # the per-frame calls without argtypes (ints and ctypes objects only)
+        self._host_call, self._micro_call = lib["lockstep_host"], lib["lockstep_micro"]
+        for fn in (self._host_call, self._micro_call):
+            fn.argtypes, fn.restype = None, c_int
+        self._handle = c_void_p(self._l)
+
+    def port(self, pty: int) -> None:
+        """The port's master is now `pty` (a new pty behind the same path)."""
+        self._lib.lockstep_port(self._l, pty)
+        self.pty = pty
+
+    def host(self, frame: int, rx_bytes: int):
+        """Frame `frame`'s host part: heartbeat, tick (`rx_bytes`: bytes written to the host
+        since the last tick), done, the host's bytes from the pty, lisp_data. Returns
+        (tx_bytes, flags, host's bytes, lisp_data raw bytes or None), None when the host went
+        away (navkit.sim.links.Lockstep.frame's None), or (tx_bytes, flags, None, None) when
+        they are more than HOST_CAP: nothing read, the caller reads them. Raises what
+        Lockstep.frame, Port.read_exact and the rcomm client raise."""
+        rc = self._host_call(self._handle, frame, rx_bytes)
+        out = self._out_view
+        if rc == _LS_OK:
+            n = out[_TX_BYTES]
+            return (n, out[_FLAGS], bytes(self._host_view[:n]),
+                    bytes(self._lisp_view) if out[_LISP] else None)
+        if rc == _LS_GONE:
+            return None
+        if rc == _LS_BIG:
+            return out[_TX_BYTES], out[_FLAGS], None, None
+        self._raise(rc, frame)
+
+    def micro(self) -> tuple:
+        """The FMU part of the frame after host(): (truth rows, firmware bytes, bytes of them
+        written to the pty) of the first chunk, then of the second (b"", b"", 0 without
+        one). Raises CouplerError (an FMU failed: the outputs of a first chunk that completed
+        are in the error's `done`) or OSError (a pty write failed)."""
+        rc = self._micro_call(self._handle)
+        out = self._out_view
+        tx1, rows1 = out[_TX1], out[_ROWS1]
+        first = (bytes(self._rows_view[:rows1 * self._row_bytes]), bytes(self._tx_view[:tx1]),
+                 out[_WROTE1])
+        if rc == _LS_OK:
+            rows2 = out[_ROWS2]
+            return first + (bytes(self._rows_view[rows1 * self._row_bytes:(rows1 + rows2) * self._row_bytes]),
+                            bytes(self._tx_view[tx1:tx1 + out[_TX2]]), out[_WROTE2])
+        if rc == _LS_COSIM:
+            err = CouplerError(self._coupler._lib.cosim_error(self._coupler._c).decode()
+                               or f"error {int(ctypes.c_int64(out[_ERRNO]).value)}")
+            err.done = first if out[_DETAIL] == 2 else None
+            raise err
+        self._raise(rc, None)
+
+    def _raise(self, rc: int, frame):
+        """Raise the error of result `rc` as the Python path would."""
+        import os
+
+        from navkit.sim.links import Port
+
+        out = self._out_view
+        if rc == _LS_TIMEOUT:
+            raise self._lock.no_done(frame)
+        if rc == _LS_MAGIC:
+            self._lock.check_done(frame, out[_DETAIL], frame)
+        if rc == _LS_FRAME:
+            from navkit.sim.links import DONE_MAGIC
+
+            self._lock.check_done(frame, DONE_MAGIC, out[_DETAIL])
+        if rc == _LS_SHORT:
+            raise Port.short_read(out[_DETAIL], out[_TX_BYTES])
+        if rc == _LS_RCOMM:
+            raise self._rcomm[4]()
+        e = out[_ERRNO]
+        raise OSError(e, os.strerror(e))
+
+    def times_s(self) -> tuple[float, float, float]:
+        """Wall s so far in the host (tick -> done), the pty and the FMUs."""
+        out = self._out_view
+        return out[_NS_HOST] / 1e9, out[_NS_PTY] / 1e9, out[_NS_FMUS] / 1e9
+
+    def waits(self) -> tuple[int, int]:
+        """Reads of the host's bytes so far that found them not there yet, and of those the
+        reads that slept (lockstep.h LOCKSTEP_SPIN_NS)."""
+        return self._out_view[_WAITS], self._out_view[_SLEEPS]
+
+    def close(self) -> None:
+        """Frees the native driver (the coupler, socket and pty stay their owners')."""
+        if getattr(self, "_l", None):
+            self._lib.lockstep_free(self._l)
+            self._l = None
+
+    def __del__(self):
+        self.close()

@@ -121,10 +121,15 @@ class Port:
                     raise
             left = deadline - time.monotonic()
             if left <= 0:
-                raise LinkError(f"read {len(buf)} of the {n} bytes the host reported "
-                                f"within {timeout_s} s")
+                raise self.short_read(len(buf), n, timeout_s)
             select.select([self.master], [], [], min(left, 0.1))
         return bytes(buf)
+
+    @staticmethod
+    def short_read(got: int, n: int, timeout_s: float = 5.0) -> LinkError:
+        """The error of a read that got `got` of the `n` bytes the host reported within
+        `timeout_s` s (read_exact's, and the native lockstep frame's)."""
+        return LinkError(f"read {got} of the {n} bytes the host reported within {timeout_s} s")
 
     def read_available(self) -> bytes:
         """Every byte waiting from the host (real-time mode)."""
@@ -172,11 +177,7 @@ class Lockstep:
         host went away). LinkError if the done is malformed or late."""
         sock = self.sock
         if timeout_s != self._timeout:
-            sec = int(timeout_s)
-            tv = struct.pack("@ll", sec, int((timeout_s - sec) * 1e6))
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, tv)
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, tv)
-            self._timeout = timeout_s
+            self.set_timeout(timeout_s)
         view, size, got = self._done_view, _DONE.size, 0
         sock.sendall(_TICK.pack(TICK_MAGIC, frame & 0xFFFFFFFF, sim_time_us, rx_bytes, 0))
         try:
@@ -186,15 +187,33 @@ class Lockstep:
                     return None
                 got += n
         except (BlockingIOError, socket.timeout):
-            raise LinkError(f"no done from the host for frame {frame} within {timeout_s} s") from None
+            raise self.no_done(frame) from None
         except ConnectionResetError:
             return None
         magic, done_frame, tx_bytes, flags = _DONE.unpack(self._done)
+        self.check_done(frame, magic, done_frame)
+        return tx_bytes, flags
+
+    def set_timeout(self, timeout_s: float) -> None:
+        """Give a tick's send and its done's receive `timeout_s` s (the socket's kernel
+        timeouts, which the native lockstep frame's calls have too)."""
+        sec = int(timeout_s)
+        tv = struct.pack("@ll", sec, int((timeout_s - sec) * 1e6))
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, tv)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, tv)
+        self._timeout = timeout_s
+
+    def no_done(self, frame: int) -> LinkError:
+        """The error of a done that did not come within the timeout."""
+        return LinkError(f"no done from the host for frame {frame} within {self._timeout} s")
+
+    @staticmethod
+    def check_done(frame: int, magic: int, done_frame: int) -> None:
+        """LinkError unless a done of `magic` for `done_frame` answers the tick of `frame`."""
         if magic != DONE_MAGIC:
             raise LinkError(f"bad done magic 0x{magic:08X} for frame {frame}")
         if done_frame != frame & 0xFFFFFFFF:
             raise LinkError(f"done for frame {done_frame}, expected {frame}")
-        return tx_bytes, flags
 
     def close(self) -> None:
         """EOF to the host: it shuts down cleanly."""

@@ -15,7 +15,11 @@ If the host exits or is killed, the FMUs keep stepping frame by frame without it
 that quits (its done's flag) gets the frame's answers first, and over CAN the bus is played
 until it has exited (navkit.sim.playout), its last frames reaching the micro next frame. Wall
 time per part (s) is added to `rig.times`: "fmus", "pty", "host" and "harness" (the rest
-of the loop)."""
+of the loop).
+
+Over the serial link, with the host running and no fault in force, steps 2 and 3 run in
+two native calls (navkit.sim.coupler.NativeFrames, fmu/cosim/lockstep.h) that do what
+the Python calls do, in the same order; the loop logs what they return."""
 
 from __future__ import annotations
 
@@ -23,6 +27,7 @@ import array
 import gc
 import time
 
+from navkit.sim.coupler import CouplerError, NativeFrames
 from navkit.sim.faults import n_frames
 from navkit.sim.options import STEP_S
 from navkit.sim.progress import Progress
@@ -50,6 +55,13 @@ def run_lockstep(rig, faults) -> None:
     client = rig.planner.client
     lisp_raw = (lambda: None) if client is None else client.read_data_raw_still
     beat = (lambda: None) if client is None else client.heartbeat     # rig.planner.beat, bound once
+    # A frame of the serial link with no fault in force runs in two native calls
+    # (navkit.sim.coupler.NativeFrames): what the Python path below does, without its
+    # Python calls; the logging stays here.
+    native = None
+    if gateway is None and port.master is not None:
+        native = NativeFrames(coupler, lock, port.master, spf, split,
+                              None if client is None else client.native())
     # The objects made so far (modules, FMU descriptions) never become garbage: keep
     # the collector from walking them again at every full collection of the loop.
     gc.freeze()
@@ -60,6 +72,7 @@ def run_lockstep(rig, faults) -> None:
     quitting = False        # over CAN the host's done said it quits: it still reads the port
     loop0 = pc()
     t_host = t_pty = t_fmus = 0.0      # s: added to times at the end (to_host adds its own)
+    t1_ns, t2_ns = split * 1_000_000, frame_ns     # ns after a frame's start: its chunks' ends
     try:
         # A stop signal (Ctrl-C, SIGTERM) is held off while a frame is half done (the host's
         # bytes read but not yet on the bus, a tick sent but its done not read) and delivered
@@ -75,13 +88,30 @@ def run_lockstep(rig, faults) -> None:
                 if t_ns >= faults.due_ns:
                     faults.act_due(t_ns)
                 host_bytes, carried, carry = b"", carry, b""
+                # the native frame: serial, the host running, no fault in force
+                fast = native is not None and rig.host_state == "running" and \
+                    faults.unplug_until is None and faults.noise is None and faults.silent_until is None
                 if rig.host_state == "running":
-                    if faults.silent_until is None:
-                        beat()
-                    t1 = pc()
-                    done = lock.frame(k, t_ns // 1000, rig.rx_count)
-                    t2 = pc()
-                    t_host += t2 - t1
+                    if fast:
+                        if port.master != native.pty:     # a new pty since the last
+                            native.port(port.master)
+                        done = native.host(k, rig.rx_count)
+                        if done is not None:
+                            done, host_bytes, lisp = done[:2], done[2], done[3]
+                            if host_bytes is None:      # more than the native buffer
+                                fast = False
+                                host_bytes, lisp = port.read_exact(done[0]), lisp_raw()
+                    else:
+                        if faults.silent_until is None:
+                            beat()
+                        t1 = pc()
+                        done = lock.frame(k, t_ns // 1000, rig.rx_count)
+                        t2 = pc()
+                        t_host += t2 - t1
+                        if done is not None:
+                            host_bytes = port.read_exact(done[0])
+                            t_pty += pc() - t2
+                            lisp = lisp_raw()
                     if done is None:
                         rig.host_state = "exited"
                         rig.proc.wait()
@@ -90,15 +120,13 @@ def run_lockstep(rig, faults) -> None:
                         gone = True
                     else:
                         tx_bytes, flags = done
-                        host_bytes = port.read_exact(tx_bytes)
-                        t_pty += pc() - t2
                         logged = host_bytes
                         if gateway is not None:  # SLCAN lines in; the micro's frames, back
                             back, host_bytes = gateway.from_host(host_bytes, t_ns / 1e9)
                             can_back += back
                             logged = gateway.h2m_serial if gateway.firmware_can else host_bytes
                         log.frame(k, t_ns, rig.rx_count, tx_bytes, flags, logged,
-                                  lisp_raw(), "running" if faults.unplug_until is None else "unplugged")
+                                  lisp, "running" if faults.unplug_until is None else "unplugged")
                         if flags & 1:   # over CAN it still reads the port, for its stop's flow control
                             quitting = gateway is not None
                             rig.host_state = "running" if quitting else "exited"
@@ -117,22 +145,34 @@ def run_lockstep(rig, faults) -> None:
                 # stamped with the end of the call that completed each frame. Each call's truth
                 # rows are logged before its micro bytes (log-time order), so the log can close
                 # a chunk between the rows of a frame longer than a chunk's 1 s span.
-                t1 = pc()
-                tx, rows = coupler.run_raw(split, host_bytes)
-                t_fmus += pc() - t1
-                log.truth(rows)
-                out = faults.can_out(can_back, tx, t_ns + split * 1_000_000)
-                log.micro(t_ns + split * 1_000_000, out[-1])
-                rig.rx_count = faults.to_host(*out)
-                can_back = b""
-                if split < spf:
+                if fast and rig.host_state == "running":
+                    # the native frame wrote the micro's bytes to the pty: logged as to_host does
+                    try:
+                        rows, tx, wrote, rows2, tx2, wrote2 = native.micro()
+                    except CouplerError as e:
+                        if e.done is not None:          # the first chunk completed
+                            _sent(rig, log, t_ns + t1_ns, *e.done)
+                        raise
+                    rig.rx_count = _sent(rig, log, t_ns + t1_ns, rows, tx, wrote)
+                    if split < spf:
+                        rig.rx_count += _sent(rig, log, t_ns + t2_ns, rows2, tx2, wrote2)
+                else:
                     t1 = pc()
-                    tx2, rows2 = coupler.run_raw(spf - split)
+                    tx, rows = coupler.run_raw(split, host_bytes)
                     t_fmus += pc() - t1
-                    log.truth(rows2)
-                    out = faults.can_out(b"", tx2, t_ns + frame_ns)
-                    log.micro(t_ns + frame_ns, out[-1])
-                    rig.rx_count += faults.to_host(*out)
+                    log.truth(rows)
+                    out = faults.can_out(can_back, tx, t_ns + t1_ns)
+                    log.micro(t_ns + t1_ns, out[-1])
+                    rig.rx_count = faults.to_host(*out)
+                    can_back = b""
+                    if split < spf:
+                        t1 = pc()
+                        tx2, rows2 = coupler.run_raw(spf - split)
+                        t_fmus += pc() - t1
+                        log.truth(rows2)
+                        out = faults.can_out(b"", tx2, t_ns + t2_ns)
+                        log.micro(t_ns + t2_ns, out[-1])
+                        rig.rx_count += faults.to_host(*out)
                 if quitting:
                     # the micro's answers of this frame reached the host, which shuts down now: over
                     # CAN its stop still needs the bus (navkit.sim.playout); the frames it sends go
@@ -148,8 +188,25 @@ def run_lockstep(rig, faults) -> None:
                 if stopped:
                     stops.deliver()         # a stop signal lands here
     finally:
+        if native is not None:
+            n_host, n_pty, n_fmus = native.times_s()
+            t_host, t_pty, t_fmus = t_host + n_host, t_pty + n_pty, t_fmus + n_fmus
+            native.close()
         times["host"] += t_host
         times["pty"] += t_pty
         times["fmus"] += t_fmus
     rig.sim_time_s = frames_in_run * rig.frame_s
     times["harness"] = pc() - loop0 - times["fmus"] - times["pty"] - times["host"]
+
+
+def _sent(rig, log, t_ns: int, rows: bytes, tx: bytes, wrote: int) -> int:
+    """Log a native chunk ending at `t_ns` (ns) as the Python path does: its truth `rows`,
+    the micro's bytes `tx`, and of them `wrote` written to the host's port, as
+    faults.Faults.to_host logs and counts them (the serial link without line noise); returns
+    `wrote`."""
+    log.truth(rows)
+    log.micro(t_ns, tx)
+    if tx:
+        log.received("m2h", None if wrote == len(tx) else tx[:wrote])
+        rig.port.dropped += len(tx) - wrote
+    return wrote
