@@ -10,6 +10,10 @@ from navkit.sim.mission import COMMAND_FIELDS
 
 __all__ = ["ScriptedPlanner"]
 
+# attach()'s looks for the host's region: every _POLL_FAST_S (s) for the first _FAST_FOR_S
+# (s), then every _POLL_SLOW_S (s)
+_POLL_FAST_S, _FAST_FOR_S, _POLL_SLOW_S = 0.0005, 0.1, 0.005
+
 
 class ScriptedPlanner:
     """The mission's planner on rcomm through the planner client navkit.rcomm (`client`,
@@ -22,18 +26,22 @@ class ScriptedPlanner:
 
     def attach(self, timeout_s: float, alive=lambda: True) -> bool:
         """Open the host's region, waiting up to `timeout_s` (s) for it to appear while
-        `alive()` says the host still runs."""
+        `alive()` says the host still runs. It is looked for every _POLL_FAST_S for the
+        first _FAST_FOR_S (a host just started makes it within some ms, and the run waits
+        for it), then every _POLL_SLOW_S."""
         from navkit import rcomm
 
-        deadline = time.monotonic() + timeout_s
+        start = time.monotonic()
+        deadline = start + timeout_s
         while True:
             try:
                 self.client = rcomm.Client(self.shm_name)
                 return True
             except ConnectionError:          # navkit.rcomm.RcommError: not there (yet)
-                if time.monotonic() >= deadline or not alive():
+                now = time.monotonic()
+                if now >= deadline or not alive():
                     return False
-                time.sleep(0.005)
+                time.sleep(_POLL_FAST_S if now - start < _FAST_FOR_S else _POLL_SLOW_S)
 
     def command(self, fields: dict, t_ms: int) -> dict:
         """Write a whole lisp_cmd (unset fields 0) with a new time tag; returns it."""
