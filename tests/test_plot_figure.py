@@ -205,3 +205,18 @@ def test_svg_draws_the_same_figure(tmp_path):
     svg = (tmp_path / "p.svg").read_text()
     assert svg.count("stroke: #1f77b4") >= 2 and "stroke: #ff7f0e" in svg, "truth and micro lines"
     assert "fill: #1f77b4" in svg, "the truth heading's dots"
+
+
+def test_labels_stand_apart_inside_the_panel():
+    """Many commands, most after the truth ends: only those inside the speed panel's time
+    limits are labelled, two label heights (12 pt) apart at least; every one keeps its
+    mark."""
+    cmds = [({"fwd_cmd": 1}, k / 7) for k in range(5000)]
+    fig = plot.run_figure(_series(20, cmds=cmds), "t")
+    v = fig.panels[1]
+    xs = [u.x for u in v.labels]
+    lo, hi = sorted(v.xlim)
+    per_s = v.size_pt(fig)[0] / (hi - lo)
+    assert xs and all(lo <= x <= hi for x in xs)
+    assert min(np.diff(xs)) * per_s >= 12 - 1e-9 and len(xs) <= v.size_pt(fig)[0] / 12 + 1
+    assert len(v.marks[0].x) == 5000

@@ -361,11 +361,14 @@ def _apart(fig, panel, marks: list) -> list:
     `panel` of `fig` stand apart: a mark is labelled when it lies at least two labels'
     heights (2 * _LABEL_PT, pt) to the right of the last labelled one, so each label has
     a gap of its own height beside it. Every mark keeps its line; labels packed closer
-    could not be read."""
-    x0, x1 = panel.xlim
-    per_s = panel.size_pt(fig)[0] / abs(x1 - x0) if x1 != x0 else 0.0
+    could not be read. Marks outside the panel's time limits get no label (it would lie
+    off the panel): at most one label per two label heights of the panel's width."""
+    x0, x1 = sorted(panel.xlim)
+    per_s = panel.size_pt(fig)[0] / (x1 - x0) if x1 > x0 else 0.0
     out, last = [], None
     for ns, msg in marks:
+        if not x0 <= ns / 1e9 <= x1:
+            continue
         x = ns / 1e9 * per_s
         if last is None or x - last >= 2 * _LABEL_PT:
             out.append((ns, msg))
