@@ -6,7 +6,7 @@ aliased ones. The panel's image is its box, so what lies outside is cut off ther
 Spines, ticks and text are drawn at the page's size (text by FreeType, antialiased) in
 DejaVu Sans, the font matplotlib ships, found without importing matplotlib; Pillow's
 own font if it is absent. Sizes and spacings around a panel are matplotlib's defaults
-(ticks 3.5 pt long, 3.5 pt from their labels, axis labels 4 pt beyond those, the title
+(ticks 3.5 pt long, 3.5 pt from their labels, an x label 4 pt below them, the title
 6 pt above the box, legends above the box's top right), so a PNG and an SVG of one
 figure look alike.
 """
@@ -31,6 +31,7 @@ _SPINE_PT = 0.8
 _TICK_LEN_PT = 3.5
 _TICK_PAD_PT = 3.5
 _LABEL_PAD_PT = 4.0
+_YLABEL_PAD_PT = 2.0            # an upright y label's box to its tick labels, as matplotlib places it
 _TITLE_PT = 1.2 * TICK_PT
 _TITLE_PAD_PT = 6.0
 _LEGEND_PT = TICK_PT / 1.2
@@ -303,13 +304,14 @@ def _draw_dots(canvas, px, py, r: float, rgb: tuple, scale: int) -> None:
 
 def _text(draw, xy, text: str, size_pt: float, dpi: float, anchor: str, rgb=_BLACK) -> tuple:
     """Draw `text` with matplotlib's alignment: `anchor` is (horizontal l/m/r, vertical
-    t/c/b) of its line box ("lp"'s ascent to descent; "c": the middle of ascent to the
-    baseline), at page px `xy`. Returns its box (left, top, right, bottom)."""
+    t/c/s/b) of its line box ("lp"'s ascent to descent; "c": the middle of ascent to the
+    baseline; "s": the baseline), at page px `xy`. Returns its box (left, top, right,
+    bottom)."""
     font, asc, desc = _font(size_pt * dpi / 72.0)
     width = font.getlength(text)
     x, y = xy
     left = {"l": x, "m": x - width / 2, "r": x - width}[anchor[0]]
-    base = {"t": y + asc, "c": y + asc / 2, "b": y - desc}[anchor[1]]
+    base = {"t": y + asc, "c": y + asc / 2, "s": y, "b": y - desc}[anchor[1]]
     draw.text((left, base), text, font=font, fill=rgb, anchor="ls")
     return (left, base - asc, left + width, base + desc)
 
@@ -360,11 +362,10 @@ def _draw_frame(img, draw, fig, p) -> None:
     if p.xlabel:
         _text(draw, ((x0 + x1 + 1) / 2, bottom + _LABEL_PAD_PT * pt), p.xlabel, TICK_PT, dpi, "mt")
     if p.ylabel:
-        _upright(img, (leftmost - _LABEL_PAD_PT * pt / 2, (y0 + y1 + 1) / 2), p.ylabel, TICK_PT,
+        _upright(img, (leftmost - _YLABEL_PAD_PT * pt, (y0 + y1 + 1) / 2), p.ylabel, TICK_PT,
                  dpi, "rm")
     if p.title:
-        font, _, desc = _font(_TITLE_PT * pt)
-        _text(draw, (x0 + 0.5, y0 + 0.5 - _TITLE_PAD_PT * pt + desc), p.title, _TITLE_PT, dpi, "lb")
+        _text(draw, (x0 + 0.5, y0 + 0.5 - _TITLE_PAD_PT * pt), p.title, _TITLE_PT, dpi, "ls")
     if p.legend:
         _legend(draw, fig, p, x1 + 0.5, y0 + 0.5)
     for u in p.labels:
@@ -385,7 +386,7 @@ def _legend(draw, fig, p, right: float, top: float) -> None:
     handle, gap, column = _LEGEND_HANDLE * fs, _LEGEND_HANDLE_PAD * fs, _LEGEND_COLUMN_GAP * fs
     inset = (_LEGEND_AXES_PAD + _LEGEND_BORDER_PAD) * fs
     base = top - inset - desc                   # the texts' baseline
-    mid = base - (asc + desc) / 2 + desc        # the samples' height: the line box's middle
+    mid = base + (desc - asc) / 2               # the samples' height: the line box's middle
     x = right - inset
     for ln in reversed(entries):
         width = font.getlength(ln.label)

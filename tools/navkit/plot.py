@@ -6,10 +6,12 @@ planner command marked. The file is streamed and each line thinned to about
 PLOT_POINTS evenly spaced messages (a few per pixel of the figure), so any size of run.mcap
 plots in bounded memory and time proportional to its size. `navkit sim` draws the same
 figure from the same thinned messages, which its log worker keeps as it writes them
-(RunSeries), without reading run.mcap back. A datalog ("Data MM-DD-YY HH;MM;SS.txt", the
-seed's Dataplot input: the number of parameters, then one line per parameter with its
-name and default plot range, then one row per host frame) gets one panel per parameter
-over its range.
+(RunSeries), without reading run.mcap back. The run plot is a navkit.figure model
+(run_figure: the layout) drawn to PNG by navkit.figure_png (Pillow) or to another format
+by navkit.figure_mpl (matplotlib). A datalog ("Data MM-DD-YY HH;MM;SS.txt", the seed's
+Dataplot input: the number of parameters, then one line per parameter with its name and
+default plot range, then one row per host frame) gets one panel per parameter over its
+range, drawn by matplotlib.
 """
 
 from __future__ import annotations
