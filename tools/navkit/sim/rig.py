@@ -297,7 +297,13 @@ class SimRig:
         if self._saved_affinity:
             try:
                 os.sched_setaffinity(0, self._saved_affinity)
-            except OSError:
+                if self.log is not None and self.log.pid:
+                    # the worker's last batches and the file's end at normal priority, asleep
+                    # when idle: at idle priority any other process would hold them up, and
+                    # the run waits for them
+                    self.log.spin(False)
+                    os.sched_setscheduler(self.log.pid, os.SCHED_OTHER, os.sched_param(0))
+            except (OSError, AttributeError):
                 pass
         self.host_peak_kib = _vm_hwm_kib(self.proc.pid) if self.proc is not None else None
         if self.lock is not None:
