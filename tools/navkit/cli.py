@@ -6,11 +6,13 @@ Each subcommand lives in its own module, imported only when that subcommand runs
 """
 
 import argparse
+import gc
 import importlib
 import math
 import sys
 
-__all__ = ["main", "SUBCOMMANDS", "positive_int", "count_int", "positive_float", "fraction"]
+__all__ = ["main", "SUBCOMMANDS", "positive_int", "count_int", "positive_float", "fraction",
+           "hold_collector", "release_collector"]
 
 # name -> (module, one-line help)
 SUBCOMMANDS = {
@@ -72,6 +74,31 @@ def fraction(text: str) -> float:
     return v
 
 
+_held = False       # hold_collector() turned the collector off, release_collector() not yet on
+
+
+def hold_collector() -> None:
+    """Hold Python's cyclic garbage collector off (gc.disable) until release_collector():
+    a command's imports and set-up make objects that live as long as the process (modules,
+    the spec, FMU descriptions), which every collection would walk again for nothing.
+    Nothing if the collector is already off."""
+    global _held
+    if gc.isenabled():
+        gc.disable()
+        _held = True
+
+
+def release_collector() -> None:
+    """End hold_collector()'s hold: the objects made so far are frozen (gc.freeze: never
+    walked again, and a child forked later shares their pages) and the collector is on.
+    Nothing without a hold."""
+    global _held
+    if _held:
+        _held = False
+        gc.freeze()
+        gc.enable()
+
+
 def _exit_at_once(status: int) -> None:
     """End the process with `status` once stdout and stderr are flushed (a closed pipe
     there is ignored, as at a normal exit), skipping atexit handlers and teardown."""
@@ -108,11 +135,16 @@ def _stdout_gone() -> bool:
 
 def main(argv=None) -> int:
     """Parse `argv` (default: sys.argv[1:]) and run the chosen subcommand. Without `argv` the
-    caller is the navkit command itself (the console script, `python -m navkit`): a
-    subcommand module with EXIT_AT_ONCE = True (its run() has ended every child and
-    closed every file it made) then ends the process as soon as it returns, its output
-    flushed, without the interpreter's teardown of every module and object (os._exit)."""
+    caller is the navkit command itself (the console script, `python -m navkit`): the
+    collector is held off through the imports and the parsing (hold_collector), and
+    through the subcommand's run() until that releases it when the module says
+    HOLDS_COLLECTOR = True (its set-up ends the hold); a subcommand module with
+    EXIT_AT_ONCE = True (its run() has ended every child and closed every file it made)
+    then ends the process as soon as it returns, its output flushed, without the
+    interpreter's teardown of every module and object (os._exit)."""
     own_process = argv is None
+    if own_process:
+        hold_collector()
     argv = sys.argv[1:] if argv is None else argv
     parser = argparse.ArgumentParser(prog="navkit", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -130,6 +162,8 @@ def main(argv=None) -> int:
         sub_parser = argparse.ArgumentParser(prog=f"navkit {name}", description=SUBCOMMANDS[name][1])
         module.add_arguments(sub_parser)
         args = sub_parser.parse_args(argv[1:])
+        if not getattr(module, "HOLDS_COLLECTOR", False):
+            release_collector()
         status = int(module.run(args) or 0)
         if own_process and getattr(module, "EXIT_AT_ONCE", False):
             _exit_at_once(status)

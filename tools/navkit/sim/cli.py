@@ -15,7 +15,7 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["add_arguments", "run", "DEFAULT_MISSION", "EXIT_AT_ONCE"]
+__all__ = ["add_arguments", "run", "DEFAULT_MISSION", "EXIT_AT_ONCE", "HOLDS_COLLECTOR"]
 
 DEFAULT_MISSION = "config/missions/demo.toml"
 
@@ -23,6 +23,11 @@ DEFAULT_MISSION = "config/missions/demo.toml"
 # wrote closed, however it ends: the navkit command exits at once (navkit.cli.main),
 # without tearing the harness's modules (numpy, fmpy) and objects down one by one
 EXIT_AT_ONCE = True
+
+# the collector stays off (navkit.cli.hold_collector) through the run's imports and set-up,
+# whose objects live for the whole run: navkit.sim.rig.SimRig.start releases it when the
+# set-up is done, run() when it ends before that
+HOLDS_COLLECTOR = True
 
 
 def add_arguments(parser) -> None:
@@ -98,7 +103,12 @@ def run(args) -> int:
     # worker), and the log worker, forked after that import, would be forked from a
     # threaded process. A value the user set is kept.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    return _run(args, stamps)
+    from navkit.cli import release_collector
+
+    try:
+        return _run(args, stamps)
+    finally:
+        release_collector()     # a run that failed before its set-up was done
 
 
 def _run(args, stamps: dict) -> int:

@@ -873,10 +873,16 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     harness's end of the pipe that fork() copied here, is closed first: else this process
     would hold it open itself and never see the EOF of a harness that was killed. The
     signals of a terminal (Ctrl-C to the process group) or of a group kill are the
-    harness's to act on: it ends the worker through the pipe, so the file is closed."""
+    harness's to act on: it ends the worker through the pipe, so the file is closed.
+    The harness's objects it was forked with are frozen (gc.freeze: its collections never
+    walk them, nor copy their pages) and the collector is on (off in a harness holding it
+    through its set-up: navkit.cli.hold_collector)."""
+    import gc
     import signal
     import time
 
+    gc.freeze()
+    gc.enable()
     if harness_end is not None:
         harness_end.close()
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):

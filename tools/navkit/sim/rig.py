@@ -213,6 +213,9 @@ class SimRig:
             self._host_died_check()
             raise SimError(f"the host did not create rcomm region {self.shm} within 10 s "
                            f"(see {self.out / 'host.log'})")
+        from navkit.cli import release_collector
+
+        release_collector()     # navkit sim's hold (navkit.cli.hold_collector) ends with the set-up
 
     def _pin(self) -> None:
         """Lockstep: the harness and the host never run at the same time, so put both on
