@@ -220,3 +220,13 @@ def test_labels_stand_apart_inside_the_panel():
     assert xs and all(lo <= x <= hi for x in xs)
     assert min(np.diff(xs)) * per_s >= 12 - 1e-9 and len(xs) <= v.size_pt(fig)[0] / 12 + 1
     assert len(v.marks[0].x) == 5000
+
+
+def test_dots_outside_the_box_are_cut_off():
+    """A dot beyond the panel's left edge is not drawn at all (not wrapped to the other
+    side of the row above); one inside is."""
+    canvas = Image.new("RGB", (60, 30), (255, 255, 255))
+    figure_png._draw_dots(canvas, np.array([-4.0, 31.0, np.nan]), np.array([15.0, 15.0, 1.0]), 4.5,
+                          (0, 0, 0), 3)
+    inked = np.argwhere((np.asarray(canvas) < 255).any(axis=2))
+    assert inked.size and inked[:, 1].min() >= 31 - 5 and inked[:, 1].max() <= 31 + 5

@@ -280,7 +280,7 @@ def _draw_dots(canvas, px, py, r: float, rgb: tuple, scale: int) -> None:
     point falls in (as matplotlib snaps markers: crisp, alike dots), stamped into a mask
     at once (one array pass per canvas pixel of a disc, not one drawing call per point)."""
     w, h = canvas.size
-    ok = np.isfinite(px) & np.isfinite(py)
+    ok = (px >= 0) & (px < w) & (py >= 0) & (py < h)    # in the box (NaN is not)
     # the page pixels the points fall in, each once (sorted, repeats dropped: np.unique
     # would import numpy.ma)
     cells = np.sort(np.floor(py[ok] / scale).astype(np.int64) * (w + 1)
