@@ -379,3 +379,18 @@ def test_the_checks_ranges_are_the_hosts(tmp_path: Path):
     assert f"planner command {tags[-1]} rejected: {last}: {refused[-1][last]} is outside " in log
     assert "more like it" in log
     assert all(abs(row["x_mm"]) < 2 and abs(row["yaw_deg"]) < 1 for row in r.truth)
+
+
+def test_judge_later_leaves_the_hosts_verdict_to_judged(host_converts):
+    """navkit sim loads with judge_later (the host judges while fmpy imports): the
+    verdict, taken by judged(), is the MissionError loads raises at once."""
+    text = "duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 99999999})
+    with pytest.raises(MissionError) as at_once:
+        loads(text, "bad.toml")
+    m = loads(text, "bad.toml", judge_later=True)
+    with pytest.raises(MissionError) as later:
+        m.judged()
+    assert str(later.value) == str(at_once.value)
+    assert "key 'speed'" in str(later.value) and "the host would drop" in str(later.value)
+    m.judged()                          # taken once
+    loads("duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 300}), judge_later=True).judged()

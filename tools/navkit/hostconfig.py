@@ -28,7 +28,7 @@ import subprocess
 from pathlib import Path
 
 __all__ = ["HostConfigError", "effective_config", "value", "origin_line", "header_line", "INI_FILES",
-           "host_binary", "convert_lisp", "ask_config", "forget_asks"]
+           "host_binary", "convert_lisp", "convert_lisp_started", "ask_config", "forget_asks"]
 
 # The files a config folder holds, read by the host in this order.
 INI_FILES = ("NavAndControl.ini", "sensors.ini")
@@ -88,6 +88,8 @@ def _asked(host: Path, args: list, what: str, stdin: str | None = None):
             proc = subprocess.Popen([str(host), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                     stdin=subprocess.PIPE if stdin is not None else subprocess.DEVNULL,
                                     text=True, errors="replace")
+            if stdin is not None:
+                stdin = _feed(proc, stdin)
         except (OSError, subprocess.SubprocessError) as e:
             error = HostConfigError(f"{host}: {e}", 0)
     answer = []
@@ -99,6 +101,29 @@ def _asked(host: Path, args: list, what: str, stdin: str | None = None):
             raise answer[0]
         return answer[0]
     return result
+
+
+def _feed(proc: subprocess.Popen, text: str) -> str | None:
+    """Write `text` to the stdin of `proc` now and close it, so the host reads it and
+    answers while its asker goes on, when it fits the pipe at once (its capacity, bytes);
+    None then, else `text`, for communicate() to write."""
+    import fcntl
+    import os
+
+    data = text.encode()
+    fd = proc.stdin.fileno()
+    try:
+        if len(data) > fcntl.fcntl(fd, fcntl.F_GETPIPE_SZ):
+            return text
+    except (OSError, AttributeError):       # no F_GETPIPE_SZ here
+        return text
+    try:
+        os.write(fd, data)
+    except BrokenPipeError:                 # the host is gone: its answer says why
+        pass
+    proc.stdin.close()
+    proc.stdin = None                       # communicate() has nothing left to write
+    return None
 
 
 def _answer(proc: subprocess.Popen, host: Path, stdin: str | None):
@@ -190,6 +215,13 @@ def convert_lisp(commands: list, *, build: Path | None = None) -> list:
     {...}} or {"nav_result": "rejected", "refusal": ..., "lisp_field": ..., "value": ...,
     "text": ...}. One host process for the whole list; answers cached per list and host
     binary. Raises HostConfigError (status 0: the host is not built or not answering)."""
+    return convert_lisp_started(commands, build=build)()
+
+
+def convert_lisp_started(commands: list, *, build: Path | None = None):
+    """Start the host judging `commands` for convert_lisp (same arguments) and return at
+    once a function that waits for it and returns convert_lisp's answer or raises its
+    HostConfigError (the same on every call): the host judges while the caller goes on."""
     host = host_binary(build)
     lines = "".join(json.dumps(c, separators=(",", ":")) + "\n" for c in commands)
     try:
@@ -198,16 +230,24 @@ def convert_lisp(commands: list, *, build: Path | None = None) -> list:
         stamp = None
     key = ("convert_lisp", str(host), stamp, lines)
     if key in _cache:
-        return _cache[key]
-    out = _ask(host, ["--convert-lisp"], "converts planner commands", lines).splitlines()
-    try:
-        verdicts = [json.loads(line) for line in out]
-        if len(verdicts) != len(commands) or not all("nav_result" in v for v in verdicts):
-            raise ValueError(f"{len(verdicts)} verdicts for {len(commands)} commands")
-    except (ValueError, TypeError) as e:
-        raise HostConfigError(f"{host} --convert-lisp: not its JSON ({e})", 0) from None
-    _cache[key] = verdicts
-    return verdicts
+        cached = _cache[key]
+        return lambda: cached
+    answer = _asked(host, ["--convert-lisp"], "converts planner commands", lines)
+    n = len(commands)
+
+    def result() -> list:
+        if key in _cache:
+            return _cache[key]
+        out = answer().splitlines()
+        try:
+            verdicts = [json.loads(line) for line in out]
+            if len(verdicts) != n or not all("nav_result" in v for v in verdicts):
+                raise ValueError(f"{len(verdicts)} verdicts for {n} commands")
+        except (ValueError, TypeError) as e:
+            raise HostConfigError(f"{host} --convert-lisp: not its JSON ({e})", 0) from None
+        _cache[key] = verdicts
+        return verdicts
+    return result
 
 
 def value(config: dict, section: str, key: str):

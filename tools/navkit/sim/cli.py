@@ -143,7 +143,8 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
 
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     try:
-        mission = load(mission_path, build=args.build)
+        # the host judges the commands while fmpy imports (navkit.sim.rig.SimRig takes it)
+        mission = load(mission_path, build=args.build, judge_later=True)
     except MissionError as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
@@ -153,6 +154,11 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
     out = args.out or build / "sim" / mission.name
     why = _out_refusal(out)
     if why:
+        try:
+            mission.judged()        # the mission's errors come first
+        except MissionError as e:
+            print(f"navkit sim: {e}", file=sys.stderr)
+            return 1
         print(f"navkit sim: {'--out ' if args.out else 'output folder '}{out}: {why}", file=sys.stderr)
         return 1
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,

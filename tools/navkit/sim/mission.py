@@ -134,7 +134,8 @@ class Fault:
 
 @dataclass
 class Mission:
-    """A loaded, checked mission. Times in s of simulated time."""
+    """A loaded, checked mission (loaded with judge_later: the host's verdict on its
+    commands pending until judged()). Times in s of simulated time."""
 
     path: Path
     text: str
@@ -146,6 +147,15 @@ class Mission:
     faults: list = field(default_factory=list)
     expect: dict = field(default_factory=dict)     # EXPECT_KEYS key -> value (mm, deg)
     warnings: list = field(default_factory=list)   # what a run should say once (text lines)
+    # the host's verdict on the commands until judged() takes it (loads(judge_later=True))
+    _verdict: object = field(default=None, init=False, repr=False, compare=False)
+
+    def judged(self) -> None:
+        """Take the host's verdict on the commands if it is still pending: MissionError as
+        loads raises it. Nothing once taken."""
+        verdict, self._verdict = self._verdict, None
+        if verdict is not None:
+            verdict()
 
     @property
     def name(self) -> str:
@@ -206,25 +216,31 @@ def _command(where: str, entry: dict, duration: float) -> Command:
     return Command(t, fields, where)
 
 
-def _check_host_conversion(commands: list, build: Path | None) -> None:
-    """MissionError naming the entry and key of the first command the host would drop
-    while making its micro_cmd: the host itself judges them (`navkit-host --convert-lisp`,
+def _host_conversion(commands: list, build: Path | None):
+    """Start the host judging `commands` and return a function that waits for its verdict:
+    MissionError naming the entry and key of the first command the host would drop while
+    making its micro_cmd: the host itself judges them (`navkit-host --convert-lisp`,
     Navigation::convert, docs/host.md), all in one process. A heading hold is judged with
     a heading: at run time the micro's reports give it one (without them the host says
     so on its console). `build`: the build folder of navkit-host (None: navkit.paths.
     build_dir()). Without a built host: a MissionError saying so."""
-    from navkit.hostconfig import HostConfigError, convert_lisp
+    from navkit.hostconfig import HostConfigError, convert_lisp_started
 
+    commands = list(commands)       # in file order, as the verdicts come
     if not commands:
-        return
-    try:
-        verdicts = convert_lisp([{**c.fields, "heading": 0} for c in commands], build=build)
-    except HostConfigError as e:
-        raise MissionError(f"{commands[0].where}: the host judges the commands and cannot: {e}") from None
-    for c, v in zip(commands, verdicts):
-        if v["nav_result"] == "rejected":
-            raise MissionError(f"{c.where}: key {v['lisp_field']!r}: {v['text']}: the host would drop "
-                               f"the command")
+        return lambda: None
+    answer = convert_lisp_started([{**c.fields, "heading": 0} for c in commands], build=build)
+
+    def verdict() -> None:
+        try:
+            verdicts = answer()
+        except HostConfigError as e:
+            raise MissionError(f"{commands[0].where}: the host judges the commands and cannot: {e}") from None
+        for c, v in zip(commands, verdicts):
+            if v["nav_result"] == "rejected":
+                raise MissionError(f"{c.where}: key {v['lisp_field']!r}: {v['text']}: the host would drop "
+                                   f"the command")
+    return verdict
 
 
 def _key(where: str, entry: dict, duration: float) -> Key:
@@ -285,10 +301,13 @@ def _world(path: Path, name) -> Path:
                        f"or in config/worlds/")
 
 
-def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = None) -> Mission:
+def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = None,
+          judge_later: bool = False) -> Mission:
     """Parse and check mission TOML `text` (`path` names it in errors and resolves the
     world file); `build` is the build folder whose navkit-host judges the commands (None:
-    navkit.paths.build_dir()). Raises MissionError."""
+    navkit.paths.build_dir()). Raises MissionError. `judge_later`: the host's verdict on
+    the commands is left for Mission.judged() (navkit.sim.rig.SimRig takes it), so the
+    host judges them while the caller goes on."""
     path = Path(path)
     try:
         doc = tomllib.loads(text)
@@ -336,7 +355,9 @@ def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = Non
         for i, entry in enumerate(entries):
             out.append(parse(f"{path}: [[{table}]] #{i + 1}", entry, duration))
         if table == "command":
-            _check_host_conversion(out, build)
+            m._verdict = _host_conversion(out, build)
+            if not judge_later:
+                m.judged()
         for a, b in zip(out, out[1:]):
             if b.t < a.t:
                 m.warnings.append(f"{b.where} (t = {b.t:g} s) comes after {a.where.rsplit(': ', 1)[1]} "
@@ -345,8 +366,9 @@ def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = Non
     return m
 
 
-def load(path: str | Path, *, build: Path | None = None) -> Mission:
-    """Load and check the mission file at `path` (`build` as in loads). Raises MissionError."""
+def load(path: str | Path, *, build: Path | None = None, judge_later: bool = False) -> Mission:
+    """Load and check the mission file at `path` (`build`, `judge_later` as in loads).
+    Raises MissionError."""
     path = Path(path)
     try:
         with open(path, "rb") as f:
@@ -361,4 +383,4 @@ def load(path: str | Path, *, build: Path | None = None) -> Mission:
         line = data[:e.start].count(b"\n") + 1
         raise MissionError(f"{path}:{line}: byte offset {e.start}: 0x{data[e.start]:02X} is not UTF-8 "
                            f"text (save the file as UTF-8)") from None
-    return loads(text, path, build=build)
+    return loads(text, path, build=build, judge_later=judge_later)

@@ -64,7 +64,8 @@ class SimRig:
 
     def __init__(self, opts: SimOptions, git=None):
         """`git`: the run's git_revision_started() when the caller started it earlier, else
-        None."""
+        None. A mission loaded with judge_later is judged first (MissionError)."""
+        opts.mission.judged()
         self.opts = opts
         self.m = opts.mission
         # its git commands run beside the checks and the set-up; start() takes the answer
