@@ -133,6 +133,16 @@ def _stdout_gone() -> bool:
     return gone
 
 
+def _top_parser() -> argparse.ArgumentParser:
+    """The `navkit` parser listing the subcommands (for its help and its errors; a command
+    line naming a subcommand goes to that subcommand's own parser)."""
+    parser = argparse.ArgumentParser(prog="navkit", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (_, help_text) in SUBCOMMANDS.items():
+        sub.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
 def main(argv=None) -> int:
     """Parse `argv` (default: sys.argv[1:]) and run the chosen subcommand. Without `argv` the
     caller is the navkit command itself (the console script, `python -m navkit`): the
@@ -146,16 +156,12 @@ def main(argv=None) -> int:
     if own_process:
         hold_collector()
     argv = sys.argv[1:] if argv is None else argv
-    parser = argparse.ArgumentParser(prog="navkit", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, (_, help_text) in SUBCOMMANDS.items():
-        sub.add_parser(name, help=help_text, add_help=False)
     if not argv or argv[0] in ("-h", "--help"):
-        parser.print_help()
+        _top_parser().print_help()
         return 0 if argv else 2
     name = argv[0]
     if name not in SUBCOMMANDS:
-        parser.error(f"unknown command {name!r} (choose from {', '.join(SUBCOMMANDS)})")
+        _top_parser().error(f"unknown command {name!r} (choose from {', '.join(SUBCOMMANDS)})")
     from navkit.spec import SpecError
     try:
         module = importlib.import_module(SUBCOMMANDS[name][0])
