@@ -160,3 +160,18 @@ def test_no_done_within_the_timeout_eof_and_a_closed_socket(frames):
     for tick in (lambda: nf.host(5, 0), lambda: lock.frame(5, 0, 0)):
         with pytest.raises(BrokenPipeError):
             tick()
+
+
+def test_the_host_bytes_late_are_waited_for(frames):
+    import threading
+
+    nf, lock, port, _ = frames
+    os.write(port.slave, b"abc")            # 3 of the 5 bytes the done reports, the rest later
+    late = threading.Timer(0.3, os.write, (port.slave, b"de"))
+    late.start()
+    _done(lock, 1, tx_bytes=5)
+    try:
+        assert nf.host(1, 0)[2] == b"abcde"
+    finally:
+        late.join()
+    assert nf.waits() == (1, 1), "one read found them missing and slept past the spin"
