@@ -200,7 +200,7 @@ int lockstep_host(lockstep_t *l, int frame, int rx_bytes)
             if (errno == EINTR) {
                 continue;
             }
-            return (errno == EAGAIN || errno == EWOULDBLOCK) ? LOCKSTEP_ERR_TIMEOUT : lockstep_os(l);
+            return lockstep_os(l); /* a send timeout too: Lockstep.frame's sendall raises it */
         }
         got += (size_t)n;
     }

@@ -36,7 +36,7 @@ enum {
     LOCKSTEP_GONE = 1,         /* lockstep_host: EOF or a reset instead of the done (the host went away) */
     LOCKSTEP_BIG = 2,          /* lockstep_host: the done reports more bytes than the host buffer holds: */
                                /* nothing read, the caller reads them (and lisp_data) itself */
-    LOCKSTEP_ERR_TIMEOUT = -1, /* no done within the socket's receive timeout */
+    LOCKSTEP_ERR_TIMEOUT = -1, /* no done within the socket's receive timeout (a send's is LOCKSTEP_ERR_OS) */
     LOCKSTEP_ERR_MAGIC = -2,   /* the done's magic is wrong: out[LOCKSTEP_DETAIL] has it */
     LOCKSTEP_ERR_FRAME = -3,   /* the done is for another frame: out[LOCKSTEP_DETAIL] has its number */
     LOCKSTEP_ERR_SHORT = -4,   /* fewer pty bytes than reported within 5 s: out[LOCKSTEP_DETAIL] read */
