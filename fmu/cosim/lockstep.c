@@ -239,11 +239,9 @@ int lockstep_host(lockstep_t *l, int frame, int rx_bytes)
     if (tx_bytes > l->host_cap) {
         return LOCKSTEP_BIG;
     }
-    rc = lockstep_read_exact(l, l->host, tx_bytes);
-    l->out[LOCKSTEP_NS_PTY] += lockstep_ns() - t1;
-    if (rc != LOCKSTEP_OK) {
-        return rc;
-    }
+    /* lisp_data first: the host does not run again before the next tick, so it reads the
+       same either way, and the kernel gets that long to move the host's bytes (a read
+       before they are moved waits for it) */
     if (l->read_data) {
         int n = l->read_data(l->rcomm, (int32_t *)(void *)l->lisp);
         if (n < 0) {
@@ -251,7 +249,10 @@ int lockstep_host(lockstep_t *l, int frame, int rx_bytes)
         }
         l->out[LOCKSTEP_LISP] = n > 0;
     }
-    return LOCKSTEP_OK;
+    t1 = lockstep_ns();
+    rc = lockstep_read_exact(l, l->host, tx_bytes);
+    l->out[LOCKSTEP_NS_PTY] += lockstep_ns() - t1;
+    return rc;
 }
 
 /* Writes len bytes of data to the pty; *wrote gets how many went: all, as a rule; when the
