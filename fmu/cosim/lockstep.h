@@ -6,8 +6,8 @@
  *
  *   lockstep_host():  bump the planner heartbeat (rcomm); send the tick (frame, simulated
  *                     time in us, bytes written to the host's port since the last tick);
- *                     wait for its done (tx_bytes, flags); read exactly tx_bytes from the
- *                     pty; read the host's lisp_data (rcomm);
+ *                     wait for its done (tx_bytes, flags); read the host's lisp_data
+ *                     (rcomm); read exactly tx_bytes from the pty;
  *   lockstep_micro(): the frame's FMU steps (cosim_run) in two chunks, the host's bytes
  *                     arriving at the firmware with the first step; after each chunk the
  *                     firmware's bytes are written to the pty.
