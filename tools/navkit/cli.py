@@ -2,7 +2,8 @@
 
 Each subcommand lives in its own module, imported only when that subcommand runs, so
 `navkit proto decode` does not pay for fmpy or matplotlib. A module provides
-`add_arguments(parser)` and `run(args) -> int` (the exit status).
+`add_arguments(parser)` and `run(args) -> int` (the exit status), and may say
+EXIT_AT_ONCE = True and HOLDS_COLLECTOR = True (see main).
 """
 
 import argparse
