@@ -188,22 +188,20 @@ _MESSAGE_HEAD = struct.Struct("<BQHIQQ")
 
 
 def _message_index_class():
-    """mcap's MessageIndex record, its write() one struct pack of all its (log time,
-    offset) pairs instead of two calls a pair (the same bytes)."""
-    import itertools
-
+    """mcap's MessageIndex record whose `records` is one flat list of (log time ns,
+    offset) pairs, t0, o0, t1, o1, ..., written as one record with one struct pack (the
+    bytes of mcap's write(), which takes a list of pairs and makes two calls a pair)."""
     from mcap.opcode import Opcode
     from mcap.records import MessageIndex
 
-    class PackedMessageIndex(MessageIndex):
+    head, op = struct.Struct("<BQHI"), int(Opcode.MESSAGE_INDEX)
+
+    class FlatMessageIndex(MessageIndex):
         def write(self, stream) -> None:
-            stream.start_record(Opcode.MESSAGE_INDEX)
-            stream.write2(self.channel_id)
-            stream.write4(len(self.records) * 16)
-            stream.write(struct.pack(f"<{2 * len(self.records)}Q",
-                                     *itertools.chain.from_iterable(self.records)))
-            stream.finish_record()
-    return PackedMessageIndex
+            n = len(self.records)       # 2 per entry, 8 bytes each
+            stream.write(head.pack(op, 6 + 8 * n, self.channel_id, 8 * n)
+                         + struct.pack(f"<{n}Q", *self.records))
+    return FlatMessageIndex
 
 
 class _ChunkMessages:
@@ -264,7 +262,7 @@ class _ChunkMessages:
                 idx = indices[chan] = index(channel_id=chan, records=[])
             at = next_at[0]
             end = next_at[0] = at + 31 + len(data)
-            idx.records.append((t_ns, at))
+            idx.records += (t_ns, at)
             put(pack(op, 22 + len(data), chan, seq, t_ns, t_ns))
             put(data)
             if end > size:              # as add_message: a chunk past chunk_size ends
@@ -291,11 +289,11 @@ class _ChunkMessages:
         as add_message keeps them, and the span into the file's; call before the chunk
         ends (idempotent)."""
         cb = self._cb
-        records = [idx.records for idx in cb.message_indices.values() if idx.records]
-        cb.num_messages = sum(map(len, records))
-        if records:
-            lo = min(min(r)[0] for r in records)
-            hi = max(0, max(max(r)[0] for r in records))
+        times = [idx.records[0::2] for idx in cb.message_indices.values() if idx.records]
+        cb.num_messages = sum(map(len, times))
+        if times:
+            lo = min(map(min, times))
+            hi = max(0, max(map(max, times)))
             cb.message_start_time, cb.message_end_time = lo, hi
             self._lo = lo if self._lo is None or lo < self._lo else self._lo
             self._hi = hi if self._hi is None or hi > self._hi else self._hi
