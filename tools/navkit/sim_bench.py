@@ -85,6 +85,9 @@ def bench_mission(minutes: float) -> str:
 
 def run(args) -> int:
     """Run the benchmark and print its figures; 0 on success."""
+    from navkit.sim.options import one_blas_thread
+
+    one_blas_thread()       # as navkit sim does, before the harness imports numpy
     from navkit.sim.harness import SimOptions
     from navkit.sim.mission import loads
 

@@ -94,16 +94,13 @@ def run(args) -> int:
     """Run the mission; 0 on success; 1 (a bad mission, config or run) or 2 (a bad option)
     with one line on stderr; 128 + the signal's number (130 for Ctrl-C) when a signal
     stopped it: the outputs are closed and summary.json says `interrupted`."""
-    import os
     import time
 
     stamps = {"cli": time.monotonic()}
-    # numpy (fmpy's) with one BLAS thread, as a run does no linear algebra: a pool's
-    # threads would start and spin on the other CPUs at numpy's import (beside the log
-    # worker), and the log worker, forked after that import, would be forked from a
-    # threaded process. A value the user set is kept.
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from navkit.cli import release_collector
+    from navkit.sim.options import one_blas_thread
+
+    one_blas_thread()
 
     try:
         return _run(args, stamps)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from navkit.sim.mission import Mission
 
-__all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
+__all__ = ["one_blas_thread", "STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
            "fmu_paths", "host_config", "frame_period", "check_frame", "git_revision",
            "git_revision_started", "config_folder", "ask_host_config"]
 
@@ -65,6 +65,16 @@ class SimOptions:
                                        # navkit.sim.progress)
     log_inline: bool = False           # decode and write run.mcap in this process, no log
                                        # worker (a sweep's runs: one CPU each, no children)
+
+
+def one_blas_thread() -> None:
+    """Have numpy (fmpy's) use one BLAS thread when it is imported after this call: a run
+    does no linear algebra, and a thread pool would start and spin on the other CPUs at
+    numpy's import (beside the log worker), and the log worker, forked after that import,
+    would be forked from a threaded process. A value the user set is kept."""
+    import os
+
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def build_folder(opts: SimOptions) -> Path:
