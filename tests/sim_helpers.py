@@ -35,12 +35,14 @@ distance = 700
 
 
 def build_missing() -> list:
-    """The build products the co-simulation tests need (host, both FMUs, coupler) that the
-    build folder lacks, as Paths."""
+    """The build products the co-simulation tests need (host, both FMUs, coupler, the run
+    log's row formatter) that the build folder lacks, as Paths."""
     from navkit.sim.coupler import library_path
+    from navkit.sim.record import row_library
 
     b = build_dir()
-    return [p for p in (host_path(b), *fmu_paths(b), library_path(b)) if not p.exists()]
+    return [p for p in (host_path(b), *fmu_paths(b), library_path(b), row_library(b))
+            if not p.exists()]
 
 
 def require_build():

@@ -1,9 +1,11 @@
 """The log worker's fast paths give what the slow ones give, byte for byte: the
-Recorder's _ChunkMessages writes the file mcap's Writer.add_message writes, and /truth's
-bytes template formats as the str template."""
+Recorder's _ChunkMessages writes the file mcap's Writer.add_message writes, and the native
+row formatter (fmu/record) writes /truth as Python's % formats its template."""
 
 import random
 import struct
+
+import pytest
 
 from navkit.sim import record
 
@@ -38,32 +40,92 @@ def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
     assert record._ChunkMessages.make(object()) is None     # not an mcap Writer: add_message
 
 
-def test_truth_bytes_template_formats_as_str(tmp_path):
-    """The worker formats /truth with a bytes template; the text must be what the str
-    template and encode() gave (same float conversion), tricky values included."""
-    from navkit.sim.record import _HEADING_ROUNDS_TO_360, _Decoder, _heading_wrapped
+def _python_fixed(x: float, decimals: int) -> bytes:
+    """The reference: Python's '%.<decimals>f'."""
+    return b"%.*f" % (decimals, x)
 
+
+def _native_fixed(lib, x: float, decimals: int) -> bytes:
+    import ctypes
+
+    buf = ctypes.create_string_buffer(400)
+    n = lib.rowtext_fixed(buf, x, decimals)
+    return buf.raw[:n]
+
+
+def test_native_fixed_point_text_is_pythons(tmp_path):
+    """rowtext_fixed prints every double as Python's '%.<d>f' does: halfway cases between
+    two last digits (ties to even by the exact binary value) and their neighbours one ulp
+    away, signed zeros, tiny, huge and non-finite values, and random ones."""
+    import math
+
+    from sim_helpers import require_build
+
+    require_build()
+    lib = record._row_lib()
+    rng = random.Random(11)
+    values = [0.0, -0.0, 5e-324, -5e-324, 1e-300, 1e300, -1e300, 2.0 ** 52, 2.0 ** 53 + 2,
+              4.5e11, -4.5e15, float("inf"), float("-inf"), float("nan"), -float("nan"),
+              359.99995, 0.1 + 0.2, 123.45675, -2.5e-4, 0.5, 1.5, 2.5, -0.5]
+    for _ in range(4000):
+        d = rng.randrange(10)
+        k = rng.randrange(-10 ** rng.randrange(1, 12), 10 ** rng.randrange(1, 12))
+        half = (k + 0.5) / 10 ** d          # the double nearest a halfway point
+        values += [half, math.nextafter(half, math.inf), math.nextafter(half, -math.inf),
+                   rng.uniform(-1e4, 1e4), rng.uniform(-1, 1) * 10 ** rng.randrange(-8, 16)]
+    for x in values:
+        for d in (0, 4, 6, 7, 9) if rng.random() < 0.9 else range(10):
+            assert _native_fixed(lib, x, d) == _python_fixed(x, d), (x, d)
+
+
+def test_truth_text_is_the_python_template(tmp_path):
+    """/truth rows through the native row program: the text Python's % gives with the
+    program's template (heading wrap and the 12-bit dio_out mask applied), tricky values
+    included, and the same MCAP records row by row as in one run."""
+    from sim_helpers import require_build
+
+    require_build()
     columns = ["x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s"] \
         + [f"servo_deg_{i}" for i in range(8)] + ["dio_out"]
-    dec = _Decoder(tmp_path / "run.mcap", {}, columns, len(columns) + 1)
+    dec = record._Decoder(tmp_path / "run.mcap", {}, columns, len(columns) + 1)
+    rt = dec.truth_text
+    tpl = rt.template().encode()
     tricky = [0.0, -0.0, 1e-5, -4.99995e-5, 0.00005, 123.45675, -2.5e-4, 1e300, -1e-300,
-              float("inf"), float("-inf"), float("nan"), 0.1 + 0.2, 359.99995]
+              float("inf"), float("-inf"), float("nan"), 0.1 + 0.2, 359.99995, 359.99996]
     rng = random.Random(5)
-    str_fmt = dec.truth_fmt.decode()
+    rows = []
     for _ in range(300):
-        row = tuple([rng.uniform(0, 600)] + [rng.choice(tricky) if rng.random() < 0.5
-                                             else rng.uniform(-1e4, 1e4) for _ in columns[:-1]]
-                    + [float(rng.randrange(4096))]) + (0.0,)
-        dio = int(row[dec.dio_col]) & 0xFFF
-        vals = dec.truth_get(row)
-        if vals[dec.heading_at] >= _HEADING_ROUNDS_TO_360:
-            vals = _heading_wrapped(vals, dec.heading_at)
-        want = (str_fmt % (vals + (dio,))).encode()
-        assert dec._truth_text(row) == want
-    # a heading that would print as 360.0000 is written as 0 (0 <= heading_deg < 360)
-    for h, text in ((359.99996, b'"heading_deg":0.0000'), (359.99994, b'"heading_deg":359.9999')):
-        row = (1.0, 0.0, 0.0, 0.0, h) + (0.0,) * (len(columns) - 4) + (0.0,)
-        assert text in dec._truth_text(row)
+        row = [rng.uniform(0, 600)] + [rng.choice(tricky) if rng.random() < 0.5
+                                       else rng.uniform(-1e4, 1e4) for _ in columns[:-1]] \
+            + [rng.choice((-1.0, 4097.9, 1e20, -3.5, float(rng.randrange(4096))))]
+        vals = []
+        for lit, col, d in rt.fields:
+            x = 0.0 if col is None else row[col]
+            if d == record.ROW_INT:
+                vals.append(int(x) & 0xFFF)
+            else:
+                vals.append(0.0 if record._HEADING_ROUNDS_TO_360 <= x < 360.0
+                            and lit.endswith('"heading_deg":') else x)
+        raw = struct.pack(f"={len(row)}d", *row)
+        assert rt.text(raw) == tpl % tuple(vals), row
+        rows.append(raw)
+    raw = b"".join(rows)
+    k, data, where = rt.records(raw, 0, len(rows), 7, 40, 1000, 1 << 40, 0)
+    assert k == len(rows) and len(where) == 2 * k
+    at = 0
+    for i, one in enumerate(rows):
+        _, rec, pair = rt.records(one, 0, 1, 7, 40 + i, 1000 + at, 1 << 40, 0)
+        assert pair == where[2 * i:2 * i + 2] and data[at:at + len(rec)] == rec
+        assert struct.unpack_from("<BQHIQQ", rec) == (5, len(rec) - 9, 7, 41 + i, pair[0], pair[0])
+        at += len(rec)
+    # stops: after a row on the period, and after the record that passes the chunk size
+    t_rows = [struct.pack(f"={len(row)}d", t, *([0.0] * (len(row) - 1)))
+              for t in (0.098, 0.099, 0.1, 0.101)]
+    assert rt.records(b"".join(t_rows), 0, 4, 7, 0, 0, 1 << 40, 100_000_000)[0] == 3
+    assert rt.records(b"".join(t_rows), 0, 4, 7, 0, 100, 101, 0)[0] == 1
+    bad = struct.pack(f"={len(row)}d", *([1.0] * (len(row) - 1) + [float("nan")]))
+    with pytest.raises(ValueError, match="not finite"):
+        rt.text(bad)
     dec.handle((record.TRUTH_ROWS, struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
     assert dec.finish()["counts"]["/truth"] == 1
 

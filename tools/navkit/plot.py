@@ -110,6 +110,18 @@ class _Thinned:
                 self.stride *= 2
         self.n += 1
 
+    def offer_run(self, count: int, message) -> None:
+        """`count` messages in a row, as `count` offer() calls: `message(i)` -> (t_ns,
+        data) of the i-th, called only for those kept."""
+        i = -self.n % self.stride       # the first with (n + i) % stride == 0
+        while i < count:
+            self.kept.append(message(i))
+            if len(self.kept) > 2 * self.cap:
+                del self.kept[1::2]
+                self.stride *= 2
+            i += 1 + (-(self.n + i + 1) % self.stride)
+        self.n += count
+
 
 # The topics a run plot draws: the first two thinned to about PLOT_POINTS messages each,
 # the others whole (a mission's commands and events, few).
@@ -136,6 +148,17 @@ class RunSeries:
         if topic in self._whole:
             append = self._whole[topic].append
             return lambda t_ns, data: append((t_ns, data))
+        return None
+
+    def sink_run(self, topic: str):
+        """The function (count, message) -> None taking `count` messages of `topic` at
+        once (message(i) -> (t_ns, JSON bytes) of the i-th), as `count` calls of
+        sink(topic); None for a topic the plot does not draw."""
+        if topic in self._thin:
+            return self._thin[topic].offer_run
+        if topic in self._whole:
+            extend = self._whole[topic].extend
+            return lambda count, message: extend(map(message, range(count)))
         return None
 
     def raw(self) -> dict:

@@ -167,12 +167,133 @@ def _config_schema() -> dict:
 _HEADING_ROUNDS_TO_360 = 359.99995
 
 
-def _heading_wrapped(vals: tuple, at: int) -> tuple:
-    """`vals`, with the heading at index `at` set to 0.0 if it would print as 360.0000
-    (_HEADING_ROUNDS_TO_360 <= h < 360 deg); any other value as it is."""
-    if vals[at] < 360.0:
-        return vals[:at] + (0.0,) + vals[at + 1:]
-    return vals
+def row_library(build: Path | None = None) -> Path:
+    """The built row formatter, `<build>/fmu/record/libnavkit_record.so` (fmu/record,
+    rowtext.h; default build folder: navkit.paths.build_dir())."""
+    from navkit.paths import build_dir
+
+    return Path(build or build_dir()) / "fmu" / "record" / "libnavkit_record.so"
+
+
+_ROW_LIBS: dict = {}     # library path -> its ctypes CDLL, loaded once a process
+
+
+def _row_lib(build: Path | None = None):
+    """The row formatter's ctypes library; OSError naming the file if it is missing."""
+    import ctypes
+    import errno
+    from ctypes import POINTER, c_char_p, c_double, c_int, c_int32, c_size_t, c_uint32, \
+        c_uint64, c_void_p
+
+    path = row_library(build)
+    lib = _ROW_LIBS.get(path)
+    if lib is None:
+        if not path.is_file():
+            raise FileNotFoundError(errno.ENOENT, "not found: build it (cmake --build <build> "
+                                    "--target navkit_record)", str(path))
+        lib = ctypes.CDLL(str(path))
+        lib.rowtext_new.restype = c_void_p
+        lib.rowtext_new.argtypes = [c_size_t, c_size_t, c_char_p, POINTER(c_uint32),
+                                    POINTER(c_int32), POINTER(c_int32), c_uint64, c_int32,
+                                    c_double, c_double]
+        lib.rowtext_free.argtypes = [c_void_p]
+        lib.rowtext_state.restype = POINTER(c_uint64 * _STATE_N)
+        lib.rowtext_state.argtypes = [c_void_p]
+        lib.rowtext_run.restype = c_int
+        lib.rowtext_run.argtypes = None     # (program, bytes, int, int): no conversions
+        lib.rowtext_fixed.restype = c_size_t
+        lib.rowtext_fixed.argtypes = [c_void_p, c_double, c_int]
+        _ROW_LIBS[path] = lib
+    return lib
+
+
+# A field of a row program printed as an integer (rowtext.h ROWTEXT_INT), not with decimals
+ROW_INT = -1
+# rowtext.h's call block: its entries (uint64 each) and their number
+(_SEQ, _OFFSET, _CHUNK_SIZE, _STOP_EVERY_NS, _CHANNEL, _OUT_LEN, _OUT_AT, _INDEX_AT,
+ _STATE_N) = range(9)
+
+
+class RowText:
+    """A row program of the native row formatter (fmu/record, rowtext.h): rows of
+    `width` doubles (column 0 the simulated time, s) to JSON text, and to MCAP Message
+    records of it. `fields`: (literal text before the field, row column or None for a
+    missing one (0.0), decimals 0..9 or ROW_INT); `tail`: the text after the last field;
+    an integer field is int(x) & `int_mask`; field number `wrap_field`'s values in
+    [wrap_lo, wrap_hi) print as 0.0. The text of a row is what the Python template
+    template() gives, % the row's values (tests/test_sim_record_text.py)."""
+
+    def __init__(self, build, width: int, fields: list, tail: str, int_mask: int = 0,
+                 wrap_field: int = -1, wrap_lo: float = 0.0, wrap_hi: float = 0.0):
+        import ctypes
+
+        self.fields, self.tail, self.width = fields, tail, width
+        self._lib = lib = _row_lib(build)
+        lits = "".join(f[0] for f in fields) + tail
+        ends, at = [], 0
+        for f in fields:
+            at += len(f[0].encode())
+            ends.append(at)
+        ends.append(len(lits.encode()))
+        n = len(fields)
+        self._h = lib.rowtext_new(width, n, lits.encode(), (ctypes.c_uint32 * (n + 1))(*ends),
+                                  (ctypes.c_int32 * n)(*[-1 if f[1] is None else f[1]
+                                                         for f in fields]),
+                                  (ctypes.c_int32 * n)(*[f[2] for f in fields]),
+                                  int_mask, wrap_field, wrap_lo, wrap_hi)
+        if not self._h:
+            raise ValueError(f"row program refused by {row_library(build)}: {fields!r}")
+        self.row_bytes = 8 * width
+        self._state = lib.rowtext_state(self._h).contents
+        self._run = lib.rowtext_run
+        self._handle = ctypes.c_void_p(self._h)
+        self._string_at = ctypes.string_at
+        self._pairs: dict = {}          # k -> the ctypes type of k records' index pairs
+        self._uint64 = ctypes.c_uint64
+
+    def __del__(self):
+        if getattr(self, "_h", None):
+            self._lib.rowtext_free(self._h)
+            self._h = None
+
+    def template(self) -> str:
+        """The program as a Python % template (decimals as %.<d>f, integers %d), the wrap
+        and the mask left to the caller: the reference the tests check the native text
+        against."""
+        return "".join(lit + ("%d" if d == ROW_INT else f"%.{d}f") for lit, _, d in self.fields) \
+            + self.tail
+
+    def records(self, raw: bytes, first: int, last: int, channel: int, seq: int, offset: int,
+                chunk_size: int, stop_every_ns: int) -> tuple:
+        """Rows first .. last - 1 of `raw` (rows back to back) as MCAP Message records of
+        `channel`, sequence numbers from seq + 1, the first at `offset` (bytes) in its
+        chunk: stops after a record that ends past `chunk_size` (bytes), after a row whose
+        log time (ns) is a multiple of `stop_every_ns` (0: never), or at `last`. Returns
+        (rows written, their records' bytes, [log time ns, offset, ...] per record).
+        ValueError for an integer field that is not finite (as int() raises)."""
+        st = self._state
+        st[_CHANNEL], st[_CHUNK_SIZE], st[_STOP_EVERY_NS] = channel, chunk_size, stop_every_ns
+        st[_SEQ], st[_OFFSET] = seq, offset
+        return self.run(raw, first, last)
+
+    def run(self, raw: bytes, first: int, last: int) -> tuple:
+        """records() with the call block's channel, chunk size and stop as they were
+        set, and its sequence number and offset set by the caller (self.state())."""
+        k = self._run(self._handle, raw, first, last)
+        if k < 0:
+            raise ValueError(f"truth row {first}: " + ("a value that is not finite in an "
+                             "integer field" if k == -3 else f"row formatter error {k}"))
+        st = self._state
+        pairs = self._pairs.get(k)
+        if pairs is None:
+            pairs = self._pairs[k] = self._uint64 * (2 * k)
+        return (k, self._string_at(st[_OUT_AT], st[_OUT_LEN]),
+                pairs.from_address(st[_INDEX_AT])[:])
+
+    def text(self, row: bytes) -> bytes:
+        """The JSON text of one row (`width` doubles)."""
+        _, data, _ = self.records(row, 0, 1, 0, 0, 0, 1 << 62, 0)
+        return data[31:]
 
 
 # One CAN frame as RunLog.can_frame queues it: time (ns), identifier, flags (bit 0 to the
@@ -269,6 +390,41 @@ class _ChunkMessages:
                 flush()
             if keep is not None:
                 keep(t_ns, data)
+        return write
+
+    def rows_writer(self, chan: int, n: list, fmt: "RowText", keep_run=None):
+        """fn(raw, first, last, stop_every_ns) -> rows written: rows first .. last - 1 of
+        `raw` as messages on channel `chan` by `fmt` (RowText.records: its records go into
+        the open chunk as they are; it stops after a row at a multiple of stop_every_ns
+        (ns, 0: never), or when the chunk is full, which then ends); sequence numbers as
+        writer()'s. `keep_run`, if given, is called with (count, message) where
+        message(i) -> (t_ns, data) of the i-th message written."""
+        records, size = fmt.records, self._size
+        indices, index = self._cb.message_indices, self._index
+        flush, first_chan, put, next_at = self.flush, self._channels.append, self._parts.append, \
+            self._at
+
+        def write(raw: bytes, first: int, last: int, stop_every_ns: int) -> int:
+            at = next_at[0]
+            k, data, where = records(raw, first, last, chan, n[0], at, size, stop_every_ns)
+            if n[0] == 0:
+                first_chan(chan)
+            idx = indices.get(chan)
+            if idx is None:
+                idx = indices[chan] = index(channel_id=chan, records=[])
+            idx.records += where
+            put(data)
+            n[0] += k
+            end = next_at[0] = at + len(data)
+            if keep_run is not None:
+                ends = where[3::2] + [end]
+
+                def message(i: int) -> tuple:
+                    return where[2 * i], data[where[2 * i + 1] - at + 31:ends[i] - at]
+                keep_run(k, message)
+            if end > size:
+                flush()
+            return k
         return write
 
     def spill(self) -> None:
@@ -375,6 +531,23 @@ class Recorder:
         """write_raw for `topic` as a function (t_ns, data) without the topic's lookups,
         for a caller that writes it every frame."""
         return self._writers[topic]
+
+    def rows_writer(self, topic: str, fmt: "RowText"):
+        """fn(raw, first, last, stop_every_ns) -> rows written: rows of `raw` as messages
+        on `topic` by the native row formatter `fmt` (_ChunkMessages.rows_writer; without
+        the fast path, each message through write_raw)."""
+        if self._chunk is not None:
+            return self._chunk.rows_writer(self._chan[topic], self._n[topic], fmt,
+                                           self.plot_series.sink_run(topic))
+        write = self._writers[topic]
+
+        def write_rows(raw: bytes, first: int, last: int, stop_every_ns: int) -> int:
+            k, data, where = fmt.records(raw, first, last, 0, 0, 0, 1 << 62, stop_every_ns)
+            ends = where[3::2] + [len(data)]
+            for i in range(k):
+                write(where[2 * i], data[where[2 * i + 1] + 31:ends[i]])
+            return k
+        return write_rows
 
     def _make_writer(self, topic: str):
         chan, n = self._chan[topic], self._n[topic]
@@ -567,23 +740,19 @@ class _Decoder:
         self.last_row = None
         self.config_downloads = 0
         idx = {name: i + 1 for i, name in enumerate(columns)}
-        parts, sel = [], []
-        # fixed decimals: 1 us of time, 0.1 um / 0.0001 deg of truth (and faster to
-        # format than the shortest repr)
+        # /truth's text (TRUTH_SCHEMA's keys) by the native row formatter: fixed decimals,
+        # 1 us of time, 0.1 um / 0.0001 deg of truth; a heading that would print as
+        # 360.0000 is written as 0 (0 <= heading_deg < 360); dio_out as a 12-bit integer
         keys = ("t", "x_mm", "y_mm", "yaw_deg", "heading_deg", "distance_mm", "v_mm_s", "w_deg_s")
-        for k in keys:
-            parts.append(f'"{k}":%.6f' if k == "t" else f'"{k}":%.4f')
-            sel.append(0 if k == "t" else idx.get(k))
-        parts.append('"servo_deg":[' + ",".join(["%.4f"] * 8) + "]")
-        sel += [idx.get(f"servo_deg_{i}") for i in range(8)]
-        self.dio_col = idx.get("dio_out")
-        parts.append('"dio_out":%d')
-        # a bytes template: bytes % formats a float as str % does (PyOS_double_to_string)
-        # in about half the time of str % and encode()
-        self.truth_fmt = ("{" + ",".join(parts) + "}").encode()
-        self.heading_at = keys.index("heading_deg")     # its place in truth_get's tuple
-        # a column the plant lacks reads as 0.0: index `width` of a row padded with 0.0
-        self.truth_get = operator.itemgetter(*[width if i is None else i for i in sel])
+        fields = [(("{" if k == "t" else ",") + f'"{k}":', 0 if k == "t" else idx.get(k),
+                   6 if k == "t" else 4) for k in keys]
+        fields += [(',"servo_deg":[' if i == 0 else ",", idx.get(f"servo_deg_{i}"), 4)
+                   for i in range(8)]
+        fields.append(('],"dio_out":', idx.get("dio_out"), ROW_INT))
+        self.truth_text = RowText(build, width, fields, "}", 0xFFF, keys.index("heading_deg"),
+                                  _HEADING_ROUNDS_TO_360, 360.0)
+        self.row_bytes = 8 * width
+        self.truth_rows = self.rec.rows_writer("/truth", self.truth_text)
         # the Foxglove topics: the truth's pose (x_mm, y_mm, yaw_deg), the odometry of
         # micro_data (x, y, heading), events and commands
         self.fox = foxglove.FoxgloveWriter(self.rec.writer)
@@ -621,13 +790,6 @@ class _Decoder:
             if hit is not None:
                 write(t_ns, hit[0] % hit[1](values))
         return datalog
-
-    def _truth_text(self, row) -> bytes:
-        dio = int(row[self.dio_col]) & 0xFFF if self.dio_col else 0
-        vals = self.truth_get(row)
-        if vals[self.heading_at] >= _HEADING_ROUNDS_TO_360:
-            vals = _heading_wrapped(vals, self.heading_at)
-        return self.truth_fmt % (vals + (dio,))
 
     def handle(self, item) -> None:
         """One item of RunLog (its kind first)."""
@@ -685,32 +847,29 @@ class _Decoder:
         self.rx[item[1]].restart()
 
     def _truth_rows(self, item) -> None:
-        rec = self.rec
-        fmt, get, dio_col, write = self.truth_fmt, self.truth_get, self.dio_col, self.write_truth
-        hdg_at = self.heading_at
-        fox, fox_get, fox_ns = self.fox.truth, self.fox_truth, foxglove.TRUTH_PERIOD_NS
-        raw = item[1]
+        """Truth rows: /truth messages by the native row formatter, which stops after
+        each row on the Foxglove poses' period for their messages to follow it."""
+        rec, write, raw, size = self.rec, self.truth_rows, item[1], self.row_bytes
+        fox, fox_ns = self.fox.truth, foxglove.TRUTH_PERIOD_NS
+        n = len(raw) // size
+        if not n:
+            return
         t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
-        t1 = round(self.first_t(raw, len(raw) - self.row_struct.size)[0] * 1e3) * 1_000_000
+        t1 = round(self.first_t(raw, (n - 1) * size)[0] * 1e3) * 1_000_000
         whole = t1 - t0 <= rec.span_ns      # else (a frame over 1 s) a chunk per span
         if whole:
             rec.reserve(t0, t1)
-        pad = (0.0,)
-        row = None
-        for row in self.row_struct.iter_unpack(raw):
-            row += pad
-            dio = int(row[dio_col]) & 0xFFF if dio_col else 0
-            t_ns = round(row[0] * 1e3) * 1_000_000
+        at = 0
+        while at < n:
             if not whole:
+                t_ns = round(self.first_t(raw, at * size)[0] * 1e3) * 1_000_000
                 rec.reserve(t_ns, t_ns)
-            vals = get(row)
-            if vals[hdg_at] >= _HEADING_ROUNDS_TO_360:
-                vals = _heading_wrapped(vals, hdg_at)
-            write(t_ns, fmt % (vals + (dio,)))
+            at += write(raw, at, n if whole else at + 1, fox_ns)
+            t_ns = round(self.first_t(raw, (at - 1) * size)[0] * 1e3) * 1_000_000
             if not t_ns % fox_ns:
-                fox(t_ns, *fox_get(row))
-        if row is not None:
-            self.last_row = row
+                fox(t_ns, *self.fox_truth(self.row_struct.unpack_from(raw, (at - 1) * size)
+                                          + (0.0,)))
+        self.last_row = raw[(n - 1) * size:]
 
     def _planner_command(self, item) -> None:
         _, t_ns, cmd, entry = item
@@ -854,7 +1013,8 @@ class _Decoder:
                 "planner": {"commands": self.commands, "verdicts": self.verdicts,
                             "unacknowledged": self.unacknowledged},
                 "last_lisp": self.last_lisp,
-                "last_truth": json.loads(self._truth_text(self.last_row)) if self.last_row else None,
+                "last_truth": (json.loads(self.truth_text.text(self.last_row))
+                               if self.last_row else None),
                 "config_downloads": self.config_downloads,
                 "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                 "watchdog_stops": self.watchdog_stops,
@@ -979,11 +1139,12 @@ class RunLog:
                  build: Path | None = None):
         """`can`: a run over CAN, whose bus frames (can_frame()) go to the /can topic.
         `build`: the build folder with the generated navkit_json (protocol.json_texts;
-        default navkit.paths.build_dir()), loaded here, so that a missing or stale one is
-        an OSError of this call."""
+        default navkit.paths.build_dir()) and the row formatter (row_library()), loaded
+        here, so that a missing or stale one is an OSError of this call."""
         from navkit import protocol
 
         protocol.json_texts(build)
+        _row_lib(build)
         self._items: list = []
         self._batch = batch_frames
         self._frames = 0
