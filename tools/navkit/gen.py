@@ -704,7 +704,8 @@ def _py_text(m: Message) -> list[str]:
             f'    "{m.name}", {m.id}, {m.size},',
             f"    {unpack},",
             f"    b'{template}',",
-            "    {" + ", ".join(f'"{k}": {v}' for k, v in at.items()) + "})", ""]
+            "    {" + ", ".join(f'"{k}": {v}' for k, v in at.items()) + "},",
+            "    (" + "".join(f"({off}, '{code}'), " for off, code, _ in slots) + "))", ""]
 
 
 def emit_python(spec: Spec) -> str:
@@ -731,7 +732,8 @@ def emit_python(spec: Spec) -> str:
            '    """How message `name` (type `id`, `size` bytes: a serial frame with its start word',
            "    and CRC, or an rcomm slot) becomes JSON: `unpack(data, offset=0)` its field values",
            "    (an array's elements in a row, spec order), `json` the bytes template they fill, `at`",
-           '    each field\'s position in those values (an array\'s first element)."""',
+           "    each field's position in those values (an array's first element), `slots` each",
+           '    value\'s (byte offset, struct code), in those values\' order."""',
            "",
            "    name: str",
            "    id: int",
@@ -739,6 +741,7 @@ def emit_python(spec: Spec) -> str:
            "    unpack: object",
            "    json: bytes",
            "    at: dict",
+           "    slots: tuple",
            "",
            "",
            "def _in_spec_order(unpack, pick):",

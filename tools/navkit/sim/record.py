@@ -203,6 +203,14 @@ def _row_lib(build: Path | None = None):
         lib.rowtext_run.argtypes = None     # (program, bytes, int, int): no conversions
         lib.rowtext_fixed.restype = c_size_t
         lib.rowtext_fixed.argtypes = [c_void_p, c_double, c_int]
+        lib.fieldtext_new.restype = c_void_p
+        lib.fieldtext_new.argtypes = [c_size_t, c_char_p, POINTER(c_uint32), POINTER(c_uint32),
+                                      c_char_p, c_size_t]
+        lib.fieldtext_free.argtypes = [c_void_p]
+        lib.fieldtext_out.restype = c_void_p
+        lib.fieldtext_out.argtypes = [c_void_p]
+        lib.fieldtext_run.restype = c_int
+        lib.fieldtext_run.argtypes = None   # (program, bytes, int): no conversions
         _ROW_LIBS[path] = lib
     return lib
 
@@ -296,6 +304,46 @@ class RowText:
         return data[31:]
 
 
+class FieldText:
+    """A message's JSON text from its bytes by the native message formatter (fmu/record,
+    fieldtext.h), with the program of the generated codec's MessageText `mt`
+    (navkit_json: its template's %d placeholders filled with the values at its slots):
+    text(data, offset) is mt.json % mt.unpack(data, offset)."""
+
+    def __init__(self, build, mt):
+        import ctypes
+
+        parts = mt.json.split(b"%d")
+        n = len(mt.slots)
+        if len(parts) != n + 1 or b"%" in b"".join(parts):
+            raise ValueError(f"{mt.name}: its template has not one %d a slot")
+        ends, at = [], 0
+        for lit in parts:
+            at += len(lit)
+            ends.append(at)
+        self._lib = lib = _row_lib(build)
+        self._h = lib.fieldtext_new(n, b"".join(parts), (ctypes.c_uint32 * (n + 1))(*ends),
+                                    (ctypes.c_uint32 * n)(*[off for off, _ in mt.slots]),
+                                    "".join(code for _, code in mt.slots).encode(), mt.size)
+        if not self._h:
+            raise ValueError(f"{mt.name}: field program refused by {row_library(build)}")
+        self.size = mt.size
+        out, run, handle, string_at = (lib.fieldtext_out(self._h), lib.fieldtext_run,
+                                       ctypes.c_void_p(self._h), ctypes.string_at)
+
+        def text(data: bytes, offset: int = 0, _program=self) -> bytes:
+            """The JSON text of the message at data[offset:] (its `size` bytes there: the
+            caller checks); _program keeps the native program alive with the function."""
+            return string_at(out, run(handle, data, offset))
+        self.text = text
+
+    def __del__(self):
+        if getattr(self, "_h", None):
+            self._lib.fieldtext_free(self._h)
+            self._h = None
+
+
+
 # One CAN frame as RunLog.can_frame queues it: time (ns), identifier, flags (bit 0 to the
 # host, bit 1 error frame), dlc (bytes), the data padded to 8 bytes; and its /can text.
 _CAN_RECORD = struct.Struct("<qHBB8s")
@@ -318,10 +366,14 @@ def _message_index_class():
     head, op = struct.Struct("<BQHI"), int(Opcode.MESSAGE_INDEX)
 
     class FlatMessageIndex(MessageIndex):
-        def write(self, stream) -> None:
+        def record(self) -> bytes:
+            """The record's bytes."""
             n = len(self.records)       # 2 per entry, 8 bytes each
-            stream.write(head.pack(op, 6 + 8 * n, self.channel_id, 8 * n)
-                         + struct.pack(f"<{n}Q", *self.records))
+            return head.pack(op, 6 + 8 * n, self.channel_id, 8 * n) \
+                + struct.pack(f"<{n}Q", *self.records)
+
+        def write(self, stream) -> None:
+            stream.write(self.record())
     return FlatMessageIndex
 
 
@@ -346,6 +398,7 @@ class _ChunkMessages:
         # counted here: a message costs list appends, no call on the buffer
         self._parts: list = []
         self._at = [builder.record_writer._buffer.tell()]
+        self._end = self._chunk_ender()
 
     @classmethod
     def make(cls, writer):
@@ -434,11 +487,68 @@ class _ChunkMessages:
             self._parts.clear()
 
     def flush(self) -> None:
-        """End the open chunk: spill(), fold(), then the Writer's flush."""
+        """End the open chunk: spill(), fold(), then the Writer's flush (end_chunk())."""
         self.spill()
         self.fold()
-        self._w.flush()
+        if self._cb.num_messages and self._end is not None:
+            self._end()
+        else:
+            self._w.flush()
         self._at[0] = self._cb.record_writer._buffer.tell()
+
+    def _chunk_ender(self):
+        """fn() ending the open chunk (messages in it, folded) as Writer.flush does (mcap
+        1.x: the Chunk record, its channels' MessageIndex records, the ChunkIndex kept for
+        the summary, the statistics' chunk count, the data section CRC, the stream
+        flushed): the same bytes, with the chunk and its indexes packed and written at once
+        instead of a dozen record-builder calls each. None where the Writer is not as
+        expected (LZ4, CRCs, message indexes), and then Writer.flush ends chunks."""
+        import zlib
+
+        import lz4.frame
+        from mcap.records import ChunkIndex
+        from mcap.writer import CompressionType, IndexType
+
+        w = self._w
+        get = {a: getattr(w, "_Writer__" + a, None) for a in (
+            "compression", "enable_crcs", "enable_data_crcs", "index_types", "chunk_indices",
+            "stream", "record_builder", "data_section_crc")}
+        if (get["compression"] != CompressionType.LZ4 or get["enable_crcs"] is not True
+                or get["enable_data_crcs"] is not True or get["chunk_indices"] is None
+                or get["stream"] is None or not hasattr(get["record_builder"], "count")
+                or not isinstance(get["data_section_crc"], int)
+                or not get["index_types"] & IndexType.MESSAGE):
+            return None
+        cb, stats, stream, chunk_indices = self._cb, self._stats, get["stream"], get["chunk_indices"]
+        compress, crc32, head = lz4.frame.compress, zlib.crc32, struct.Struct("<BQQQQI3sQ")
+
+        def end() -> None:
+            w._Writer__flush()              # what the Writer holds (nothing, normally)
+            stats.chunk_count += 1
+            data = cb.end()
+            packed = compress(data)
+            chunk = head.pack(0x06, 43 + len(packed), cb.message_start_time,
+                              cb.message_end_time, len(data), crc32(data), 3, b"lz4",
+                              len(packed)) + packed
+            start = stream.tell()
+            at = start + len(chunk)
+            offsets, records = {}, [chunk]
+            for chan, idx in cb.message_indices.items():
+                rec = idx.record()
+                offsets[chan] = at
+                at += len(rec)
+                records.append(rec)
+            out = b"".join(records)
+            w._Writer__data_section_crc = crc32(out, w._Writer__data_section_crc)
+            stream.write(out)
+            chunk_indices.append(ChunkIndex(
+                message_start_time=cb.message_start_time, message_end_time=cb.message_end_time,
+                chunk_start_offset=start, chunk_length=len(chunk),
+                message_index_offsets=offsets, message_index_length=at - start - len(chunk),
+                compression="lz4", compressed_size=len(packed), uncompressed_size=len(data)))
+            cb.reset()
+            stream.flush()
+        return end
 
     def fold(self) -> None:
         """The open chunk's message count and time span (ns) from its message indexes,
@@ -717,6 +827,8 @@ class _Decoder:
                                  for h in HOST_STATES}
         # serial frames: type -> generated text; micro_data's fields read by the log
         self.by_type = texts.BY_TYPE
+        # serial type -> (its MessageText, its JSON text function by the native formatter)
+        self.text_by_type = {k: (t, FieldText(build, t).text) for k, t in texts.BY_TYPE.items()}
         self.micro_data = md = texts.MICRO_DATA
         self.md_name = md.name
         status = protocol.SPEC.messages[md.name].field("status")
@@ -730,6 +842,7 @@ class _Decoder:
         # lisp_data: its text, and the host's verdict on each planner command
         # (nav_result of the first lisp_data whose ack_time_tag is the command's time tag)
         self.lisp_data = ld = texts.LISP_DATA
+        self.lisp_text = FieldText(build, ld).text
         self.ack_at = (ld.at["ack_time_tag"], ld.at["nav_result"])
         self.last_lisp = None
         self.last_lisp_raw = None      # decoded into last_lisp by finish()
@@ -912,10 +1025,9 @@ class _Decoder:
             d = self.p.from_bytes(ld.name, raw)     # the codec's error for a bad size
             self.write_lisp(t_ns, self.dumps(d).encode())
         else:
-            values = ld.unpack(raw)
-            self.write_lisp(t_ns, ld.json % values)
+            self.write_lisp(t_ns, self.lisp_text(raw))
             if self.pending:
-                self.acks(values)
+                self.acks(ld.unpack(raw))
         self.last_lisp_raw = raw
         self.last_lisp = None
 
@@ -953,14 +1065,13 @@ class _Decoder:
             prefixed = False
         frames, end, short = p.split_frames(data)
         at = count = 0
-        by_type, crc_ok, stats = self.by_type, p.frame_crc_ok, parser.stats
+        by_type, crc_ok, stats = self.text_by_type, p.frame_crc_ok, parser.stats
         for msg_type, frame in frames:
             hit = self.cmd_text.get(frame)
             if hit is None:
                 t = by_type.get(msg_type)
-                if t is not None and t.size == len(frame) and crc_ok(frame):
-                    values = t.unpack(frame)
-                    hit = (t.name, frame, t.json % values, values)
+                if t is not None and t[0].size == len(frame) and crc_ok(frame):
+                    hit = (t[0].name, frame, t[1](frame), None)
                 else:
                     try:
                         name, fields = p.decode_frame(frame)

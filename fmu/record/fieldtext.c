@@ -1,0 +1,142 @@
+/* navkit_record: the run log's native message formatter (fieldtext.h). */
+#include "fieldtext.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+struct fieldtext {
+    size_t n_fields;
+    size_t size;            /* message bytes */
+    char *lits;             /* the literals back to back */
+    uint32_t *lit_end;      /* n_fields + 1 ends in lits, bytes */
+    uint32_t *offsets;      /* byte offset of each value */
+    char *codes;            /* struct code of each value */
+    char *out;              /* the last text */
+};
+
+/* Bytes of a value of struct code `c`, 0 for an unknown code. */
+static size_t fieldtext_width(char c)
+{
+    switch (c) {
+    case 'b': case 'B': return 1u;
+    case 'h': case 'H': return 2u;
+    case 'i': case 'I': return 4u;
+    case 'q': case 'Q': return 8u;
+    default: return 0u;
+    }
+}
+
+fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *lit_end,
+                           const uint32_t *offsets, const char *codes, size_t size)
+{
+    if (n_fields == 0 || lits == NULL || lit_end == NULL || offsets == NULL || codes == NULL) {
+        return NULL;
+    }
+    for (size_t i = 0; i < n_fields; i++) {
+        const size_t w = fieldtext_width(codes[i]);
+        if (w == 0u || offsets[i] + w > size || lit_end[i + 1] < lit_end[i]
+            || (i == 0 && lit_end[0] > lit_end[1])) {
+            return NULL;
+        }
+    }
+    fieldtext_t *p = calloc(1, sizeof *p);
+    if (p == NULL) {
+        return NULL;
+    }
+    const size_t n_lits = lit_end[n_fields];
+    p->lits = malloc(n_lits + 1u);
+    p->lit_end = malloc((n_fields + 1u) * sizeof *p->lit_end);
+    p->offsets = malloc(n_fields * sizeof *p->offsets);
+    p->codes = malloc(n_fields);
+    p->out = malloc(n_lits + 21u * n_fields);     /* 20 digits and a sign a value at most */
+    if (p->lits == NULL || p->lit_end == NULL || p->offsets == NULL || p->codes == NULL
+        || p->out == NULL) {
+        fieldtext_free(p);
+        return NULL;
+    }
+    memcpy(p->lits, lits, n_lits);
+    memcpy(p->lit_end, lit_end, (n_fields + 1u) * sizeof *p->lit_end);
+    memcpy(p->offsets, offsets, n_fields * sizeof *p->offsets);
+    memcpy(p->codes, codes, n_fields);
+    p->n_fields = n_fields;
+    p->size = size;
+    return p;
+}
+
+void fieldtext_free(fieldtext_t *p)
+{
+    if (p != NULL) {
+        free(p->lits);
+        free(p->lit_end);
+        free(p->offsets);
+        free(p->codes);
+        free(p->out);
+        free(p);
+    }
+}
+
+const char *fieldtext_out(const fieldtext_t *p)
+{
+    return p == NULL ? NULL : p->out;
+}
+
+/* The little-endian unsigned integer of `n` bytes at b. */
+static uint64_t fieldtext_le(const uint8_t *b, size_t n)
+{
+    uint64_t v = 0;
+    for (size_t i = n; i-- > 0u;) {
+        v = (v << 8) | b[i];
+    }
+    return v;
+}
+
+/* Writes v in decimal at out (a '-' first if `negative`, v then the magnitude); returns
+ * the bytes written. */
+static size_t fieldtext_decimal(char *out, uint64_t v, int negative)
+{
+    char tmp[20];
+    size_t n = 0, k = 0;
+    do {
+        tmp[n++] = (char)('0' + v % 10u);
+        v /= 10u;
+    } while (v != 0u);
+    if (negative) {
+        out[k++] = '-';
+    }
+    while (n > 0u) {
+        out[k++] = tmp[--n];
+    }
+    return k;
+}
+
+int fieldtext_run(fieldtext_t *p, const char *data, int offset)
+{
+    if (p == NULL || data == NULL || offset < 0) {
+        return -1;
+    }
+    const uint8_t *msg = (const uint8_t *)data + offset;
+    char *out = p->out;
+    size_t n = 0;
+    uint32_t lit = 0;
+    for (size_t i = 0; i < p->n_fields; i++) {
+        const uint32_t end = p->lit_end[i];
+        memcpy(out + n, p->lits + lit, end - lit);
+        n += end - lit;
+        lit = end;
+        const char c = p->codes[i];
+        const size_t w = fieldtext_width(c);
+        uint64_t v = fieldtext_le(msg + p->offsets[i], w);
+        int negative = 0;
+        if (c >= 'a' && w < 8u && (v >> (8u * w - 1u)) != 0u) {
+            v = (1ull << (8u * w)) - v;         /* the magnitude of a negative value */
+            negative = 1;
+        } else if (c == 'q' && (v >> 63) != 0u) {
+            v = ~v + 1u;
+            negative = 1;
+        }
+        n += fieldtext_decimal(out + n, v, negative);
+    }
+    const uint32_t end = p->lit_end[p->n_fields];
+    memcpy(out + n, p->lits + lit, end - lit);
+    return (int)(n + (end - lit));
+}
