@@ -11,8 +11,9 @@ from navkit.sim import record
 
 
 def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
-    """The same messages through _ChunkMessages and through Writer.add_message: the same
-    file, chunk ends (span and 8 MiB size), message indexes and statistics included."""
+    """The same messages through _ChunkMessages (and its chunk ends) and through
+    Writer.add_message (and Writer.flush): the same file, chunk ends (span and 8 MiB
+    size), message indexes, chunk indexes and statistics included."""
     rng = random.Random(9)
     topics = list(record.TOPICS)
     script = []
@@ -27,6 +28,7 @@ def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
         path = tmp_path / f"run-{fast}.mcap"
         rec = record.Recorder(path, {"seed": 1}, fast=fast)
         assert (rec._chunk is not None) is fast, "the fast path was refused (mcap changed?)"
+        assert (rec._chunk is None or rec._chunk._end is not None), "chunk ends: Writer.flush"
         for k, (topic, t_ns, data) in enumerate(script):
             rec.reserve(t_ns, t_ns)
             rec.write_raw(topic, t_ns, data)
@@ -128,6 +130,24 @@ def test_truth_text_is_the_python_template(tmp_path):
         rt.text(bad)
     dec.handle((record.TRUTH_ROWS, struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
     assert dec.finish()["counts"]["/truth"] == 1
+
+
+def test_native_message_text_is_the_generated_template(tmp_path):
+    """Every spec message through the native field program (FieldText, from the generated
+    navkit_json's template and slots): the text its template % its unpack gives, for
+    random bytes (every sign and width of value) and at an offset."""
+    from navkit import protocol
+    from sim_helpers import require_build
+
+    require_build()
+    rng = random.Random(3)
+    texts = protocol.json_texts()
+    for name, mt in texts.BY_NAME.items():
+        text = record.FieldText(None, mt).text
+        for _ in range(50):
+            data = bytes(rng.choice((0, 255, 128, 127, rng.randrange(256))) for _ in range(mt.size))
+            assert text(data) == mt.json % mt.unpack(data), name
+            assert text(b"xyz" + data, 3) == mt.json % mt.unpack(data), name
 
 
 def test_the_log_worker_socket_holds_megabytes_before_the_loop_waits(tmp_path):

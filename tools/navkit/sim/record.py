@@ -278,20 +278,30 @@ class RowText:
         chunk: stops after a record that ends past `chunk_size` (bytes), after a row whose
         log time (ns) is a multiple of `stop_every_ns` (0: never), or at `last`. Returns
         (rows written, their records' bytes, [log time ns, offset, ...] per record).
-        ValueError for an integer field that is not finite (as int() raises)."""
+        ValueError for an integer field that is not finite (as int() raises). The binding
+        of bind() is kept for the run() calls that follow."""
+        st = self._state
+        bound = st[_CHANNEL], st[_CHUNK_SIZE], st[_STOP_EVERY_NS]
+        self.bind(channel, chunk_size, stop_every_ns)
+        try:
+            return self.run(raw, first, last, seq, offset)
+        finally:
+            self.bind(*bound)
+
+    def bind(self, channel: int, chunk_size: int, stop_every_ns: int) -> None:
+        """records()'s channel, chunk size and stop for the run() calls that follow."""
         st = self._state
         st[_CHANNEL], st[_CHUNK_SIZE], st[_STOP_EVERY_NS] = channel, chunk_size, stop_every_ns
-        st[_SEQ], st[_OFFSET] = seq, offset
-        return self.run(raw, first, last)
 
-    def run(self, raw: bytes, first: int, last: int) -> tuple:
-        """records() with the call block's channel, chunk size and stop as they were
-        set, and its sequence number and offset set by the caller (self.state())."""
+    def run(self, raw: bytes, first: int, last: int, seq: int, offset: int) -> tuple:
+        """records() with the channel, chunk size and stop of the last bind()."""
+        st = self._state
+        st[_SEQ] = seq
+        st[_OFFSET] = offset
         k = self._run(self._handle, raw, first, last)
         if k < 0:
             raise ValueError(f"truth row {first}: " + ("a value that is not finite in an "
                              "integer field" if k == -3 else f"row formatter error {k}"))
-        st = self._state
         pairs = self._pairs.get(k)
         if pairs is None:
             pairs = self._pairs[k] = self._uint64 * (2 * k)
@@ -445,21 +455,24 @@ class _ChunkMessages:
                 keep(t_ns, data)
         return write
 
-    def rows_writer(self, chan: int, n: list, fmt: "RowText", keep_run=None):
-        """fn(raw, first, last, stop_every_ns) -> rows written: rows first .. last - 1 of
-        `raw` as messages on channel `chan` by `fmt` (RowText.records: its records go into
-        the open chunk as they are; it stops after a row at a multiple of stop_every_ns
-        (ns, 0: never), or when the chunk is full, which then ends); sequence numbers as
+    def rows_writer(self, chan: int, n: list, fmt: "RowText", stop_every_ns: int,
+                    keep_run=None):
+        """fn(raw, first, last) -> (rows written, the last one's log time ns): rows first
+        .. last - 1 of `raw` as messages on channel `chan` by `fmt` (RowText.run, bound
+        here to this channel, the chunk size and `stop_every_ns`: its records go into the
+        open chunk as they are; it stops after a row at a multiple of stop_every_ns (ns,
+        0: never), or when the chunk is full, which then ends); sequence numbers as
         writer()'s. `keep_run`, if given, is called with (count, message) where
-        message(i) -> (t_ns, data) of the i-th message written."""
-        records, size = fmt.records, self._size
+        message(i) -> (t_ns, data) of the i-th message written. `fmt` is this writer's."""
+        run, size = fmt.run, self._size
+        fmt.bind(chan, size, stop_every_ns)
         indices, index = self._cb.message_indices, self._index
         flush, first_chan, put, next_at = self.flush, self._channels.append, self._parts.append, \
             self._at
 
-        def write(raw: bytes, first: int, last: int, stop_every_ns: int) -> int:
+        def write(raw: bytes, first: int, last: int) -> tuple:
             at = next_at[0]
-            k, data, where = records(raw, first, last, chan, n[0], at, size, stop_every_ns)
+            k, data, where = run(raw, first, last, n[0], at)
             if n[0] == 0:
                 first_chan(chan)
             idx = indices.get(chan)
@@ -470,14 +483,13 @@ class _ChunkMessages:
             n[0] += k
             end = next_at[0] = at + len(data)
             if keep_run is not None:
-                ends = where[3::2] + [end]
-
                 def message(i: int) -> tuple:
-                    return where[2 * i], data[where[2 * i + 1] - at + 31:ends[i] - at]
+                    stop = where[2 * i + 3] - at if i + 1 < k else end - at
+                    return where[2 * i], data[where[2 * i + 1] - at + 31:stop]
                 keep_run(k, message)
             if end > size:
                 flush()
-            return k
+            return k, where[-2]
         return write
 
     def spill(self) -> None:
@@ -499,7 +511,7 @@ class _ChunkMessages:
     def _chunk_ender(self):
         """fn() ending the open chunk (messages in it, folded) as Writer.flush does (mcap
         1.x: the Chunk record, its channels' MessageIndex records, the ChunkIndex kept for
-        the summary, the statistics' chunk count, the data section CRC, the stream
+        the summary, the statistics' chunk count, the data section CRC if on, the stream
         flushed): the same bytes, with the chunk and its indexes packed and written at once
         instead of a dozen record-builder calls each. None where the Writer is not as
         expected (LZ4, CRCs, message indexes), and then Writer.flush ends chunks."""
@@ -514,13 +526,14 @@ class _ChunkMessages:
             "compression", "enable_crcs", "enable_data_crcs", "index_types", "chunk_indices",
             "stream", "record_builder", "data_section_crc")}
         if (get["compression"] != CompressionType.LZ4 or get["enable_crcs"] is not True
-                or get["enable_data_crcs"] is not True or get["chunk_indices"] is None
+                or not isinstance(get["enable_data_crcs"], bool) or get["chunk_indices"] is None
                 or get["stream"] is None or not hasattr(get["record_builder"], "count")
                 or not isinstance(get["data_section_crc"], int)
                 or not get["index_types"] & IndexType.MESSAGE):
             return None
         cb, stats, stream, chunk_indices = self._cb, self._stats, get["stream"], get["chunk_indices"]
-        compress, crc32, head = lz4.frame.compress, zlib.crc32, struct.Struct("<BQQQQI3sQ")
+        data_crc = get["enable_data_crcs"]
+        compress, crc32, head = lz4.frame.compress, zlib.crc32, struct.Struct("<BQQQQII3sQ")
 
         def end() -> None:
             w._Writer__flush()              # what the Writer holds (nothing, normally)
@@ -539,7 +552,8 @@ class _ChunkMessages:
                 at += len(rec)
                 records.append(rec)
             out = b"".join(records)
-            w._Writer__data_section_crc = crc32(out, w._Writer__data_section_crc)
+            if data_crc:
+                w._Writer__data_section_crc = crc32(out, w._Writer__data_section_crc)
             stream.write(out)
             chunk_indices.append(ChunkIndex(
                 message_start_time=cb.message_start_time, message_end_time=cb.message_end_time,
@@ -642,21 +656,22 @@ class Recorder:
         for a caller that writes it every frame."""
         return self._writers[topic]
 
-    def rows_writer(self, topic: str, fmt: "RowText"):
-        """fn(raw, first, last, stop_every_ns) -> rows written: rows of `raw` as messages
-        on `topic` by the native row formatter `fmt` (_ChunkMessages.rows_writer; without
-        the fast path, each message through write_raw)."""
+    def rows_writer(self, topic: str, fmt: "RowText", stop_every_ns: int):
+        """fn(raw, first, last) -> (rows written, the last one's log time ns): rows of
+        `raw` as messages on `topic` by the native row formatter `fmt`, stopping after a
+        row at a multiple of `stop_every_ns` (_ChunkMessages.rows_writer; without the fast
+        path, each message through write_raw)."""
         if self._chunk is not None:
-            return self._chunk.rows_writer(self._chan[topic], self._n[topic], fmt,
+            return self._chunk.rows_writer(self._chan[topic], self._n[topic], fmt, stop_every_ns,
                                            self.plot_series.sink_run(topic))
         write = self._writers[topic]
 
-        def write_rows(raw: bytes, first: int, last: int, stop_every_ns: int) -> int:
+        def write_rows(raw: bytes, first: int, last: int) -> tuple:
             k, data, where = fmt.records(raw, first, last, 0, 0, 0, 1 << 62, stop_every_ns)
             ends = where[3::2] + [len(data)]
             for i in range(k):
                 write(where[2 * i], data[where[2 * i + 1] + 31:ends[i]])
-            return k
+            return k, where[-2]
         return write_rows
 
     def _make_writer(self, topic: str):
@@ -865,7 +880,8 @@ class _Decoder:
         self.truth_text = RowText(build, width, fields, "}", 0xFFF, keys.index("heading_deg"),
                                   _HEADING_ROUNDS_TO_360, 360.0)
         self.row_bytes = 8 * width
-        self.truth_rows = self.rec.rows_writer("/truth", self.truth_text)
+        self.truth_rows = self.rec.rows_writer("/truth", self.truth_text,
+                                               foxglove.TRUTH_PERIOD_NS)
         # the Foxglove topics: the truth's pose (x_mm, y_mm, yaw_deg), the odometry of
         # micro_data (x, y, heading), events and commands
         self.fox = foxglove.FoxgloveWriter(self.rec.writer)
@@ -977,8 +993,8 @@ class _Decoder:
             if not whole:
                 t_ns = round(self.first_t(raw, at * size)[0] * 1e3) * 1_000_000
                 rec.reserve(t_ns, t_ns)
-            at += write(raw, at, n if whole else at + 1, fox_ns)
-            t_ns = round(self.first_t(raw, (at - 1) * size)[0] * 1e3) * 1_000_000
+            k, t_ns = write(raw, at, n if whole else at + 1)
+            at += k
             if not t_ns % fox_ns:
                 fox(t_ns, *self.fox_truth(self.row_struct.unpack_from(raw, (at - 1) * size)
                                           + (0.0,)))
@@ -1160,6 +1176,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     cpu0 = time.process_time()
     spun = 0.0                  # CPU s spent polling for work (spin), not working
     dec = _Decoder(path, metadata, columns, width, can, build)
+    gc.freeze()                 # the decoder's objects too: they live as long as the process
     handlers = dec.handlers     # dec.handle's table, looked up here: an item is a call
     try:
         while True:
