@@ -12,9 +12,9 @@ from pathlib import Path
 
 from navkit.sim.mission import Mission
 
-__all__ = ["one_blas_thread", "STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "build_folder", "host_path",
-           "fmu_paths", "host_config", "frame_period", "check_frame", "git_revision",
-           "git_revision_started", "config_folder", "ask_host_config"]
+__all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "one_blas_thread",
+           "build_folder", "host_path", "fmu_paths", "host_config", "frame_period", "check_frame",
+           "git_revision", "git_revision_started", "config_folder", "ask_host_config"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
