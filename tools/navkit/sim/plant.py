@@ -40,8 +40,8 @@ def contract(fw_md) -> dict:
 def model_description(path: Path, validate: bool = True):
     """fmpy's model description of FMU file `path`, read once per version of the file (its
     size and modification time) and `validate` (its XML checked against the FMI schemas,
-    which the first check in a process loads: several ms): the check and the
-    instantiation of a run, and the runs of one process, share it. Read-only to its users."""
+    which fmpy loads at the first check in a process): the check and the instantiation of
+    a run, and the runs of one process, share it. Read-only to its users."""
     st = Path(path).stat()
     return _model_description(str(path), st.st_size, st.st_mtime_ns, validate)
 
