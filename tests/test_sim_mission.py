@@ -394,3 +394,16 @@ def test_judge_later_leaves_the_hosts_verdict_to_judged(host_converts):
     assert "key 'speed'" in str(later.value) and "the host would drop" in str(later.value)
     m.judged()                          # taken once
     loads("duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 300}), judge_later=True).judged()
+
+
+def test_judge_later_a_later_tables_error_comes_after_the_hosts_verdict(host_converts):
+    """A mission whose commands the host drops and whose [[fault]] is bad fails, with
+    judge_later as without, on the command: the host's verdict is taken first."""
+    text = ("duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 99999999})
+            + "[[fault]]\nt = 1\nkind = 'zap'\n")
+    with pytest.raises(MissionError) as at_once:
+        loads(text, "bad.toml")
+    with pytest.raises(MissionError) as later:
+        loads(text, "bad.toml", judge_later=True)
+    assert str(later.value) == str(at_once.value)
+    assert "[[command]] #1: key 'speed'" in str(later.value), later.value

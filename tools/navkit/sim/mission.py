@@ -347,6 +347,18 @@ def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = Non
             raise MissionError(f"{path}: [expect]: unknown key {k!r} (one of "
                                f"{', '.join(EXPECT_KEYS)})")
         m.expect[k] = _num(f"{path}: [expect]", k, v)
+    try:
+        _entries(m, doc, path, duration, build, judge_later)
+    except MissionError:
+        m.judged()      # a pending verdict on the commands comes first, as without judge_later
+        raise
+    return m
+
+
+def _entries(m: Mission, doc: dict, path: Path, duration: float, build: Path | None,
+             judge_later: bool) -> None:
+    """loads' [[command]], [[key]] and [[fault]] tables of `doc` into `m` (sorted by time,
+    with a warning for each entry out of order in the file). Raises MissionError."""
     for table, parse, out in (("command", _command, m.commands), ("key", _key, m.keys),
                               ("fault", _fault, m.faults)):
         entries = doc.get(table, [])
@@ -363,7 +375,6 @@ def loads(text: str, path: str | Path = "<mission>", *, build: Path | None = Non
                 m.warnings.append(f"{b.where} (t = {b.t:g} s) comes after {a.where.rsplit(': ', 1)[1]} "
                                   f"(t = {a.t:g} s) in the file: entries run in time order")
         out.sort(key=lambda e: e.t)   # stable: same-time entries keep file order
-    return m
 
 
 def load(path: str | Path, *, build: Path | None = None, judge_later: bool = False) -> Mission:
