@@ -180,7 +180,11 @@ class Coupler:
 
     def _check(self, rc: int) -> None:
         if rc != 0:
-            raise CouplerError(self._lib.cosim_error(self._c).decode() or f"error {rc}")
+            raise self._error(rc)
+
+    def _error(self, rc: int) -> CouplerError:
+        """The error of cosim code `rc`, in cosim_error's words when it has them."""
+        return CouplerError(self._lib.cosim_error(self._c).decode() or f"error {rc}")
 
     def close(self) -> None:
         """Frees the native coupler (the FMUs stay the caller's)."""
@@ -356,8 +360,7 @@ class NativeFrames:
             return first + (bytes(self._rows_view[rows1 * self._row_bytes:(rows1 + rows2) * self._row_bytes]),
                             bytes(self._tx_view[tx1:tx1 + out[_TX2]]), out[_WROTE2])
         if rc == _LS_COSIM:
-            err = CouplerError(self._coupler._lib.cosim_error(self._coupler._c).decode()
-                               or f"error {int(ctypes.c_int64(out[_ERRNO]).value)}")
+            err = self._coupler._error(ctypes.c_int64(out[_ERRNO]).value)
             err.done = first if out[_DETAIL] == 2 else None
             raise err
         self._raise(rc, None)
