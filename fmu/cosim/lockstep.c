@@ -16,8 +16,12 @@
 #define LOCKSTEP_READ_MS 5000   /* ms a read waits for bytes the host reported (Port.read_exact) */
 #define LOCKSTEP_WRITE_MS 200   /* ms a write waits for room in the pty (Port.write) */
 
-typedef int (*lockstep_beat_fn)(void *handle);
-typedef int (*lockstep_read_fn)(void *handle, int32_t *words);
+/* navkit_rcomm.h's handle: only its address passes through here */
+struct navkit_rcomm;
+/* The types of navkit_rcomm_heartbeat and navkit_rcomm_read_data (a call through another
+ * function type is undefined). */
+typedef int (*lockstep_beat_fn)(struct navkit_rcomm *r);
+typedef int (*lockstep_read_fn)(struct navkit_rcomm *r, int32_t *words);
 
 struct lockstep {
     cosim_t *c;
@@ -29,10 +33,10 @@ struct lockstep {
     size_t host_cap, tx_cap, chunk_tx_cap, rows_cap, width;
     double *rows;
     uint64_t *out;
-    void *rcomm;
+    struct navkit_rcomm *rcomm;
     lockstep_beat_fn beat;
     lockstep_read_fn read_data;
-    uint8_t *lisp;
+    int32_t *lisp;
     uint32_t frame; /* the frame of the last lockstep_host */
 };
 
@@ -90,12 +94,12 @@ lockstep_t *lockstep_new(cosim_t *c, int sock, uint32_t tick_magic, uint32_t don
     return l;
 }
 
-void lockstep_rcomm(lockstep_t *l, void *handle, void *heartbeat, void *read_data, uint8_t *lisp)
+void lockstep_rcomm(lockstep_t *l, void *handle, void *heartbeat, void *read_data, int32_t *lisp)
 {
     if (!l) {
         return;
     }
-    l->rcomm = handle;
+    l->rcomm = (struct navkit_rcomm *)handle;
     /* object pointer -> function pointer through memcpy: valid on every POSIX target */
     memcpy(&l->beat, &heartbeat, sizeof heartbeat);
     memcpy(&l->read_data, &read_data, sizeof read_data);
@@ -243,7 +247,7 @@ int lockstep_host(lockstep_t *l, int frame, int rx_bytes)
        same either way, and the kernel gets that long to move the host's bytes (a read
        before they are moved waits for it) */
     if (l->read_data) {
-        int n = l->read_data(l->rcomm, (int32_t *)(void *)l->lisp);
+        int n = l->read_data(l->rcomm, l->lisp);
         if (n < 0) {
             return LOCKSTEP_ERR_RCOMM;
         }

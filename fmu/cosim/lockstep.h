@@ -94,7 +94,7 @@ COSIM_API lockstep_t *lockstep_new(cosim_t *c, int sock, uint32_t tick_magic, ui
  * `heartbeat` the address of navkit_rcomm_heartbeat, `read_data` of navkit_rcomm_read_data
  * (which fills `lisp`, the lisp_data's words). Without this call (or with NULLs) no
  * heartbeat is bumped and no lisp_data read. */
-COSIM_API void lockstep_rcomm(lockstep_t *l, void *handle, void *heartbeat, void *read_data, uint8_t *lisp);
+COSIM_API void lockstep_rcomm(lockstep_t *l, void *handle, void *heartbeat, void *read_data, int32_t *lisp);
 
 /* The port's master is now `pty` (the harness made a new pty behind the same path). */
 COSIM_API void lockstep_port(lockstep_t *l, int pty);
