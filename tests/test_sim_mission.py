@@ -407,3 +407,22 @@ def test_judge_later_a_later_tables_error_comes_after_the_hosts_verdict(host_con
         loads(text, "bad.toml", judge_later=True)
     assert str(later.value) == str(at_once.value)
     assert "[[command]] #1: key 'speed'" in str(later.value), later.value
+
+
+def test_sim_cli_a_mission_the_host_rejects_is_one_line(host_converts, tmp_path: Path, capsys):
+    """navkit sim says a command the host would drop in one line, without the file-order
+    warnings of a mission it does not run."""
+    import argparse
+
+    from navkit.sim import cli
+
+    p = tmp_path / "bad.toml"
+    p.write_text("duration_s = 5\n" + _toml({"fwd_cmd": 1, "speed": 300}, 2.0)
+                 + _toml({"fwd_cmd": 1, "speed": 99999999}, 1.0))
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    rc = cli.run(parser.parse_args(["--mission", str(p), "--out", str(tmp_path / "o")]))
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert err.startswith(f"navkit sim: {p}: [[command]] #2: key 'speed'") and err.count("\n") == 1, err
+    assert not (tmp_path / "o").exists()

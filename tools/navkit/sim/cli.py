@@ -140,8 +140,12 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
 
     mission_path = args.mission or repo_root() / DEFAULT_MISSION
     try:
-        # the host judges the commands while fmpy imports (navkit.sim.rig.SimRig takes it)
+        # the host judges the commands while the FMU library imports; its verdict before
+        # anything else is said, so a rejected mission is one line
         mission = load(mission_path, build=args.build, judge_later=True)
+        import fmpy.fmi3  # noqa: F401
+
+        mission.judged()
     except MissionError as e:
         print(f"navkit sim: {e}", file=sys.stderr)
         return 1
@@ -151,11 +155,6 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
     out = args.out or build / "sim" / mission.name
     why = _out_refusal(out)
     if why:
-        try:
-            mission.judged()        # the mission's errors come first
-        except MissionError as e:
-            print(f"navkit sim: {e}", file=sys.stderr)
-            return 1
         print(f"navkit sim: {'--out ' if args.out else 'output folder '}{out}: {why}", file=sys.stderr)
         return 1
     opts = SimOptions(mission=mission, out=out, seed=args.seed, realtime=args.realtime,
