@@ -1,7 +1,7 @@
 """`navkit sim` fast end to end: plot.png is drawn in the harness (Pillow, no matplotlib)
 from the messages the log worker kept while it wrote run.mcap (no read-back), the same
 figure `navkit plot` draws from the file; the command's speed lines and --stamps;
-bench-sim's whole-command figures."""
+bench-sim's whole-command figures; a run stopped before its first /truth has no plot."""
 
 import argparse
 import json
@@ -161,3 +161,38 @@ def test_bench_sim_prints_the_whole_command_and_its_parts(capsys):
     secs = [float(ln.rsplit(" s ", 1)[0].split()[-1]) for ln in parts]
     total = float(lines[head[0]].split(" in ")[1].split(" s wall")[0])
     assert all(s >= 0 for s in secs) and abs(sum(secs) - total) < 0.01 + 0.001 * len(secs), (secs, total)
+
+
+# `navkit sim` whose loop is stopped by SIGTERM before its first step, as a signal in the
+# set-up's last moment stops it: the run has no /truth message to draw
+_STOPPED_AT_ONCE = """
+import os, signal, sys
+from navkit.cli import main
+from navkit.sim import harness
+
+def stopped(rig, faults):
+    os.kill(os.getpid(), signal.SIGTERM)
+    raise AssertionError("SIGTERM did not stop the run")
+
+harness.run_lockstep = stopped
+sys.exit(main(["sim", "--mission", sys.argv[1], "--out", sys.argv[2], "--no-progress"]))
+"""
+
+
+def test_a_run_stopped_before_its_first_truth_says_why_it_has_no_plot(tmp_path):
+    """Stopped before any /truth: the outputs closed, summary.json says interrupted, no
+    plot.png and one warning naming it (not a traceback), status 128 + SIGTERM."""
+    import signal
+    import subprocess
+    import sys
+
+    require_build()
+    (tmp_path / "m.toml").write_text(MISSION)
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-c", _STOPPED_AT_ONCE, str(tmp_path / "m.toml"), str(out)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 128 + signal.SIGTERM, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    assert f"warning: {out / 'plot.png'}: not drawn: no /truth messages" in done.stderr, done.stderr
+    assert json.loads((out / "summary.json").read_text())["interrupted"]["signal"] == "SIGTERM"
+    assert not (out / "plot.png").exists()

@@ -92,7 +92,10 @@ def _run(opts: SimOptions, stamp, git=None) -> dict:
             if Path(opts.out).is_dir():
                 (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
             if opts.plot and mcap_path.exists():
-                plot_mcap(mcap_path, png, rig.results.get("plot"))
+                try:
+                    plot_mcap(mcap_path, png, rig.results.get("plot"))
+                except ValueError as e:     # stopped before its first /truth: nothing to draw
+                    print(f"warning: {png}: not drawn: {e}", file=sys.stderr)
         finally:
             for s, h in held.items():
                 signal.signal(s, h)
