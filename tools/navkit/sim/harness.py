@@ -47,12 +47,6 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
             stamps[key] = time.monotonic()
 
     stamp("run")
-    return _run(opts, stamp, git)
-
-
-def _run(opts: SimOptions, stamp, git=None) -> dict:
-    """run(opts) with each phase's end passed to `stamp` and the git revision from `git`
-    (None: started here)."""
     # module imports are not part of a run's wall time (mcap's: the log worker's own, beside
     # the set-up)
     import fmpy.fmi3  # noqa: F401
