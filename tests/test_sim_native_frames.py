@@ -175,3 +175,41 @@ def test_the_host_bytes_late_are_waited_for(frames):
     finally:
         late.join()
     assert nf.waits() == (1, 1), "one read found them missing and slept past the spin"
+
+
+def test_a_signal_while_the_pty_is_full_drops_no_bytes(frames):
+    """A signal (a deferred stop) that interrupts the wait for room in a full pty resumes
+    the wait, as Port.write's select does; the host drains the port within it."""
+    import signal
+    import threading
+
+    from navkit import protocol
+
+    nf, lock, port, _ = frames
+    import select
+
+    filled = 0
+    while select.select([], [port.master], [], 0.05)[1]:     # full until the host reads
+        try:
+            while True:
+                filled += os.write(port.master, b"\0" * 4096)
+        except BlockingIOError:
+            pass
+    cmd = protocol.encode_frame("micro_cmd", {"fwd_cmd": 1, "speed": 200, "distance": 2000}, time_tag=1)
+    os.write(port.slave, cmd)
+    _done(lock, 0, tx_bytes=len(cmd))
+    assert nf.host(0, 0)[2] == cmd
+    main = threading.get_ident()
+    old = signal.signal(signal.SIGUSR1, lambda *_: None)
+    kick = threading.Timer(0.05, signal.pthread_kill, (main, signal.SIGUSR1))
+    drain = threading.Timer(0.1, os.read, (port.slave, filled + 4096))
+    kick.start()
+    drain.start()
+    try:
+        _rows, tx, wrote, _rows2, tx2, wrote2 = nf.micro()
+    finally:
+        kick.join()
+        drain.join()
+        signal.signal(signal.SIGUSR1, old)
+    assert len(tx) + len(tx2) > 0, "the micro answers the command"
+    assert (wrote, wrote2) == (len(tx), len(tx2))

@@ -259,6 +259,23 @@ int lockstep_host(lockstep_t *l, int frame, int rx_bytes)
     return rc;
 }
 
+/* Waits at most LOCKSTEP_WRITE_MS ms for room in the pty, a signal's interruption
+ * resuming the wait (as Python's select does): 1 room, 0 none (or poll failed). */
+static int lockstep_wait_room(lockstep_t *l)
+{
+    uint64_t end = lockstep_ns() + LOCKSTEP_WRITE_MS * 1000000ull, now;
+    struct pollfd p;
+    int ready;
+    p.fd = l->pty;
+    p.events = POLLOUT;
+    do {
+        now = lockstep_ns();
+        p.revents = 0;
+        ready = poll(&p, 1, now < end ? (int)((end - now + 999999u) / 1000000u) : 0);
+    } while (ready < 0 && errno == EINTR);
+    return ready > 0;
+}
+
 /* Writes len bytes of data to the pty; *wrote gets how many went: all, as a rule; when the
  * host does not drain the port, what went before LOCKSTEP_WRITE_MS passed without room
  * (an EIO, the slave closed, ends the write too). LOCKSTEP_OK or LOCKSTEP_ERR_OS. */
@@ -281,14 +298,8 @@ static int lockstep_write(lockstep_t *l, const uint8_t *data, size_t len, uint64
             *wrote = done;
             return lockstep_os(l);
         }
-        {
-            struct pollfd p;
-            p.fd = l->pty;
-            p.events = POLLOUT;
-            p.revents = 0;
-            if (poll(&p, 1, LOCKSTEP_WRITE_MS) <= 0) {
-                break;
-            }
+        if (!lockstep_wait_room(l)) {
+            break;
         }
     }
     *wrote = done;
