@@ -1,10 +1,17 @@
 /* navkit_record: the run log's native row formatter (rowtext.h). */
 #include "rowtext.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* rowtext_fixed's exact rounding needs each double operation rounded to double as it is
+ * written (SSE2, not the x87's extended precision). */
+#if !defined(FLT_EVAL_METHOD) || FLT_EVAL_METHOD != 0
+#error "rowtext.c needs FLT_EVAL_METHOD 0 (double arithmetic in double precision)"
+#endif
 
 struct rowtext {
     size_t width;           /* doubles a row */
@@ -60,25 +67,36 @@ size_t rowtext_fixed(char *out, double x, int decimals)
         memcpy(out, "inf", 3);
         return 3;
     }
+    if (x == 0.0 && !signbit(x)) {
+        /* the most common value of a row (servos at rest, no speed): "0.000..." */
+        static const char zeros[] = "0.000000000";
+        const size_t n = decimals > 0 ? 2u + (size_t)decimals : 1u;
+        memcpy(out, zeros, n);
+        return n;
+    }
     const double scale = rowtext_pow10[decimals];
     const double s = x * scale;
-    if (fabs(s) >= 0x1p52) {
-        /* no fraction digits left in s: glibc's printf rounds the exact value as
+    if (!(fabs(s) < 0x1p51)) {
+        /* few or no fraction digits left in s: glibc's printf rounds the exact value as
          * Python's dtoa does (correctly, ties to even) */
         int n = snprintf(out, ROWTEXT_FIELD_MAX, "%.*f", decimals, x);
         return n < 0 ? 0u : (size_t)n;
     }
-    /* x * 10^d is exactly s + e (the error of a product is a double); r is s rounded to
-     * the nearest integer, ties to even. Only an s halfway between two integers can round
-     * the other way: by the sign of e (e == 0: a true tie, r is the even one). Elsewhere
-     * |s - r| <= 0.5 - ulp(s) and |e| <= ulp(s) / 2 keep r. */
-    const double e = fma(x, scale, -s);
-    double r = nearbyint(s);
+    /* r: s rounded to the nearest integer, ties to even (adding and taking away 1.5 *
+     * 2^52 rounds away the fraction of any |s| < 2^51 in the default rounding mode).
+     * x * 10^d is exactly s + e (the error of a product is a double, fma gives it); only
+     * an s halfway between two integers can round the other way: by the sign of e
+     * (e == 0: a true tie, r is the even one). Elsewhere |s - r| <= 0.5 - ulp(s) and
+     * |e| <= ulp(s) / 2 keep r. */
+    double r = (s + 0x1.8p52) - 0x1.8p52;
     const double f = s - r;
-    if (f == 0.5 && e > 0.0) {
-        r += 1.0;
-    } else if (f == -0.5 && e < 0.0) {
-        r -= 1.0;
+    if (f == 0.5 || f == -0.5) {
+        const double e = fma(x, scale, -s);
+        if (f == 0.5 && e > 0.0) {
+            r += 1.0;
+        } else if (f == -0.5 && e < 0.0) {
+            r -= 1.0;
+        }
     }
     size_t n = 0;
     if (signbit(x)) {
