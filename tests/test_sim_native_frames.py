@@ -213,3 +213,21 @@ def test_a_signal_while_the_pty_is_full_drops_no_bytes(frames):
         signal.signal(signal.SIGUSR1, old)
     assert len(tx) + len(tx2) > 0, "the micro answers the command"
     assert (wrote, wrote2) == (len(tx), len(tx2))
+
+
+def test_host_bytes_that_do_not_come_raise_after_links_read_wait(frames, monkeypatch):
+    """The native read waits links.READ_WAIT_S (the Python path's) and says so."""
+    from navkit.sim import links
+    from navkit.sim.coupler import NativeFrames
+    from navkit.sim.links import LinkError
+
+    _, lock, port, c = frames
+    monkeypatch.setattr(links, "READ_WAIT_S", 0.2)
+    nf = NativeFrames(c, lock, port.master, 100, 40, timeout_s=0.3)
+    try:
+        os.write(port.slave, b"abc")        # 3 of the 5 bytes the done reports
+        _done(lock, 1, tx_bytes=5)
+        with pytest.raises(LinkError, match=r"read 3 of the 5 bytes the host reported within 0\.2 s"):
+            nf.host(1, 0)
+    finally:
+        nf.close()

@@ -13,8 +13,6 @@
 
 #define LOCKSTEP_TICK_BYTES 24u /* magic, frame, sim time us (u64), rx bytes, 0: little-endian */
 #define LOCKSTEP_DONE_BYTES 16u /* magic, frame, tx bytes, flags: little-endian */
-#define LOCKSTEP_READ_MS 5000   /* ms a read waits for bytes the host reported (Port.read_exact) */
-#define LOCKSTEP_WRITE_MS 200   /* ms a write waits for room in the pty (Port.write) */
 
 /* navkit_rcomm.h's handle: only its address passes through here */
 struct navkit_rcomm;
@@ -26,6 +24,7 @@ typedef int (*lockstep_read_fn)(struct navkit_rcomm *r, int32_t *words);
 struct lockstep {
     cosim_t *c;
     int sock, pty;
+    uint32_t read_ms, write_ms; /* lockstep_new's waits (ms) */
     uint32_t tick_magic, done_magic;
     uint64_t frame_us;
     uint32_t steps, split;
@@ -61,9 +60,10 @@ static uint32_t lockstep_get32(const uint8_t *p)
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
 
-lockstep_t *lockstep_new(cosim_t *c, int sock, uint32_t tick_magic, uint32_t done_magic, int pty, uint64_t frame_us,
-                         uint32_t steps, uint32_t split, uint8_t *host, size_t host_cap, uint8_t *tx, size_t tx_cap,
-                         size_t chunk_tx_cap, double *rows, size_t rows_cap, uint64_t *out)
+lockstep_t *lockstep_new(cosim_t *c, int sock, uint32_t tick_magic, uint32_t done_magic, int pty, uint32_t read_ms,
+                         uint32_t write_ms, uint64_t frame_us, uint32_t steps, uint32_t split, uint8_t *host,
+                         size_t host_cap, uint8_t *tx, size_t tx_cap, size_t chunk_tx_cap, double *rows,
+                         size_t rows_cap, uint64_t *out)
 {
     lockstep_t *l;
     if (!c || sock < 0 || pty < 0 || steps < 1u || !host || !tx || !out || (rows_cap && !rows)) {
@@ -78,6 +78,8 @@ lockstep_t *lockstep_new(cosim_t *c, int sock, uint32_t tick_magic, uint32_t don
     l->tick_magic = tick_magic;
     l->done_magic = done_magic;
     l->pty = pty;
+    l->read_ms = read_ms;
+    l->write_ms = write_ms;
     l->frame_us = frame_us;
     l->steps = steps;
     l->split = split < steps ? split : steps;
@@ -129,7 +131,7 @@ static int lockstep_os(lockstep_t *l)
     return LOCKSTEP_ERR_OS;
 }
 
-/* Reads exactly n bytes from the pty into buf, waiting at most LOCKSTEP_READ_MS for them
+/* Reads exactly n bytes from the pty into buf, waiting at most read_ms for them
  * (an EIO, the host re-opening its port, is waited out like no bytes). */
 static int lockstep_read_exact(lockstep_t *l, uint8_t *buf, size_t n)
 {
@@ -160,7 +162,7 @@ static int lockstep_read_exact(lockstep_t *l, uint8_t *buf, size_t n)
         }
         if (deadline < 0) {
             l->out[LOCKSTEP_SLEEPS]++;
-            deadline = (int64_t)(lockstep_ns() / 1000000u) + LOCKSTEP_READ_MS;
+            deadline = (int64_t)(lockstep_ns() / 1000000u) + (int64_t)l->read_ms;
         }
         left = deadline - (int64_t)(lockstep_ns() / 1000000u);
         if (left <= 0) {
@@ -259,11 +261,11 @@ int lockstep_host(lockstep_t *l, int frame, int rx_bytes)
     return rc;
 }
 
-/* Waits at most LOCKSTEP_WRITE_MS ms for room in the pty, a signal's interruption
+/* Waits at most write_ms for room in the pty, a signal's interruption
  * resuming the wait (as Python's select does): 1 room, 0 none (or poll failed). */
 static int lockstep_wait_room(lockstep_t *l)
 {
-    uint64_t end = lockstep_ns() + LOCKSTEP_WRITE_MS * 1000000ull, now;
+    uint64_t end = lockstep_ns() + (uint64_t)l->write_ms * 1000000u, now;
     struct pollfd p;
     int ready;
     p.fd = l->pty;
@@ -277,7 +279,7 @@ static int lockstep_wait_room(lockstep_t *l)
 }
 
 /* Writes len bytes of data to the pty; *wrote gets how many went: all, as a rule; when the
- * host does not drain the port, what went before LOCKSTEP_WRITE_MS passed without room
+ * host does not drain the port, what went before write_ms passed without room
  * (an EIO, the slave closed, ends the write too). LOCKSTEP_OK or LOCKSTEP_ERR_OS. */
 static int lockstep_write(lockstep_t *l, const uint8_t *data, size_t len, uint64_t *wrote)
 {

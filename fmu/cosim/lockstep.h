@@ -14,9 +14,10 @@
  *
  * The tick and done records are docs/internals.md's, with the magics the caller passes
  * (navkit.sim.links.TICK_MAGIC, DONE_MAGIC: navkit.sim.links.Lockstep packs the same
- * records); the reads and writes keep navkit.sim.links.Port's contract (a read waits at
- * most 5 s for bytes the host reported; a write the host does not drain waits at most
- * 0.2 s, then the rest is dropped and counted).
+ * records); the reads and writes keep navkit.sim.links.Port's contract, with the waits the
+ * caller passes (links.READ_WAIT_S, WRITE_WAIT_S): a read waits at most read_ms for bytes
+ * the host reported; a write the host does not drain waits at most write_ms for room, then
+ * the rest is dropped and counted.
  */
 #ifndef NAVKIT_LOCKSTEP_H
 #define NAVKIT_LOCKSTEP_H
@@ -39,7 +40,7 @@ enum {
     LOCKSTEP_ERR_TIMEOUT = -1, /* no done within the socket's receive timeout (a send's is LOCKSTEP_ERR_OS) */
     LOCKSTEP_ERR_MAGIC = -2,   /* the done's magic is wrong: out[LOCKSTEP_DETAIL] has it */
     LOCKSTEP_ERR_FRAME = -3,   /* the done is for another frame: out[LOCKSTEP_DETAIL] has its number */
-    LOCKSTEP_ERR_SHORT = -4,   /* fewer pty bytes than reported within 5 s: out[LOCKSTEP_DETAIL] read */
+    LOCKSTEP_ERR_SHORT = -4,   /* fewer pty bytes than reported within read_ms: out[LOCKSTEP_DETAIL] read */
     LOCKSTEP_ERR_OS = -5,      /* a system call failed: out[LOCKSTEP_ERRNO] has errno */
     LOCKSTEP_ERR_RCOMM = -6,   /* the heartbeat or the lisp_data read returned < 0 (the region is gone) */
     LOCKSTEP_ERR_COSIM = -7    /* cosim_run failed in chunk out[LOCKSTEP_DETAIL] (1 or 2): its code in */
@@ -78,7 +79,8 @@ typedef struct lockstep lockstep_t;
 
 /* A frame driver of coupler `c` (not owned): `sock` the lockstep socket (blocking, its
  * SO_RCVTIMEO / SO_SNDTIMEO set by the caller) carrying ticks of `tick_magic` and dones
- * of `done_magic`, `pty` the port's master (non-blocking),
+ * of `done_magic`, `pty` the port's master (non-blocking), `read_ms` / `write_ms` the
+ * longest waits (ms) for the host's bytes and for room to write in the pty,
  * `frame_us` the host frame (us), `steps` FMU steps a frame in two chunks of `split` and
  * steps - split (split >= steps: one chunk). `host`/`host_cap`: the buffer of the host's
  * bytes; `tx`/`tx_cap` and `rows`/`rows_cap` (rows of cosim_row_width doubles): the
@@ -86,9 +88,9 @@ typedef struct lockstep lockstep_t;
  * `chunk_tx_cap` bytes (as cosim_run with that capacity); `out`: LOCKSTEP_OUT_N outputs. The
  * buffers stay the caller's and must outlive the driver. NULL on bad arguments or no memory. */
 COSIM_API lockstep_t *lockstep_new(cosim_t *c, int sock, uint32_t tick_magic, uint32_t done_magic, int pty,
-                                   uint64_t frame_us, uint32_t steps, uint32_t split, uint8_t *host, size_t host_cap,
-                                   uint8_t *tx, size_t tx_cap, size_t chunk_tx_cap, double *rows, size_t rows_cap,
-                                   uint64_t *out);
+                                   uint32_t read_ms, uint32_t write_ms, uint64_t frame_us, uint32_t steps,
+                                   uint32_t split, uint8_t *host, size_t host_cap, uint8_t *tx, size_t tx_cap,
+                                   size_t chunk_tx_cap, double *rows, size_t rows_cap, uint64_t *out);
 
 /* The planner's end of rcomm (navkit.rcomm's library): `handle` its navkit_rcomm_t,
  * `heartbeat` the address of navkit_rcomm_heartbeat, `read_data` of navkit_rcomm_read_data

@@ -79,9 +79,9 @@ def _lib(build: Path | None = None):
         lib.cosim_error.restype = ctypes.c_char_p
         lib.cosim_error.argtypes = [c_void_p]
         lib.lockstep_new.restype = c_void_p
-        lib.lockstep_new.argtypes = [c_void_p, c_int, c_uint32, c_uint32, c_int, c_uint64, c_uint32,
-                                     c_uint32, c_void_p, c_size_t, c_void_p, c_size_t, c_size_t,
-                                     c_void_p, c_size_t, c_void_p]
+        lib.lockstep_new.argtypes = [c_void_p, c_int, c_uint32, c_uint32, c_int, c_uint32, c_uint32,
+                                     c_uint64, c_uint32, c_uint32, c_void_p, c_size_t, c_void_p,
+                                     c_size_t, c_size_t, c_void_p, c_size_t, c_void_p]
         lib.lockstep_rcomm.argtypes = [c_void_p, c_void_p, c_void_p, c_void_p, c_void_p]
         lib.lockstep_port.argtypes = [c_void_p, c_int]
         lib.lockstep_free.argtypes = [c_void_p]
@@ -274,7 +274,8 @@ _LS_TIMEOUT, _LS_MAGIC, _LS_FRAME, _LS_SHORT, _LS_OS, _LS_RCOMM, _LS_COSIM = ran
 
 class NativeFrames:
     """Lockstep host frames in native code (fmu/cosim/lockstep.h) for `coupler`: the tick
-    and done on `lock` (navkit.sim.links.Lockstep, whose timeouts it sets to `timeout_s`),
+    and done on `lock` (navkit.sim.links.Lockstep, whose timeouts it sets to `timeout_s`, by
+    default links.DONE_WAIT_S),
     the host's and the firmware's bytes on the pty master `pty`, the planner's heartbeat
     and lisp_data through `rcomm` (navkit.rcomm.Client.native(), or None: neither), and
     each frame's `steps` FMU steps in chunks of `split` and the rest, as
@@ -286,13 +287,14 @@ class NativeFrames:
     HOST_CAP = 1 << 17
 
     def __init__(self, coupler: Coupler, lock, pty: int, steps: int, split: int, rcomm=None,
-                 timeout_s: float = 10.0):
-        from navkit.sim.links import DONE_MAGIC, TICK_MAGIC
+                 timeout_s: float | None = None):
+        from navkit.sim.links import DONE_MAGIC, DONE_WAIT_S, READ_WAIT_S, TICK_MAGIC, WRITE_WAIT_S
 
         self._l = None
         lib = coupler._lib
         self._lib, self._coupler, self._lock = lib, coupler, lock
-        lock.set_timeout(timeout_s)
+        lock.set_timeout(DONE_WAIT_S if timeout_s is None else timeout_s)
+        self._read_wait_s = READ_WAIT_S
         self._host = (c_uint8 * self.HOST_CAP)()
         self._tx = (c_uint8 * (2 * coupler._tx_cap))()      # a chunk's room is run_raw's
         self._rows = (c_double * (max(steps, 1) * coupler.width))()   # record_every >= 1
@@ -304,7 +306,7 @@ class NativeFrames:
         self._row_bytes = coupler.width * 8
         self.pty = pty
         self._l = lib.lockstep_new(coupler._c, lock.sock.fileno(), TICK_MAGIC, DONE_MAGIC, pty,
-                                   steps * 1000, steps, split, self._host, self.HOST_CAP, self._tx,
+                                   round(READ_WAIT_S * 1000), round(WRITE_WAIT_S * 1000), steps * 1000, steps, split, self._host, self.HOST_CAP, self._tx,
                                    len(self._tx), coupler._tx_cap, self._rows, max(steps, 1),
                                    self._out)
         if not self._l:
@@ -381,7 +383,7 @@ class NativeFrames:
 
             self._lock.check_done(frame, DONE_MAGIC, out[_DETAIL])
         if rc == _LS_SHORT:
-            raise Port.short_read(out[_DETAIL], out[_TX_BYTES])
+            raise Port.short_read(out[_DETAIL], out[_TX_BYTES], self._read_wait_s)
         if rc == _LS_RCOMM:
             raise self._rcomm[4]()
         e = out[_ERRNO]

@@ -13,10 +13,14 @@ import time
 import tty
 from pathlib import Path
 
-__all__ = ["Port", "Lockstep", "LineNoise", "LinkError", "TICK_MAGIC", "DONE_MAGIC"]
+__all__ = ["Port", "Lockstep", "LineNoise", "LinkError", "TICK_MAGIC", "DONE_MAGIC", "READ_WAIT_S",
+           "WRITE_WAIT_S", "DONE_WAIT_S"]
 
 TICK_MAGIC = 0x4B544B4E   # 'NKTK' (bytes in memory, little-endian)
 DONE_MAGIC = 0x4E444B4E   # 'NKDN' (bytes in memory, little-endian)
+READ_WAIT_S = 5.0         # s a read waits for bytes the host reported (Port.read_exact)
+WRITE_WAIT_S = 0.2        # s a write waits for room in the pty before the rest is dropped (Port.write)
+DONE_WAIT_S = 10.0        # s a tick's send and its done's receive wait (Lockstep.frame)
 _TICK = struct.Struct("<IIQII")
 _DONE = struct.Struct("<IIII")
 
@@ -83,7 +87,7 @@ class Port:
                 try:
                     done += os.write(self.master, view[done:])
                 except BlockingIOError:
-                    _, w, _ = select.select([], [self.master], [], 0.2)
+                    _, w, _ = select.select([], [self.master], [], WRITE_WAIT_S)
                     if not w:
                         break
                 except OSError as e:
@@ -93,7 +97,7 @@ class Port:
             self.dropped += size - done
         return done
 
-    def read_exact(self, n: int, timeout_s: float = 5.0) -> bytes:
+    def read_exact(self, n: int, timeout_s: float = READ_WAIT_S) -> bytes:
         """Read exactly `n` bytes the host wrote (it has written them already in
         lockstep); LinkError after `timeout_s`."""
         if n == 0:
@@ -126,7 +130,7 @@ class Port:
         return bytes(buf)
 
     @staticmethod
-    def short_read(got: int, n: int, timeout_s: float = 5.0) -> LinkError:
+    def short_read(got: int, n: int, timeout_s: float = READ_WAIT_S) -> LinkError:
         """The error of a read that got `got` of the `n` bytes the host reported within
         `timeout_s` s (read_exact's, and the native lockstep frame's)."""
         return LinkError(f"read {got} of the {n} bytes the host reported within {timeout_s} s")
@@ -172,7 +176,7 @@ class Lockstep:
         self.host_end.close()
 
     def frame(self, frame: int, sim_time_us: int, rx_bytes: int,
-              timeout_s: float = 10.0) -> tuple[int, int] | None:
+              timeout_s: float = DONE_WAIT_S) -> tuple[int, int] | None:
         """Tick one frame and wait for its done: (tx_bytes, flags), or None at EOF (the
         host went away). LinkError if the done is malformed or late."""
         sock = self.sock
