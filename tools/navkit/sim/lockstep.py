@@ -19,7 +19,8 @@ of the loop).
 
 Over the serial link, with the host running and no fault in force, steps 2 and 3 run in
 two native calls (navkit.sim.coupler.NativeFrames, fmu/cosim/lockstep.h) that do what
-the Python calls do, in the same order; the loop logs what they return."""
+the Python calls do (lisp_data read before the host's bytes, which gives the same data:
+the host does not run before the next tick); the loop logs what they return."""
 
 from __future__ import annotations
 
