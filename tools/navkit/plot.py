@@ -104,10 +104,7 @@ class _Thinned:
 
     def offer(self, t_ns: int, data: bytes) -> None:
         if self.n % self.stride == 0:
-            self.kept.append((t_ns, data))
-            if len(self.kept) > 2 * self.cap:
-                del self.kept[1::2]
-                self.stride *= 2
+            self._keep((t_ns, data))
         self.n += 1
 
     def offer_run(self, count: int, message) -> None:
@@ -115,12 +112,16 @@ class _Thinned:
         data) of the i-th, called only for those kept."""
         i = -self.n % self.stride       # the first with (n + i) % stride == 0
         while i < count:
-            self.kept.append(message(i))
-            if len(self.kept) > 2 * self.cap:
-                del self.kept[1::2]
-                self.stride *= 2
+            self._keep(message(i))
             i += 1 + (-(self.n + i + 1) % self.stride)
         self.n += count
+
+    def _keep(self, message: tuple) -> None:
+        """Keep `message`; past 2 * cap kept, drop every other one and double the stride."""
+        self.kept.append(message)
+        if len(self.kept) > 2 * self.cap:
+            del self.kept[1::2]
+            self.stride *= 2
 
 
 # The topics a run plot draws: the first two thinned to about PLOT_POINTS messages each,
