@@ -21,22 +21,25 @@ struct navkit_rcomm;
 typedef int (*lockstep_beat_fn)(struct navkit_rcomm *r);
 typedef int (*lockstep_read_fn)(struct navkit_rcomm *r, int32_t *words);
 
+/* lockstep_new's arguments (see lockstep.h), lockstep_rcomm's and the current frame. */
 struct lockstep {
     cosim_t *c;
-    int sock, pty;
-    uint32_t read_ms, write_ms; /* lockstep_new's waits (ms) */
-    uint32_t tick_magic, done_magic;
-    uint64_t frame_us;
-    uint32_t steps, split;
-    uint8_t *host, *tx;
-    size_t host_cap, tx_cap, chunk_tx_cap, rows_cap, width;
-    double *rows;
-    uint64_t *out;
-    struct navkit_rcomm *rcomm;
-    lockstep_beat_fn beat;
-    lockstep_read_fn read_data;
-    int32_t *lisp;
-    uint32_t frame; /* the frame of the last lockstep_host */
+    int sock, pty;                   /* fds: the lockstep socket, the port's master */
+    uint32_t read_ms, write_ms;      /* ms: the longest waits for the host's bytes, for room */
+    uint32_t tick_magic, done_magic; /* the records' first words */
+    uint64_t frame_us;               /* us: the host frame */
+    uint32_t steps, split;           /* FMU steps a frame, of them in the first chunk */
+    uint8_t *host, *tx;              /* the host's bytes, the firmware's bytes */
+    size_t host_cap, tx_cap;         /* bytes */
+    size_t chunk_tx_cap;             /* bytes of tx a chunk may fill */
+    size_t rows_cap, width;          /* rows; doubles a row */
+    double *rows;                    /* the frame's truth rows */
+    uint64_t *out;                   /* LOCKSTEP_OUT_N outputs */
+    struct navkit_rcomm *rcomm;      /* NULL: no heartbeat, no lisp_data */
+    lockstep_beat_fn beat;           /* navkit_rcomm_heartbeat */
+    lockstep_read_fn read_data;      /* navkit_rcomm_read_data */
+    int32_t *lisp;                   /* lisp_data's words */
+    uint32_t frame;                  /* the frame of the last lockstep_host */
 };
 
 /* Monotonic clock, ns. */
@@ -47,7 +50,7 @@ static uint64_t lockstep_ns(void)
     return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
 }
 
-/* Little-endian u32 / u64 in and out of a record. */
+/* Puts v at p, little-endian (4 bytes of a record). */
 static void lockstep_put32(uint8_t *p, uint32_t v)
 {
     p[0] = (uint8_t)v;
@@ -55,6 +58,8 @@ static void lockstep_put32(uint8_t *p, uint32_t v)
     p[2] = (uint8_t)(v >> 16);
     p[3] = (uint8_t)(v >> 24);
 }
+
+/* The little-endian u32 at p (4 bytes of a record). */
 static uint32_t lockstep_get32(const uint8_t *p)
 {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
