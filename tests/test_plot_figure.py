@@ -230,3 +230,19 @@ def test_dots_outside_the_box_are_cut_off():
                           (0, 0, 0), 3)
     inked = np.argwhere((np.asarray(canvas) < 255).any(axis=2))
     assert inked.size and inked[:, 1].min() >= 31 - 5 and inked[:, 1].max() <= 31 + 5
+
+
+@pytest.mark.parametrize("topic, msg, said", [
+    ("/events", {"t": 8.0, "detail": {}}, "KeyError: 'kind'"),
+    ("/planner/cmd", [1, 2], "AttributeError"),
+    ("/planner/cmd", {"turn_mode": 1, "turn_distance": "90"}, "TypeError"),
+])
+def test_a_mark_without_its_label_is_an_error_naming_its_topic(topic, msg, said):
+    """A command or event message its label cannot be made of (no kind, not an object, a
+    field of another type) is a ValueError naming its topic, which `navkit plot` prints
+    in one line, not a traceback."""
+    s = _series()
+    s[topic] = [(5_000_000_000, json.dumps(msg).encode())]
+    with pytest.raises(ValueError, match=f"^{topic}: a message the plot cannot label") as e:
+        plot.run_figure(s, "t")
+    assert said in str(e.value), e.value

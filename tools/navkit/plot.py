@@ -336,10 +336,11 @@ def run_figure(series: dict, title: str):
     the speed (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s);
     on the speed and heading panels a vertical mark per /planner/cmd message (gid
     "command") and per /events message (gid "event") at its log time, labelled where
-    labels stand apart (_apart). ValueError without /truth."""
+    labels stand apart (_apart). ValueError without /truth, or naming the topic of a
+    command or event its label cannot be made of (_labels)."""
     import numpy as np
 
-    from navkit.figure import Figure, Line, Marks, Panel, Upright
+    from navkit.figure import Figure, Line, Marks, Panel
 
     if not series.get("/truth"):
         raise ValueError("no /truth messages")
@@ -371,11 +372,22 @@ def run_figure(series: dict, title: str):
             p.marks.append(Marks(np.array([ns for ns, _ in events]) / 1e9, _EVENT, 0.8, "dotted",
                                  gid="event"))
     fig = Figure(*_SIZE_IN, _DPI, [xy, v, h]).finish()
-    v.labels = [Upright(ns / 1e9, _command_label(cmd), _COMMAND, _LABEL_PT, "top")
-                for ns, cmd in _apart(fig, v, cmds)]
-    h.labels = [Upright(ns / 1e9, ev["kind"], _EVENT, _LABEL_PT, "bottom")
-                for ns, ev in _apart(fig, h, events)]
+    v.labels = _labels(fig, v, "/planner/cmd", cmds, _command_label, _COMMAND, "top")
+    h.labels = _labels(fig, h, "/events", events, lambda ev: str(ev["kind"]), _EVENT, "bottom")
     return fig
+
+
+def _labels(fig, panel, topic: str, marks: list, text, color: str, at: str) -> list:
+    """Upright labels text(msg) in `color` at the top or bottom (`at`) of finished `panel`
+    for the marks [(log_time_ns, msg), ...] of `topic` that stand apart (_apart).
+    ValueError naming `topic` for a message without what its label says (not a JSON
+    object, a field missing or of another type)."""
+    from navkit.figure import Upright
+
+    try:
+        return [Upright(ns / 1e9, text(msg), color, _LABEL_PT, at) for ns, msg in _apart(fig, panel, marks)]
+    except (AttributeError, KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{topic}: a message the plot cannot label ({type(e).__name__}: {e})") from None
 
 
 # Font size (pt) of a command's or event's label, written upright beside its line.
