@@ -274,11 +274,11 @@ _LS_TIMEOUT, _LS_MAGIC, _LS_FRAME, _LS_SHORT, _LS_OS, _LS_RCOMM, _LS_COSIM = ran
 
 class NativeFrames:
     """Lockstep host frames in native code (fmu/cosim/lockstep.h) for `coupler`: the tick
-    and done on `lock` (navkit.sim.links.Lockstep, whose timeouts it sets to `timeout_s`, by
-    default links.DONE_WAIT_S),
-    the host's and the firmware's bytes on the pty master `pty`, the planner's heartbeat
-    and lisp_data through `rcomm` (navkit.rcomm.Client.native(), or None: neither), and
-    each frame's `steps` FMU steps in chunks of `split` and the rest, as
+    and done on `lock` (navkit.sim.links.Lockstep, whose timeouts it sets to `timeout_s`
+    s, by default links.DONE_WAIT_S), the host's and the firmware's bytes on the pty
+    master `pty`, the planner's heartbeat and lisp_data through `rcomm`
+    (navkit.rcomm.Client.native(), or None: neither), and each frame's `steps` (>= 1) FMU
+    steps in chunks of `split` and the rest, as
     navkit.sim.lockstep's loop does them. host() and micro() return what the Python path's
     calls return; times_s() the wall time (s) in the host (tick -> done), the pty and the
     FMUs so far."""
@@ -297,7 +297,7 @@ class NativeFrames:
         self._read_wait_s = READ_WAIT_S
         self._host = (c_uint8 * self.HOST_CAP)()
         self._tx = (c_uint8 * (2 * coupler._tx_cap))()      # a chunk's room is run_raw's
-        self._rows = (c_double * (max(steps, 1) * coupler.width))()   # record_every >= 1
+        self._rows = (c_double * (steps * coupler.width))()   # a row a step at most
         self._out = (c_uint64 * _OUT_N)()
         self._host_view = memoryview(self._host).cast("B")
         self._tx_view = memoryview(self._tx).cast("B")
@@ -306,17 +306,16 @@ class NativeFrames:
         self._row_bytes = coupler.width * 8
         self.pty = pty
         self._l = lib.lockstep_new(coupler._c, lock.sock.fileno(), TICK_MAGIC, DONE_MAGIC, pty,
-                                   round(READ_WAIT_S * 1000), round(WRITE_WAIT_S * 1000), steps * 1000, steps, split, self._host, self.HOST_CAP, self._tx,
-                                   len(self._tx), coupler._tx_cap, self._rows, max(steps, 1),
-                                   self._out)
+                                   round(READ_WAIT_S * 1000), round(WRITE_WAIT_S * 1000),
+                                   steps * 1000, steps, split, self._host, self.HOST_CAP, self._tx,
+                                   len(self._tx), coupler._tx_cap, self._rows, steps, self._out)
         if not self._l:
             raise CouplerError("lockstep_new failed (bad arguments or no memory)")
         if rcomm is not None:
-            handle, beat, read_data, lisp_bytes, _failed = rcomm
+            handle, beat, read_data, lisp_bytes, self._rcomm_failed = rcomm
             self._lisp = (ctypes.c_int32 * ((lisp_bytes + 3) // 4))()
             self._lisp_view = memoryview(self._lisp).cast("B")[:lisp_bytes]
             lib.lockstep_rcomm(self._l, handle, beat, read_data, self._lisp)
-        self._rcomm = rcomm
         # the per-frame calls without argtypes (ints and ctypes objects only)
         self._host_call, self._micro_call = lib["lockstep_host"], lib["lockstep_micro"]
         for fn in (self._host_call, self._micro_call):
@@ -385,7 +384,7 @@ class NativeFrames:
         if rc == _LS_SHORT:
             raise Port.short_read(out[_DETAIL], out[_TX_BYTES], self._read_wait_s)
         if rc == _LS_RCOMM:
-            raise self._rcomm[4]()
+            raise self._rcomm_failed()
         e = out[_ERRNO]
         raise OSError(e, os.strerror(e))
 
