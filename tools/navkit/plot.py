@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 __all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "run_figure", "RunSeries",
-           "decoded", "fields", "plot_datalog", "read_datalog", "read_mcap", "PLOT_POINTS"]
+           "decoded", "fields", "plot_datalog", "read_datalog", "PLOT_POINTS"]
 
 # Messages a line of a run plot keeps at most, evenly spaced (the figure is ~1000 pixels
 # wide): between PLOT_POINTS and 2 * PLOT_POINTS of a topic with more messages than that.
@@ -77,18 +77,6 @@ def _time_drawing(path: Path, out: Path, repeat: int) -> None:
         times.append(time.perf_counter() - t0)
     print(f"drawn {repeat} times from the messages read once: first {times[0]:.3f} s, best "
           f"{min(times):.3f} s, median {statistics.median(times):.3f} s")
-
-
-def read_mcap(path: Path, topics=None) -> dict:
-    """Messages of a run: {topic: [(log_time_ns, decoded JSON), ...]} for `topics` (all
-    if None). A killed run's file (no footer) is read up to its last whole chunk, with a
-    warning on stderr (navkit.sim.results.read_mcap); McapError if it is not MCAP."""
-    from navkit.sim.results import read_mcap as read
-
-    out: dict = {}
-    for t_ns, topic, data in read(path, topics).messages:
-        out.setdefault(topic, []).append((t_ns, json.loads(data)))
-    return out
 
 
 class _Thinned:
