@@ -163,6 +163,7 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
                       frame_s=frame_s,
                       plot=not args.no_plot, progress=not args.no_progress)
     from navkit.sim.harness import SimInterrupted
+    from navkit.sim.options import stop_signal
 
     for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
         signal.signal(sig, _interrupt)
@@ -177,6 +178,12 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
     except SimInterrupted as e:
         print(f"navkit sim: {e}: outputs closed in {out}/ (summary.json says interrupted)", file=sys.stderr)
         return 128 + e.signum
+    except KeyboardInterrupt as e:     # a stop signal outside the loop: before it, or held
+        signum = stop_signal(e)
+        when = (f"as the run ended: its outputs are closed in {out}/" if "stopped" in stamps
+                else "before the run started")
+        print(f"navkit sim: stopped by {signal.Signals(signum).name} {when}", file=sys.stderr)
+        return 128 + signum
     t = s.get("truth") or {}
     print(f"mission   {mission.path}  (seed {args.seed}, {s['mode']})")
     if args.plant:

@@ -23,9 +23,10 @@ from navkit.plot import plot_mcap
 from navkit.sim.faults import Faults
 from navkit.sim.lockstep import run_lockstep
 from navkit.sim.options import (STEP_S, SimError, SimInterrupted, SimOptions, check_frame, fmu_paths,
-                                frame_period, git_revision, host_config, host_path)
+                                frame_period, git_revision, host_config, host_path, stop_signal)
 from navkit.sim.realtime import run_realtime
 from navkit.sim.rig import SimRig
+from navkit.sim.stops import DeferredStops
 from navkit.sim.summary import summary as run_summary
 
 __all__ = ["SimOptions", "SimError", "SimInterrupted", "run", "host_path", "fmu_paths", "host_config",
@@ -70,7 +71,7 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
         rig.stop()
         raise SimError(f"{e} (host log: {rig.out / 'host.log'})") from e
     except KeyboardInterrupt as e:
-        interrupted = e.args[0] if e.args and isinstance(e.args[0], int) else int(signal.SIGINT)
+        interrupted = stop_signal(e)
     except BaseException:
         rig.stop()
         raise
@@ -94,19 +95,22 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
             for s, h in held.items():
                 signal.signal(s, h)
         raise SimInterrupted(summary, interrupted)
-    rig.stop()
-    stamp("stopped")
-    wall = time.perf_counter() - wall0
-    summary = run_summary(rig, faults, wall)
-    (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    stamp("summary")
-    for ref in summary["planner"]["refused"]:
-        verdict = ref["nav_result"].replace("_", " ")
-        print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
-              f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
-    if opts.plot:
-        # from the messages the log worker kept while writing run.mcap (read back from the
-        # file only if the worker gave no results: it died)
-        plot_mcap(mcap_path, png, rig.results.get("plot"))
-        stamp("plot")
+    # the run is over: a stop signal now waits until the outputs are closed, then acts as
+    # its handler says (navkit sim's raises KeyboardInterrupt), never cutting them short
+    with DeferredStops():
+        rig.stop()
+        stamp("stopped")
+        wall = time.perf_counter() - wall0
+        summary = run_summary(rig, faults, wall)
+        (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        stamp("summary")
+        for ref in summary["planner"]["refused"]:
+            verdict = ref["nav_result"].replace("_", " ")
+            print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
+                  f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
+        if opts.plot:
+            # from the messages the log worker kept while writing run.mcap (read back from the
+            # file only if the worker gave no results: it died)
+            plot_mcap(mcap_path, png, rig.results.get("plot"))
+            stamp("plot")
     return summary

@@ -12,9 +12,9 @@ from pathlib import Path
 
 from navkit.sim.mission import Mission
 
-__all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "one_blas_thread",
-           "build_folder", "host_path", "fmu_paths", "host_config", "frame_period", "check_frame",
-           "git_revision", "git_revision_started", "config_folder", "ask_host_config"]
+__all__ = ["STEP_S", "STOP_SIGNALS", "SimOptions", "SimError", "SimInterrupted", "stop_signal",
+           "one_blas_thread", "build_folder", "host_path", "fmu_paths", "host_config", "frame_period",
+           "check_frame", "git_revision", "git_revision_started", "config_folder", "ask_host_config"]
 
 STEP_S = 0.001            # firmware control period: 1 kHz
 _PLANT_NAME = "navkit_plant"   # the firmware FMUs: navkit.sim.pil.FIRMWARES
@@ -27,6 +27,12 @@ class SimError(RuntimeError):
 # The signals navkit sim turns into KeyboardInterrupt (navkit.sim.cli, Ctrl-C): held off
 # while a frame or a message to the log worker is half done, delivered between them.
 STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT})
+
+
+def stop_signal(stop: KeyboardInterrupt) -> int:
+    """The number of the stop signal `stop` stands for: KeyboardInterrupt(signum) as navkit
+    sim's handler raises it, else Ctrl-C's SIGINT."""
+    return stop.args[0] if stop.args and isinstance(stop.args[0], int) else int(signal.SIGINT)
 
 
 class SimInterrupted(Exception):

@@ -1,0 +1,44 @@
+"""A stop signal that comes once `navkit sim`'s loop has ended (the shutdown, summary.json,
+plot.png) waits until the outputs are closed: the command then says so in one line and
+exits 128 + the signal's number, without a traceback, its outputs whole."""
+
+import json
+import signal
+import subprocess
+import sys
+import textwrap
+
+from sim_helpers import require_build
+
+# navkit sim as its own process (navkit.cli.main without argv), sending itself SIGTERM as
+# the shutdown starts
+DRIVER = textwrap.dedent("""
+    import os, signal, sys
+    import navkit.cli
+    from navkit.sim import rig
+
+    stop = rig.SimRig.stop
+    def signalled_stop(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        stop(self)
+    rig.SimRig.stop = signalled_stop
+
+    sys.argv = ["navkit", *sys.argv[1:]]
+    raise SystemExit(navkit.cli.main())
+""")
+
+
+def test_a_stop_signal_at_the_runs_end_waits_for_the_outputs(tmp_path):
+    require_build()
+    driver, mission, out = tmp_path / "driver.py", tmp_path / "m.toml", tmp_path / "out"
+    driver.write_text(DRIVER)
+    mission.write_text("duration_s = 1.0\n")
+    done = subprocess.run([sys.executable, str(driver), "sim", "-m", str(mission), "-o", str(out),
+                           "--no-progress"], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 128 + signal.SIGTERM, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == (f"navkit sim: stopped by SIGTERM as the run "
+                                                    f"ended: its outputs are closed in {out}/")
+    summary = json.loads((out / "summary.json").read_text())
+    assert "interrupted" not in summary and summary["sim_time_s"] == 1.0, summary
+    assert (out / "plot.png").stat().st_size > 0 and (out / "run.mcap").stat().st_size > 0
