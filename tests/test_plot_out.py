@@ -1,9 +1,11 @@
 """`navkit plot -o FILE`: the image's format is its suffix's. A run plot and a datalog
 plot to .png (the run plot drawn by navkit.figure_png, without matplotlib), to .svg
 (matplotlib, the run plot's lines in their colours), and a suffix no writer has is
-refused in one line naming the file, with nothing written."""
+refused in one line naming the file, with nothing written; --repeat times the drawing."""
 
 from pathlib import Path
+
+import pytest
 
 from navkit.cli import main
 from sim_helpers import STRAIGHT, run_mission
@@ -50,8 +52,6 @@ def test_plot_refuses_a_suffix_without_a_writer(tmp_path_factory, tmp_path, caps
 def test_plot_repeat_times_the_drawing(tmp_path_factory, tmp_path, capsys):
     """--repeat N: a run drawn N times from its messages read once, the times printed, the
     PNG written; 0 is refused as a bad option."""
-    import pytest
-
     mcap, _ = _outputs(tmp_path_factory)
     png = tmp_path / "r.png"
     assert main(["plot", str(mcap), "-o", str(png), "--repeat", "2"]) == 0
@@ -61,4 +61,3 @@ def test_plot_repeat_times_the_drawing(tmp_path_factory, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         main(["plot", str(mcap), "--repeat", "0"])
     assert e.value.code == 2
-
