@@ -56,3 +56,41 @@ def test_a_stop_signal_before_the_run_is_one_line(tmp_path):
     assert done.returncode == 128 + signal.SIGTERM, done.stderr
     assert done.stderr == "navkit sim: stopped by SIGTERM before the run started\n", done.stderr
     assert not out.exists()
+
+
+# navkit sim sending itself SIGTERM as its loop starts and SIGHUP as the shutdown of that
+# interrupted run starts
+DRIVER_TWICE = textwrap.dedent("""
+    import os, signal, sys
+    import navkit.cli
+    from navkit.sim import harness, rig
+
+    loop = harness.run_lockstep
+    def signalled_loop(*a):
+        os.kill(os.getpid(), signal.SIGTERM)
+        return loop(*a)
+    harness.run_lockstep = signalled_loop
+
+    stop = rig.SimRig.stop
+    def signalled_stop(self):
+        os.kill(os.getpid(), signal.SIGHUP)
+        stop(self)
+    rig.SimRig.stop = signalled_stop
+
+    sys.argv = ["navkit", *sys.argv[1:]]
+    raise SystemExit(navkit.cli.main())
+""")
+
+
+def test_a_second_stop_signal_waits_for_the_interrupted_runs_outputs(tmp_path):
+    require_build()
+    driver, mission, out = tmp_path / "driver.py", tmp_path / "m.toml", tmp_path / "out"
+    driver.write_text(DRIVER_TWICE)
+    mission.write_text("duration_s = 1.0\n")
+    done = subprocess.run([sys.executable, str(driver), "sim", "-m", str(mission), "-o", str(out),
+                           "--no-progress"], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 128 + signal.SIGTERM, done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1].startswith("navkit sim: interrupted by SIGTERM at t = "), \
+        done.stderr
+    assert json.loads((out / "summary.json").read_text())["interrupted"]["signal"] == "SIGTERM"

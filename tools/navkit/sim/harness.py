@@ -22,8 +22,8 @@ from pathlib import Path
 from navkit.plot import plot_mcap
 from navkit.sim.faults import Faults
 from navkit.sim.lockstep import run_lockstep
-from navkit.sim.options import (STEP_S, SimError, SimInterrupted, SimOptions, check_frame, fmu_paths,
-                                frame_period, git_revision, host_config, host_path, stop_signal)
+from navkit.sim.options import (STEP_S, STOP_SIGNALS, SimError, SimInterrupted, SimOptions, check_frame,
+                                fmu_paths, frame_period, git_revision, host_config, host_path, stop_signal)
 from navkit.sim.realtime import run_realtime
 from navkit.sim.rig import SimRig
 from navkit.sim.stops import DeferredStops
@@ -77,8 +77,9 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
         raise
     mcap_path, png = Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png"
     if interrupted is not None:
-        # a clean stop, then what there is: a second Ctrl-C waits until the outputs are closed
-        held = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+        # a clean stop, then what there is: a second stop signal waits until the outputs are
+        # closed
+        held = {s: signal.signal(s, signal.SIG_IGN) for s in STOP_SIGNALS}
         try:
             rig.stop()
             summary = run_summary(rig, faults, time.perf_counter() - wall0)
