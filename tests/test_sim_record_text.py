@@ -1,5 +1,5 @@
 """The log worker's fast paths give what the slow ones give, byte for byte: the
-Recorder's _ChunkMessages writes the file mcap's Writer.add_message writes, and the native
+Recorder's own MCAP writer (_McapFile) writes the file mcap's Writer writes, and the native
 row formatter (fmu/record) writes /truth as Python's % formats its template."""
 
 import random
@@ -10,10 +10,11 @@ import pytest
 from navkit.sim import record
 
 
-def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
-    """The same messages through _ChunkMessages (and its chunk ends) and through
-    Writer.add_message (and Writer.flush): the same file, chunk ends (span and 8 MiB
-    size), message indexes, chunk indexes and statistics included."""
+def test_own_mcap_writer_writes_the_file_mcaps_writer_writes(tmp_path):
+    """The same messages through _McapFile and through mcap's Writer.add_message: the
+    same file, header, schemas, channels, metadata, chunk ends (span and 8 MiB size),
+    message indexes, chunk indexes, statistics, summary offsets and footer included; and
+    the same for a log without any message."""
     rng = random.Random(9)
     topics = list(record.TOPICS)
     script = []
@@ -27,8 +28,7 @@ def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
     for fast in (True, False):
         path = tmp_path / f"run-{fast}.mcap"
         rec = record.Recorder(path, {"seed": 1}, fast=fast)
-        assert (rec._chunk is not None) is fast, "the fast path was refused (mcap changed?)"
-        assert (rec._chunk is None or rec._chunk._end is not None), "chunk ends: Writer.flush"
+        assert (rec._chunk is not None) is fast
         for k, (topic, t_ns, data) in enumerate(script):
             rec.reserve(t_ns, t_ns)
             rec.write_raw(topic, t_ns, data)
@@ -39,7 +39,12 @@ def test_chunk_messages_write_the_file_add_message_writes(tmp_path):
         files.append(path.read_bytes())
     assert files[0] == files[1]
     assert sum(counts.values()) == len(script)
-    assert record._ChunkMessages.make(object()) is None     # not an mcap Writer: add_message
+    empty = []
+    for fast in (True, False):
+        rec = record.Recorder(tmp_path / f"empty-{fast}.mcap", {"seed": 2}, fast=fast)
+        rec.close()
+        empty.append((tmp_path / f"empty-{fast}.mcap").read_bytes())
+    assert empty[0] == empty[1]
 
 
 def _python_fixed(x: float, decimals: int) -> bytes:
@@ -130,6 +135,17 @@ def test_truth_text_is_the_python_template(tmp_path):
         rt.text(bad)
     dec.handle((record.TRUTH_ROWS, struct.pack(f"={len(columns) + 1}d", 1.0, *range(len(columns)))))
     assert dec.finish()["counts"]["/truth"] == 1
+    # the rows through the Recorder's own writer and through mcap's Writer: the same file
+    files = []
+    for fast in (True, False):
+        rec = record.Recorder(tmp_path / f"rows-{fast}.mcap", {}, fast=fast)
+        write = rec.rows_writer("/truth", rt, 100_000_000)
+        at = 0
+        while at < len(t_rows):
+            at += write(b"".join(t_rows), at, len(t_rows))[0]
+        rec.close()
+        files.append((tmp_path / f"rows-{fast}.mcap").read_bytes())
+    assert files[0] == files[1]
 
 
 def test_native_message_text_is_the_generated_template(tmp_path):

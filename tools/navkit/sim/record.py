@@ -364,77 +364,124 @@ _CAN_TEXT = b'{"t":%.6f,"id":%d,"dlc":%d,"data":"%s","direction":"%s","error_fra
 # channel id, sequence, log time and publish time (MCAP specification, "Message"); its
 # data follows.
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")
+# run.mcap's chunk size: a chunk ends after the message that takes it past this (bytes);
+# the 1-s span ends them long before
+_CHUNK_BYTES = 8 << 20
 
 
-def _message_index_class():
-    """mcap's MessageIndex record whose `records` is one flat list of (log time ns,
-    offset) pairs, t0, o0, t1, o1, ..., written as one record with one struct pack (the
-    bytes of mcap's write(), which takes a list of pairs and makes two calls a pair)."""
-    from mcap.opcode import Opcode
-    from mcap.records import MessageIndex
+class _MessageIndex:
+    """A chunk's MessageIndex record of one channel (MCAP specification, "Message Index"):
+    `records` one flat list of (log time ns, offset in the chunk) pairs, t0, o0, t1, o1,
+    ..., packed at once by record()."""
 
-    head, op = struct.Struct("<BQHI"), int(Opcode.MESSAGE_INDEX)
+    __slots__ = ("channel_id", "records")
 
-    class FlatMessageIndex(MessageIndex):
-        def record(self) -> bytes:
-            """The record's bytes."""
-            n = len(self.records)       # 2 per entry, 8 bytes each
-            return head.pack(op, 6 + 8 * n, self.channel_id, 8 * n) \
-                + struct.pack(f"<{n}Q", *self.records)
+    def __init__(self, channel_id: int):
+        self.channel_id, self.records = channel_id, []
 
-        def write(self, stream) -> None:
-            stream.write(self.record())
-    return FlatMessageIndex
+    def record(self) -> bytes:
+        """The record's bytes."""
+        n = len(self.records)       # 2 per entry, 8 bytes each
+        return _INDEX_HEAD.pack(_OP_MESSAGE_INDEX, 6 + 8 * n, self.channel_id, 8 * n) \
+            + struct.pack(f"<{n}Q", *self.records)
 
 
-class _ChunkMessages:
-    """Adds messages to an mcap Writer's open chunk as its add_message does (the record
-    and the chunk's message index entry), with one struct pack and two writes a message
-    where add_message builds a Message object and makes a dozen calls. The chunk's
-    message count and time span are set by fold() before the chunk ends, the file's
-    statistics by statistics() before Writer.finish; the chunk's message indexes are
-    written with one pack each. Built on the Writer's internals (mcap 1.x: its chunk
-    builder, statistics and chunk size); make() returns None when they are not there,
-    and the Recorder uses add_message. tests/test_sim_record_text.py checks that both
-    give the same file byte for byte."""
+# MCAP (specification v0, mcap.dev/spec): the magic, the opcodes of the records run.mcap
+# holds, and the fixed heads of the records written here (opcode, record length, fields)
+_MAGIC = b"\x89MCAP0\r\n"
+(_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX,
+ _OP_CHUNK_INDEX, _OP_ATTACHMENT_INDEX, _OP_STATISTICS, _OP_METADATA, _OP_METADATA_INDEX,
+ _OP_SUMMARY_OFFSET, _OP_DATA_END) = (1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15)
+_INDEX_HEAD = struct.Struct("<BQHI")          # MessageIndex: channel id, records' bytes
+_CHUNK_HEAD = struct.Struct("<BQQQQII3sQ")    # Chunk: times, size, CRC, "lz4", data's bytes
+_RECORD_HEAD = struct.Struct("<BQ")
 
-    def __init__(self, writer, builder, stats, chunk_size: int):
-        self._w, self._cb, self._stats, self._size = writer, builder, stats, chunk_size
-        self._index = _message_index_class()
+
+def _text(s: str) -> bytes:
+    """An MCAP string: its UTF-8 bytes after their count (uint32)."""
+    b = s.encode()
+    return struct.pack("<I", len(b)) + b
+
+
+def _record(op: int, body: bytes) -> bytes:
+    return _RECORD_HEAD.pack(op, len(body)) + body
+
+
+class _McapFile:
+    """run.mcap's own MCAP writer (the Recorder's fast path): the file the `mcap` package's
+    Writer writes with chunk_size `chunk_size`, LZ4 chunks, CRCs of the chunks and of the
+    summary, no data-section CRC, every index, schemas and channels repeated in the
+    summary (its defaults), byte for byte (tests/test_sim_record_text.py holds the two to
+    the same file), written with one struct pack and two list appends a message (the
+    Writer builds a Message object and makes a dozen calls a message), a run of /truth
+    records as the native row formatter wrote them, and each chunk with its message
+    indexes packed and written at once. Schemas and channels go into the first chunk, as
+    the Writer puts them. Its message-count, time-span and statistics bookkeeping is
+    done at each chunk's end (fold()), not per message."""
+
+    def __init__(self, stream, chunk_size: int):
+        import zlib
+
+        import lz4.frame
+
+        self._stream, self._size = stream, chunk_size
+        self._compress, self._crc32 = lz4.frame.compress, zlib.crc32
+        self._schemas: list = []        # Schema records (bytes), by id from 1
+        self._channels_rec: list = []   # Channel records (bytes), by id from 1
+        self._metadata: list = []       # MetadataIndex records (bytes)
+        self._chunk_indexes: list = []  # ChunkIndex records (bytes)
+        self._chunks = 0
+        self._indices: dict = {}        # the open chunk: channel id -> _MessageIndex
         self._lo = self._hi = None      # earliest / latest log time (ns) of the chunks so far
         self._channels: list = []      # channel ids in the order of their first message
-        # The open chunk's messages since the last spill(), as parts spill() joins into the
-        # chunk's buffer at once, and where the next one starts in that buffer (bytes),
-        # counted here: a message costs list appends, no call on the buffer
+        self._counts: dict = {}         # messages per channel id (at close)
+        # The open chunk: its bytes so far (schemas and channels first in the first one)
+        # and the messages since then as parts, and where the next one starts (bytes)
+        self._head: list = []
         self._parts: list = []
-        self._at = [builder.record_writer._buffer.tell()]
-        self._end = self._chunk_ender()
+        self._at = [0]
 
-    @classmethod
-    def make(cls, writer):
-        """A _ChunkMessages for `writer` (started, chunked, no message yet), or None."""
-        from mcap.writer import Writer
+    def start(self, profile: str, library: str) -> None:
+        """The magic and the Header record."""
+        self._stream.write(_MAGIC + _record(_OP_HEADER, _text(profile) + _text(library)))
 
-        builder = getattr(writer, "_Writer__chunk_builder", None)
-        stats = getattr(writer, "_Writer__statistics", None)
-        size = getattr(writer, "_Writer__chunk_size", None)
-        if (type(writer) is not Writer or builder is None or stats is None
-                or not isinstance(size, int) or stats.message_count
-                or not all(hasattr(builder, a) for a in ("record_writer", "message_indices",
-                                                         "message_start_time",
-                                                         "message_end_time", "num_messages"))
-                or not hasattr(builder.record_writer, "_buffer")):
-            return None
-        return cls(writer, builder, stats, size)
+    def register_schema(self, name: str, encoding: str, data: bytes) -> int:
+        """A Schema record (into the open chunk, and the summary); returns its id."""
+        sid = len(self._schemas) + 1
+        rec = _record(_OP_SCHEMA, struct.pack("<H", sid) + _text(name) + _text(encoding)
+                      + struct.pack("<I", len(data)) + data)
+        self._schemas.append(rec)
+        self._chunk_head(rec)
+        return sid
+
+    def register_channel(self, topic: str, encoding: str, schema_id: int) -> int:
+        """A Channel record without metadata (into the open chunk, and the summary);
+        returns its id."""
+        cid = len(self._channels_rec) + 1
+        rec = _record(_OP_CHANNEL, struct.pack("<HH", cid, schema_id) + _text(topic)
+                      + _text(encoding) + struct.pack("<I", 0))
+        self._channels_rec.append(rec)
+        self._chunk_head(rec)
+        return cid
+
+    def _chunk_head(self, rec: bytes) -> None:
+        self._head.append(rec)
+        self._at[0] += len(rec)
+
+    def add_metadata(self, name: str, data: dict) -> None:
+        """A Metadata record of string pairs (in the data section, and its index)."""
+        pairs = b"".join(_text(k) + _text(v) for k, v in data.items())
+        rec = _record(_OP_METADATA, _text(name) + struct.pack("<I", len(pairs)) + pairs)
+        offset = self._stream.tell()
+        self._stream.write(rec)
+        self._metadata.append(_record(_OP_METADATA_INDEX, struct.pack("<QQ", offset, len(rec))
+                                      + _text(name)))
 
     def writer(self, chan: int, n: list, keep=None):
         """fn(t_ns, data): one message on channel `chan` at log (= publish) time t_ns (ns),
         its sequence number n[0] + 1 (stored back in n[0]); `keep`, if given, is called
         with (t_ns, data) after it."""
-        from mcap.opcode import Opcode
-
-        pack, index, size = _MESSAGE_HEAD.pack, self._index, self._size
-        indices, op = self._cb.message_indices, int(Opcode.MESSAGE)
+        pack, size, indices = _MESSAGE_HEAD.pack, self._size, self._indices
         flush, first, put, next_at = self.flush, self._channels.append, self._parts.append, self._at
 
         def write(t_ns: int, data: bytes) -> None:
@@ -443,13 +490,13 @@ class _ChunkMessages:
             if idx is None:             # the channel's first message in this chunk
                 if seq == 1:
                     first(chan)
-                idx = indices[chan] = index(channel_id=chan, records=[])
+                idx = indices[chan] = _MessageIndex(chan)
             at = next_at[0]
             end = next_at[0] = at + 31 + len(data)
             idx.records += (t_ns, at)
-            put(pack(op, 22 + len(data), chan, seq, t_ns, t_ns))
+            put(pack(_OP_MESSAGE, 22 + len(data), chan, seq, t_ns, t_ns))
             put(data)
-            if end > size:              # as add_message: a chunk past chunk_size ends
+            if end > size:              # as the Writer: a chunk past chunk_size ends
                 flush()
             if keep is not None:
                 keep(t_ns, data)
@@ -464,9 +511,8 @@ class _ChunkMessages:
         0: never), or when the chunk is full, which then ends); sequence numbers as
         writer()'s. `keep_run`, if given, is called with (count, message) where
         message(i) -> (t_ns, data) of the i-th message written. `fmt` is this writer's."""
-        run, size = fmt.run, self._size
+        run, size, indices = fmt.run, self._size, self._indices
         fmt.bind(chan, size, stop_every_ns)
-        indices, index = self._cb.message_indices, self._index
         flush, first_chan, put, next_at = self.flush, self._channels.append, self._parts.append, \
             self._at
 
@@ -477,7 +523,7 @@ class _ChunkMessages:
                 first_chan(chan)
             idx = indices.get(chan)
             if idx is None:
-                idx = indices[chan] = index(channel_id=chan, records=[])
+                idx = indices[chan] = _MessageIndex(chan)
             idx.records += where
             put(data)
             n[0] += k
@@ -492,105 +538,78 @@ class _ChunkMessages:
             return k, where[-2]
         return write
 
-    def spill(self) -> None:
-        """The messages written since the last spill into the open chunk's buffer."""
-        if self._parts:
-            self._cb.record_writer._buffer.write(b"".join(self._parts))
-            self._parts.clear()
+    def fold(self) -> tuple:
+        """The open chunk's (message count, earliest, latest log time ns; latest at least
+        0) from its message indexes, the span folded into the file's."""
+        times = [idx.records[0::2] for idx in self._indices.values() if idx.records]
+        if not times:
+            return 0, 0, 0
+        lo = min(map(min, times))
+        hi = max(0, max(map(max, times)))
+        self._lo = lo if self._lo is None or lo < self._lo else self._lo
+        self._hi = hi if self._hi is None or hi > self._hi else self._hi
+        return sum(map(len, times)), lo, hi
 
     def flush(self) -> None:
-        """End the open chunk: spill(), fold(), then the Writer's flush (end_chunk())."""
-        self.spill()
-        self.fold()
-        if self._cb.num_messages and self._end is not None:
-            self._end()
-        else:
-            self._w.flush()
-        self._at[0] = self._cb.record_writer._buffer.tell()
-
-    def _chunk_ender(self):
-        """fn() ending the open chunk (messages in it, folded) as Writer.flush does (mcap
-        1.x: the Chunk record, its channels' MessageIndex records, the ChunkIndex kept for
-        the summary, the statistics' chunk count, the data section CRC if on, the stream
-        flushed): the same bytes, with the chunk and its indexes packed and written at once
-        instead of a dozen record-builder calls each. None where the Writer is not as
-        expected (LZ4, CRCs, message indexes), and then Writer.flush ends chunks."""
-        import zlib
-
-        import lz4.frame
-        from mcap.records import ChunkIndex
-        from mcap.writer import CompressionType, IndexType
-
-        w = self._w
-        get = {a: getattr(w, "_Writer__" + a, None) for a in (
-            "compression", "enable_crcs", "enable_data_crcs", "index_types", "chunk_indices",
-            "stream", "record_builder", "data_section_crc")}
-        if (get["compression"] != CompressionType.LZ4 or get["enable_crcs"] is not True
-                or not isinstance(get["enable_data_crcs"], bool) or get["chunk_indices"] is None
-                or get["stream"] is None or not hasattr(get["record_builder"], "count")
-                or not isinstance(get["data_section_crc"], int)
-                or not get["index_types"] & IndexType.MESSAGE):
-            return None
-        cb, stats, stream, chunk_indices = self._cb, self._stats, get["stream"], get["chunk_indices"]
-        data_crc = get["enable_data_crcs"]
-        compress, crc32, head = lz4.frame.compress, zlib.crc32, struct.Struct("<BQQQQII3sQ")
-
-        def end() -> None:
-            w._Writer__flush()              # what the Writer holds (nothing, normally)
-            stats.chunk_count += 1
-            data = cb.end()
-            packed = compress(data)
-            chunk = head.pack(0x06, 43 + len(packed), cb.message_start_time,
-                              cb.message_end_time, len(data), crc32(data), 3, b"lz4",
-                              len(packed)) + packed
+        """End the open chunk if it holds a message (the Chunk record, its channels'
+        MessageIndex records, its ChunkIndex for the summary) and flush the stream."""
+        count, lo, hi = self.fold()
+        stream = self._stream
+        if count:
+            data = b"".join(self._head) + b"".join(self._parts)
+            self._head.clear()
+            self._parts.clear()
+            self._at[0] = 0
+            packed = self._compress(data)
+            chunk = _CHUNK_HEAD.pack(_OP_CHUNK, 43 + len(packed), lo, hi, len(data),
+                                     self._crc32(data), 3, b"lz4", len(packed)) + packed
             start = stream.tell()
             at = start + len(chunk)
-            offsets, records = {}, [chunk]
-            for chan, idx in cb.message_indices.items():
+            out, offsets = [chunk], []
+            for chan, idx in self._indices.items():
                 rec = idx.record()
-                offsets[chan] = at
+                offsets.append(struct.pack("<HQ", chan, at))
                 at += len(rec)
-                records.append(rec)
-            out = b"".join(records)
-            if data_crc:
-                w._Writer__data_section_crc = crc32(out, w._Writer__data_section_crc)
-            stream.write(out)
-            chunk_indices.append(ChunkIndex(
-                message_start_time=cb.message_start_time, message_end_time=cb.message_end_time,
-                chunk_start_offset=start, chunk_length=len(chunk),
-                message_index_offsets=offsets, message_index_length=at - start - len(chunk),
-                compression="lz4", compressed_size=len(packed), uncompressed_size=len(data)))
-            cb.reset()
-            stream.flush()
-        return end
+                out.append(rec)
+            self._indices.clear()
+            stream.write(b"".join(out))
+            self._chunks += 1
+            self._chunk_indexes.append(_record(_OP_CHUNK_INDEX, b"".join((
+                struct.pack("<QQQQI", lo, hi, start, len(chunk), 10 * len(offsets)), *offsets,
+                struct.pack("<Q", at - start - len(chunk)), _text("lz4"),
+                struct.pack("<QQ", len(packed), len(data))))))
+        stream.flush()
 
-    def fold(self) -> None:
-        """The open chunk's message count and time span (ns) from its message indexes,
-        as add_message keeps them, and the span into the file's; call before the chunk
-        ends (idempotent)."""
-        cb = self._cb
-        times = [idx.records[0::2] for idx in cb.message_indices.values() if idx.records]
-        cb.num_messages = sum(map(len, times))
-        if times:
-            lo = min(map(min, times))
-            hi = max(0, max(map(max, times)))
-            cb.message_start_time, cb.message_end_time = lo, hi
-            self._lo = lo if self._lo is None or lo < self._lo else self._lo
-            self._hi = hi if self._hi is None or hi > self._hi else self._hi
-
-    def statistics(self, counts: dict) -> None:
-        """The file's message statistics as add_message keeps them (channels in the order
-        of their first message), the open chunk folded first; `counts`: messages per
-        channel id. Call once, just before Writer.finish."""
-        self.spill()
-        self.fold()
-        st = self._stats
-        for chan in self._channels:
-            st.channel_message_counts[chan] += counts[chan]
-            st.message_count += counts[chan]
-        if self._lo is not None:
-            st.message_start_time = self._lo
-            st.message_end_time = max(self._hi, st.message_end_time)
+    def finish(self, counts: dict) -> None:
+        """The last chunk, the DataEnd record, the summary (schemas, channels, statistics,
+        chunk indexes, attachment indexes (none), metadata indexes, their offsets), the
+        footer and the magic. `counts`: messages per channel id."""
+        self.flush()
+        stream = self._stream
+        stream.write(_record(_OP_DATA_END, struct.pack("<I", 0)))
+        summary_start = stream.tell()
+        chans = self._channels
+        stats = _record(_OP_STATISTICS, b"".join((
+            struct.pack("<QHIIIIQQI", sum(counts[c] for c in chans), len(self._schemas),
+                        len(self._channels_rec), 0, len(self._metadata), self._chunks,
+                        self._lo if self._lo is not None else 0,
+                        self._hi if self._hi is not None else 0, 10 * len(chans)),
+            *(struct.pack("<HQ", c, counts[c]) for c in chans))))
+        body, offsets = [], []
+        at = summary_start
+        for op, recs in ((_OP_SCHEMA, self._schemas), (_OP_CHANNEL, self._channels_rec),
+                         (_OP_STATISTICS, [stats]), (_OP_CHUNK_INDEX, self._chunk_indexes),
+                         (_OP_ATTACHMENT_INDEX, []), (_OP_METADATA_INDEX, self._metadata)):
+            group = b"".join(recs)
+            offsets.append(_record(_OP_SUMMARY_OFFSET, struct.pack("<BQQ", op, at, len(group))))
+            body.append(group)
+            at += len(group)
+        summary = b"".join(body) + b"".join(offsets)
+        crc = self._crc32(_RECORD_HEAD.pack(_OP_FOOTER, 20) + struct.pack("<QQ", summary_start, at),
+                          self._crc32(summary))
+        stream.write(summary + _record(_OP_FOOTER, struct.pack("<QQI", summary_start, at, crc))
+                     + _MAGIC)
+        stream.flush()
 
 
 class Recorder:
@@ -602,18 +621,22 @@ class Recorder:
     def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False,
                  fast: bool = True):
         """`can`: the run is over CAN, so the log also has the /can topic (CAN_SCHEMA).
-        `fast`: messages go into the open chunk by _ChunkMessages where the mcap Writer
-        allows it (the same file, byte for byte, as with Writer.add_message).
+        `fast`: the file is written by _McapFile (else by the mcap package's Writer and
+        its add_message: the same file, byte for byte, and the `mcap` import).
         `plot_series` (navkit.plot.RunSeries) keeps what the run plot draws of the
         messages as they are written, in file order, so the plot needs no read-back."""
-        from mcap.writer import CompressionType, Writer
-
         from navkit.plot import RunSeries
 
         self.plot_series = RunSeries()
 
         self._file = open(path, "wb")
-        self._w = Writer(self._file, chunk_size=8 << 20, compression=CompressionType.LZ4)
+        if fast:
+            self._w = self._chunk = _McapFile(self._file, _CHUNK_BYTES)
+        else:
+            from mcap.writer import CompressionType, Writer
+
+            self._w = Writer(self._file, chunk_size=_CHUNK_BYTES, compression=CompressionType.LZ4)
+            self._chunk = None
         self._w.start(profile="", library="navkit")
         schemas = {"/truth": TRUTH_SCHEMA, "/micro/config": _config_schema(),
                    "/host/frame": FRAME_SCHEMA, "/events": EVENT_SCHEMA,
@@ -636,8 +659,7 @@ class Recorder:
             self._chan[topic] = self._w.register_channel(topic, "json", fox_ids[name])
         self._w.add_metadata("navkit", {k: str(v) for k, v in metadata.items()})
         self._n = {topic: [0] for topic in self._chan}    # messages so far = last sequence
-        self._chunk = _ChunkMessages.make(self._w) if fast else None
-        self._flush = self._chunk.flush if self._chunk is not None else self._w.flush  # ends the open chunk
+        self._flush = self._w.flush     # ends the open chunk
         self._writers = {topic: self._make_writer(topic) for topic in self._chan}
         self.span_ns = int(flush_every_s * 1e9)     # the longest span of one chunk, ns
         self._lo = self._hi = None      # earliest / latest log time (ns) in the open chunk
@@ -659,7 +681,7 @@ class Recorder:
     def rows_writer(self, topic: str, fmt: "RowText", stop_every_ns: int):
         """fn(raw, first, last) -> (rows written, the last one's log time ns): rows of
         `raw` as messages on `topic` by the native row formatter `fmt`, stopping after a
-        row at a multiple of `stop_every_ns` (_ChunkMessages.rows_writer; without the fast
+        row at a multiple of `stop_every_ns` (_McapFile.rows_writer; without the fast
         path, each message through write_raw)."""
         if self._chunk is not None:
             return self._chunk.rows_writer(self._chan[topic], self._n[topic], fmt, stop_every_ns,
@@ -726,8 +748,9 @@ class Recorder:
         """Write the summary section and close the file."""
         if self._file is not None:
             if self._chunk is not None:
-                self._chunk.statistics({self._chan[t]: n[0] for t, n in self._n.items()})
-            self._w.finish()
+                self._chunk.finish({self._chan[t]: n[0] for t, n in self._n.items()})
+            else:
+                self._w.finish()
             self._file.close()
             self._file = None
 
