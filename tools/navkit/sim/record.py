@@ -258,6 +258,7 @@ class RowText:
         self._string_at = ctypes.string_at
         self._pairs: dict = {}          # k -> the ctypes type of k records' index pairs
         self._uint64 = ctypes.c_uint64
+        self._runner = self._make_runner()
 
     def __del__(self):
         if getattr(self, "_h", None):
@@ -295,18 +296,25 @@ class RowText:
 
     def run(self, raw: bytes, first: int, last: int, seq: int, offset: int) -> tuple:
         """records() with the channel, chunk size and stop of the last bind()."""
-        st = self._state
-        st[_SEQ] = seq
-        st[_OFFSET] = offset
-        k = self._run(self._handle, raw, first, last)
-        if k < 0:
-            raise ValueError(f"truth row {first}: " + ("a value that is not finite in an "
-                             "integer field" if k == -3 else f"row formatter error {k}"))
-        pairs = self._pairs.get(k)
-        if pairs is None:
-            pairs = self._pairs[k] = self._uint64 * (2 * k)
-        return (k, self._string_at(st[_OUT_AT], st[_OUT_LEN]),
-                pairs.from_address(st[_INDEX_AT])[:])
+        return self._runner(raw, first, last, seq, offset)
+
+    def _make_runner(self):
+        """run() as one function of local names (a call per truth item)."""
+        st, call, handle, string_at = self._state, self._run, self._handle, self._string_at
+        pairs_of, uint64 = self._pairs, self._uint64
+
+        def run(raw: bytes, first: int, last: int, seq: int, offset: int) -> tuple:
+            st[_SEQ] = seq
+            st[_OFFSET] = offset
+            k = call(handle, raw, first, last)
+            if k < 0:
+                raise ValueError(f"truth row {first}: " + ("a value that is not finite in an "
+                                 "integer field" if k == -3 else f"row formatter error {k}"))
+            pairs = pairs_of.get(k)
+            if pairs is None:
+                pairs = pairs_of[k] = uint64 * (2 * k)
+            return k, string_at(st[_OUT_AT], st[_OUT_LEN]), pairs.from_address(st[_INDEX_AT])[:]
+        return run
 
     def text(self, row: bytes) -> bytes:
         """The JSON text of one row (`width` doubles)."""
@@ -511,7 +519,7 @@ class _McapFile:
         0: never), or when the chunk is full, which then ends); sequence numbers as
         writer()'s. `keep_run`, if given, is called with (count, message) where
         message(i) -> (t_ns, data) of the i-th message written. `fmt` is this writer's."""
-        run, size, indices = fmt.run, self._size, self._indices
+        run, size, indices = fmt._runner, self._size, self._indices
         fmt.bind(chan, size, stop_every_ns)
         flush, first_chan, put, next_at = self.flush, self._channels.append, self._parts.append, \
             self._at
@@ -888,7 +896,7 @@ class _Decoder:
         self.pending = {}              # time tag -> (mission entry, lisp_cmd) not yet acked
         self.verdicts = []             # (mission entry, lisp_cmd, nav_result) acked
         self.unacknowledged = []       # (mission entry, lisp_cmd) never acked
-        self.last_row = None
+        self.last_row = None        # the last truth item's rows and the last one's index
         self.config_downloads = 0
         idx = {name: i + 1 for i, name in enumerate(columns)}
         # /truth's text (TRUTH_SCHEMA's keys) by the native row formatter: fixed decimals,
@@ -912,7 +920,7 @@ class _Decoder:
                                                for k in ("x_mm", "y_mm", "yaw_deg")])
         self.handlers = {HOST_FRAME: self._host_frame, HOST_BYTES: self._host_bytes,
                          LISP_DATA: self._lisp_data, MICRO_BYTES: self._micro_bytes,
-                         TRUTH_ROWS: self._truth_rows, RECEIVED: self._received,
+                         TRUTH_ROWS: self._truth_handler(), RECEIVED: self._received,
                          RECEIVER_RESTART: self._receiver_restart,
                          PLANNER_COMMAND: self._planner_command, EVENT: self._event,
                          HOST_CONSOLE: self._host_console, WALLS: self._walls,
@@ -998,30 +1006,36 @@ class _Decoder:
     def _receiver_restart(self, item) -> None:
         self.rx[item[1]].restart()
 
-    def _truth_rows(self, item) -> None:
-        """Truth rows: /truth messages by the native row formatter, which stops after
-        each row on the Foxglove poses' period for their messages to follow it."""
-        rec, write, raw, size = self.rec, self.truth_rows, item[1], self.row_bytes
-        fox, fox_ns = self.fox.truth, foxglove.TRUTH_PERIOD_NS
-        n = len(raw) // size
-        if not n:
-            return
-        t0 = round(self.first_t(raw)[0] * 1e3) * 1_000_000
-        t1 = round(self.first_t(raw, (n - 1) * size)[0] * 1e3) * 1_000_000
-        whole = t1 - t0 <= rec.span_ns      # else (a frame over 1 s) a chunk per span
-        if whole:
-            rec.reserve(t0, t1)
-        at = 0
-        while at < n:
-            if not whole:
-                t_ns = round(self.first_t(raw, at * size)[0] * 1e3) * 1_000_000
-                rec.reserve(t_ns, t_ns)
-            k, t_ns = write(raw, at, n if whole else at + 1)
-            at += k
-            if not t_ns % fox_ns:
-                fox(t_ns, *self.fox_truth(self.row_struct.unpack_from(raw, (at - 1) * size)
-                                          + (0.0,)))
-        self.last_row = raw[(n - 1) * size:]
+    def _truth_handler(self):
+        """The TRUTH_ROWS handler: /truth messages by the native row formatter, which stops
+        after each row on the Foxglove poses' period for their messages to follow it; one
+        function of local names (an item is a call)."""
+        rec, write, size, first_t = self.rec, self.truth_rows, self.row_bytes, self.first_t
+        reserve, span, fox, fox_ns = rec.reserve, rec.span_ns, self.fox.truth, foxglove.TRUTH_PERIOD_NS
+        fox_get, unpack = self.fox_truth, self.row_struct.unpack_from
+        pad = (0.0,)
+
+        def truth_rows(item) -> None:
+            raw = item[1]
+            n = len(raw) // size
+            if not n:
+                return
+            t0 = round(first_t(raw)[0] * 1e3) * 1_000_000
+            t1 = round(first_t(raw, (n - 1) * size)[0] * 1e3) * 1_000_000
+            whole = t1 - t0 <= span         # else (a frame over 1 s) a chunk per span
+            if whole:
+                reserve(t0, t1)
+            at = 0
+            while at < n:
+                if not whole:
+                    t_ns = round(first_t(raw, at * size)[0] * 1e3) * 1_000_000
+                    reserve(t_ns, t_ns)
+                k, t_ns = write(raw, at, n if whole else at + 1)
+                at += k
+                if not t_ns % fox_ns:
+                    fox(t_ns, *fox_get(unpack(raw, (at - 1) * size) + pad))
+            self.last_row = (raw, n - 1)
+        return truth_rows
 
     def _planner_command(self, item) -> None:
         _, t_ns, cmd, entry = item
@@ -1163,8 +1177,9 @@ class _Decoder:
                 "planner": {"commands": self.commands, "verdicts": self.verdicts,
                             "unacknowledged": self.unacknowledged},
                 "last_lisp": self.last_lisp,
-                "last_truth": (json.loads(self.truth_text.text(self.last_row))
-                               if self.last_row else None),
+                "last_truth": (json.loads(self.truth_text.text(
+                    self.last_row[0][self.last_row[1] * self.row_bytes:]))
+                    if self.last_row else None),
                 "config_downloads": self.config_downloads,
                 "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                 "watchdog_stops": self.watchdog_stops,
