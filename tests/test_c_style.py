@@ -15,7 +15,7 @@ from navkit.paths import repo_root
 # (docs/internals.md, C style).
 FORMATTED = ["fmu/plant", "planner", "firmware/core", "protocol/runtime", "fmu/fmi", "fmu/firmware",
              "fmu/firmware_avr", "tests/c/firmware", "tests/c/protocol", "host", "firmware/avr", "tests/c/avr",
-             "fmu/cosim", "tests/c/host"]
+             "fmu/cosim", "fmu/record", "tests/c/host"]
 _SOURCES = (".c", ".h", ".cpp", ".hpp")
 
 _HEAD = re.compile(r"^\s*(\} )?(if \(|else if \(|for \(|while \()")

@@ -6,36 +6,44 @@
 
 struct fieldtext {
     size_t n_fields;
-    size_t size;            /* message bytes */
-    char *lits;             /* the literals back to back */
-    uint32_t *lit_end;      /* n_fields + 1 ends in lits, bytes */
-    uint32_t *offsets;      /* byte offset of each value */
-    char *codes;            /* struct code of each value */
-    char *out;              /* the last text */
+    size_t size;       /* message bytes */
+    char *lits;        /* the literals back to back */
+    uint32_t *lit_end; /* n_fields + 1 ends in lits, bytes */
+    uint32_t *offsets; /* byte offset of each value */
+    char *codes;       /* struct code of each value */
+    char *out;         /* the last text */
 };
 
 /* Bytes of a value of struct code `c`, 0 for an unknown code. */
 static size_t fieldtext_width(char c)
 {
     switch (c) {
-    case 'b': case 'B': return 1u;
-    case 'h': case 'H': return 2u;
-    case 'i': case 'I': return 4u;
-    case 'q': case 'Q': return 8u;
-    default: return 0u;
+    case 'b':
+    case 'B':
+        return 1u;
+    case 'h':
+    case 'H':
+        return 2u;
+    case 'i':
+    case 'I':
+        return 4u;
+    case 'q':
+    case 'Q':
+        return 8u;
+    default:
+        return 0u;
     }
 }
 
-fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *lit_end,
-                           const uint32_t *offsets, const char *codes, size_t size)
+fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *lit_end, const uint32_t *offsets,
+                           const char *codes, size_t size)
 {
     if (n_fields == 0 || lits == NULL || lit_end == NULL || offsets == NULL || codes == NULL) {
         return NULL;
     }
     for (size_t i = 0; i < n_fields; i++) {
         const size_t w = fieldtext_width(codes[i]);
-        if (w == 0u || offsets[i] + w > size || lit_end[i + 1] < lit_end[i]
-            || (i == 0 && lit_end[0] > lit_end[1])) {
+        if (w == 0u || offsets[i] + w > size || lit_end[i + 1] < lit_end[i] || (i == 0 && lit_end[0] > lit_end[1])) {
             return NULL;
         }
     }
@@ -48,9 +56,8 @@ fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *li
     p->lit_end = malloc((n_fields + 1u) * sizeof *p->lit_end);
     p->offsets = malloc(n_fields * sizeof *p->offsets);
     p->codes = malloc(n_fields);
-    p->out = malloc(n_lits + 21u * n_fields);     /* 20 digits and a sign a value at most */
-    if (p->lits == NULL || p->lit_end == NULL || p->offsets == NULL || p->codes == NULL
-        || p->out == NULL) {
+    p->out = malloc(n_lits + 21u * n_fields); /* 20 digits and a sign a value at most */
+    if (p->lits == NULL || p->lit_end == NULL || p->offsets == NULL || p->codes == NULL || p->out == NULL) {
         fieldtext_free(p);
         return NULL;
     }
@@ -128,7 +135,7 @@ int fieldtext_run(fieldtext_t *p, const char *data, int offset)
         uint64_t v = fieldtext_le(msg + p->offsets[i], w);
         int negative = 0;
         if (c >= 'a' && w < 8u && (v >> (8u * w - 1u)) != 0u) {
-            v = (1ull << (8u * w)) - v;         /* the magnitude of a negative value */
+            v = (1ull << (8u * w)) - v; /* the magnitude of a negative value */
             negative = 1;
         } else if (c == 'q' && (v >> 63) != 0u) {
             v = ~v + 1u;

@@ -14,25 +14,24 @@
 #endif
 
 struct rowtext {
-    size_t width;           /* doubles a row */
+    size_t width; /* doubles a row */
     size_t n_fields;
-    char *lits;             /* the literals back to back */
-    uint32_t *lit_end;      /* n_fields + 1 ends in lits, bytes */
-    int32_t *cols;          /* row column per field, -1: missing (0.0) */
-    int32_t *decimals;      /* 0..9, or ROWTEXT_INT */
+    char *lits;        /* the literals back to back */
+    uint32_t *lit_end; /* n_fields + 1 ends in lits, bytes */
+    int32_t *cols;     /* row column per field, -1: missing (0.0) */
+    int32_t *decimals; /* 0..9, or ROWTEXT_INT */
     uint64_t int_mask;
     int32_t wrap_field;
     double wrap_lo, wrap_hi;
-    size_t max_text;        /* the longest text of a row, bytes */
-    uint64_t state[ROWTEXT_N_STATE];   /* the call block */
-    uint8_t *out;           /* the records of the last run */
-    size_t out_cap;         /* bytes */
-    uint64_t *index;        /* their (log time, offset) pairs */
-    size_t index_cap;       /* uint64 */
+    size_t max_text;                 /* the longest text of a row, bytes */
+    uint64_t state[ROWTEXT_N_STATE]; /* the call block */
+    uint8_t *out;                    /* the records of the last run */
+    size_t out_cap;                  /* bytes */
+    uint64_t *index;                 /* their (log time, offset) pairs */
+    size_t index_cap;                /* uint64 */
 };
 
-static const double rowtext_pow10[ROWTEXT_MAX_DECIMALS + 1] = {
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9};
+static const double rowtext_pow10[ROWTEXT_MAX_DECIMALS + 1] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9};
 
 /* Writes the decimal digits of v (at least `min_digits`, zero-padded) into out; returns
  * the bytes written. */
@@ -112,18 +111,16 @@ size_t rowtext_fixed(char *out, double x, int decimals)
     return n;
 }
 
-rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits,
-                       const uint32_t *lit_end, const int32_t *cols,
-                       const int32_t *decimals, uint64_t int_mask,
-                       int32_t wrap_field, double wrap_lo, double wrap_hi)
+rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits, const uint32_t *lit_end, const int32_t *cols,
+                       const int32_t *decimals, uint64_t int_mask, int32_t wrap_field, double wrap_lo, double wrap_hi)
 {
-    if (width == 0 || n_fields == 0 || lits == NULL || lit_end == NULL || cols == NULL
-        || decimals == NULL || wrap_field >= (int32_t)n_fields || int_mask >= (1ull << 52)) {
+    if (width == 0 || n_fields == 0 || lits == NULL || lit_end == NULL || cols == NULL || decimals == NULL ||
+        wrap_field >= (int32_t)n_fields || int_mask >= (1ull << 52)) {
         return NULL;
     }
     for (size_t i = 0; i < n_fields; i++) {
-        if (cols[i] < -1 || cols[i] >= (int32_t)width || decimals[i] < ROWTEXT_INT
-            || decimals[i] > ROWTEXT_MAX_DECIMALS || (i > 0 && lit_end[i] < lit_end[i - 1])) {
+        if (cols[i] < -1 || cols[i] >= (int32_t)width || decimals[i] < ROWTEXT_INT ||
+            decimals[i] > ROWTEXT_MAX_DECIMALS || (i > 0 && lit_end[i] < lit_end[i - 1])) {
             return NULL;
         }
     }
@@ -217,10 +214,9 @@ static long rowtext_row(const rowtext_t *p, const double *row, char *out)
 /* Writes rows[first .. last) as records into out (`cap` bytes) and their pairs into index
  * (`index_cap` uint64), from sequence number seq + 1 at chunk offset `offset`, stopping
  * as rowtext_run() says; returns the rows written and their bytes in *out_len. */
-static long rowtext_records(const rowtext_t *p, const double *rows, size_t first, size_t last,
-                            uint16_t channel, uint32_t seq, uint64_t offset, uint64_t chunk_size,
-                            int64_t stop_every_ns, uint8_t *out, size_t cap, uint64_t *index,
-                            size_t index_cap, size_t *out_len)
+static long rowtext_records(const rowtext_t *p, const double *rows, size_t first, size_t last, uint16_t channel,
+                            uint32_t seq, uint64_t offset, uint64_t chunk_size, int64_t stop_every_ns, uint8_t *out,
+                            size_t cap, uint64_t *index, size_t index_cap, size_t *out_len)
 {
     size_t at = 0;
     long done = 0;
@@ -236,7 +232,7 @@ static long rowtext_records(const rowtext_t *p, const double *rows, size_t first
         if (len < 0) {
             return len;
         }
-        rec[0] = 0x05;      /* opcode Message */
+        rec[0] = 0x05; /* opcode Message */
         rowtext_le(rec + 1, 22u + (uint64_t)len, 8);
         rowtext_le(rec + 9, channel, 2);
         rowtext_le(rec + 11, seq + (uint32_t)done + 1u, 4);
@@ -284,11 +280,12 @@ int rowtext_run(rowtext_t *p, const char *rows, int first, int last)
     }
     uint64_t *st = p->state;
     size_t out_len = 0;
-    const long done = n == 0 ? 0 : rowtext_records(
-        p, (const double *)(const void *)rows, (size_t)first, (size_t)last,
-        (uint16_t)st[ROWTEXT_CHANNEL], (uint32_t)st[ROWTEXT_SEQ], st[ROWTEXT_OFFSET],
-        st[ROWTEXT_CHUNK_SIZE], (int64_t)st[ROWTEXT_STOP_EVERY_NS], p->out, p->out_cap,
-        p->index, p->index_cap, &out_len);
+    const long done = n == 0 ? 0
+                             : rowtext_records(p, (const double *)(const void *)rows, (size_t)first, (size_t)last,
+                                               (uint16_t)st[ROWTEXT_CHANNEL], (uint32_t)st[ROWTEXT_SEQ],
+                                               st[ROWTEXT_OFFSET], st[ROWTEXT_CHUNK_SIZE],
+                                               (int64_t)st[ROWTEXT_STOP_EVERY_NS], p->out, p->out_cap, p->index,
+                                               p->index_cap, &out_len);
     st[ROWTEXT_OUT_LEN] = out_len;
     st[ROWTEXT_OUT_AT] = (uint64_t)(uintptr_t)p->out;
     st[ROWTEXT_INDEX_AT] = (uint64_t)(uintptr_t)p->index;

@@ -48,10 +48,9 @@ typedef struct rowtext rowtext_t;
  * its decimals). Rows are `width` doubles; column 0 is the simulated time (s), whose log
  * time is round(t * 1e3) ms in ns (ties to even: the coupler's rows lie on a 1 ms grid).
  * All arrays are copied. NULL for bad arguments or no memory. */
-ROWTEXT_API rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits,
-                                   const uint32_t *lit_end, const int32_t *cols,
-                                   const int32_t *decimals, uint64_t int_mask,
-                                   int32_t wrap_field, double wrap_lo, double wrap_hi);
+ROWTEXT_API rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits, const uint32_t *lit_end,
+                                   const int32_t *cols, const int32_t *decimals, uint64_t int_mask, int32_t wrap_field,
+                                   double wrap_lo, double wrap_hi);
 
 /* Frees a program (NULL is fine). */
 ROWTEXT_API void rowtext_free(rowtext_t *p);
@@ -67,8 +66,17 @@ ROWTEXT_API void rowtext_free(rowtext_t *p);
  * ROWTEXT_OUT_LEN: the bytes of the records written; ROWTEXT_OUT_AT: their address;
  * ROWTEXT_INDEX_AT: the address of their (log time ns, offset in the chunk) pairs, 2
  * uint64 a record. Both buffers are the program's, valid until its next run. */
-enum { ROWTEXT_SEQ, ROWTEXT_OFFSET, ROWTEXT_CHUNK_SIZE, ROWTEXT_STOP_EVERY_NS, ROWTEXT_CHANNEL,
-       ROWTEXT_OUT_LEN, ROWTEXT_OUT_AT, ROWTEXT_INDEX_AT, ROWTEXT_N_STATE };
+enum {
+    ROWTEXT_SEQ,
+    ROWTEXT_OFFSET,
+    ROWTEXT_CHUNK_SIZE,
+    ROWTEXT_STOP_EVERY_NS,
+    ROWTEXT_CHANNEL,
+    ROWTEXT_OUT_LEN,
+    ROWTEXT_OUT_AT,
+    ROWTEXT_INDEX_AT,
+    ROWTEXT_N_STATE
+};
 
 /* The call block of `p` (ROWTEXT_N_STATE uint64), zeroed by rowtext_new. */
 ROWTEXT_API uint64_t *rowtext_state(rowtext_t *p);
