@@ -43,7 +43,7 @@ fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *li
     }
     for (size_t i = 0; i < n_fields; i++) {
         const size_t w = fieldtext_width(codes[i]);
-        if (w == 0u || offsets[i] + w > size || lit_end[i + 1] < lit_end[i] || (i == 0 && lit_end[0] > lit_end[1])) {
+        if (w == 0u || offsets[i] + w > size || lit_end[i + 1] < lit_end[i]) {
             return NULL;
         }
     }
@@ -97,25 +97,6 @@ static uint64_t fieldtext_le(const uint8_t *b, size_t n)
     return v;
 }
 
-/* Writes v in decimal at out (a '-' first if `negative`, v then the magnitude); returns
- * the bytes written. */
-static size_t fieldtext_decimal(char *out, uint64_t v, int negative)
-{
-    char tmp[20];
-    size_t n = 0, k = 0;
-    do {
-        tmp[n++] = (char)('0' + v % 10u);
-        v /= 10u;
-    } while (v != 0u);
-    if (negative) {
-        out[k++] = '-';
-    }
-    while (n > 0u) {
-        out[k++] = tmp[--n];
-    }
-    return k;
-}
-
 int fieldtext_run(fieldtext_t *p, const char *data, int offset)
 {
     if (p == NULL || data == NULL || offset < 0) {
@@ -141,7 +122,10 @@ int fieldtext_run(fieldtext_t *p, const char *data, int offset)
             v = ~v + 1u;
             negative = 1;
         }
-        n += fieldtext_decimal(out + n, v, negative);
+        if (negative) {
+            out[n++] = '-';
+        }
+        n += rowtext_digits(out + n, v, 1);
     }
     const uint32_t end = p->lit_end[p->n_fields];
     memcpy(out + n, p->lits + lit, end - lit);

@@ -33,9 +33,7 @@ struct rowtext {
 
 static const double rowtext_pow10[ROWTEXT_MAX_DECIMALS + 1] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9};
 
-/* Writes the decimal digits of v (at least `min_digits`, zero-padded) into out; returns
- * the bytes written. */
-static size_t rowtext_digits(char *out, uint64_t v, int min_digits)
+size_t rowtext_digits(char *out, uint64_t v, int min_digits)
 {
     char tmp[24];
     int n = 0;

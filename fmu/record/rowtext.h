@@ -95,6 +95,11 @@ ROWTEXT_API int rowtext_run(rowtext_t *p, const char *rows, int first, int last)
  * "-inf". Returns the bytes written (no NUL). */
 ROWTEXT_API size_t rowtext_fixed(char *out, double x, int decimals);
 
+/* Writes the decimal digits of v (at least `min_digits`, at most 20, zero-padded)
+ * into out; returns the bytes written (no NUL). The library's one integer printer, for
+ * rowtext.c and fieldtext.c (not exported). */
+size_t rowtext_digits(char *out, uint64_t v, int min_digits);
+
 #ifdef __cplusplus
 }
 #endif
