@@ -10,7 +10,50 @@ import pytest
 from navkit.sim import record
 
 
-def test_own_mcap_writer_writes_the_file_mcaps_writer_writes(tmp_path):
+class _WriterFile:
+    """mcap's Writer (add_message, flush, finish) behind record._McapFile's interface: the
+    reference the Recorder's own writer is held to, put in its place by monkeypatch."""
+
+    def __init__(self, stream, chunk_size: int):
+        from mcap.writer import CompressionType, Writer
+
+        self.w = w = Writer(stream, chunk_size=chunk_size, compression=CompressionType.LZ4)
+        self.start, self.register_schema, self.register_channel, self.add_metadata = \
+            w.start, w.register_schema, w.register_channel, w.add_metadata
+        self.flush = w.flush
+
+    def writer(self, chan: int, n: list, keep=None):
+        def write(t_ns: int, data: bytes) -> None:
+            n[0] += 1
+            self.w.add_message(chan, t_ns, data, t_ns, n[0])
+        return write
+
+    def rows_writer(self, chan: int, n: list, fmt, stop_every_ns: int, keep_run=None):
+        write = self.writer(chan, n)
+
+        def write_rows(raw: bytes, first: int, last: int) -> tuple:
+            k, data, where = fmt.records(raw, first, last, 0, 0, 0, 1 << 62, stop_every_ns)
+            ends = where[3::2] + [len(data)]
+            for i in range(k):
+                write(where[2 * i], data[where[2 * i + 1] + 31:ends[i]])
+            return k, where[-2]
+        return write_rows
+
+    def finish(self, counts: dict) -> None:
+        self.w.finish()
+
+
+def _recorder(monkeypatch, fast: bool, path, metadata: dict):
+    """A Recorder writing through its own _McapFile (`fast`) or through mcap's Writer."""
+    with monkeypatch.context() as m:
+        if not fast:
+            m.setattr(record, "_McapFile", _WriterFile)
+        rec = record.Recorder(path, metadata)
+    assert isinstance(rec._w, record._McapFile if fast else _WriterFile)
+    return rec
+
+
+def test_own_mcap_writer_writes_the_file_mcaps_writer_writes(tmp_path, monkeypatch):
     """The same messages through _McapFile and through mcap's Writer.add_message: the
     same file, header, schemas, channels, metadata, chunk ends (span and 8 MiB size),
     message indexes, chunk indexes, statistics, summary offsets and footer included; and
@@ -27,8 +70,7 @@ def test_own_mcap_writer_writes_the_file_mcaps_writer_writes(tmp_path):
     files = []
     for fast in (True, False):
         path = tmp_path / f"run-{fast}.mcap"
-        rec = record.Recorder(path, {"seed": 1}, fast=fast)
-        assert (rec._chunk is not None) is fast
+        rec = _recorder(monkeypatch, fast, path, {"seed": 1})
         for k, (topic, t_ns, data) in enumerate(script):
             rec.reserve(t_ns, t_ns)
             rec.write_raw(topic, t_ns, data)
@@ -41,7 +83,7 @@ def test_own_mcap_writer_writes_the_file_mcaps_writer_writes(tmp_path):
     assert sum(counts.values()) == len(script)
     empty = []
     for fast in (True, False):
-        rec = record.Recorder(tmp_path / f"empty-{fast}.mcap", {"seed": 2}, fast=fast)
+        rec = _recorder(monkeypatch, fast, tmp_path / f"empty-{fast}.mcap", {"seed": 2})
         rec.close()
         empty.append((tmp_path / f"empty-{fast}.mcap").read_bytes())
     assert empty[0] == empty[1]
@@ -85,7 +127,7 @@ def test_native_fixed_point_text_is_pythons(tmp_path):
             assert _native_fixed(lib, x, d) == _python_fixed(x, d), (x, d)
 
 
-def test_truth_text_is_the_python_template(tmp_path):
+def test_truth_text_is_the_python_template(tmp_path, monkeypatch):
     """/truth rows through the native row program: the text Python's % gives with the
     program's template (heading wrap and the 12-bit dio_out mask applied), tricky values
     included, and the same MCAP records row by row as in one run."""
@@ -138,7 +180,7 @@ def test_truth_text_is_the_python_template(tmp_path):
     # the rows through the Recorder's own writer and through mcap's Writer: the same file
     files = []
     for fast in (True, False):
-        rec = record.Recorder(tmp_path / f"rows-{fast}.mcap", {}, fast=fast)
+        rec = _recorder(monkeypatch, fast, tmp_path / f"rows-{fast}.mcap", {})
         write = rec.rows_writer("/truth", rt, 100_000_000)
         at = 0
         while at < len(t_rows):

@@ -416,7 +416,7 @@ def _record(op: int, body: bytes) -> bytes:
 
 
 class _McapFile:
-    """run.mcap's own MCAP writer (the Recorder's fast path): the file the `mcap` package's
+    """run.mcap's MCAP writer (the Recorder's): the file the `mcap` package's
     Writer writes with chunk_size `chunk_size`, LZ4 chunks, CRCs of the chunks and of the
     summary, no data-section CRC, every index, schemas and channels repeated in the
     summary (its defaults), byte for byte (tests/test_sim_record_text.py holds the two to
@@ -626,11 +626,9 @@ class Recorder:
     with JSON-able objects, `flush_before(t_ns)` at each frame end with the end of the next
     frame, and `close()` at the end."""
 
-    def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False,
-                 fast: bool = True):
+    def __init__(self, path: Path, metadata: dict, flush_every_s: float = 1.0, can: bool = False):
         """`can`: the run is over CAN, so the log also has the /can topic (CAN_SCHEMA).
-        `fast`: the file is written by _McapFile (else by the mcap package's Writer and
-        its add_message: the same file, byte for byte, and the `mcap` import).
+        The file is written by _McapFile.
         `plot_series` (navkit.plot.RunSeries) keeps what the run plot draws of the
         messages as they are written, in file order, so the plot needs no read-back."""
         from navkit.plot import RunSeries
@@ -638,13 +636,7 @@ class Recorder:
         self.plot_series = RunSeries()
 
         self._file = open(path, "wb")
-        if fast:
-            self._w = self._chunk = _McapFile(self._file, _CHUNK_BYTES)
-        else:
-            from mcap.writer import CompressionType, Writer
-
-            self._w = Writer(self._file, chunk_size=_CHUNK_BYTES, compression=CompressionType.LZ4)
-            self._chunk = None
+        self._w = _McapFile(self._file, _CHUNK_BYTES)
         self._w.start(profile="", library="navkit")
         schemas = {"/truth": TRUTH_SCHEMA, "/micro/config": _config_schema(),
                    "/host/frame": FRAME_SCHEMA, "/events": EVENT_SCHEMA,
@@ -689,38 +681,12 @@ class Recorder:
     def rows_writer(self, topic: str, fmt: "RowText", stop_every_ns: int):
         """fn(raw, first, last) -> (rows written, the last one's log time ns): rows of
         `raw` as messages on `topic` by the native row formatter `fmt`, stopping after a
-        row at a multiple of `stop_every_ns` (_McapFile.rows_writer; without the fast
-        path, each message through write_raw)."""
-        if self._chunk is not None:
-            return self._chunk.rows_writer(self._chan[topic], self._n[topic], fmt, stop_every_ns,
-                                           self.plot_series.sink_run(topic))
-        write = self._writers[topic]
-
-        def write_rows(raw: bytes, first: int, last: int) -> tuple:
-            k, data, where = fmt.records(raw, first, last, 0, 0, 0, 1 << 62, stop_every_ns)
-            ends = where[3::2] + [len(data)]
-            for i in range(k):
-                write(where[2 * i], data[where[2 * i + 1] + 31:ends[i]])
-            return k, where[-2]
-        return write_rows
+        row at a multiple of `stop_every_ns` (_McapFile.rows_writer)."""
+        return self._w.rows_writer(self._chan[topic], self._n[topic], fmt, stop_every_ns,
+                                   self.plot_series.sink_run(topic))
 
     def _make_writer(self, topic: str):
-        chan, n = self._chan[topic], self._n[topic]
-        keep = self.plot_series.sink(topic)
-        if self._chunk is not None:
-            return self._chunk.writer(chan, n, keep)
-        add = self._w.add_message
-
-        def write(t_ns: int, data: bytes) -> None:
-            n[0] = seq = n[0] + 1
-            add(chan, t_ns, data, t_ns, seq)
-        if keep is None:
-            return write
-
-        def write_kept(t_ns: int, data: bytes) -> None:
-            write(t_ns, data)
-            keep(t_ns, data)
-        return write_kept
+        return self._w.writer(self._chan[topic], self._n[topic], self.plot_series.sink(topic))
 
     @property
     def counts(self) -> dict:
@@ -755,10 +721,7 @@ class Recorder:
     def close(self) -> None:
         """Write the summary section and close the file."""
         if self._file is not None:
-            if self._chunk is not None:
-                self._chunk.finish({self._chan[t]: n[0] for t, n in self._n.items()})
-            else:
-                self._w.finish()
+            self._w.finish({self._chan[t]: n[0] for t, n in self._n.items()})
             self._file.close()
             self._file = None
 
