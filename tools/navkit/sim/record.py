@@ -235,7 +235,7 @@ class RowText:
                  wrap_field: int = -1, wrap_lo: float = 0.0, wrap_hi: float = 0.0):
         import ctypes
 
-        self.fields, self.tail, self.width = fields, tail, width
+        self.fields, self.tail = fields, tail
         self._lib = lib = _row_lib(build)
         lits = "".join(f[0] for f in fields) + tail
         ends, at = [], 0
@@ -251,7 +251,6 @@ class RowText:
                                   int_mask, wrap_field, wrap_lo, wrap_hi)
         if not self._h:
             raise ValueError(f"row program refused by {row_library(build)}: {fields!r}")
-        self.row_bytes = 8 * width
         self._state = lib.rowtext_state(self._h).contents
         self._run = lib.rowtext_run
         self._handle = ctypes.c_void_p(self._h)
@@ -345,7 +344,6 @@ class FieldText:
                                     "".join(code for _, code in mt.slots).encode(), mt.size)
         if not self._h:
             raise ValueError(f"{mt.name}: field program refused by {row_library(build)}")
-        self.size = mt.size
         out, run, handle, string_at = (lib.fieldtext_out(self._h), lib.fieldtext_run,
                                        ctypes.c_void_p(self._h), ctypes.string_at)
 
@@ -826,7 +824,6 @@ class _Decoder:
         self.dumps = json.JSONEncoder(separators=(",", ":")).encode
         self.cmd_text = {}          # the last micro_cmd frame -> its text (the host repeats it)
         self.h2m_buf, self.m2h_buf = bytearray(), bytearray()
-        self.width = width
         self.row_struct = struct.Struct(f"={width}d")
         self.first_t = struct.Struct("=d").unpack_from     # a row's time (s) at an offset
         # /host/frame text per host state, with and without the done message's flags
@@ -834,8 +831,6 @@ class _Decoder:
         self.frame_text = {h: head + b',"host":"%s"}' % h.encode() for h in HOST_STATES}
         self.frame_text_flags = {h: head + b',"flags":%%d,"host":"%s"}' % h.encode()
                                  for h in HOST_STATES}
-        # serial frames: type -> generated text; micro_data's fields read by the log
-        self.by_type = texts.BY_TYPE
         # serial type -> (its MessageText, its JSON text function by the native formatter)
         self.text_by_type = {k: (t, FieldText(build, t).text) for k, t in texts.BY_TYPE.items()}
         self.micro_data = md = texts.MICRO_DATA
