@@ -5,7 +5,7 @@
 #include <string.h>
 
 struct fieldtext {
-    size_t n_fields;
+    size_t n_fields;   /* values a message */
     size_t size;       /* message bytes */
     char *lits;        /* the literals back to back */
     uint32_t *lit_end; /* n_fields + 1 ends in lits, bytes */

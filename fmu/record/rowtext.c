@@ -14,15 +14,15 @@
 #endif
 
 struct rowtext {
-    size_t width; /* doubles a row */
-    size_t n_fields;
-    char *lits;        /* the literals back to back */
-    uint32_t *lit_end; /* n_fields + 1 ends in lits, bytes */
-    int32_t *cols;     /* row column per field, -1: missing (0.0) */
-    int32_t *decimals; /* 0..9, or ROWTEXT_INT */
-    uint64_t int_mask;
-    int32_t wrap_field;
-    double wrap_lo, wrap_hi;
+    size_t width;                    /* doubles a row */
+    size_t n_fields;                 /* fields a row's text */
+    char *lits;                      /* the literals back to back */
+    uint32_t *lit_end;               /* n_fields + 1 ends in lits, bytes */
+    int32_t *cols;                   /* row column per field, -1: missing (0.0) */
+    int32_t *decimals;               /* 0..9, or ROWTEXT_INT */
+    uint64_t int_mask;               /* an integer field's mask (< 2^52) */
+    int32_t wrap_field;              /* the field printed as 0.0 in [wrap_lo, wrap_hi), -1: none */
+    double wrap_lo, wrap_hi;         /* that range, in the field's unit */
     size_t max_text;                 /* the longest text of a row, bytes */
     uint64_t state[ROWTEXT_N_STATE]; /* the call block */
     uint8_t *out;                    /* the records of the last run */
