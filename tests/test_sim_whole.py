@@ -1,7 +1,8 @@
-"""`navkit sim` fast end to end: plot.png is drawn in the harness (Pillow, no matplotlib)
-from the messages the log worker kept while it wrote run.mcap (no read-back), the same
-figure `navkit plot` draws from the file; the command's speed lines and --stamps;
-bench-sim's whole-command figures; a run stopped before its first /truth has no plot."""
+"""`navkit sim` fast end to end: plot.png is drawn by the log worker (Pillow, no
+matplotlib) from the messages it kept while it wrote run.mcap (no read-back), the same
+figure `navkit plot` draws from the file, its errors told by navkit sim as its own; the
+command's speed lines and --stamps; bench-sim's whole-command figures; a run stopped
+before its first /truth has no plot."""
 
 import argparse
 import json
@@ -43,14 +44,18 @@ def _png_size(path) -> tuple:
     return struct.unpack(">II", data[16:24])
 
 
+def _drawn_in_the_harness(*_a, **_k):
+    raise AssertionError("plot.png drawn in the harness, not by the log worker")
+
+
 def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_path, monkeypatch, capsys):
-    """plot.png comes from the series the log worker handed over (reading run.mcap fails
-    here), is a 990 x 1210 PNG (9 x 11 in at 110 dpi) and is byte for byte what `navkit
-    plot run.mcap` draws. The speed lines give the loop and the whole command with its
-    parts; --stamps has the phases in order."""
+    """plot.png is drawn by the log worker (the harness's plot_mcap fails here) from the
+    series it kept (reading run.mcap fails here), is a 990 x 1210 PNG (9 x 11 in at 110
+    dpi) and is byte for byte what `navkit plot run.mcap` draws. The speed lines give the
+    loop and the whole command with its parts; --stamps has the phases in order."""
     from navkit import plot
     from navkit.cli import main
-    from navkit.sim import results
+    from navkit.sim import harness, results
 
     require_build()
     (tmp_path / "m.toml").write_text(MISSION)
@@ -60,6 +65,7 @@ def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_pat
         raise AssertionError("run.mcap read back")
 
     monkeypatch.setattr(results, "iter_mcap", no_read_back)
+    monkeypatch.setattr(harness, "plot_mcap", _drawn_in_the_harness)
     assert main(["sim", "--mission", str(tmp_path / "m.toml"), "--out", str(out), "--no-progress",
                  "--stamps", str(stamps)]) == 0
     monkeypatch.undo()
@@ -77,6 +83,26 @@ def test_sim_plot_is_navkit_plot_of_its_run_mcap_without_reading_it_back(tmp_pat
     fig = plot.mcap_figure(out / "run.mcap")
     marks = {c.get_gid(): [seg[0][0] for seg in c.get_segments()] for c in fig.axes[1].collections}
     assert marks == {"command": [0.5, 2.0], "event": [2.5, 3.0]}, "both commands, the unplug and the plug"
+
+
+def test_a_plot_the_worker_cannot_write_is_navkit_sims_one_line(tmp_path, monkeypatch, capsys):
+    """plot.png that cannot be written (a folder of that name): the log worker's error,
+    told by navkit sim as its own in one line naming the file, status 1; run.mcap and
+    summary.json are written whole."""
+    from navkit.cli import main
+    from navkit.sim import harness
+    from navkit.sim.results import load
+
+    require_build()
+    (tmp_path / "m.toml").write_text(MISSION)
+    out = tmp_path / "out"
+    (out / "plot.png").mkdir(parents=True)
+    monkeypatch.setattr(harness, "plot_mcap", _drawn_in_the_harness)
+    assert main(["sim", "--mission", str(tmp_path / "m.toml"), "--out", str(out), "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == f"navkit sim: {out / 'plot.png'}: Is a directory", err
+    assert "Traceback" not in err, err
+    assert load(out).summary["sim_time_s"] == pytest.approx(4.0)
 
 
 def test_summary_and_run_mcap_do_not_depend_on_the_plot(tmp_path):
@@ -174,14 +200,19 @@ def stopped(rig, faults):
     os.kill(os.getpid(), signal.SIGTERM)
     raise AssertionError("SIGTERM did not stop the run")
 
+def drawn_in_the_harness(*_a, **_k):
+    raise AssertionError("plot.png drawn in the harness, not by the log worker")
+
 harness.run_lockstep = stopped
+harness.plot_mcap = drawn_in_the_harness
 sys.exit(main(["sim", "--mission", sys.argv[1], "--out", sys.argv[2], "--no-progress"]))
 """
 
 
 def test_a_run_stopped_before_its_first_truth_says_why_it_has_no_plot(tmp_path):
     """Stopped before any /truth: the outputs closed, summary.json says interrupted, no
-    plot.png and one warning naming it (not a traceback), status 128 + SIGTERM."""
+    plot.png and one warning naming it (not a traceback; the log worker's error, the
+    harness draws nothing), status 128 + SIGTERM."""
     import signal
     import subprocess
     import sys

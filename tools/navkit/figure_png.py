@@ -21,7 +21,8 @@ from PIL import Image, ImageDraw, ImageFont
 
 from navkit.figure import TICK_PT
 
-__all__ = ["render", "write_png", "png_bytes", "SCALE", "font_path", "panel_box", "to_pixels"]
+__all__ = ["render", "write_png", "png_bytes", "SCALE", "font_path", "load_fonts", "panel_box",
+           "to_pixels"]
 
 # How many times larger than the page a panel's lines are drawn before being shrunk to it.
 SCALE = 3
@@ -77,6 +78,15 @@ def _font(size_px: float):
     font = ImageFont.truetype(path, size_px) if path else ImageFont.load_default(size_px)
     _, top, _, bottom = font.getbbox("lp", anchor="ls")
     return font, -top, bottom
+
+
+def load_fonts(dpi: float, sizes_pt: tuple = ()) -> None:
+    """Load ahead the fonts render() draws a figure of `dpi` dots per inch with: its tick,
+    axis, title and legend texts and the sizes `sizes_pt` (pt: its upright labels'), each
+    at the px size render() asks for, so that a process with time to spare (the log
+    worker before its first batch) pays their loading before it draws."""
+    for size_pt in (TICK_PT, _TITLE_PT, _LEGEND_PT, *sizes_pt):
+        _font(size_pt * dpi / 72.0)
 
 
 def _rgb(color: str, alpha: float = 1.0) -> tuple:

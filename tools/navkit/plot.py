@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 __all__ = ["add_arguments", "run", "plot_mcap", "mcap_figure", "run_figure", "RunSeries",
-           "decoded", "fields", "plot_datalog", "read_datalog", "PLOT_POINTS"]
+           "decoded", "fields", "plot_datalog", "read_datalog", "warm_up", "PLOT_POINTS"]
 
 # Messages a line of a run plot keeps at most, evenly spaced (the figure is ~1000 pixels
 # wide): between PLOT_POINTS and 2 * PLOT_POINTS of a topic with more messages than that.
@@ -270,6 +270,16 @@ def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
         from navkit.figure_mpl import save
 
         save(fig, out, fmt)
+
+
+def warm_up() -> None:
+    """Load once what drawing a run's plot.png loads on its first drawing: Pillow, the
+    PNG emitter and its fonts at the run plot's sizes (navkit.figure_png.load_fonts), so
+    that a later plot_mcap into a .png draws at its warm speed. For a process with time
+    to spare before it draws (the log worker early in a run)."""
+    from navkit.figure_png import load_fonts
+
+    load_fonts(_DPI, (_LABEL_PT,))
 
 
 def _format(out) -> str:

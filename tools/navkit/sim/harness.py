@@ -40,9 +40,10 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
     `stamps`, when given, gets the time.monotonic() (s) at which each phase ended: "run"
     (entered), "started" (set-up), "loop", "stopped" (host, log worker, FMUs closed),
     "summary" (summary.json written) and "plot" (plot.png written). plot.png is drawn
-    here (navkit.plot.plot_mcap: Pillow, no matplotlib) from the messages the log worker
-    kept as it wrote run.mcap. `git`: the run's git_revision_started() when the caller
-    started it earlier, else None."""
+    by the log worker (navkit.plot.plot_mcap: Pillow, no matplotlib) from the messages
+    it kept as it wrote run.mcap, once that is closed, while the run's other parts end
+    and summary.json is written (_plot). `git`: the run's git_revision_started() when
+    the caller started it earlier, else None."""
     def stamp(key: str) -> None:
         if stamps is not None:
             stamps[key] = time.monotonic()
@@ -76,6 +77,9 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
         rig.stop()
         raise
     mcap_path, png = Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png"
+    log = rig.log       # its plot.png is waited for after rig.stop (which lets it go)
+    if opts.plot and log is not None:
+        log.draw_plot()
     if interrupted is not None:
         # a clean stop, then what there is: a second stop signal waits until the outputs are
         # closed
@@ -89,29 +93,45 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
                 (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
             if opts.plot and mcap_path.exists():
                 try:
-                    plot_mcap(mcap_path, png, rig.results.get("plot"))
+                    _plot(log, mcap_path, png, rig.results)
                 except ValueError as e:     # stopped before its first /truth: nothing to draw
                     print(f"warning: {png}: not drawn: {e}", file=sys.stderr)
         finally:
+            if log is not None:
+                log.plot_done()
             for s, h in held.items():
                 signal.signal(s, h)
         raise SimInterrupted(summary, interrupted)
     # the run is over: a stop signal now waits until the outputs are closed, then acts as
     # its handler says (navkit sim's raises KeyboardInterrupt), never cutting them short
     with DeferredStops():
-        rig.stop()
-        stamp("stopped")
-        wall = time.perf_counter() - wall0
-        summary = run_summary(rig, faults, wall)
-        (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        stamp("summary")
-        for ref in summary["planner"]["refused"]:
-            verdict = ref["nav_result"].replace("_", " ")
-            print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
-                  f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
-        if opts.plot:
-            # from the messages the log worker kept while writing run.mcap (read back from the
-            # file only if the worker gave no results: it died)
-            plot_mcap(mcap_path, png, rig.results.get("plot"))
-            stamp("plot")
+        try:
+            rig.stop()
+            stamp("stopped")
+            wall = time.perf_counter() - wall0
+            summary = run_summary(rig, faults, wall)
+            (Path(opts.out) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+            stamp("summary")
+            for ref in summary["planner"]["refused"]:
+                verdict = ref["nav_result"].replace("_", " ")
+                print(f"warning: {ref['where']} (t = {ref['t']:g} s): {verdict} by the host: "
+                      f"{ref['reason']} (lisp_data.nav_result = {ref['nav_result']})", file=sys.stderr)
+            if opts.plot:
+                _plot(log, mcap_path, png, rig.results)
+                stamp("plot")
+        finally:
+            if log is not None:
+                log.plot_done()
     return summary
+
+
+def _plot(log, mcap_path: Path, png: Path, results: dict) -> None:
+    """plot.png `png` of run `mcap_path`: the one log worker `log` (RunLog) draws after
+    rig.stop, waited for here, its drawing's error raised here as this drawing's; or drawn
+    here (navkit.plot.plot_mcap) when the worker did not (an inline log: from the
+    series in its `results`; a worker that died: read back from the file)."""
+    drawn, err = log.plot_done() if log is not None else (False, None)
+    if err is not None:
+        raise err
+    if not drawn:
+        plot_mcap(mcap_path, png, results.get("plot"))

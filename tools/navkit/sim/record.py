@@ -1146,10 +1146,20 @@ class _Decoder:
                          for d, sender in (("h2m", self.h2m), ("m2h", self.m2h))}}
 
 
+# The harness's last message to the worker but for the results: stop, then draw plot.png
+# (the worker's `plot`) once run.mcap is closed. A plain stop is None.
+_STOP_AND_DRAW = "stop and draw plot.png"
+
+
 def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=False,
-            build=None) -> None:
-    """Log worker process: decode and write until the harness says stop (None) or goes
-    away (EOF), then close the MCAP file and send the results back. With `spin` it polls
+            build=None, plot=None) -> None:
+    """Log worker process: decode and write until the harness says stop (None or
+    _STOP_AND_DRAW) or goes away (EOF), then close the MCAP file and send the results
+    back; after _STOP_AND_DRAW, then draw run plot `plot` (plot.png) from the messages the
+    Recorder kept (navkit.plot.plot_mcap) and send {"drawn": bool, "error": the exception
+    the drawing raised or None}. With `plot`, Pillow and the plot's fonts are loaded
+    first (navkit.plot.warm_up), while the harness sets the run up: their CPU time is not
+    in the results' `cpu_s`, nor is the drawing's. With `spin` it polls
     instead of sleeping while waiting for work (see RunLog.spin). `harness_end`, the
     harness's end of the pipe that fork() copied here, is closed first: else this process
     would hold it open itself and never see the EOF of a harness that was killed. The
@@ -1172,8 +1182,15 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     cpu0 = time.process_time()
     spun = 0.0                  # CPU s spent polling for work (spin), not working
     dec = _Decoder(path, metadata, columns, width, can, build)
+    if plot is not None:
+        from navkit.plot import warm_up
+
+        w0 = time.process_time()
+        warm_up()
+        cpu0 += time.process_time() - w0
     gc.freeze()                 # the decoder's objects too: they live as long as the process
     handlers = dec.handlers     # dec.handle's table, looked up here: an item is a call
+    batch = None
     try:
         while True:
             try:
@@ -1185,18 +1202,42 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
                 batch = conn.recv()
             except (EOFError, OSError):
                 batch = None
-            if batch is None:
+            if batch is None or batch == _STOP_AND_DRAW:
                 break
             for item in batch:
                 handlers[item[0]](item)
     finally:
         res = dec.finish()
+        series = res.pop("plot") if batch == _STOP_AND_DRAW and plot is not None else None
         res["cpu_s"] = round(time.process_time() - cpu0 - spun, 3)
         res["spin_cpu_s"] = round(spun, 3)
         try:
             conn.send(res)
         except (OSError, BrokenPipeError):
             pass
+    if series is not None:
+        _send_plot(conn, path, plot, series)
+
+
+def _send_plot(conn, path, plot, series) -> None:
+    """Draw run plot `plot` of run `path` from `series` (RunSeries.raw()) and send the
+    harness {"drawn": True, "error": None or the exception plot_mcap raised}, or
+    {"drawn": False, ...} when that exception does not pickle (the harness draws it
+    itself then, to raise it)."""
+    from navkit.plot import plot_mcap
+
+    try:
+        plot_mcap(path, plot, series)
+        err = None
+    except Exception as e:  # noqa: BLE001 - the harness reports it as its own drawing's
+        err = e
+    try:
+        try:
+            conn.send({"drawn": True, "error": err})
+        except (pickle.PicklingError, TypeError, AttributeError):
+            conn.send({"drawn": False, "error": None})
+    except OSError:
+        pass
 
 
 # The harness's send buffer towards the log worker (bytes; the kernel caps it at
@@ -1256,15 +1297,18 @@ class RunLog:
     per direction frames sent, and frames received, CRC errors, resyncs as the receiving
     end's parser counts them over the whole run; with a worker process also `cpu_s`, its
     CPU time (s) from start to its results, without `spin_cpu_s`, the CPU s it spent
-    polling for work)."""
+    polling for work). Its `plot` is RunSeries.raw() of the run, but when the worker
+    draws plot.png itself (draw_plot(), then plot_done())."""
 
     def __init__(self, path: Path, metadata: dict, columns: list, width: int,
                  inline: bool = False, batch_frames: int = 10, can: bool = False,
-                 build: Path | None = None):
+                 build: Path | None = None, plot: Path | None = None):
         """`can`: a run over CAN, whose bus frames (can_frame()) go to the /can topic.
         `build`: the build folder with the generated navkit_json (protocol.json_texts;
         default navkit.paths.build_dir()) and the row formatter (row_library()), loaded
-        here, so that a missing or stale one is an OSError of this call."""
+        here, so that a missing or stale one is an OSError of this call. `plot`: the
+        run's plot.png, which a worker process gets ready to draw from the start and
+        draws after run.mcap is closed when asked (draw_plot)."""
         from navkit import protocol
 
         protocol.json_texts(build)
@@ -1272,6 +1316,8 @@ class RunLog:
         self._items: list = []
         self._batch = batch_frames
         self._frames = 0
+        self._plot = None if inline else plot
+        self._draw = self._drawing = False
         if inline:
             self._dec = _Decoder(path, metadata, columns, width, can, build)
             self._conn = self._proc = None
@@ -1283,7 +1329,8 @@ class RunLog:
             _deep_send_buffer(self._conn)
             self._spin = ctx.Value("b", 0, lock=False)
             self._proc = ctx.Process(target=_worker, args=(child, path, metadata, columns, width,
-                                                          self._spin, self._conn, can, build),
+                                                          self._spin, self._conn, can, build,
+                                                          plot),
                                      name="navkit-sim-log", daemon=True)
             self._proc.start()
             child.close()
@@ -1381,8 +1428,16 @@ class RunLog:
         elif items:
             _send_whole(self._conn, items)
 
+    def draw_plot(self) -> bool:
+        """Have the worker draw plot.png (the `plot` it was made with) once close() has
+        closed run.mcap, while the caller goes on; plot_done() waits for it. False (nothing
+        to wait for) with the log inline or made without `plot`."""
+        self._draw = self._plot is not None and self._proc is not None
+        return self._draw
+
     def close(self) -> dict:
-        """Send what is left, stop the worker, return its results."""
+        """Send what is left, stop the worker, return its results (the worker drawing
+        plot.png on, if asked by draw_plot)."""
         self._send()
         if self._dec is not None:
             res, self._dec = self._dec.finish(), None
@@ -1391,11 +1446,32 @@ class RunLog:
             return {}
         self.spin(False)
         try:
-            _send_whole(self._conn, None)
+            _send_whole(self._conn, _STOP_AND_DRAW if self._draw else None)
             res = self._conn.recv() if self._conn.poll(60) else {}
         except (EOFError, OSError):
             res = {}
+        self._drawing = self._draw and bool(res)
+        if not self._drawing:
+            self._end()
+        return res
+
+    def plot_done(self) -> tuple:
+        """Wait for the worker's plot.png after close(): (True, None) drawn, (True, e) its
+        drawing raised exception `e` (navkit.plot.plot_mcap's, for the caller to raise as
+        its own), (False, None) not drawn (not asked; the worker died or its exception
+        would not pickle). Then the worker has ended."""
+        if not self._drawing:
+            return False, None
+        self._drawing = False
+        try:
+            done = self._conn.recv() if self._conn.poll(60) else None
+        except Exception:  # noqa: BLE001 - EOF, or an exception that does not unpickle here
+            done = None
+        self._end()
+        return (True, done["error"]) if done and done["drawn"] else (False, None)
+
+    def _end(self) -> None:
+        """Join the worker and close its pipe."""
         self._proc.join(10)
         self._conn.close()
         self._conn = None
-        return res

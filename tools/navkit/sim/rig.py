@@ -163,7 +163,7 @@ class SimRig:
         # fork the log worker before any pty, socket or child process exists
         self.log = RunLog(self.out / "run.mcap", meta, self.coupler.columns, self.coupler.width,
                           inline=self.opts.log_inline, can=self.opts.link == "can",
-                          build=self.build)
+                          build=self.build, plot=self.out / "plot.png" if self.opts.plot else None)
         walls = self.fmus.walls(plant_fmu)
         if walls is not None:
             self.log.walls(walls)
