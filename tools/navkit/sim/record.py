@@ -222,6 +222,19 @@ ROW_INT = -1
  _STATE_N) = range(9)
 
 
+def _literals(parts: list) -> tuple:
+    """The literal texts `parts` (bytes) of a row or field program back to back, and the
+    end of each in them (bytes, a ctypes uint32 array), as rowtext_new and fieldtext_new
+    take them."""
+    import ctypes
+
+    ends, at = [], 0
+    for lit in parts:
+        at += len(lit)
+        ends.append(at)
+    return b"".join(parts), (ctypes.c_uint32 * len(ends))(*ends)
+
+
 class RowText:
     """A row program of the native row formatter (fmu/record, rowtext.h): rows of
     `width` doubles (column 0 the simulated time, s) to JSON text, and to MCAP Message
@@ -237,27 +250,17 @@ class RowText:
 
         self.fields, self.tail = fields, tail
         self._lib = lib = _row_lib(build)
-        lits = "".join(f[0] for f in fields) + tail
-        ends, at = [], 0
-        for f in fields:
-            at += len(f[0].encode())
-            ends.append(at)
-        ends.append(len(lits.encode()))
         n = len(fields)
-        self._h = lib.rowtext_new(width, n, lits.encode(), (ctypes.c_uint32 * (n + 1))(*ends),
+        self._h = lib.rowtext_new(width, n, *_literals([f[0].encode() for f in fields]
+                                                       + [tail.encode()]),
                                   (ctypes.c_int32 * n)(*[-1 if f[1] is None else f[1]
                                                          for f in fields]),
                                   (ctypes.c_int32 * n)(*[f[2] for f in fields]),
                                   int_mask, wrap_field, wrap_lo, wrap_hi)
         if not self._h:
             raise ValueError(f"row program refused by {row_library(build)}: {fields!r}")
-        self._state = lib.rowtext_state(self._h).contents
-        self._run = lib.rowtext_run
-        self._handle = ctypes.c_void_p(self._h)
-        self._string_at = ctypes.string_at
-        self._pairs: dict = {}          # k -> the ctypes type of k records' index pairs
-        self._uint64 = ctypes.c_uint64
-        self._runner = self._make_runner()
+        self._state = st = lib.rowtext_state(self._h).contents
+        self.run = self._make_run(st, lib.rowtext_run, ctypes.c_void_p(self._h))
 
     def __del__(self):
         if getattr(self, "_h", None):
@@ -293,14 +296,15 @@ class RowText:
         st = self._state
         st[_CHANNEL], st[_CHUNK_SIZE], st[_STOP_EVERY_NS] = channel, chunk_size, stop_every_ns
 
-    def run(self, raw: bytes, first: int, last: int, seq: int, offset: int) -> tuple:
-        """records() with the channel, chunk size and stop of the last bind()."""
-        return self._runner(raw, first, last, seq, offset)
+    @staticmethod
+    def _make_run(st, call, handle):
+        """run(raw, first, last, seq, offset): records() with the channel, chunk size and
+        stop of the last bind(), as one function of local names (a call per truth item)
+        over the program's call block `st`, rowtext_run `call` and the program `handle`."""
+        import ctypes
 
-    def _make_runner(self):
-        """run() as one function of local names (a call per truth item)."""
-        st, call, handle, string_at = self._state, self._run, self._handle, self._string_at
-        pairs_of, uint64 = self._pairs, self._uint64
+        string_at, uint64 = ctypes.string_at, ctypes.c_uint64
+        pairs_of: dict = {}             # k -> the ctypes type of k records' index pairs
 
         def run(raw: bytes, first: int, last: int, seq: int, offset: int) -> tuple:
             st[_SEQ] = seq
@@ -334,12 +338,8 @@ class FieldText:
         n = len(mt.slots)
         if len(parts) != n + 1 or b"%" in b"".join(parts):
             raise ValueError(f"{mt.name}: its template has not one %d a slot")
-        ends, at = [], 0
-        for lit in parts:
-            at += len(lit)
-            ends.append(at)
         self._lib = lib = _row_lib(build)
-        self._h = lib.fieldtext_new(n, b"".join(parts), (ctypes.c_uint32 * (n + 1))(*ends),
+        self._h = lib.fieldtext_new(n, *_literals(parts),
                                     (ctypes.c_uint32 * n)(*[off for off, _ in mt.slots]),
                                     "".join(code for _, code in mt.slots).encode(), mt.size)
         if not self._h:
@@ -517,7 +517,7 @@ class _McapFile:
         0: never), or when the chunk is full, which then ends); sequence numbers as
         writer()'s. `keep_run`, if given, is called with (count, message) where
         message(i) -> (t_ns, data) of the i-th message written. `fmt` is this writer's."""
-        run, size, indices = fmt._runner, self._size, self._indices
+        run, size, indices = fmt.run, self._size, self._indices
         fmt.bind(chan, size, stop_every_ns)
         flush, first_chan, put, next_at = self.flush, self._channels.append, self._parts.append, \
             self._at
