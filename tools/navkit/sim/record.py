@@ -436,10 +436,9 @@ class _McapFile:
         self._channels_rec: list = []   # Channel records (bytes), by id from 1
         self._metadata: list = []       # MetadataIndex records (bytes)
         self._chunk_indexes: list = []  # ChunkIndex records (bytes)
-        self._chunks = 0
         self._indices: dict = {}        # the open chunk: channel id -> _MessageIndex
         self._lo = self._hi = None      # earliest / latest log time (ns) of the chunks so far
-        self._channels: list = []      # channel ids in the order of their first message
+        self._channels: list = []       # channel ids in the order of their first message
         self._counts: dict = {}         # messages per channel id (at close)
         # The open chunk: its bytes so far (schemas and channels first in the first one)
         # and the messages since then as parts, and where the next one starts (bytes)
@@ -579,7 +578,6 @@ class _McapFile:
                 out.append(rec)
             self._indices.clear()
             stream.write(b"".join(out))
-            self._chunks += 1
             self._chunk_indexes.append(_record(_OP_CHUNK_INDEX, b"".join((
                 struct.pack("<QQQQI", lo, hi, start, len(chunk), 10 * len(offsets)), *offsets,
                 struct.pack("<Q", at - start - len(chunk)), _text("lz4"),
@@ -597,7 +595,7 @@ class _McapFile:
         chans = self._channels
         stats = _record(_OP_STATISTICS, b"".join((
             struct.pack("<QHIIIIQQI", sum(counts[c] for c in chans), len(self._schemas),
-                        len(self._channels_rec), 0, len(self._metadata), self._chunks,
+                        len(self._channels_rec), 0, len(self._metadata), len(self._chunk_indexes),
                         self._lo if self._lo is not None else 0,
                         self._hi if self._hi is not None else 0, 10 * len(chans)),
             *(struct.pack("<HQ", c, counts[c]) for c in chans))))
