@@ -5,13 +5,12 @@
 #include <string.h>
 
 struct fieldtext {
-    size_t n_fields;   /* values a message */
-    size_t size;       /* message bytes */
-    char *lits;        /* the literals back to back */
-    uint32_t *lit_end; /* n_fields + 1 ends in lits, bytes */
-    uint32_t *offsets; /* byte offset of each value */
-    char *codes;       /* struct code of each value */
-    char *out;         /* the last text */
+    size_t n_fields;     /* values a message */
+    size_t size;         /* message bytes */
+    rowtext_lits_t lits; /* n_fields + 1 literals */
+    uint32_t *offsets;   /* byte offset of each value */
+    char *codes;         /* struct code of each value */
+    char *out;           /* the last text */
 };
 
 /* Bytes of a value of struct code `c`, 0 for an unknown code. */
@@ -43,7 +42,7 @@ fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *li
     }
     for (size_t i = 0; i < n_fields; i++) {
         const size_t w = fieldtext_width(codes[i]);
-        if (w == 0u || offsets[i] + w > size || lit_end[i + 1] < lit_end[i]) {
+        if (w == 0u || offsets[i] + w > size) {
             return NULL;
         }
     }
@@ -51,18 +50,14 @@ fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *li
     if (p == NULL) {
         return NULL;
     }
-    const size_t n_lits = lit_end[n_fields];
-    p->lits = malloc(n_lits + 1u);
-    p->lit_end = malloc((n_fields + 1u) * sizeof *p->lit_end);
     p->offsets = malloc(n_fields * sizeof *p->offsets);
     p->codes = malloc(n_fields);
-    p->out = malloc(n_lits + 21u * n_fields); /* 20 digits and a sign a value at most */
-    if (p->lits == NULL || p->lit_end == NULL || p->offsets == NULL || p->codes == NULL || p->out == NULL) {
+    p->out = malloc(lit_end[n_fields] + 21u * n_fields); /* 20 digits and a sign a value at most */
+    if (rowtext_lits_copy(&p->lits, n_fields, lits, lit_end) != 0 || p->offsets == NULL || p->codes == NULL ||
+        p->out == NULL) {
         fieldtext_free(p);
         return NULL;
     }
-    memcpy(p->lits, lits, n_lits);
-    memcpy(p->lit_end, lit_end, (n_fields + 1u) * sizeof *p->lit_end);
     memcpy(p->offsets, offsets, n_fields * sizeof *p->offsets);
     memcpy(p->codes, codes, n_fields);
     p->n_fields = n_fields;
@@ -73,8 +68,7 @@ fieldtext_t *fieldtext_new(size_t n_fields, const char *lits, const uint32_t *li
 void fieldtext_free(fieldtext_t *p)
 {
     if (p != NULL) {
-        free(p->lits);
-        free(p->lit_end);
+        rowtext_lits_free(&p->lits);
         free(p->offsets);
         free(p->codes);
         free(p->out);
@@ -107,8 +101,8 @@ int fieldtext_run(fieldtext_t *p, const char *data, int offset)
     size_t n = 0;
     uint32_t lit = 0;
     for (size_t i = 0; i < p->n_fields; i++) {
-        const uint32_t end = p->lit_end[i];
-        memcpy(out + n, p->lits + lit, end - lit);
+        const uint32_t end = p->lits.end[i];
+        memcpy(out + n, p->lits.text + lit, end - lit);
         n += end - lit;
         lit = end;
         const char c = p->codes[i];
@@ -127,7 +121,7 @@ int fieldtext_run(fieldtext_t *p, const char *data, int offset)
         }
         n += rowtext_digits(out + n, v, 1);
     }
-    const uint32_t end = p->lit_end[p->n_fields];
-    memcpy(out + n, p->lits + lit, end - lit);
+    const uint32_t end = p->lits.end[p->n_fields];
+    memcpy(out + n, p->lits.text + lit, end - lit);
     return (int)(n + (end - lit));
 }

@@ -16,8 +16,7 @@
 struct rowtext {
     size_t width;                    /* doubles a row */
     size_t n_fields;                 /* fields a row's text */
-    char *lits;                      /* the literals back to back */
-    uint32_t *lit_end;               /* n_fields + 1 ends in lits, bytes */
+    rowtext_lits_t lits;             /* n_fields + 1 literals */
     int32_t *cols;                   /* row column per field, -1: missing (0.0) */
     int32_t *decimals;               /* 0..9, or ROWTEXT_INT */
     uint64_t int_mask;               /* an integer field's mask (< 2^52) */
@@ -109,6 +108,34 @@ size_t rowtext_fixed(char *out, double x, int decimals)
     return n;
 }
 
+int rowtext_lits_copy(rowtext_lits_t *l, size_t n, const char *lits, const uint32_t *lit_end)
+{
+    l->text = NULL;
+    l->end = NULL;
+    for (size_t i = 0; i < n; i++) {
+        if (lit_end[i + 1] < lit_end[i]) {
+            return -1;
+        }
+    }
+    l->text = malloc((size_t)lit_end[n] + 1u);
+    l->end = malloc((n + 1u) * sizeof *l->end);
+    if (l->text == NULL || l->end == NULL) {
+        rowtext_lits_free(l);
+        return -1;
+    }
+    memcpy(l->text, lits, lit_end[n]);
+    memcpy(l->end, lit_end, (n + 1u) * sizeof *l->end);
+    return 0;
+}
+
+void rowtext_lits_free(rowtext_lits_t *l)
+{
+    free(l->text);
+    free(l->end);
+    l->text = NULL;
+    l->end = NULL;
+}
+
 rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits, const uint32_t *lit_end, const int32_t *cols,
                        const int32_t *decimals, uint64_t int_mask, int32_t wrap_field, double wrap_lo, double wrap_hi)
 {
@@ -118,28 +145,20 @@ rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits, const ui
     }
     for (size_t i = 0; i < n_fields; i++) {
         if (cols[i] < -1 || cols[i] >= (int32_t)width || decimals[i] < ROWTEXT_INT ||
-            decimals[i] > ROWTEXT_MAX_DECIMALS || (i > 0 && lit_end[i] < lit_end[i - 1])) {
+            decimals[i] > ROWTEXT_MAX_DECIMALS) {
             return NULL;
         }
-    }
-    if (lit_end[n_fields] < lit_end[n_fields - 1]) {
-        return NULL;
     }
     rowtext_t *p = calloc(1, sizeof *p);
     if (p == NULL) {
         return NULL;
     }
-    const size_t n_lits = lit_end[n_fields];
-    p->lits = malloc(n_lits + 1u);
-    p->lit_end = malloc((n_fields + 1u) * sizeof *p->lit_end);
     p->cols = malloc(n_fields * sizeof *p->cols);
     p->decimals = malloc(n_fields * sizeof *p->decimals);
-    if (p->lits == NULL || p->lit_end == NULL || p->cols == NULL || p->decimals == NULL) {
+    if (rowtext_lits_copy(&p->lits, n_fields, lits, lit_end) != 0 || p->cols == NULL || p->decimals == NULL) {
         rowtext_free(p);
         return NULL;
     }
-    memcpy(p->lits, lits, n_lits);
-    memcpy(p->lit_end, lit_end, (n_fields + 1u) * sizeof *p->lit_end);
     memcpy(p->cols, cols, n_fields * sizeof *p->cols);
     memcpy(p->decimals, decimals, n_fields * sizeof *p->decimals);
     p->width = width;
@@ -148,15 +167,14 @@ rowtext_t *rowtext_new(size_t width, size_t n_fields, const char *lits, const ui
     p->wrap_field = wrap_field;
     p->wrap_lo = wrap_lo;
     p->wrap_hi = wrap_hi;
-    p->max_text = n_lits + n_fields * (size_t)ROWTEXT_FIELD_MAX;
+    p->max_text = lit_end[n_fields] + n_fields * (size_t)ROWTEXT_FIELD_MAX;
     return p;
 }
 
 void rowtext_free(rowtext_t *p)
 {
     if (p != NULL) {
-        free(p->lits);
-        free(p->lit_end);
+        rowtext_lits_free(&p->lits);
         free(p->cols);
         free(p->decimals);
         free(p->out);
@@ -180,8 +198,8 @@ static long rowtext_row(const rowtext_t *p, const double *row, char *out)
     size_t n = 0;
     uint32_t lit = 0;
     for (size_t i = 0; i < p->n_fields; i++) {
-        const uint32_t end = p->lit_end[i];
-        memcpy(out + n, p->lits + lit, end - lit);
+        const uint32_t end = p->lits.end[i];
+        memcpy(out + n, p->lits.text + lit, end - lit);
         n += end - lit;
         lit = end;
         double x = p->cols[i] < 0 ? 0.0 : row[p->cols[i]];
@@ -204,8 +222,8 @@ static long rowtext_row(const rowtext_t *p, const double *row, char *out)
         }
         n += rowtext_fixed(out + n, x, p->decimals[i]);
     }
-    const uint32_t end = p->lit_end[p->n_fields];
-    memcpy(out + n, p->lits + lit, end - lit);
+    const uint32_t end = p->lits.end[p->n_fields];
+    memcpy(out + n, p->lits.text + lit, end - lit);
     return (long)(n + (end - lit));
 }
 

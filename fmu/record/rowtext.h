@@ -95,6 +95,20 @@ ROWTEXT_API int rowtext_run(rowtext_t *p, const char *rows, int first, int last)
  * "-inf". Returns the bytes written (no NUL). */
 ROWTEXT_API size_t rowtext_fixed(char *out, double x, int decimals);
 
+/* A program's literal texts (of a row or a field program): n + 1 of them back to back,
+ * literal i being text[end[i-1] .. end[i]) (from 0 for i = 0). */
+typedef struct rowtext_lits {
+    char *text;    /* the literals back to back */
+    uint32_t *end; /* n + 1 ends in text, bytes */
+} rowtext_lits_t;
+
+/* Copies the n + 1 literals lits[lit_end[i-1] .. lit_end[i]) into l; returns 0, or -1
+ * (l then holds nothing) if lit_end decreases or there is no memory. Not exported. */
+int rowtext_lits_copy(rowtext_lits_t *l, size_t n, const char *lits, const uint32_t *lit_end);
+
+/* Frees what rowtext_lits_copy() gave l (an l of NULLs is fine). Not exported. */
+void rowtext_lits_free(rowtext_lits_t *l);
+
 /* Writes the decimal digits of v (at least `min_digits`, at most 20, zero-padded)
  * into out; returns the bytes written (no NUL). The library's one integer printer, for
  * rowtext.c and fieldtext.c (not exported). */
