@@ -190,6 +190,22 @@ def test_truth_text_is_the_python_template(tmp_path, monkeypatch):
     assert files[0] == files[1]
 
 
+def test_a_truth_time_without_a_log_time_is_refused(tmp_path):
+    """A truth row whose time (s) has no log time in int64 ns (not finite, or past
+    rowtext.h's ROWTEXT_MAX_TIME_S) is a ValueError of the row formatter, wherever it is
+    in the rows, not a cast C leaves undefined."""
+    from sim_helpers import require_build
+
+    require_build()
+    rt = record.RowText(None, 2, [('{"t":', 0, 6), (',"x":', 1, 4)], "}")
+    for t in (float("nan"), float("inf"), -float("inf"), 1e10, -9.3e9):
+        raw = struct.pack("=6d", 0.001, 1.0, t, 2.0, 0.003, 3.0)
+        with pytest.raises(ValueError, match="truth rows 0..2"):
+            rt.records(raw, 0, 3, 1, 0, 0, 1 << 40, 0)
+    raw = struct.pack("=2d", 9.1e9, 1.0)
+    assert rt.records(raw, 0, 1, 1, 0, 0, 1 << 40, 0)[2][0] == 9_100_000_000_000_000_000
+
+
 def test_native_message_text_is_the_generated_template(tmp_path):
     """Every spec message through the native field program (FieldText, from the generated
     navkit_json's template and slots): the text its template % its unpack gives, for

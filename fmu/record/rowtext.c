@@ -242,6 +242,9 @@ static long rowtext_records(const rowtext_t *p, const double *rows, size_t first
             return done > 0 ? done : ROWTEXT_ERR_FULL;
         }
         const double *row = rows + k * p->width;
+        if (!(fabs(row[0]) <= ROWTEXT_MAX_TIME_S)) {
+            return ROWTEXT_ERR_TIME; /* NaN too: no int64 log time to cast it to */
+        }
         const int64_t t_ns = (int64_t)nearbyint(row[0] * 1e3) * 1000000;
         uint8_t *rec = out + at;
         const long len = rowtext_row(p, row, (char *)rec + ROWTEXT_RECORD_HEAD);

@@ -28,13 +28,16 @@ extern "C" {
 /* How a field is printed: decimals 0..ROWTEXT_MAX_DECIMALS, or ROWTEXT_INT (an integer). */
 enum { ROWTEXT_MAX_DECIMALS = 9, ROWTEXT_INT = -1 };
 /* Result codes. */
-enum { ROWTEXT_ERR_ARG = -1, ROWTEXT_ERR_FULL = -2, ROWTEXT_ERR_VALUE = -3 };
+enum { ROWTEXT_ERR_ARG = -1, ROWTEXT_ERR_FULL = -2, ROWTEXT_ERR_VALUE = -3, ROWTEXT_ERR_TIME = -4 };
 /* Bytes of an MCAP Message record before its data: opcode, length, channel id, sequence,
  * log time, publish time. */
 enum { ROWTEXT_RECORD_HEAD = 31 };
 /* The longest text of one field (bytes): '%.9f' of the largest double (309 digits before
  * the point) and its sign, with room to spare. */
 enum { ROWTEXT_FIELD_MAX = 340 };
+
+/* The largest |simulated time| of a row, s: its log time in ns fits an int64. */
+#define ROWTEXT_MAX_TIME_S 9.2e9
 
 typedef struct rowtext rowtext_t;
 
@@ -85,8 +88,9 @@ ROWTEXT_API uint64_t *rowtext_state(rowtext_t *p);
  * of the call block's channel, sequence numbers ROWTEXT_SEQ + 1, + 2, ..., log and
  * publish time the row's log time (ns), stopping as the call block says (or at `last`).
  * Returns the rows written (>= 1 if first < last), or ROWTEXT_ERR_VALUE for an integer
- * field that is not finite (as Python's int() refuses it), ROWTEXT_ERR_FULL if out of
- * memory, ROWTEXT_ERR_ARG for bad arguments. */
+ * field that is not finite (as Python's int() refuses it), ROWTEXT_ERR_TIME for a time
+ * without a log time (not finite, or |t| past ROWTEXT_MAX_TIME_S), ROWTEXT_ERR_FULL if out
+ * of memory, ROWTEXT_ERR_ARG for bad arguments. */
 ROWTEXT_API int rowtext_run(rowtext_t *p, const char *rows, int first, int last);
 
 /* Writes x into `out` (at least ROWTEXT_FIELD_MAX bytes) with `decimals` decimals (0..9)
