@@ -158,6 +158,45 @@ def test_the_log_writer_keeps_what_navkit_plot_reads_from_the_file(tmp_path):
     assert plot.decoded(kept) == plot._read_thinned(path)
 
 
+@pytest.mark.parametrize("least", [7, 512])
+def test_fields_found_ahead_are_those_found_when_drawn(monkeypatch, least):
+    """RunSeries.find_ahead (the log worker between batches), at random moments across
+    the thinning's halvings: fields() given what it found returns the arrays it finds
+    from the kept messages alone; a message whose field is not a plain number stops
+    finding ahead and fields() decodes them all, as it would."""
+    import functools
+    import random
+
+    import numpy as np
+
+    from navkit import plot
+
+    monkeypatch.setattr(plot, "_FIND_AT_LEAST", least)
+    rng = random.Random(least)
+    series = plot.RunSeries(cap=400)
+    truth, micro = series.sink("/truth"), series.sink("/micro/data")
+    dumps = functools.partial(json.dumps, separators=(",", ":"))     # as the log writes them
+    for i in range(20_000):
+        t_ns = i * 10_000_000
+        truth(t_ns, dumps({"t": t_ns / 1e9, "x_mm": rng.uniform(-1e4, 1e4), "y_mm": rng.random(),
+                                "v_mm_s": rng.randint(-300, 300), "heading_deg": 1e-7 * i}).encode())
+        if i % 4 == 0:
+            micro(t_ns, dumps({"x": i, "y": -i, "fwd_speed": 3, "heading": i % 3600,
+                                    "extra": {"x": 1}} if i == 16_000 else
+                                   {"x": i, "y": -i, "fwd_speed": 3, "heading": i % 3600}).encode())
+        if rng.random() < 0.01:
+            series.find_ahead()
+    raw, found = series.raw(), series.found()
+    assert found["/truth"][0] > 0
+    if least < 10:                      # searched after the nested x (else only when drawn)
+        assert "/micro/data" not in found, "a nested x stops finding ahead"
+    for topic, keys in plot.RUN_FIELDS.items():
+        t_ahead, ahead = plot.fields(topic, raw[topic], keys, found.get(topic))
+        t_end, end = plot.fields(topic, raw[topic], keys)
+        assert np.array_equal(t_ahead, t_end) and list(ahead) == list(keys)
+        assert all(np.array_equal(ahead[k], end[k]) for k in keys), topic
+
+
 def test_decoded_series_parse_each_message_as_one_json_value():
     """decoded(): each message its own JSON value in log-time order (file order among
     equal times); a message holding two values is an error, not two messages."""

@@ -83,12 +83,15 @@ class _Thinned:
     """Every `stride`-th message of a stream, the stride doubling (and every other kept
     message dropped) whenever more than 2 * `cap` are kept: at most 2 * `cap` in memory,
     evenly spaced, without knowing the count ahead. Messages are kept as their JSON bytes
-    (decoded once, when drawn)."""
+    (decoded once, when drawn). The numbers a plot draws of the first `found` kept
+    messages may be found ahead (find_ahead): `cols` {key: float array}, thinned with
+    them; `found` -1 once a search failed (fields() then decodes them all)."""
 
-    __slots__ = ("cap", "stride", "n", "kept")
+    __slots__ = ("cap", "stride", "n", "kept", "found", "cols")
 
     def __init__(self, cap: int):
         self.cap, self.stride, self.n, self.kept = cap, 1, 0, []
+        self.found, self.cols = 0, {}
 
     def offer(self, t_ns: int, data: bytes) -> None:
         if self.n % self.stride == 0:
@@ -110,12 +113,38 @@ class _Thinned:
         if len(self.kept) > 2 * self.cap:
             del self.kept[1::2]
             self.stride *= 2
+            if self.found > 0:      # the kept of even index stay, so do their numbers
+                self.cols = {k: v[::2] for k, v in self.cols.items()}
+                self.found = (self.found + 1) // 2
+
+    def find_ahead(self, keys: tuple, least: int) -> None:
+        """Find the numbers of `keys` (_numbers) in the kept messages not searched yet, if
+        there are at least `least` of them, so that fields() searches only the rest."""
+        n = self.found
+        if n < 0 or len(self.kept) - n < least:
+            return
+        got = _numbers(self.kept[n:], keys)
+        if got is None:
+            self.found, self.cols = -1, {}
+            return
+        if n:
+            import numpy as np
+
+            got = {k: np.concatenate((self.cols[k], v)) for k, v in got.items()}
+        self.found, self.cols = len(self.kept), got
 
 
-# The topics a run plot draws: the first two thinned to about PLOT_POINTS messages each,
-# the others whole (a mission's commands and events, few).
-RUN_THINNED = ("/truth", "/micro/data")
+# The topics a run plot draws: those of RUN_FIELDS thinned to about PLOT_POINTS messages
+# each, with the fields drawn of them (run_figure), the others whole (a mission's commands
+# and events, few).
+RUN_FIELDS = {"/truth": ("t", "x_mm", "y_mm", "v_mm_s", "heading_deg"),
+              "/micro/data": ("x", "y", "fwd_speed", "heading")}
+RUN_THINNED = tuple(RUN_FIELDS)
 RUN_WHOLE = ("/planner/cmd", "/events")
+
+# Kept messages of a thinned topic searched at once by RunSeries.find_ahead: a search has
+# a cost of its own, paid this many times fewer.
+_FIND_AT_LEAST = 512
 
 
 class RunSeries:
@@ -154,6 +183,18 @@ class RunSeries:
         out = {t: list(msgs) for t, msgs in self._whole.items()}
         out.update({t: list(th.kept) for t, th in self._thin.items()})
         return out
+
+    def find_ahead(self) -> None:
+        """Find the drawn fields (RUN_FIELDS) of the thinned messages kept since the last
+        search, once there are _FIND_AT_LEAST of them: the work of fields() done while a
+        run's messages come (the log worker between batches), not when it draws."""
+        for topic, th in self._thin.items():
+            if topic in RUN_FIELDS:
+                th.find_ahead(RUN_FIELDS[topic], _FIND_AT_LEAST)
+
+    def found(self) -> dict:
+        """What find_ahead found, for run_figure: {topic: (n, {key: values of raw()[topic][:n]})}."""
+        return {t: (th.found, dict(th.cols)) for t, th in self._thin.items() if th.found > 0}
 
 
 def decoded(raw: dict) -> dict:
@@ -194,30 +235,44 @@ def _read_thinned(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOL
     return decoded(_read_series(path, thin, whole, cap))
 
 
-def fields(topic: str, msgs: list, keys: tuple) -> tuple:
-    """The numeric top-level fields `keys` of messages `msgs` [(log_time_ns, JSON bytes),
-    ...] of `topic`, in log-time order (file order among equal times): (log times in s,
-    {key: values}), numpy float arrays. Each key's values are found by its text `"key":`
-    in the messages, without decoding them whole (most of a /micro/data message is
-    fields a plot does not draw); where that does not give one number per message (a key
-    missing, nested, or a value that is not a plain number), the messages are decoded
-    whole. ValueError naming the topic and key if a message lacks one."""
+def _numbers(msgs: list, keys: tuple) -> dict | None:
+    """{key: numpy float array} of top-level fields `keys` of JSON messages `msgs`
+    [(log_time_ns, JSON bytes), ...], in their order, each found by its text `"key":`
+    without decoding the messages; None where that does not give one plain number per
+    message (a key missing, nested, or a value that is not a plain number)."""
     import re
 
     import numpy as np
 
-    t_ns = np.array([t for t, _ in msgs], dtype=np.int64)
     blob = b"\n".join(data for _, data in msgs)
     out = {}
     for key in keys:
         found = re.findall(b'"' + re.escape(key.encode()) + rb'":(-?[0-9][0-9.eE+-]*)', blob)
+        if len(found) != len(msgs):
+            return None
         try:
-            if len(found) != len(msgs):
-                raise ValueError(key)
             out[key] = np.fromiter(map(float, found), float, len(found))
         except ValueError:
-            out = None
-            break
+            return None
+    return out
+
+
+def fields(topic: str, msgs: list, keys: tuple, ahead: tuple | None = None) -> tuple:
+    """The numeric top-level fields `keys` of messages `msgs` [(log_time_ns, JSON bytes),
+    ...] of `topic`, in log-time order (file order among equal times): (log times in s,
+    {key: values}), numpy float arrays. Each key's values are found by its text `"key":`
+    in the messages (_numbers), without decoding them whole (most of a /micro/data
+    message is fields a plot does not draw); where that does not give one number per
+    message, the messages are decoded whole. `ahead`: (n, {key: values}) of the first n
+    messages, found earlier (RunSeries.found). ValueError naming the topic and key if a
+    message lacks one."""
+    import numpy as np
+
+    t_ns = np.array([t for t, _ in msgs], dtype=np.int64)
+    n, before = ahead if ahead is not None else (0, {})
+    out = _numbers(msgs[n:], keys)
+    if out is not None and n:
+        out = {k: np.concatenate((before[k], v)) for k, v in out.items()}
     if out is None:
         objs = [obj for _, obj in decoded({topic: msgs})[topic]]
         t_ns = np.sort(t_ns, kind="stable")
@@ -254,14 +309,14 @@ def _wrapped(t, h):
     return np.insert(t, at, t[at]), np.insert(h, at, np.nan)
 
 
-def plot_mcap(path: Path, out: Path, series: dict | None = None) -> None:
+def plot_mcap(path: Path, out: Path, series: dict | None = None, found: dict | None = None) -> None:
     """Plot run `path` (run.mcap) into image `out` (its format by _format: PNG drawn by
     navkit.figure_png, others by matplotlib), from `series` (RunSeries.raw() of the run's
-    messages, as the log worker hands it over) when given, else streamed from the file:
-    the same figure either way."""
+    messages, as the log worker keeps them, with `found`: its RunSeries.found()) when
+    given, else streamed from the file: the same figure either way."""
     fmt = _format(out)
     fig = run_figure(series if series is not None else _read_series(Path(path)),
-                     _run_title(Path(path)))
+                     _run_title(Path(path)), found)
     if fmt == "png":
         from navkit.figure_png import write_png
 
@@ -327,24 +382,26 @@ def _panels(rows: int, left: float = 0.1, right: float = 0.97, bottom: float = 0
     return [(left, top - i * h * (1 + gap) - h, right - left, h) for i in range(rows)]
 
 
-def run_figure(series: dict, title: str):
+def run_figure(series: dict, title: str, found: dict | None = None):
     """The plot of a run's messages `series` (RunSeries.raw(): {topic: [(log_time_ns, JSON
     bytes), ...]}) as a finished navkit.figure.Figure, 9 x 11 in: three panels, the path
     (truth y_mm across, growing to the left, x_mm up, mm, equal aspect) titled `title`,
     the speed (mm/s) and the heading (deg, clockwise 0..360) against simulated time (s);
     on the speed and heading panels a vertical mark per /planner/cmd message (gid
     "command") and per /events message (gid "event") at its log time, labelled where
-    labels stand apart (_apart). ValueError without /truth, or naming the topic of a
-    command or event its label cannot be made of (_labels)."""
+    labels stand apart (_apart). `found`: the fields of series' first messages found
+    ahead (RunSeries.found()), the same figure. ValueError without /truth, or naming the
+    topic of a command or event its label cannot be made of (_labels)."""
     import numpy as np
 
     from navkit.figure import Figure, Line, Marks, Panel
 
     if not series.get("/truth"):
         raise ValueError("no /truth messages")
-    _, truth = fields("/truth", series["/truth"], ("t", "x_mm", "y_mm", "v_mm_s", "heading_deg"))
-    micro_t, micro = fields("/micro/data", series.get("/micro/data", []),
-                            ("x", "y", "fwd_speed", "heading"))
+    found = found or {}
+    _, truth = fields("/truth", series["/truth"], RUN_FIELDS["/truth"], found.get("/truth"))
+    micro_t, micro = fields("/micro/data", series.get("/micro/data", []), RUN_FIELDS["/micro/data"],
+                            found.get("/micro/data"))
     marks = decoded({k: series.get(k, []) for k in ("/planner/cmd", "/events")})
     cmds, events = marks["/planner/cmd"], marks["/events"]
     r_xy, r_v, r_h = _panels(3)

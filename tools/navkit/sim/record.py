@@ -1160,7 +1160,8 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     Recorder kept (navkit.plot.plot_mcap) and send {"drawn": bool, "error": the exception
     the drawing raised or None}. With `plot`, Pillow and the plot's fonts are loaded
     first (navkit.plot.warm_up), while the harness sets the run up: their CPU time is not
-    in the results' `cpu_s`, nor is the drawing's. With `spin` it polls
+    in the results' `cpu_s`, nor is the drawing's; the kept messages' drawn fields are
+    found between batches (RunSeries.find_ahead, in `cpu_s`). With `spin` it polls
     instead of sleeping while waiting for work (see RunLog.spin). `harness_end`, the
     harness's end of the pipe that fork() copied here, is closed first: else this process
     would hold it open itself and never see the EOF of a harness that was killed. The
@@ -1191,6 +1192,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
         cpu0 += time.process_time() - w0
     gc.freeze()                 # the decoder's objects too: they live as long as the process
     handlers = dec.handlers     # dec.handle's table, looked up here: an item is a call
+    find_ahead = dec.rec.plot_series.find_ahead if plot is not None else None
     batch = None
     try:
         while True:
@@ -1207,9 +1209,12 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
                 break
             for item in batch:
                 handlers[item[0]](item)
+            if find_ahead is not None:
+                find_ahead()
     finally:
         res = dec.finish()
         series = res.pop("plot") if batch == _STOP_AND_DRAW and plot is not None else None
+        found = dec.rec.plot_series.found()
         res["cpu_s"] = round(time.process_time() - cpu0 - spun, 3)
         res["spin_cpu_s"] = round(spun, 3)
         try:
@@ -1217,18 +1222,18 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
         except (OSError, BrokenPipeError):
             pass
     if series is not None:
-        _send_plot(conn, path, plot, series)
+        _send_plot(conn, path, plot, series, found)
 
 
-def _send_plot(conn, path, plot, series) -> None:
-    """Draw run plot `plot` of run `path` from `series` (RunSeries.raw()) and send the
-    harness {"drawn": True, "error": None or the exception plot_mcap raised}, or
-    {"drawn": False, ...} when that exception does not pickle (the harness draws it
-    itself then, to raise it)."""
+def _send_plot(conn, path, plot, series, found) -> None:
+    """Draw run plot `plot` of run `path` from `series` (RunSeries.raw(), with `found`:
+    its RunSeries.found()) and send the harness {"drawn": True, "error": None or the
+    exception plot_mcap raised}, or {"drawn": False, ...} when that exception does not
+    pickle (the harness draws it itself then, to raise it)."""
     from navkit.plot import plot_mcap
 
     try:
-        plot_mcap(path, plot, series)
+        plot_mcap(path, plot, series, found)
         err = None
     except Exception as e:  # noqa: BLE001 - the harness reports it as its own drawing's
         err = e
