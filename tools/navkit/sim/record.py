@@ -217,8 +217,11 @@ def _row_lib(build: Path | None = None):
 
 # A field of a row program printed as an integer (rowtext.h ROWTEXT_INT), not with decimals
 ROW_INT = -1
-# rowtext_run's result for an integer field that is not finite (rowtext.h ROWTEXT_ERR_VALUE)
-_ERR_VALUE = -3
+# rowtext_run's results for an integer field that is not finite and for a row time without
+# an int64 log time in ns (rowtext.h ROWTEXT_ERR_VALUE, ROWTEXT_ERR_TIME)
+_ERR_VALUE, _ERR_TIME = -3, -4
+_ERRORS = {_ERR_VALUE: "a value that is not finite in an integer field",
+           _ERR_TIME: "a time (s) that is not finite or past 9.2e9 s"}
 # rowtext.h's call block: its entries (uint64 each) and their number
 (_SEQ, _OFFSET, _CHUNK_SIZE, _STOP_EVERY_NS, _CHANNEL, _OUT_LEN, _OUT_AT, _INDEX_AT,
  _STATE_N) = range(9)
@@ -313,9 +316,8 @@ class RowText:
             st[_OFFSET] = offset
             k = call(handle, raw, first, last)
             if k < 0:
-                raise ValueError(f"truth rows {first}..{last - 1}: " + (
-                    "a value that is not finite in an integer field" if k == _ERR_VALUE
-                    else f"row formatter error {k}"))
+                raise ValueError(f"truth rows {first}..{last - 1}: "
+                                 + _ERRORS.get(k, f"row formatter error {k}"))
             pairs = pairs_of.get(k)
             if pairs is None:
                 pairs = pairs_of[k] = uint64 * (2 * k)
