@@ -200,7 +200,7 @@ def test_a_truth_time_without_a_log_time_is_refused(tmp_path):
     rt = record.RowText(None, 2, [('{"t":', 0, 6), (',"x":', 1, 4)], "}")
     for t in (float("nan"), float("inf"), -float("inf"), 1e10, -9.3e9):
         raw = struct.pack("=6d", 0.001, 1.0, t, 2.0, 0.003, 3.0)
-        with pytest.raises(ValueError, match="truth rows 0..2"):
+        with pytest.raises(ValueError, match="truth rows 0..2: a time"):
             rt.records(raw, 0, 3, 1, 0, 0, 1 << 40, 0)
     raw = struct.pack("=2d", 9.1e9, 1.0)
     assert rt.records(raw, 0, 1, 1, 0, 0, 1 << 40, 0)[2][0] == 9_100_000_000_000_000_000
