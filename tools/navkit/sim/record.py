@@ -1163,7 +1163,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     the drawing raised or None}. With `plot`, Pillow and the plot's fonts are loaded
     first (navkit.plot.warm_up), while the harness sets the run up: their CPU time is not
     in the results' `cpu_s`, nor is the drawing's; the kept messages' drawn fields are
-    found between batches (RunSeries.find_ahead, in `cpu_s`). With `spin` it polls
+    found while no batch waits (RunSeries.find_ahead, in `cpu_s`). With `spin` it polls
     instead of sleeping while waiting for work (see RunLog.spin). `harness_end`, the
     harness's end of the pipe that fork() copied here, is closed first: else this process
     would hold it open itself and never see the EOF of a harness that was killed. The
@@ -1211,7 +1211,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
                 break
             for item in batch:
                 handlers[item[0]](item)
-            if find_ahead is not None:
+            if find_ahead is not None and not conn.poll(0):   # idle: no batch waiting
                 find_ahead()
     finally:
         res = dec.finish()
