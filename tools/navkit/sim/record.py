@@ -246,8 +246,8 @@ class RowText:
     records of it. `fields`: (literal text before the field, row column or None for a
     missing one (0.0), decimals 0..9 or ROW_INT); `tail`: the text after the last field;
     an integer field is int(x) & `int_mask`; field number `wrap_field`'s values in
-    [wrap_lo, wrap_hi) print as 0.0. The text of a row is what the Python template
-    template() gives, % the row's values (tests/test_sim_record_text.py)."""
+    [wrap_lo, wrap_hi) print as 0.0. The text of a row is what Python's % gives with
+    the fields' template (%.<d>f, %d) (tests/test_sim_record_text.py)."""
 
     def __init__(self, build, width: int, fields: list, tail: str, int_mask: int = 0,
                  wrap_field: int = -1, wrap_lo: float = 0.0, wrap_hi: float = 0.0):
@@ -271,13 +271,6 @@ class RowText:
         if getattr(self, "_h", None):
             self._lib.rowtext_free(self._h)
             self._h = None
-
-    def template(self) -> str:
-        """The program as a Python % template (decimals as %.<d>f, integers %d), the wrap
-        and the mask left to the caller: the reference the tests check the native text
-        against."""
-        return "".join(lit + ("%d" if d == ROW_INT else f"%.{d}f") for lit, _, d in self.fields) \
-            + self.tail
 
     def records(self, raw: bytes, first: int, last: int, channel: int, seq: int, offset: int,
                 chunk_size: int, stop_every_ns: int) -> tuple:
