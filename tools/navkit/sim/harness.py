@@ -77,7 +77,7 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
         rig.stop()
         raise
     mcap_path, png = Path(opts.out) / "run.mcap", Path(opts.out) / "plot.png"
-    log = rig.log       # its plot.png is waited for after rig.stop (which lets it go)
+    log = rig.log       # rig.stop drops it; its worker's plot.png is waited for after
     if opts.plot and log is not None:
         log.draw_plot()
     if interrupted is not None:
@@ -126,10 +126,10 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
 
 
 def _plot(log, mcap_path: Path, png: Path, results: dict) -> None:
-    """plot.png `png` of run `mcap_path`: the one log worker `log` (RunLog) draws after
-    rig.stop, waited for here, its drawing's error raised here as this drawing's; or drawn
-    here (navkit.plot.plot_mcap) when the worker did not (an inline log: from the
-    series in its `results`; a worker that died: read back from the file)."""
+    """plot.png `png` of run `mcap_path`: drawn by the log worker of `log` (RunLog, asked
+    by draw_plot) and waited for here, the exception its drawing raised raised here; or
+    drawn here (navkit.plot.plot_mcap) when the worker did not: an inline log (from the
+    series in `results`), a worker that died (read back from the file)."""
     drawn, err = log.plot_done() if log is not None else (False, None)
     if err is not None:
         raise err
