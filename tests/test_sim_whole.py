@@ -105,6 +105,20 @@ def test_a_plot_the_worker_cannot_write_is_navkit_sims_one_line(tmp_path, monkey
     assert load(out).summary["sim_time_s"] == pytest.approx(4.0)
 
 
+def test_an_inline_log_has_the_harness_draw_the_plot(tmp_path):
+    """With the log written in the harness's process (log_inline: no worker), the harness
+    draws plot.png from the series the log kept: what `navkit plot run.mcap` draws."""
+    from navkit.cli import main
+    from navkit.sim.harness import SimOptions, run
+    from navkit.sim.mission import loads
+
+    require_build()
+    out = tmp_path / "out"
+    run(SimOptions(mission=loads(MISSION, tmp_path / "m.toml"), out=out, log_inline=True, progress=False))
+    assert main(["plot", str(out / "run.mcap"), "-o", str(tmp_path / "replot.png")]) == 0
+    assert (out / "plot.png").read_bytes() == (tmp_path / "replot.png").read_bytes()
+
+
 def test_summary_and_run_mcap_do_not_depend_on_the_plot(tmp_path):
     """The same run with and without plot.png: summary.json has the same keys and the same
     values but for the machine's measurements, and run.mcap the same messages and metadata
