@@ -25,8 +25,9 @@ def test_no_build_stops_the_run_with_one_message(tmp_path):
     assert r.returncode == 4, r.stdout + r.stderr
     lines = [line for line in r.stderr.splitlines() if line.strip()]
     assert lines == [f"ERROR: {folder}: not built (no navkit-host, navkit_firmware.fmu, navkit_plant.fmu, "
-                     "libnavkit_cosim.so): run `make build`, or set NAVKIT_BUILD_DIR to a built folder "
-                     "(NAVKIT_TEST_WITHOUT_BUILD=1 runs only the tests that need no build)"], r.stderr
+                     "libnavkit_cosim.so, libnavkit_record.so): run `make build`, or set NAVKIT_BUILD_DIR "
+                     "to a built folder (NAVKIT_TEST_WITHOUT_BUILD=1 runs only the tests that need no "
+                     "build)"], r.stderr
     assert "skipped" not in r.stdout and "passed" not in r.stdout
 
 
