@@ -3,10 +3,11 @@
 Each subcommand lives in its own module, imported only when that subcommand runs, so
 `navkit proto decode` does not pay for fmpy or matplotlib. A module provides
 `add_arguments(parser)` and `run(args) -> int` (the exit status), and may say
-EXIT_AT_ONCE = True and HOLDS_COLLECTOR = True (see main).
+EXIT_AT_ONCE = True and HOLDS_COLLECTOR = True (see main). argparse is imported where it
+is used: this module's own import is then only built-in modules, so a Ctrl-C during
+start-up meets main's handler, not a traceback.
 """
 
-import argparse
 import gc
 import importlib
 import math
@@ -37,6 +38,8 @@ SUBCOMMANDS = {
 
 def _int_at_least(text: str, least: int) -> int:
     """An integer (decimal or 0x) of at least `least`, else argparse's one-line error."""
+    import argparse
+
     try:
         n = int(text, 0)
     except ValueError:
@@ -58,6 +61,8 @@ def count_int(text: str) -> int:
 
 def positive_float(text: str) -> float:
     """argparse type of a positive, finite number (in the option's unit)."""
+    import argparse
+
     try:
         v = float(text)
     except ValueError:
@@ -69,6 +74,8 @@ def positive_float(text: str) -> float:
 
 def fraction(text: str) -> float:
     """argparse type of a fraction: a number above 0 and below 1."""
+    import argparse
+
     v = positive_float(text)
     if v >= 1:
         raise argparse.ArgumentTypeError(f"must be below 1, not {text}")
@@ -134,9 +141,11 @@ def _stdout_gone() -> bool:
     return gone
 
 
-def _top_parser() -> argparse.ArgumentParser:
-    """The `navkit` parser listing the subcommands (for its help and its errors; a command
+def _top_parser():
+    """The `navkit` argparse parser listing the subcommands (for its help and its errors; a command
     line naming a subcommand goes to that subcommand's own parser)."""
+    import argparse
+
     parser = argparse.ArgumentParser(prog="navkit", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (_, help_text) in SUBCOMMANDS.items():
@@ -157,6 +166,20 @@ def main(argv=None) -> int:
     if own_process:
         hold_collector()
     argv = sys.argv[1:] if argv is None else argv
+    try:
+        return _main(argv, own_process)
+    except KeyboardInterrupt:   # Ctrl-C where the subcommand does not stop by it itself: its
+        if not own_process:     # imports, its parsing, before a run's outputs exist
+            raise
+        name = argv[0] if argv and argv[0] in SUBCOMMANDS else ""
+        print(f"navkit{' ' + name if name else ''}: stopped by SIGINT", file=sys.stderr)
+        return 128 + 2
+
+
+def _main(argv: list, own_process: bool) -> int:
+    """main() once the collector is held, for `argv` (a command line without the program)."""
+    import argparse
+
     if not argv or argv[0] in ("-h", "--help"):
         _top_parser().print_help()
         return 0 if argv else 2
