@@ -8,12 +8,12 @@ static const double kAdcFull = 1024.0; // 10-bit ADC: counts = V * 1024 / vref (
 
 double Battery::calc() const
 {
-    return adc_ * c_.vref / kAdcFull * c_.divider + c_.offset_v;
+    return raw() * c_.vref / kAdcFull * c_.divider + c_.offset_v;
 }
 
 double Gp2d12::volts() const
 {
-    return adc_ * c_.vref / kAdcFull;
+    return raw() * c_.vref / kAdcFull;
 }
 
 int Gp2d12::calc() const
@@ -31,10 +31,10 @@ int Gp2d12::calc() const
 
 int Srf04::calc() const
 {
-    if (us_ == 0) {
+    if (raw() == 0) {
         return 0;
     }
-    const double d = us_ * c_.mm_per_us + c_.offset_mm;
+    const double d = raw() * c_.mm_per_us + c_.offset_mm;
     if (d <= 0 || d > c_.max_mm) {
         return 0;
     }
@@ -43,7 +43,7 @@ int Srf04::calc() const
 
 int RcServo::calc() const
 {
-    return static_cast<int>(std::lround(c_.gain * pos_ + c_.offset_deg * 10.0));
+    return static_cast<int>(std::lround(c_.gain * raw() + c_.offset_deg * 10.0));
 }
 
 Sensors::Sensors(const SensorsCfg &c)

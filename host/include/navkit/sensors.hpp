@@ -1,7 +1,7 @@
 // Sensors: one class per sensor kind, each with set(raw) and value() in engineering
 // units, calibrated from sensors.ini (the seed's battery, GP2D12, SRF04, RCservo). The
 // value is worked out when a new raw value is set (at most once per micro_data) and read
-// as often as the frame needs it.
+// as often as the frame needs it (Calibrated).
 #pragma once
 
 #include <cstdint>
@@ -14,81 +14,74 @@ extern "C" {
 
 namespace navkit {
 
-// Battery: ADC counts (10 bit) through the board divider -> volts.
-class Battery {
+// What every sensor kind S shares: the raw value held and its calibrated value, worked
+// out by S::calc() (of raw()) when set() brings a raw value other than the one held, and
+// read as often as the frame needs it. Before any set(): the value of a raw 0.
+template <class S, class Raw, class Value> class Calibrated {
 public:
-    explicit Battery(const BatteryCal &c) : c_(c), value_(calc()) {}
-    void set(uint16_t adc)
+    void set(Raw raw)
     {
-        if (adc_ != adc) { // value_ is of the raw value held
-            adc_ = adc;
-            value_ = calc();
+        if (raw_ != raw) { // value_ is of the raw value held
+            raw_ = raw;
+            value_ = static_cast<const S *>(this)->calc();
         }
     }
-    double value() const { return value_; } // V
+    Value value() const { return value_; } // S's engineering unit
+
+protected:
+    Calibrated() = default;
+    // S's constructor, once its calibration is set: the value of the raw 0 held
+    void init() { value_ = static_cast<const S *>(this)->calc(); }
+    Raw raw() const { return raw_; }
+
 private:
-    double calc() const; // V, of adc_
+    Raw raw_ = 0;
+    Value value_ = 0;
+};
+
+// Battery: ADC counts (10 bit) through the board divider -> volts.
+class Battery : public Calibrated<Battery, uint16_t, double> {
+public:
+    explicit Battery(const BatteryCal &c) : c_(c) { init(); }
+
+private:
+    friend Calibrated;
+    double calc() const; // V, of raw() (ADC counts)
     BatteryCal c_;
-    uint16_t adc_ = 0;
-    double value_ = 0;
 };
 
 // Sharp GP2D12 IR ranger: ADC counts -> mm through V = a / (d + b) + c; 0 outside min..max.
-class Gp2d12 {
+class Gp2d12 : public Calibrated<Gp2d12, uint16_t, int> {
 public:
-    explicit Gp2d12(const Gp2d12Cal &c) : c_(c), value_(calc()) {}
-    void set(uint16_t adc)
-    {
-        if (adc_ != adc) { // value_ is of the raw value held
-            adc_ = adc;
-            value_ = calc();
-        }
-    }
-    int value() const { return value_; } // mm, 0 = out of range
-    double volts() const;                // V at the ADC pin
+    explicit Gp2d12(const Gp2d12Cal &c) : c_(c) { init(); }
+    double volts() const; // V at the ADC pin
+
 private:
-    int calc() const; // mm, of adc_
+    friend Calibrated;
+    int calc() const; // mm (0 = out of range), of raw() (ADC counts)
     Gp2d12Cal c_;
-    uint16_t adc_ = 0;
-    int value_ = 0;
 };
 
 // SRF04 sonar: echo time (us) -> mm; 0 = no echo (or farther than max_mm).
-class Srf04 {
+class Srf04 : public Calibrated<Srf04, uint16_t, int> {
 public:
-    explicit Srf04(const Srf04Cal &c) : c_(c), value_(calc()) {}
-    void set(uint16_t echo_us)
-    {
-        if (us_ != echo_us) { // value_ is of the raw value held
-            us_ = echo_us;
-            value_ = calc();
-        }
-    }
-    int value() const { return value_; } // mm
+    explicit Srf04(const Srf04Cal &c) : c_(c) { init(); }
+
 private:
-    int calc() const; // mm, of us_
+    friend Calibrated;
+    int calc() const; // mm, of raw() (echo time, us)
     Srf04Cal c_;
-    uint16_t us_ = 0;
-    int value_ = 0;
 };
 
 // RC servo: reported position (deg x 10) -> calibrated position (deg x 10).
-class RcServo {
+class RcServo : public Calibrated<RcServo, int16_t, int> {
 public:
-    explicit RcServo(const ServoCal &c) : c_(c), value_(calc()) {}
-    void set(int16_t pos)
-    {
-        if (pos_ != pos) { // value_ is of the raw value held
-            pos_ = pos;
-            value_ = calc();
-        }
-    }
-    int value() const { return value_; } // deg x 10
+    explicit RcServo(const ServoCal &c) : c_(c) { init(); }
+
 private:
-    int calc() const; // deg x 10, of pos_
+    friend Calibrated;
+    int calc() const; // deg x 10, of raw() (deg x 10)
     ServoCal c_;
-    int16_t pos_ = 0;
-    int value_ = 0;
 };
 
 class Sensors {
