@@ -99,12 +99,8 @@ int fieldtext_run(fieldtext_t *p, const char *data, int offset)
     const uint8_t *msg = (const uint8_t *)data + offset;
     char *out = p->out;
     size_t n = 0;
-    uint32_t lit = 0;
     for (size_t i = 0; i < p->n_fields; i++) {
-        const uint32_t end = p->lits.end[i];
-        memcpy(out + n, p->lits.text + lit, end - lit);
-        n += end - lit;
-        lit = end;
+        n += rowtext_lit(&p->lits, i, out + n);
         const char c = p->codes[i];
         const size_t w = fieldtext_width(c);
         uint64_t v = fieldtext_le(msg + p->offsets[i], w);
@@ -121,7 +117,5 @@ int fieldtext_run(fieldtext_t *p, const char *data, int offset)
         }
         n += rowtext_digits(out + n, v, 1);
     }
-    const uint32_t end = p->lits.end[p->n_fields];
-    memcpy(out + n, p->lits.text + lit, end - lit);
-    return (int)(n + (end - lit));
+    return (int)(n + rowtext_lit(&p->lits, p->n_fields, out + n));
 }

@@ -196,12 +196,8 @@ static void rowtext_le(uint8_t *out, uint64_t v, int n)
 static long rowtext_row(const rowtext_t *p, const double *row, char *out)
 {
     size_t n = 0;
-    uint32_t lit = 0;
     for (size_t i = 0; i < p->n_fields; i++) {
-        const uint32_t end = p->lits.end[i];
-        memcpy(out + n, p->lits.text + lit, end - lit);
-        n += end - lit;
-        lit = end;
+        n += rowtext_lit(&p->lits, i, out + n);
         double x = p->cols[i] < 0 ? 0.0 : row[p->cols[i]];
         if (p->decimals[i] == ROWTEXT_INT) {
             if (!isfinite(x)) {
@@ -222,9 +218,7 @@ static long rowtext_row(const rowtext_t *p, const double *row, char *out)
         }
         n += rowtext_fixed(out + n, x, p->decimals[i]);
     }
-    const uint32_t end = p->lits.end[p->n_fields];
-    memcpy(out + n, p->lits.text + lit, end - lit);
-    return (long)(n + (end - lit));
+    return (long)(n + rowtext_lit(&p->lits, p->n_fields, out + n));
 }
 
 /* Writes rows[first .. last) as records into out (`cap` bytes) and their pairs into index

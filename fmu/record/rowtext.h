@@ -14,6 +14,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #if defined(__GNUC__)
 #define ROWTEXT_API __attribute__((visibility("default")))
@@ -112,6 +113,15 @@ int rowtext_lits_copy(rowtext_lits_t *l, size_t n, const char *lits, const uint3
 
 /* Frees what rowtext_lits_copy() gave l (an l of NULLs is fine). Not exported. */
 void rowtext_lits_free(rowtext_lits_t *l);
+
+/* Writes literal i of l into out (the one program loop of rowtext.c and fieldtext.c:
+ * literal i, value i, ..., literal n); returns its bytes (no NUL). */
+static inline size_t rowtext_lit(const rowtext_lits_t *l, size_t i, char *out)
+{
+    const uint32_t from = i == 0u ? 0u : l->end[i - 1u];
+    memcpy(out, l->text + from, l->end[i] - from);
+    return l->end[i] - from;
+}
 
 /* Writes the decimal digits of v (at least `min_digits`, at most 20, zero-padded)
  * into out; returns the bytes written (no NUL). The library's one integer printer, for
