@@ -62,10 +62,11 @@ def play_out(rig, deliver: bool = True) -> bytes:
         return b""      # before the imports: navkit.can's load is most of a serial run's stop
     from navkit import can as nc
     from navkit.can_gateway import RECORD
+    from navkit.sim.record import log_ns
 
     fc_of = _fc_ids()
     data_id = nc.CAN.ids["micro_data"].id
-    t_ns = round(coupler.time_s * 1e3) * 1_000_000    # where the FMUs are (whole ms): the bus's time
+    t_ns = log_ns(coupler.time_s)       # where the FMUs are: the bus's time
     pending = bytearray()       # for the micro: delivered with its next step
     deadline = time.monotonic() + PLAY_OUT_S
     while time.monotonic() < deadline:

@@ -23,8 +23,8 @@ from pathlib import Path
 from navkit.sim import foxglove
 from navkit.sim.stops import DeferredStops
 
-__all__ = ["Recorder", "RunLog", "message_schema", "TRUTH_SCHEMA", "FRAME_SCHEMA", "CAN_SCHEMA",
-           "TOPICS", "HOST_STATES"]
+__all__ = ["Recorder", "RunLog", "message_schema", "log_ns", "TRUTH_SCHEMA", "FRAME_SCHEMA",
+           "CAN_SCHEMA", "TOPICS", "HOST_STATES"]
 
 TRUTH_SCHEMA = {
     "title": "navkit.truth",
@@ -132,6 +132,13 @@ TOPICS = {
     "/host/frame": None,
     "/events": None,
 }
+
+
+def log_ns(t_s: float) -> int:
+    """The log time (ns) of simulated time `t_s` (s): the whole ms nearest to it, ties to even,
+    as the native row formatter (fmu/record/rowtext.h) times a row; the coupler's steps lie on
+    that 1 ms grid."""
+    return round(t_s * 1e3) * 1_000_000
 
 
 def message_schema(name: str) -> dict:
@@ -967,22 +974,22 @@ class _Decoder:
         rec, write, size, first_t = self.rec, self.truth_rows, self.row_bytes, self.first_t
         reserve, span, fox, fox_ns = rec.reserve, rec.span_ns, self.fox.truth, foxglove.TRUTH_PERIOD_NS
         fox_get, unpack = self.fox_truth, self.row_struct.unpack_from
-        pad = (0.0,)
+        pad, to_ns = (0.0,), log_ns
 
         def truth_rows(item) -> None:
             raw = item[1]
             n = len(raw) // size
             if not n:
                 return
-            t0 = round(first_t(raw)[0] * 1e3) * 1_000_000
-            t1 = round(first_t(raw, (n - 1) * size)[0] * 1e3) * 1_000_000
+            t0 = to_ns(first_t(raw)[0])
+            t1 = to_ns(first_t(raw, (n - 1) * size)[0])
             whole = t1 - t0 <= span         # else (a frame over 1 s) a chunk per span
             if whole:
                 reserve(t0, t1)
             at = 0
             while at < n:
                 if not whole:
-                    t_ns = round(first_t(raw, at * size)[0] * 1e3) * 1_000_000
+                    t_ns = to_ns(first_t(raw, at * size)[0])
                     reserve(t_ns, t_ns)
                 k, t_ns = write(raw, at, n if whole else at + 1)
                 at += k
