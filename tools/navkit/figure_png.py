@@ -200,8 +200,8 @@ def _draw_marks(canvas, draw, xs, width: float, style: str, rgb: tuple, scale: i
     pixels too. Marks in one page column are drawn once: time bounded by the page's width."""
     w, h = canvas.size
     cols = max(1, round(width / scale))
-    lefts = np.sort((np.floor(np.asarray(xs, dtype=float) / scale + 0.5 - cols / 2) * scale).astype(np.int64))
-    lefts = lefts[np.concatenate(([True], lefts[1:] != lefts[:-1]))] if lefts.size else lefts
+    lefts = np.floor(np.asarray(xs, dtype=float) / scale + 0.5 - cols / 2) * scale
+    lefts = _sorted_once(lefts.astype(np.int64))
     lefts = lefts[(lefts > -cols * scale) & (lefts < w)].tolist()
     if style == "dotted":
         on = max(1, round(_DOT[0] * width / scale)) * scale
@@ -213,6 +213,12 @@ def _draw_marks(canvas, draw, xs, width: float, style: str, rgb: tuple, scale: i
     else:
         for left in lefts:
             draw.rectangle((left, 0, left + cols * scale - 1, h - 1), fill=rgb)
+
+
+def _sorted_once(v):
+    """Integer array `v` sorted with repeats dropped (np.unique would import numpy.ma)."""
+    v = np.sort(v)
+    return v[np.concatenate(([True], v[1:] != v[:-1]))] if v.size else v
 
 
 def _runs(px, py) -> list:
@@ -291,11 +297,9 @@ def _draw_dots(canvas, px, py, r: float, rgb: tuple, scale: int) -> None:
     at once (one array pass per canvas pixel of a disc, not one drawing call per point)."""
     w, h = canvas.size
     ok = (px >= 0) & (px < w) & (py >= 0) & (py < h)    # in the box (NaN is not)
-    # the page pixels the points fall in, each once (sorted, repeats dropped: np.unique
-    # would import numpy.ma)
-    cells = np.sort(np.floor(py[ok] / scale).astype(np.int64) * (w + 1)
-                    + np.floor(px[ok] / scale).astype(np.int64))
-    cells = cells[np.concatenate(([True], cells[1:] != cells[:-1]))] if cells.size else cells
+    # the page pixels the points fall in, each once
+    cells = _sorted_once(np.floor(py[ok] / scale).astype(np.int64) * (w + 1)
+                         + np.floor(px[ok] / scale).astype(np.int64))
     cy, cx = np.divmod(cells, w + 1)
     cy, cx = cy * scale + scale // 2, cx * scale + scale // 2     # the canvas pixel at its centre
     mask = np.zeros((h, w), dtype=bool)
