@@ -245,7 +245,7 @@ def test_plot_streams_any_size_of_run_in_bounded_memory(tmp_path):
             w.add_message(cid, log_time=i * 20_000_000, data=json.dumps(row).encode(), publish_time=0)
         w.finish()
     tracemalloc.start()
-    kept = plot._read_thinned(path, ("/truth",), (), cap=100)["/truth"]
+    kept = plot.decoded(plot._read_series(path, ("/truth",), (), cap=100))["/truth"]
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert 100 <= len(kept) <= 200 and kept[0][1]["t"] == 0.0 and kept[-1][1]["t"] > 0.95 * (n - 1) * 0.02

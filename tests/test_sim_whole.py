@@ -169,7 +169,7 @@ def test_the_log_writer_keeps_what_navkit_plot_reads_from_the_file(tmp_path):
     for topic in ("/truth", "/micro/data"):
         assert plot.PLOT_POINTS <= len(kept[topic]) <= 2 * plot.PLOT_POINTS, (topic, len(kept[topic]))
     assert len(kept["/planner/cmd"]) == len(kept["/events"]) == 10
-    assert plot.decoded(kept) == plot._read_thinned(path)
+    assert plot.decoded(kept) == plot.decoded(plot._read_series(path))
 
 
 @pytest.mark.parametrize("least", [7, 512])

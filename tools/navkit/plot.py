@@ -228,13 +228,6 @@ def _read_series(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE
     return series.raw()
 
 
-def _read_thinned(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE,
-                  cap: int = PLOT_POINTS) -> dict:
-    """{topic: [(log_time_ns, decoded JSON), ...]} of run `path` (_read_series decoded),
-    each list in log-time order."""
-    return decoded(_read_series(path, thin, whole, cap))
-
-
 def _numbers(msgs: list, keys: tuple) -> dict | None:
     """{key: numpy float array} of top-level fields `keys` of JSON messages `msgs`
     [(log_time_ns, JSON bytes), ...], in their order, each found by its text `"key":`
