@@ -25,38 +25,38 @@ namespace navkit {
 // them.
 class TextLine {
 public:
-    TextLine &operator<<(const char *s)
-    {
-        const size_t n = std::strlen(s);
-        const size_t k = n < room() ? n : room();
-        std::memcpy(buf_ + len_, s, k);
-        len_ += k;
-        buf_[len_] = '\0';
-        return *this;
-    }
+    TextLine &operator<<(const char *s) { return append(s, std::strlen(s)); }
     template <class T, class = std::enable_if_t<std::is_integral_v<T>>> TextLine &operator<<(T v)
     {
         char d[24];
         const std::to_chars_result r = std::to_chars(d, d + sizeof d, v);
-        *r.ptr = '\0';
-        return *this << d;
+        return append(d, static_cast<size_t>(r.ptr - d));
     }
     // v right-aligned in `width` characters (padded with spaces), as %*lld does
     TextLine &pad(long long v, size_t width)
     {
         char d[24];
         const std::to_chars_result r = std::to_chars(d, d + sizeof d, v);
-        for (size_t n = static_cast<size_t>(r.ptr - d); n < width; n++) {
-            *this << " ";
+        const size_t n = static_cast<size_t>(r.ptr - d);
+        for (size_t i = n; i < width; i++) {
+            append(" ", 1);
         }
-        *r.ptr = '\0';
-        return *this << d;
+        return append(d, n);
     }
     const char *c_str() const { return buf_; }
     size_t size() const { return len_; }
 
 private:
     size_t room() const { return sizeof buf_ - 1 - len_; }
+    // The n chars at s, as many as there is room for; the line stays 0-terminated.
+    TextLine &append(const char *s, size_t n)
+    {
+        const size_t k = n < room() ? n : room();
+        std::memcpy(buf_ + len_, s, k);
+        len_ += k;
+        buf_[len_] = '\0';
+        return *this;
+    }
     char buf_[320] = {};
     size_t len_ = 0;
 };
