@@ -81,8 +81,8 @@ def run(opts: SimOptions, stamps: dict | None = None, git=None) -> dict:
     if opts.plot and log is not None:
         log.draw_plot()
     if interrupted is not None:
-        # a clean stop, then what there is: a second stop signal waits until the outputs are
-        # closed
+        # a clean stop, then what there is: a second stop signal is ignored until the outputs
+        # are closed
         held = {s: signal.signal(s, signal.SIG_IGN) for s in STOP_SIGNALS}
         try:
             rig.stop()
