@@ -511,6 +511,7 @@ def read_datalog(path: Path) -> tuple[list, list]:
 def plot_datalog(path: Path, out: Path) -> None:
     """Plot datalog `path` into image `out` (its format by _format), one panel per parameter
     against row number (or against the first column when it is a time)."""
+    fmt = _format(out)
     params, rows = read_datalog(path)
     first = params[0][0].lower()
     timed = first in ("t", "time", "time_s", "time_ms", "timetag", "time_tag") or first.startswith("time")
@@ -532,4 +533,4 @@ def plot_datalog(path: Path, out: Path) -> None:
     axes[0].set_title(Path(path).name)
     axes[-1].set_xlabel(params[0][0] if timed else "frame")
     fig.tight_layout()
-    fig.savefig(out, dpi=100, format=_format(out))
+    fig.savefig(out, dpi=100, format=fmt)
