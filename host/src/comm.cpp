@@ -68,7 +68,7 @@ bool Comm::begin_frame()
     }
     struct stat st;
     if (fstat(fd_, &st) != 0 || st.st_size < static_cast<off_t>(NAVKIT_RCOMM_SIZE)) {
-        lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
+        lose();
         return false;
     }
     return true;
@@ -94,8 +94,7 @@ template <class F> bool Comm::guarded(F access) const
         sigemptyset(&bus);
         sigaddset(&bus, SIGBUS);
         sigprocmask(SIG_UNBLOCK, &bus, nullptr);
-        struct stat st;
-        lose(fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1);
+        lose();
         return false;
     }
     g_guard_lo = base_;
@@ -106,8 +105,10 @@ template <class F> bool Comm::guarded(F access) const
     return true;
 }
 
-void Comm::lose(long long size) const
+void Comm::lose() const
 {
+    struct stat st;
+    const long long size = fstat(fd_, &st) == 0 ? static_cast<long long>(st.st_size) : -1; // -1: unknown
     munmap(base_, NAVKIT_RCOMM_SIZE);
     base_ = nullptr;
     lost_ = "rcomm " + name_ + ": the region was cut to " +

@@ -57,7 +57,8 @@ private:
     // Reads the n words of the seqlocked slot at byte offset `slot` into w; false if the
     // region is lost or no consistent copy came within the slot's retries.
     bool read_slot(size_t slot, int32_t *w, size_t n) const;
-    void lose(long long size) const; // size: the region's bytes now, -1 unknown
+    // Lets the region go; lost() names the size (bytes) it has now.
+    void lose() const;
 
     std::string name_, group_;
     mutable uint8_t *base_ = nullptr; // nullptr: not mapped (before init, after shutdown or lose)
