@@ -22,6 +22,7 @@ the micro_cmd of each, or why the host would drop it.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import subprocess
@@ -92,14 +93,16 @@ def _asked(host: Path, args: list, what: str, stdin: str | None = None):
                 stdin = _feed(proc, stdin)
         except (OSError, subprocess.SubprocessError) as e:
             error = HostConfigError(f"{host}: {e}", 0)
-    answer = []
+
+    @functools.cache
+    def answer():
+        return error if proc is None else _answer(proc, host, stdin)
 
     def result() -> str:
-        if not answer:
-            answer.append(error if proc is None else _answer(proc, host, stdin))
-        if isinstance(answer[0], HostConfigError):
-            raise answer[0]
-        return answer[0]
+        out = answer()
+        if isinstance(out, HostConfigError):
+            raise out
+        return out
     return result
 
 

@@ -4,6 +4,7 @@ the FMUs' step (STEP_S, s) and the checkout's git revision."""
 
 from __future__ import annotations
 
+import functools
 import re
 import signal
 import subprocess
@@ -183,16 +184,15 @@ def git_revision_started(root: Path | None = None):
                                           stdout=subprocess.PIPE, stderr=subprocess.DEVNULL))
     except OSError:
         pass
-    answer = []
 
+    @functools.cache
     def result() -> str:
-        if not answer:
-            answer.append(_git_answer(procs) if len(procs) == 2 else "unknown")
-            for p in procs:         # after a timeout or a failed start
-                if p.poll() is None:
-                    p.kill()
-                p.wait()
-        return answer[0]
+        answer = _git_answer(procs) if len(procs) == 2 else "unknown"
+        for p in procs:         # after a timeout or a failed start
+            if p.poll() is None:
+                p.kill()
+            p.wait()
+        return answer
     return result
 
 
