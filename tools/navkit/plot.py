@@ -123,14 +123,10 @@ class _Thinned:
         n = self.found
         if n < 0 or len(self.kept) - n < least:
             return
-        got = _numbers(self.kept[n:], keys)
+        got = _numbers(self.kept, keys, (n, self.cols))
         if got is None:
             self.found, self.cols = -1, {}
             return
-        if n:
-            import numpy as np
-
-            got = {k: np.concatenate((self.cols[k], v)) for k, v in got.items()}
         self.found, self.cols = len(self.kept), got
 
 
@@ -228,15 +224,18 @@ def _read_series(path: Path, thin: tuple = RUN_THINNED, whole: tuple = RUN_WHOLE
     return series.raw()
 
 
-def _numbers(msgs: list, keys: tuple) -> dict | None:
+def _numbers(msgs: list, keys: tuple, ahead: tuple = (0, {})) -> dict | None:
     """{key: numpy float array} of top-level fields `keys` of JSON messages `msgs`
     [(log_time_ns, JSON bytes), ...], in their order, each found by its text `"key":`
     without decoding the messages; None where that does not give one plain number per
-    message (a key missing, nested, or a value that is not a plain number)."""
+    message (a key missing, nested, or a value that is not a plain number). `ahead`:
+    (n, {key: values}) of the first n messages, found earlier: only the rest are searched."""
     import re
 
     import numpy as np
 
+    n, before = ahead
+    msgs = msgs[n:] if n else msgs
     blob = b"\n".join(data for _, data in msgs)
     out = {}
     for key in keys:
@@ -247,6 +246,8 @@ def _numbers(msgs: list, keys: tuple) -> dict | None:
             out[key] = np.fromiter(map(float, found), float, len(found))
         except ValueError:
             return None
+        if n:
+            out[key] = np.concatenate((before[key], out[key]))
     return out
 
 
@@ -262,10 +263,7 @@ def fields(topic: str, msgs: list, keys: tuple, ahead: tuple | None = None) -> t
     import numpy as np
 
     t_ns = np.array([t for t, _ in msgs], dtype=np.int64)
-    n, before = ahead if ahead is not None else (0, {})
-    out = _numbers(msgs[n:], keys)
-    if out is not None and n:
-        out = {k: np.concatenate((before[k], v)) for k, v in out.items()}
+    out = _numbers(msgs, keys, ahead or (0, {}))
     if out is None:
         objs = [obj for _, obj in decoded({topic: msgs})[topic]]
         t_ns = np.sort(t_ns, kind="stable")
