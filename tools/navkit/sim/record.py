@@ -21,6 +21,7 @@ import struct
 from pathlib import Path
 
 from navkit.sim import foxglove
+from navkit.sim.options import STOP_SIGNALS
 from navkit.sim.stops import DeferredStops
 
 __all__ = ["Recorder", "RunLog", "message_schema", "log_ns", "TRUTH_SCHEMA", "FRAME_SCHEMA",
@@ -1180,7 +1181,7 @@ def _worker(conn, path, metadata, columns, width, spin, harness_end=None, can=Fa
     gc.enable()
     if harness_end is not None:
         harness_end.close()
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
+    for sig in STOP_SIGNALS:
         signal.signal(sig, signal.SIG_IGN)
 
     cpu0 = time.process_time()
