@@ -190,6 +190,14 @@ void MicroUsb::queue_command(const navkit_micro_cmd_t &cmd, bool is_new)
     cmd_len_ = 0;
 }
 
+size_t MicroUsb::cmd_bytes()
+{
+    if (!cmd_len_) {
+        cmd_len_ = navkit_micro_cmd_encode(&last_, cmd_frame_, sizeof cmd_frame_);
+    }
+    return cmd_len_;
+}
+
 void MicroUsb::write_frame(const uint8_t *buf, size_t len)
 {
     if (link_.write_frame(buf, len)) {
@@ -240,11 +248,9 @@ void MicroUsb::send()
             round_done_ = true;
         }
     } else {
-        if (!cmd_len_) {
-            cmd_len_ = navkit_micro_cmd_encode(&last_, cmd_frame_, sizeof cmd_frame_);
-        }
+        const size_t n_cmd = cmd_bytes();
         const uint64_t errs = link_.tx_errors();
-        write_frame(cmd_frame_, cmd_len_);
+        write_frame(cmd_frame_, n_cmd);
         stop_last_ = link_.is_open() && link_.tx_errors() == errs && last_.fwd_cmd == NAVKIT_FWD_CMD_STOP &&
                      last_.turn_cmd == NAVKIT_TURN_CMD_STOP;
         return;
@@ -267,8 +273,7 @@ std::string MicroUsb::stop_at_shutdown(uint16_t dio, bool quit_frame)
         return "stop sent";
     }
     queue_command(stop_command(dio), true);
-    uint8_t buf[NAVKIT_MAX_FRAME_BYTES];
-    stop_last_ = link_.write_frame_now(buf, navkit_micro_cmd_encode(&last_, buf, sizeof buf));
+    stop_last_ = link_.write_frame_now(cmd_frame_, cmd_bytes());
     return stop_last_ ? "stop sent" : "stop not sent whole: " + link_.unsent_reason();
 }
 

@@ -81,6 +81,8 @@ private:
     void note_foreign_hash(uint32_t hash);
     // Writes one frame through the link; a frame that went out is no stop unless send() says so.
     void write_frame(const uint8_t *buf, size_t len);
+    // The length (bytes) of last_ encoded in cmd_frame_, encoding it if not done since it changed.
+    size_t cmd_bytes();
     // Our config is no longer known to be in force: download it again from geometry on.
     void config_again();
     // micro_data.cmd_rejected moved: a refused config message is said, and the config
