@@ -416,11 +416,9 @@ def _legend(draw, fig, p, right: float, top: float) -> None:
         else:
             w = max(1, round(lw))
             if ln.style == "dashed":
-                on, off = _DASH[0] * lw, _DASH[1] * lw
-                s = 0.0
-                while s < handle:
-                    draw.line((x + s, mid, x + min(handle, s + on), mid), fill=rgb, width=w)
-                    s += on + off
+                xs, _, bounds = _dashes(np.array([x, x + handle]), np.zeros(2), _DASH[0] * lw, _DASH[1] * lw)
+                for a, b in zip(bounds[:-1], bounds[1:]):
+                    draw.line((xs[a], mid, xs[b - 1], mid), fill=rgb, width=w)
             else:
                 draw.line((x, mid, x + handle, mid), fill=rgb, width=w)
         x -= column
