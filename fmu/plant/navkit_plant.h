@@ -232,9 +232,8 @@ typedef struct {
     double step_hs;     /* s: sub-step, step_h / step_n */
     double step_sqrt_h; /* s^0.5: sqrt(step_h), the gyro bias walk's scale */
     /* the drive train's W = h (M + h D)^-1 (s/kg) of the last sub-step and the h (s) and
-     * damping D (N.s/m) it was computed for (w_valid = 0: none yet) */
+     * damping D (N.s/m) it was computed for (w_h = 0: none yet; a sub-step is > 0) */
     double w_h, w_damp[2], w00, w01, w11;
-    int w_valid;
 } plant_model_t;
 
 /* Sets every variable to its start value and frees the world (values only; call

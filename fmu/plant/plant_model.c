@@ -585,7 +585,7 @@ int plant_start(plant_model_t *m, double t0, char *err, size_t errlen)
     m->t = t0;
     v->time = t0;
     m->step_h = 0.0; /* no step size seen: plant_step works its sub-steps out */
-    m->w_valid = 0;
+    m->w_h = 0.0;    /* no W yet: the first sub-step computes it */
     m->xm = m->ym = m->yaw = 0.0;
     m->vw[0] = m->vw[1] = m->sw[0] = m->sw[1] = m->fc[0] = m->fc[1] = 0.0;
     m->charge_ah = 0.0;
@@ -642,7 +642,7 @@ static void substep(plant_model_t *m, double h)
     /* (M + h D) v' = M v + h (F0 - Fc);  W = h (M + h D)^-1, a function of h and D alone:
      * computed again only when their bits change (a motor entering or leaving its current
      * limit), else the same values come from the last sub-step */
-    if (!m->w_valid || memcmp(&h, &m->w_h, sizeof h) != 0 || memcmp(damp, m->w_damp, sizeof damp) != 0) {
+    if (memcmp(&h, &m->w_h, sizeof h) != 0 || memcmp(damp, m->w_damp, sizeof damp) != 0) {
         double a00 = k->mass[0][0] + h * damp[0], a11 = k->mass[1][1] + h * damp[1], a01 = k->mass[0][1];
         double det = a00 * a11 - a01 * a01;
         m->w00 = h * a11 / det;
@@ -650,7 +650,6 @@ static void substep(plant_model_t *m, double h)
         m->w01 = -h * a01 / det;
         m->w_h = h;
         memcpy(m->w_damp, damp, sizeof damp);
-        m->w_valid = 1;
     }
     double w00 = m->w00, w11 = m->w11, w01 = m->w01;
     double r0 = (k->mass[0][0] * m->vw[0] + k->mass[0][1] * m->vw[1]) / h + f0[0];
