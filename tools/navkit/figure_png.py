@@ -316,6 +316,12 @@ def _draw_dots(canvas, px, py, r: float, rgb: tuple, scale: int) -> None:
     canvas.paste(rgb, (0, 0), Image.fromarray(mask))
 
 
+def _aligned(at: float, size: float, how: str) -> float:
+    """Where a span `size` px long starts when its start ("l", "t"), middle ("m") or end
+    ("r", "b"), as `how` says, is at page px `at`."""
+    return {"l": at, "t": at, "m": at - size / 2, "r": at - size, "b": at - size}[how]
+
+
 def _text(draw, xy, text: str, size_pt: float, dpi: float, anchor: str, rgb=_BLACK) -> tuple:
     """Draw `text` with matplotlib's alignment: `anchor` is (horizontal l/m/r, vertical
     t/c/s/b) of its line box ("lp"'s ascent to descent; "c": the middle of ascent to the
@@ -324,7 +330,7 @@ def _text(draw, xy, text: str, size_pt: float, dpi: float, anchor: str, rgb=_BLA
     font, asc, desc = _font(size_pt * dpi / 72.0)
     width = font.getlength(text)
     x, y = xy
-    left = {"l": x, "m": x - width / 2, "r": x - width}[anchor[0]]
+    left = _aligned(x, width, anchor[0])
     base = {"t": y + asc, "c": y + asc / 2, "s": y, "b": y - desc}[anchor[1]]
     draw.text((left, base), text, font=font, fill=rgb, anchor="ls")
     return (left, base - asc, left + width, base + desc)
@@ -342,8 +348,8 @@ def _upright(img, xy, text: str, size_pt: float, dpi: float, anchor: str, rgb=_B
     turned = flat.transpose(Image.Transpose.ROTATE_90)
     w, h = turned.size
     x, y = xy
-    left = {"l": x, "m": x - w / 2, "r": x - w}[anchor[0]]
-    top = {"t": y, "m": y - h / 2, "b": y - h}[anchor[1]]
+    left = _aligned(x, w, anchor[0])
+    top = _aligned(y, h, anchor[1])
     img.paste(rgb, (round(left), round(top)), turned)
     return (left, top, left + w, top + h)
 
