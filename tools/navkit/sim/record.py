@@ -1441,7 +1441,7 @@ class RunLog:
         """Have the worker draw plot.png (the `plot` it was made with) once close() has
         closed run.mcap, while the caller goes on; plot_done() waits for it. False (nothing
         to wait for) with the log inline or made without `plot`."""
-        self._draw = self._plot is not None and self._proc is not None
+        self._draw = self._plot is not None     # None with the log inline
         return self._draw
 
     def close(self) -> dict:
