@@ -86,7 +86,8 @@ def _out_refusal(out: Path) -> str:
 
 
 def _interrupt(signum, _frame):
-    """SIGTERM, SIGHUP, SIGQUIT: stop the run as Ctrl-C does (navkit.sim.harness.run)."""
+    """A stop signal but SIGINT (navkit.sim.options.STOP_SIGNALS): stop the run as Ctrl-C
+    does (navkit.sim.harness.run)."""
     raise KeyboardInterrupt(signum)
 
 
@@ -163,9 +164,9 @@ def _run_asked(args, stamps: dict, git, frame_s: float | None) -> int:
                       frame_s=frame_s,
                       plot=not args.no_plot, progress=not args.no_progress)
     from navkit.sim.harness import SimInterrupted
-    from navkit.sim.options import stop_signal
+    from navkit.sim.options import STOP_SIGNALS, stop_signal
 
-    for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT):
+    for sig in STOP_SIGNALS - {signal.SIGINT}:     # SIGINT: Python's own KeyboardInterrupt
         signal.signal(sig, _interrupt)
     try:
         s = run_sim(opts, stamps, git)
