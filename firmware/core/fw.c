@@ -31,6 +31,7 @@ void fw_init(fw_t *fw, hal_t *hal)
     wheel_reset(&fw->wheel_r);
     for (i = 0u; i < SERVO_COUNT; i++) {
         servo_reset(&fw->servo[i]);
+        fw->servo_held[i] = 0u;
     }
     dio_reset(&fw->dio);
     watchdog_reset(&fw->wd);
@@ -54,9 +55,6 @@ void fw_init(fw_t *fw, hal_t *hal)
     fw->limited = 0u;
     fw->servo_next = 0u;
     fw->held = 0u; /* the first tick writes every output */
-    for (i = 0u; i < SERVO_COUNT; i++) {
-        fw->servo_held[i] = 0u;
-    }
     fw->dio_dir_held = 0u;
     fw->dio_out_held = 0u;
     fw->slow_tick = 0u;
