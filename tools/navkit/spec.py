@@ -443,7 +443,7 @@ class _Builder:
         """Line of `[parent.name]`, or of `name = ...` under it (an inline entry)."""
         esc = re.escape(name)
         return (self.lines.header_line(f"[{parent}.{name}]")
-                or self.lines.find(rf"^\s*{esc}\s*=", max(self.lines.find(rf"^\[{re.escape(parent)}\]") - 1, 0))
+                or self.lines.find(rf"^\s*{esc}\s*=", max(self.lines.header_line(f"[{parent}]") - 1, 0))
                 or self.lines.find(rf"^{re.escape(parent)}\s*=") or 1)
 
     def build(self) -> Spec:
