@@ -11,6 +11,7 @@ start-up meets main's handler, not a traceback.
 import gc
 import importlib
 import math
+import signal
 import sys
 
 __all__ = ["main", "SUBCOMMANDS", "positive_int", "count_int", "positive_float", "fraction",
@@ -173,7 +174,7 @@ def main(argv=None) -> int:
             raise
         name = argv[0] if argv and argv[0] in SUBCOMMANDS else ""
         print(f"navkit{' ' + name if name else ''}: stopped by SIGINT", file=sys.stderr)
-        return 128 + 2
+        return 128 + signal.SIGINT
 
 
 def _main(argv: list, own_process: bool) -> int:
